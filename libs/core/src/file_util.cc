@@ -1,0 +1,89 @@
+#include "quadhand/core/file_util.h"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace quadhand::core {
+namespace {
+
+std::string TemporaryNameFor(const std::string& path) {
+  return path + ".tmp-" + std::to_string(static_cast<long>(getpid()));
+}
+
+Status WriteWholeFile(const std::string& path, const std::string& contents) {
+  std::FILE* file = std::fopen(path.c_str(), "wb");
+  if (file == nullptr) return Status::IoError(path + ": cannot write: " + std::strerror(errno));
+  const bool written = std::fwrite(contents.data(), 1, contents.size(), file) == contents.size();
+  const bool flushed = std::fflush(file) == 0;
+  const bool closed = std::fclose(file) == 0;
+  if (!(written && flushed && closed)) {
+    std::remove(path.c_str());
+    return Status::IoError(path + ": write failed: " + std::strerror(errno));
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<std::string> ReadFileToString(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    return Status(errno == ENOENT ? StatusCode::kNotFound : StatusCode::kIoError,
+                  path + ": cannot open: " + std::strerror(errno));
+  }
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) return Status::IoError(path + ": read failed");
+  return buffer.str();
+}
+
+Status WriteFileAtomically(const std::string& path, const std::string& contents) {
+  AtomicFileSet set;
+  QUADHAND_RETURN_IF_ERROR(set.Stage(path, contents));
+  return set.Commit();
+}
+
+AtomicFileSet::~AtomicFileSet() {
+  for (const auto& [temporary, final_path] : staged_) std::remove(temporary.c_str());
+}
+
+Status AtomicFileSet::Stage(const std::string& path, const std::string& contents) {
+  const std::string temporary = TemporaryNameFor(path);
+  QUADHAND_RETURN_IF_ERROR(WriteWholeFile(temporary, contents));
+  staged_.emplace_back(temporary, path);
+  return Status::Ok();
+}
+
+Status AtomicFileSet::Commit() {
+  for (size_t i = 0; i < staged_.size(); ++i) {
+    const auto& [temporary, final_path] = staged_[i];
+    if (std::rename(temporary.c_str(), final_path.c_str()) != 0) {
+      const std::string reason = std::strerror(errno);
+      // Files renamed before the failure stay: they are complete, only the set is not.
+      staged_.erase(staged_.begin(), staged_.begin() + static_cast<long>(i));
+      return Status::IoError(final_path + ": cannot rename into place: " + reason);
+    }
+  }
+  staged_.clear();
+  return Status::Ok();
+}
+
+std::string DirectoryOf(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  if (slash == 0) return "/";
+  return path.substr(0, slash);
+}
+
+std::string ResolvePath(const std::string& base_dir, const std::string& relative) {
+  if (relative.empty() || relative[0] == '/') return relative;
+  if (base_dir.empty() || base_dir == ".") return relative;
+  return base_dir + "/" + relative;
+}
+
+}  // namespace quadhand::core

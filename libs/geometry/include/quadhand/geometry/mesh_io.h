@@ -1,0 +1,35 @@
+// Mesh files (STL ascii/binary, OBJ, PLY, OFF), validity checks and boolean
+// union, implemented with CGAL's Polygon Mesh Processing.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/geometry/triangle_mesh.h"
+
+namespace quadhand::geometry {
+
+// Reads a mesh; triangle soups (e.g. STL) are merged, repaired and oriented
+// where possible. Fails with a message naming the file if unreadable or empty.
+core::Result<TriangleMesh> ReadMesh(const std::string& path);
+
+// Writes by extension (.stl is written binary, .off/.obj/.ply ascii).
+core::Status WriteMesh(const std::string& path, const TriangleMesh& mesh);
+
+struct MeshCheck {
+  bool closed = false;              // every edge has exactly two incident faces
+  bool self_intersecting = false;
+  bool bounds_volume = false;       // closed, no self-intersection, consistently oriented
+  bool outward = false;             // normals point out (positive signed volume)
+  // A one-line summary of what is wrong, empty if nothing.
+  std::string problem;
+};
+
+MeshCheck CheckMesh(const TriangleMesh& mesh);
+
+// Boolean union of closed meshes (overlapping or touching), one closed surface
+// without self-intersections. Exact constructions, so coplanar faces are fine.
+core::Result<TriangleMesh> UnionOfClosedMeshes(const std::vector<TriangleMesh>& parts);
+
+}  // namespace quadhand::geometry

@@ -1,0 +1,32 @@
+// Mesh -> signed distance grid, with exact point-triangle distances (CGAL
+// AABB tree) and a robust inside test, multithreaded over grid slices.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "quadhand/core/status.h"
+#include "quadhand/geometry/sdf_grid.h"
+#include "quadhand/geometry/triangle_mesh.h"
+
+namespace quadhand::geometry {
+
+struct SdfGenerationOptions {
+  double resolution = 0.002;  // node spacing, metres (docs/sdf_accuracy.md for the choice)
+  double padding = 0.08;      // margin around the mesh's bounding box, metres
+  int num_threads = 0;        // 0: all hardware threads
+  bool allow_unsigned = false;  // accept meshes that do not bound a volume; distances unsigned
+
+  bool IsValid(std::string* why) const;
+};
+
+// (nodes done, nodes total); called from the generating threads, serialised.
+using ProgressCallback = std::function<void(long done, long total)>;
+
+// `mesh` is in the link frame. Fails (InvalidArgument) on an empty mesh, and on
+// a mesh that does not bound a volume unless options.allow_unsigned.
+core::Result<SdfGrid> GenerateSdf(const TriangleMesh& mesh, const std::string& link_name,
+                                  const std::string& source, const SdfGenerationOptions& options,
+                                  const ProgressCallback& progress = {});
+
+}  // namespace quadhand::geometry
