@@ -1,1 +1,162 @@
-// placeholder
+// Command-line behaviour of quadhand-sdfgen: outputs, probe/info, exit codes
+// and clean failures on bad input.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "quadhand/geometry/mesh_io.h"
+#include "quadhand/geometry/primitives.h"
+#include "quadhand/geometry/sdf_grid.h"
+#include "support/run_command.h"
+
+namespace quadhand {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::CountLines;
+using testing::RunCommand;
+
+const std::string kSdfgen = std::string(QUADHAND_BIN_DIR) + "/quadhand-sdfgen";
+
+class SdfgenTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("quadhand_sdfgen_" + std::to_string(getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string Path(const std::string& name) const { return (dir_ / name).string(); }
+
+  // A 0.1 m cube centred at the origin, written as an OFF file.
+  std::string WriteCube() {
+    geometry::Box box;
+    box.size = Vec3::Constant(0.1);
+    const std::string path = Path("cube.off");
+    EXPECT_TRUE(geometry::WriteMesh(path, geometry::TessellateBox(box)).ok());
+    return path;
+  }
+
+  // Expects exit code 2, exactly one stderr line mentioning `fragment`, and
+  // nothing at all in the output directory `out` (if given).
+  void ExpectBadInput(const std::string& args, const std::string& fragment, const std::string& out = "") {
+    const auto result = RunCommand(kSdfgen + " " + args);
+    EXPECT_EQ(result.exit_code, 2) << args << "\n" << result.err;
+    EXPECT_EQ(CountLines(result.err), 1) << result.err;
+    EXPECT_NE(result.err.find(fragment), std::string::npos) << result.err;
+    if (!out.empty() && fs::exists(out)) EXPECT_TRUE(fs::is_empty(out)) << "partial output in " << out;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(SdfgenTest, HelpDocumentsEveryMode) {
+  const auto result = RunCommand(kSdfgen + " --help");
+  EXPECT_EQ(result.exit_code, 0);
+  for (const char* word : {"--urdf", "--mesh", "--link", "--out", "--resolution", "--padding", "probe", "info"}) {
+    EXPECT_NE(result.out.find(word), std::string::npos) << word;
+  }
+}
+
+TEST_F(SdfgenTest, MeshToSdfThenProbeAndInfo) {
+  const std::string cube = WriteCube();
+  const std::string out = Path("out");
+  const auto gen = RunCommand(kSdfgen + " --mesh " + cube + " --link cube --out " + out +
+                              " --resolution 0.005 --padding 0.03 --threads 2");
+  ASSERT_EQ(gen.exit_code, 0) << gen.err;
+  const std::string file = out + "/cube.qhsdf";
+  ASSERT_TRUE(fs::exists(file));
+  EXPECT_EQ(std::distance(fs::directory_iterator(out), fs::directory_iterator{}), 1);
+
+  // Face centre region: exact distance 0.02 - 0.05... along +x: 0.07 - 0.05 = 0.02.
+  const auto probe = RunCommand(kSdfgen + " probe " + file + " 0.07 0 0");
+  ASSERT_EQ(probe.exit_code, 0) << probe.err;
+  std::istringstream values(probe.out);
+  double d = 0, gx = 0, gy = 0, gz = 0;
+  values >> d >> gx >> gy >> gz;
+  EXPECT_NEAR(d, 0.02, 1e-4);
+  EXPECT_NEAR(gx, 1.0, 1e-3);
+  EXPECT_NEAR(gy, 0.0, 1e-3);
+
+  const auto from_stdin = RunCommand(kSdfgen + " probe " + file, "0 0 0\n\n0.07 0 0\n1 1 1\n");
+  ASSERT_EQ(from_stdin.exit_code, 0) << from_stdin.err;
+  EXPECT_EQ(CountLines(from_stdin.out), 3);
+  std::istringstream first(from_stdin.out);
+  first >> d;
+  EXPECT_NEAR(d, -0.05, 1e-4);  // centre of the cube: inside
+
+  const auto bad_line = RunCommand(kSdfgen + " probe " + file, "0 0 zero\n");
+  EXPECT_EQ(bad_line.exit_code, 2);
+  EXPECT_NE(bad_line.err.find("line 1"), std::string::npos);
+
+  const auto info = RunCommand(kSdfgen + " info " + file);
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(info.out.find("link: cube"), std::string::npos);
+  EXPECT_NE(info.out.find("resolution: 0.005"), std::string::npos);
+  EXPECT_NE(info.out.find("format_version: 1"), std::string::npos);
+}
+
+TEST_F(SdfgenTest, RejectsBadInputWithOneLineAndNoFiles) {
+  const std::string out = Path("out");
+  ExpectBadInput("--mesh /nonexistent.stl --link x --out " + out, "/nonexistent.stl", out);
+  ExpectBadInput("--urdf /nonexistent.urdf --out " + out, "/nonexistent.urdf", out);
+  {
+    std::ofstream garbage(Path("garbage.stl"));
+    garbage << "this is not a mesh\n";
+  }
+  ExpectBadInput("--mesh " + Path("garbage.stl") + " --link x --out " + out, "garbage.stl", out);
+  {
+    std::ofstream urdf(Path("broken.urdf"));
+    urdf << "<robot name='r'><link name='a'>";
+  }
+  ExpectBadInput("--urdf " + Path("broken.urdf") + " --out " + out, "broken.urdf", out);
+  const std::string cube = WriteCube();
+  ExpectBadInput("--mesh " + cube + " --link x --out " + out + " --resolution -1", "resolution", out);
+  ExpectBadInput("--mesh " + cube + " --link x --out " + out + " --resolution nan", "resolution", out);
+  ExpectBadInput("--mesh " + cube + " --out " + out, "--link", out);
+  ExpectBadInput("--out " + out, "--urdf", out);
+  ExpectBadInput("--mesh " + cube + " --link x --out " + out + " --bogus", "bogus", out);
+  ExpectBadInput("probe /nonexistent.qhsdf 0 0 0", "/nonexistent.qhsdf");
+  ExpectBadInput("probe " + cube + " 0 0", "three");
+  ExpectBadInput("info " + cube, "cube.off");
+}
+
+TEST_F(SdfgenTest, OpenMeshNeedsUnsigned) {
+  // A cube with one face missing.
+  geometry::Box box;
+  box.size = Vec3::Constant(0.1);
+  geometry::TriangleMesh open = geometry::TessellateBox(box);
+  open.triangles.pop_back();
+  open.triangles.pop_back();
+  const std::string path = Path("open.off");
+  ASSERT_TRUE(geometry::WriteMesh(path, open).ok());
+  const std::string out = Path("out");
+  ExpectBadInput("--mesh " + path + " --link open --out " + out + " --resolution 0.01 --padding 0.02",
+                 "open.off", out);
+  const auto result = RunCommand(kSdfgen + " --mesh " + path + " --link open --out " + out +
+                                 " --resolution 0.01 --padding 0.02 --unsigned -q");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  auto grid = geometry::SdfGrid::Load(out + "/open.qhsdf");
+  ASSERT_TRUE(grid.ok());
+  EXPECT_FALSE(grid->info().is_signed);
+}
+
+TEST_F(SdfgenTest, TruncatedFileIsRejected) {
+  const std::string cube = WriteCube();
+  const std::string out = Path("out");
+  ASSERT_EQ(RunCommand(kSdfgen + " -q --mesh " + cube + " --link cube --out " + out +
+                       " --resolution 0.01 --padding 0.02").exit_code, 0);
+  const std::string file = out + "/cube.qhsdf";
+  fs::resize_file(file, fs::file_size(file) - 100);
+  ExpectBadInput("info " + file, "truncated");
+  ExpectBadInput("probe " + file + " 0 0 0", "truncated");
+}
+
+}  // namespace
+}  // namespace quadhand

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs the Debian packages QuadHand builds and tests with. Idempotent:
+# when everything is already installed it does nothing (and needs no root).
+# Usage: bash scripts/setup.sh
+set -euo pipefail
+
+# Only what the code uses (docs/dependencies.md says which part uses what).
+packages=(
+  build-essential cmake pkg-config
+  libeigen3-dev          # linear algebra everywhere
+  libcgal-dev            # mesh IO, union, exact distances (libs/geometry)
+  liburdfdom-dev         # URDF parsing (libs/robot)
+  libcli11-dev           # command-line parsing (apps)
+  libgtest-dev libgmock-dev  # unit tests
+  libbenchmark-dev       # micro-benchmarks
+)
+
+missing=()
+for package in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$package")
+  fi
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages already installed"
+  exit 0
+fi
+
+echo "setup: installing ${missing[*]}"
+sudo_cmd=()
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "setup: need root (or sudo) to install packages" >&2; exit 1; }
+  sudo_cmd=(sudo)
+fi
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get -o DPkg::Lock::Timeout=900 update -qq
+"${sudo_cmd[@]}" apt-get -o DPkg::Lock::Timeout=900 install -y -qq --no-install-recommends "${missing[@]}"
+echo "setup: done"
