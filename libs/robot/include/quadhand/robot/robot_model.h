@@ -3,7 +3,8 @@
 //
 // Indices: links and joints are numbered in topological order (a parent link
 // always has a smaller index than its children; link 0 is the root, the
-// floating base). "Actuated" joints are the non-fixed, non-mimic joints in the
+// floating base; joint j is the parent joint of link j + 1, depth-first with
+// siblings in URDF order). "Actuated" joints are the non-fixed, non-mimic joints in the
 // order they appear in the URDF file; a configuration vector q lists their
 // positions in that order.
 #pragma once
@@ -62,7 +63,11 @@ class RobotModel {
  public:
   // Loads a URDF file. Relative mesh paths resolve against the file's folder;
   // package://NAME/... against a folder NAME found among the file's ancestors
-  // or on ROS_PACKAGE_PATH. Errors name the file and the problem.
+  // or on ROS_PACKAGE_PATH (an unresolvable package is an error here; a missing
+  // mesh file is only found by whoever reads it); file:///abs is a plain path.
+  // Errors name the file and the problem: NotFound/IoError for an unreadable
+  // file, InvalidArgument for malformed XML, loops, unknown mimic sources and
+  // unsupported (floating, planar) joints.
   static core::Result<RobotModel> LoadFromUrdfFile(const std::string& path);
   // Same from a string; `base_dir` plays the role of the file's folder.
   static core::Result<RobotModel> LoadFromUrdfString(const std::string& xml,
@@ -95,6 +100,9 @@ class RobotModel {
   double TotalMass() const;
 
  private:
+  static core::Result<RobotModel> Load(const std::string& xml, const std::string& base_dir,
+                                       const std::string& source);
+
   std::string name_;
   std::vector<Link> links_;
   std::vector<Joint> joints_;
