@@ -18,7 +18,7 @@ namespace quadhand::robot {
 struct KinematicsState {
   std::vector<Pose> link_poses;         // X_WL for every link
   std::vector<Vec3> joint_axes;         // unit axis of every joint, world frame
-  std::vector<Vec3> joint_origins;      // origin of every joint frame, world frame
+  std::vector<Vec3> joint_origins;      // origin of every joint (= child link) frame, world frame
   std::vector<double> joint_positions;  // position of every joint (0 for fixed)
 };
 
