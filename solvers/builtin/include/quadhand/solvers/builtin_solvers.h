@@ -1,0 +1,13 @@
+// One call that puts every back-end built into this binary in the opt solver
+// registry, for apps that pick solvers by name.
+#pragma once
+
+#include "quadhand/core/status.h"
+
+namespace quadhand::solvers {
+
+// Registers "lbfgs" (and later ceres, ipopt, nlopt, also when their library is
+// absent: those report available() == false). Idempotent and thread-safe.
+core::Status RegisterBuiltinSolvers();
+
+}  // namespace quadhand::solvers
