@@ -266,6 +266,18 @@ TEST(RobotModelTest, FileUriAndBaseDirOfStrings) {
       StatusCode::kInvalidArgument);
 }
 
+TEST(RobotModelTest, QuarterTurnsAreExact) {
+  // rpy (pi/2, 0, 0) written in decimal: exact zeros and ones, not 1e-16 residues.
+  const RobotModel model = RobotModel::LoadFromUrdfFile(FixturePath("box_cylinder.urdf")).value();
+  Mat3 expected;
+  expected << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  EXPECT_EQ(model.link(0).collisions.at(1).origin.linear(), expected);
+  // A general rotation is left alone.
+  const RobotModel arm2 = LoadArm2();
+  EXPECT_TRUE(arm2.joint(arm2.JointIndex("shoulder")).origin.linear().isApprox(
+      Rpy(0.1, -0.2, 0.3), 1e-15));
+}
+
 TEST(RobotModelTest, InertialDataInLinkFrameAboutCom) {
   const RobotModel model = LoadArm2();
   const Link& base = model.link(0);

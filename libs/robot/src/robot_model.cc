@@ -96,11 +96,23 @@ bool StartsWith(const std::string& text, const std::string& prefix) {
   return text.compare(0, prefix.size(), prefix) == 0;
 }
 
+// URDF writes quarter turns as decimals (rpy 1.5707963267948966), which leave
+// residues of 1e-16 where the intended rotation has exact zeros. Geometry
+// meant to be coplanar (a cylinder's cap on a box face) then comes out a
+// hair apart, and the exact mesh union yields slivers that do not survive
+// rounding to double. A rotation within 1e-12 of a signed permutation is
+// therefore taken to be exactly that permutation.
+Mat3 SnapQuarterTurns(const Mat3& rotation) {
+  const Mat3 snapped = rotation.array().round().matrix();
+  if ((rotation - snapped).cwiseAbs().maxCoeff() < 1e-12) return snapped;
+  return rotation;
+}
+
 Pose ToPose(const urdf::Pose& pose) {
   const Quat rotation = Quat(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z)
                             .normalized();
   return MakePose(Vec3(pose.position.x, pose.position.y, pose.position.z),
-                  rotation.toRotationMatrix());
+                  SnapQuarterTurns(rotation.toRotationMatrix()));
 }
 
 Vec3 ToVec3(const urdf::Vector3& v) { return Vec3(v.x, v.y, v.z); }
@@ -207,7 +219,9 @@ Result<CollisionGeometry> ConvertCollision(const urdf::Collision& collision,
     case urdf::Geometry::SPHERE: {
       geometry.type = GeometryType::kSphere;
       geometry.radius = static_cast<const urdf::Sphere&>(shape).radius;
-      if (!(geometry.radius > 0.0)) return Status::InvalidArgument("sphere radius must be positive");
+      if (!(geometry.radius > 0.0)) {
+        return Status::InvalidArgument("sphere radius must be positive");
+      }
       break;
     }
     case urdf::Geometry::BOX: {
