@@ -1,1 +1,143 @@
-// placeholder
+// One closed mesh per collision link: primitives tessellated and merged,
+// mesh files read, scaled and placed; errors for links without geometry and
+// for missing mesh files.
+#include "quadhand/robot/link_meshes.h"
+
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "quadhand/geometry/mesh_io.h"
+#include "robot/robot_test_util.h"
+
+namespace quadhand::robot {
+namespace {
+
+using testing::FixturePath;
+using testing::kPi;
+
+RobotModel Load(const std::string& path) {
+  auto model = RobotModel::LoadFromUrdfFile(path);
+  EXPECT_TRUE(model.ok()) << model.status().message();
+  return std::move(model).value();
+}
+
+void ExpectClosedOutward(const geometry::TriangleMesh& mesh) {
+  const geometry::MeshCheck check = geometry::CheckMesh(mesh);
+  EXPECT_TRUE(check.closed) << check.problem;
+  EXPECT_TRUE(check.bounds_volume) << check.problem;
+  EXPECT_TRUE(check.outward) << check.problem;
+}
+
+TEST(LinkMeshesTest, BoxAndCylinderUnionIsClosedWithTheRightVolume) {
+  const RobotModel model = Load(FixturePath("box_cylinder.urdf"));
+  auto mesh = LinkCollisionMesh(model, model.LinkIndex("body"));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().message();
+  ExpectClosedOutward(*mesh);
+
+  // Box 0.2 x 0.1 x 0.1 plus the half of the cylinder (r 0.03, length 0.1)
+  // outside it. The tessellated circle is inscribed: chords lie inside, at most
+  // `tol` from the arc, so the polygon area is within 2 tol / r of the disc's.
+  const double r = 0.03, length = 0.1, tol = kPrimitiveTessellationTolerance;
+  const double half_cylinder = 0.5 * kPi * r * r * length;
+  const double exact = 0.2 * 0.1 * 0.1 + half_cylinder;
+  const double volume = geometry::SignedVolume(*mesh);
+  EXPECT_LE(volume, exact + 1e-12);
+  EXPECT_GE(volume, exact - 2.0 * tol / r * half_cylinder - 1e-12);
+
+  // Placed by the collision origins: x from the box's back face to the
+  // cylinder's far side, y and z the box's.
+  const geometry::AxisAlignedBox box = geometry::BoundingBox(*mesh);
+  EXPECT_NEAR(box.min.x(), -0.1, 1e-12);
+  EXPECT_NEAR(box.max.x(), 0.1 + r, tol + 1e-12);
+  EXPECT_GE(box.max.x(), 0.1 + r - tol);
+  EXPECT_NEAR(box.min.y(), -0.05, 1e-12);
+  EXPECT_NEAR(box.max.y(), 0.05, 1e-12);
+  EXPECT_NEAR(box.min.z(), -0.05, 1e-12);
+  EXPECT_NEAR(box.max.z(), 0.05, 1e-12);
+}
+
+TEST(LinkMeshesTest, SingleSphereIsPlacedAndWithinTolerance) {
+  const RobotModel model = Load(FixturePath("box_cylinder.urdf"));
+  auto mesh = LinkCollisionMesh(model, model.LinkIndex("ball"));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().message();
+  ExpectClosedOutward(*mesh);
+  const double r = 0.05, tol = kPrimitiveTessellationTolerance;
+  const double exact = 4.0 / 3.0 * kPi * r * r * r;
+  const double volume = geometry::SignedVolume(*mesh);
+  // Inscribed: every surface point within tol of the sphere, inside it, so the
+  // volume lies between the spheres of radius r - tol and r.
+  EXPECT_LE(volume, exact + 1e-12);
+  EXPECT_GE(volume, 4.0 / 3.0 * kPi * std::pow(r - tol, 3) - 1e-12);
+  for (const Vec3& v : mesh->vertices) {
+    EXPECT_NEAR((v - Vec3(0.01, 0.02, 0.03)).norm(), r, 1e-12);  // in the link frame
+  }
+}
+
+TEST(LinkMeshesTest, MeshFileIsScaledAndPlaced) {
+  const RobotModel model = Load(testing::Arm2Path());
+  // flap: the corner tetrahedron (volume 1/6) scaled by 0.1, via package://.
+  auto flap = LinkCollisionMesh(model, model.LinkIndex("flap"));
+  ASSERT_TRUE(flap.ok()) << flap.status().message();
+  ExpectClosedOutward(*flap);
+  EXPECT_NEAR(geometry::SignedVolume(*flap), 0.1 * 0.1 * 0.1 / 6.0, 1e-15);
+  const geometry::AxisAlignedBox box = geometry::BoundingBox(*flap);
+  EXPECT_LT(box.min.norm(), 1e-12);
+  EXPECT_TRUE(box.max.isApprox(Vec3::Constant(0.1), 1e-12));
+}
+
+TEST(LinkMeshesTest, MirroringScaleKeepsTheMeshOutward) {
+  const RobotModel model = Load(FixturePath("box_cylinder.urdf"));
+  auto mesh = LinkCollisionMesh(model, model.LinkIndex("mirrored"));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().message();
+  ExpectClosedOutward(*mesh);
+  EXPECT_NEAR(geometry::SignedVolume(*mesh), 0.001 / 6.0, 1e-15);
+  EXPECT_NEAR(geometry::BoundingBox(*mesh).min.x(), -0.1, 1e-12);
+}
+
+TEST(LinkMeshesTest, BoxAndMeshFileUnion) {
+  const RobotModel model = Load(testing::Arm2Path());
+  // forearm: a box 0.1 x 0.04 x 0.04 and a tetrahedron (edge 0.05) poking out of it.
+  auto mesh = LinkCollisionMesh(model, model.LinkIndex("forearm"));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().message();
+  ExpectClosedOutward(*mesh);
+  const double box = 0.1 * 0.04 * 0.04, tetra = 0.05 * 0.05 * 0.05 / 6.0;
+  const double volume = geometry::SignedVolume(*mesh);
+  EXPECT_GT(volume, box + 1e-9);          // the tip outside adds volume
+  EXPECT_LT(volume, box + tetra - 1e-9);  // the part inside is not counted twice
+  EXPECT_NEAR(geometry::BoundingBox(*mesh).max.x(), 0.13, 1e-12);
+}
+
+TEST(LinkMeshesTest, EveryArm2CollisionLinkGivesAClosedMesh) {
+  const RobotModel model = Load(testing::Arm2Path());
+  for (int link : model.CollisionLinks()) {
+    auto mesh = LinkCollisionMesh(model, link);
+    ASSERT_TRUE(mesh.ok()) << model.link(link).name << ": " << mesh.status().message();
+    EXPECT_TRUE(geometry::CheckMesh(*mesh).bounds_volume) << model.link(link).name;
+    EXPECT_GT(geometry::SignedVolume(*mesh), 0.0) << model.link(link).name;
+  }
+}
+
+TEST(LinkMeshesTest, LinkWithoutCollisionGeometryFails) {
+  const RobotModel model = Load(FixturePath("box_cylinder.urdf"));
+  auto mesh = LinkCollisionMesh(model, model.LinkIndex("bare"));
+  ASSERT_FALSE(mesh.ok());
+  EXPECT_EQ(mesh.status().code(), core::StatusCode::kInvalidArgument);
+  EXPECT_NE(mesh.status().message().find("bare"), std::string::npos);
+  EXPECT_FALSE(LinkCollisionMesh(model, -1).ok());
+  EXPECT_FALSE(LinkCollisionMesh(model, model.num_links()).ok());
+}
+
+TEST(LinkMeshesTest, MissingMeshFileFailsNamingIt) {
+  const RobotModel model = Load(FixturePath("missing_mesh.urdf"));
+  auto mesh = LinkCollisionMesh(model, 0);
+  ASSERT_FALSE(mesh.ok());
+  const std::string& message = mesh.status().message();
+  EXPECT_NE(message.find("does_not_exist.stl"), std::string::npos) << message;
+  EXPECT_NE(message.find("link 'base'"), std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace quadhand::robot

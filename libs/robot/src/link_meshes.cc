@@ -1,1 +1,61 @@
-// placeholder
+#include "quadhand/robot/link_meshes.h"
+
+#include <utility>
+#include <vector>
+
+#include "quadhand/geometry/mesh_io.h"
+#include "quadhand/geometry/primitives.h"
+
+namespace quadhand::robot {
+namespace {
+
+using core::Result;
+using core::Status;
+
+// One collision element as a closed mesh in the link frame.
+Result<geometry::TriangleMesh> ElementMesh(const CollisionGeometry& element) {
+  switch (element.type) {
+    case GeometryType::kMesh: {
+      Result<geometry::TriangleMesh> mesh = geometry::ReadMesh(element.mesh_path);
+      if (!mesh.ok()) return mesh.status();
+      // Transformed() flips the winding for a mirroring scale, so outward stays outward.
+      return geometry::Transformed(*mesh, element.origin, element.mesh_scale);
+    }
+    case GeometryType::kBox:
+      return geometry::TessellateBox(geometry::Box{element.origin, element.box_size});
+    case GeometryType::kCylinder:
+      return geometry::TessellateCylinder(
+          geometry::Cylinder{element.origin, element.radius, element.length},
+          kPrimitiveTessellationTolerance);
+    case GeometryType::kSphere:
+      return geometry::TessellateSphere(
+          geometry::Sphere{element.origin.translation(), element.radius},
+          kPrimitiveTessellationTolerance);
+  }
+  return Status::Internal("unknown collision geometry type");
+}
+
+}  // namespace
+
+Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int link) {
+  if (link < 0 || link >= model.num_links()) {
+    return Status::InvalidArgument("link index " + std::to_string(link) + " out of range");
+  }
+  const Link& data = model.link(link);
+  const std::string where = "link '" + data.name + "'";
+  if (data.collisions.empty()) return Status::InvalidArgument(where + ": no collision geometry");
+  std::vector<geometry::TriangleMesh> parts;
+  parts.reserve(data.collisions.size());
+  for (const CollisionGeometry& element : data.collisions) {
+    Result<geometry::TriangleMesh> part = ElementMesh(element);
+    if (!part.ok()) return part.status().WithPrefix(where);
+    parts.push_back(std::move(part).value());
+  }
+  // A single element is returned as read: the union would only re-mesh it.
+  if (parts.size() == 1) return std::move(parts.front());
+  Result<geometry::TriangleMesh> merged = geometry::UnionOfClosedMeshes(parts);
+  if (!merged.ok()) return merged.status().WithPrefix(where + ": union of collision elements");
+  return merged;
+}
+
+}  // namespace quadhand::robot
