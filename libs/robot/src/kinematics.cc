@@ -1,6 +1,7 @@
 #include "quadhand/robot/kinematics.h"
 
 #include <cassert>
+#include <cmath>
 
 namespace quadhand::robot {
 namespace {
@@ -12,26 +13,37 @@ double JointPosition(const Joint& joint, const VecX& q) {
   return joint.mimic_multiplier * q[joint.q_index] + joint.mimic_offset;
 }
 
-// Pose of the child link in the world, from the joint frame X_WJ.
-Pose ChildPose(const Joint& joint, const Pose& X_WJ, double position) {
+// Rotation by `angle` about the unit `axis` (Rodrigues).
+Mat3 AxisRotation(const Vec3& axis, double angle) {
+  const double c = std::cos(angle);
+  const double s = std::sin(angle);
+  Mat3 R = (1.0 - c) * axis * axis.transpose();
+  R.diagonal().array() += c;
+  R += s * Skew(axis);
+  return R;
+}
+
+// Pose of the child link in the world from its parent's X_WP, written into
+// *X_WC in place (no temporaries of the state's size); also returns the joint
+// frame's rotation R_WJ, which gives the joint's world axis.
+void ChildPose(const Joint& joint, const Pose& X_WP, double position, Mat3* R_WJ, Pose* X_WC) {
+  *R_WJ = X_WP.linear() * joint.origin.linear();
+  const Vec3 p_WJ = X_WP.translation() + X_WP.linear() * joint.origin.translation();
   switch (joint.type) {
     case JointType::kRevolute:
-    case JointType::kContinuous: {
-      Pose X_WC;
-      X_WC.linear() = X_WJ.linear() * Eigen::AngleAxisd(position, joint.axis).toRotationMatrix();
-      X_WC.translation() = X_WJ.translation();
-      X_WC.makeAffine();
-      return X_WC;
-    }
-    case JointType::kPrismatic: {
-      Pose X_WC = X_WJ;
-      X_WC.translation() += X_WJ.linear() * (joint.axis * position);
-      return X_WC;
-    }
+    case JointType::kContinuous:
+      X_WC->linear() = *R_WJ * AxisRotation(joint.axis, position);
+      X_WC->translation() = p_WJ;
+      return;
+    case JointType::kPrismatic:
+      X_WC->linear() = *R_WJ;
+      X_WC->translation() = p_WJ + *R_WJ * (joint.axis * position);
+      return;
     case JointType::kFixed:
       break;
   }
-  return X_WJ;
+  X_WC->linear() = *R_WJ;
+  X_WC->translation() = p_WJ;
 }
 
 template <typename Vector>
@@ -60,11 +72,11 @@ void ComputeKinematics(const RobotModel& model, const Pose& X_WB, const VecX& q,
   // Topological order: a joint's parent link pose is always ready.
   for (int j = 0; j < model.num_joints(); ++j) {
     const Joint& joint = model.joint(j);
-    const Pose X_WJ = state->link_poses[joint.parent_link] * joint.origin;
     const double position = JointPosition(joint, q);
-    const Pose X_WC = ChildPose(joint, X_WJ, position);
-    state->link_poses[joint.child_link] = X_WC;
-    state->joint_axes[j] = X_WJ.linear() * joint.axis;
+    Pose& X_WC = state->link_poses[joint.child_link];
+    Mat3 R_WJ;
+    ChildPose(joint, state->link_poses[joint.parent_link], position, &R_WJ, &X_WC);
+    state->joint_axes[j] = R_WJ * joint.axis;
     state->joint_origins[j] = X_WC.translation();
     state->joint_positions[j] = position;
   }
@@ -73,9 +85,12 @@ void ComputeKinematics(const RobotModel& model, const Pose& X_WB, const VecX& q,
 Pose LinkPose(const RobotModel& model, const Pose& X_WB, const VecX& q, int link) {
   assert(q.size() == model.num_actuated());
   Pose X_WL = X_WB;
+  Mat3 R_WJ;
   for (int j : model.JointsToLink(link)) {
     const Joint& joint = model.joint(j);
-    X_WL = ChildPose(joint, X_WL * joint.origin, JointPosition(joint, q));
+    Pose X_WC = Pose::Identity();
+    ChildPose(joint, X_WL, JointPosition(joint, q), &R_WJ, &X_WC);
+    X_WL = X_WC;
   }
   return X_WL;
 }
