@@ -1,1 +1,202 @@
-// placeholder
+#include "quadhand/geometry/mesh_io.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "quadhand/geometry/primitives.h"
+#include "quadhand/geometry/triangle_mesh.h"
+
+namespace quadhand::geometry {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh directory per test, removed afterwards.
+class MeshIoTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("quadhand_mesh_io_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string Path(const std::string& name) const { return (dir_ / name).string(); }
+  void WriteText(const std::string& name, const std::string& contents) const {
+    std::ofstream(Path(name), std::ios::binary) << contents;
+  }
+
+  fs::path dir_;
+};
+
+TriangleMesh TestCylinder() {
+  const Pose pose = MakePose(Vec3(0.1, -0.2, 0.05),
+                             Eigen::AngleAxisd(0.4, Vec3(1.0, 1.0, 0.0).normalized()).toRotationMatrix());
+  return TessellateCylinder(Cylinder{pose, 0.03, 0.08}, 1e-3);
+}
+
+class MeshRoundTrip : public MeshIoTest, public ::testing::WithParamInterface<const char*> {};
+
+TEST_P(MeshRoundTrip, PreservesGeometryAndTopology) {
+  const TriangleMesh original = TestCylinder();
+  const std::string path = Path(std::string("cylinder") + GetParam());
+  ASSERT_TRUE(WriteMesh(path, original).ok());
+  const auto read = ReadMesh(path);
+  ASSERT_TRUE(read.ok()) << read.status().message();
+  EXPECT_EQ(read->vertices.size(), original.vertices.size());
+  EXPECT_EQ(read->num_triangles(), original.num_triangles());
+  // STL stores 32-bit floats; the ASCII formats are written to round-trip exactly.
+  const bool is_stl = std::string(GetParam()) == ".stl";
+  const double position_tolerance = is_stl ? 1e-7 : 0.0;
+  const AxisAlignedBox before = BoundingBox(original), after = BoundingBox(*read);
+  EXPECT_LE((before.min - after.min).cwiseAbs().maxCoeff(), position_tolerance);
+  EXPECT_LE((before.max - after.max).cwiseAbs().maxCoeff(), position_tolerance);
+  EXPECT_NEAR(SignedVolume(*read), SignedVolume(original), is_stl ? 1e-9 : 1e-15);
+  const MeshCheck check = CheckMesh(*read);
+  EXPECT_TRUE(check.bounds_volume) << check.problem;
+  EXPECT_TRUE(check.outward) << check.problem;
+}
+
+INSTANTIATE_TEST_SUITE_P(Formats, MeshRoundTrip, ::testing::Values(".stl", ".off", ".obj", ".ply"),
+                         [](const auto& param_info) { return std::string(param_info.param).substr(1); });
+
+TEST_F(MeshIoTest, ReadsAsciiStlAndMergesItsTriangleSoup) {
+  // Two triangles of a square, each with its own copies of the shared vertices.
+  WriteText("square.stl",
+            "solid square\n"
+            "facet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n  vertex 1 1 0\n"
+            " endloop\nendfacet\n"
+            "facet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 1 0\n  vertex 0 1 0\n"
+            " endloop\nendfacet\n"
+            "endsolid square\n");
+  const auto read = ReadMesh(Path("square.stl"));
+  ASSERT_TRUE(read.ok()) << read.status().message();
+  EXPECT_EQ(read->vertices.size(), 4u);
+  EXPECT_EQ(read->num_triangles(), 2);
+}
+
+TEST_F(MeshIoTest, TriangulatesPolygonFaces) {
+  WriteText("quad.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n");
+  const auto read = ReadMesh(Path("quad.off"));
+  ASSERT_TRUE(read.ok()) << read.status().message();
+  EXPECT_EQ(read->num_triangles(), 2);
+}
+
+TEST_F(MeshIoTest, MissingFileIsNotFoundAndNamesTheFile) {
+  const std::string path = Path("missing.stl");
+  const auto read = ReadMesh(path);
+  ASSERT_FALSE(read.ok());
+  EXPECT_EQ(read.status().code(), core::StatusCode::kNotFound);
+  EXPECT_NE(read.status().message().find(path), std::string::npos) << read.status().message();
+}
+
+TEST_F(MeshIoTest, EmptyGarbageAndUnknownFilesAreErrorsNamingTheFile) {
+  WriteText("empty.obj", "");
+  WriteText("garbage.stl", "this is not a mesh at all\n");
+  std::string noise;
+  for (int i = 0; i < 3000; ++i) noise.push_back(static_cast<char>((i * 7919) % 251));
+  WriteText("noise.ply", noise);
+  WriteText("text.off", "OFF\nthree two one\n");
+  WriteText("mesh.xyz", "0 0 0\n");
+  for (const char* name : {"empty.obj", "garbage.stl", "noise.ply", "text.off", "mesh.xyz"}) {
+    const std::string path = Path(name);
+    const auto read = ReadMesh(path);
+    ASSERT_FALSE(read.ok()) << name;
+    EXPECT_EQ(read.status().code(), core::StatusCode::kInvalidArgument) << name;
+    EXPECT_NE(read.status().message().find(path), std::string::npos) << read.status().message();
+  }
+}
+
+TEST_F(MeshIoTest, WriteRejectsUnknownFormatAndBadIndices) {
+  const TriangleMesh box = TessellateBox(Box{});
+  EXPECT_FALSE(WriteMesh(Path("box.xyz"), box).ok());
+  TriangleMesh broken = box;
+  broken.triangles[3] = Eigen::Vector3i(0, 1, 8);
+  EXPECT_FALSE(WriteMesh(Path("broken.stl"), broken).ok());
+  EXPECT_FALSE(fs::exists(Path("broken.stl")));
+}
+
+TEST(CheckMesh, OpenMesh) {
+  TriangleMesh box = TessellateBox(Box{});
+  box.triangles.pop_back();
+  const MeshCheck check = CheckMesh(box);
+  EXPECT_FALSE(check.closed);
+  EXPECT_FALSE(check.bounds_volume);
+  EXPECT_FALSE(check.outward);
+  EXPECT_NE(check.problem.find("not closed"), std::string::npos) << check.problem;
+}
+
+TEST(CheckMesh, OverlappingBoxesConcatenatedSelfIntersect) {
+  const TriangleMesh a = TessellateBox(Box{Pose::Identity(), Vec3::Ones()});
+  const TriangleMesh b =
+      TessellateBox(Box{MakePose(Vec3(0.5, 0.5, 0.5), Mat3::Identity()), Vec3::Ones()});
+  const MeshCheck check = CheckMesh(Concatenated({a, b}));
+  EXPECT_TRUE(check.closed);
+  EXPECT_TRUE(check.self_intersecting);
+  EXPECT_FALSE(check.bounds_volume);
+  EXPECT_NE(check.problem.find("self-intersecting"), std::string::npos) << check.problem;
+}
+
+TEST(CheckMesh, InwardMeshBoundsAVolumeButIsNotOutward) {
+  TriangleMesh box = TessellateBox(Box{});
+  for (Eigen::Vector3i& t : box.triangles) std::swap(t[1], t[2]);
+  const MeshCheck check = CheckMesh(box);
+  EXPECT_TRUE(check.closed);
+  EXPECT_TRUE(check.bounds_volume);
+  EXPECT_FALSE(check.outward);
+  EXPECT_NE(check.problem.find("inward"), std::string::npos) << check.problem;
+}
+
+TEST(CheckMesh, NonManifoldAndEmpty) {
+  TriangleMesh fan;  // three triangles on one edge
+  fan.vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, -1, 0), Vec3(0, 0, 1)};
+  fan.triangles = {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}};
+  EXPECT_FALSE(CheckMesh(fan).closed);
+  EXPECT_FALSE(CheckMesh(fan).problem.empty());
+  EXPECT_FALSE(CheckMesh(TriangleMesh{}).bounds_volume);
+}
+
+TEST(UnionOfClosedMeshes, TwoOverlappingBoxes) {
+  const TriangleMesh a = TessellateBox(Box{Pose::Identity(), Vec3::Ones()});
+  const TriangleMesh b =
+      TessellateBox(Box{MakePose(Vec3(0.5, 0.5, 0.5), Mat3::Identity()), Vec3::Ones()});
+  const auto merged = UnionOfClosedMeshes({a, b});
+  ASSERT_TRUE(merged.ok()) << merged.status().message();
+  EXPECT_NEAR(SignedVolume(*merged), 2.0 - 0.125, 1e-12);
+  const MeshCheck check = CheckMesh(*merged);
+  EXPECT_TRUE(check.bounds_volume) << check.problem;
+  EXPECT_TRUE(check.outward) << check.problem;
+  const AxisAlignedBox bounds = BoundingBox(*merged);
+  EXPECT_TRUE(bounds.min.isApprox(Vec3::Constant(-0.5)));
+  EXPECT_TRUE(bounds.max.isApprox(Vec3::Constant(1.0)));
+}
+
+TEST(UnionOfClosedMeshes, FaceTouchingBoxesAndCoplanarFaces) {
+  // Exact constructions make touching and coplanar faces an ordinary case.
+  const TriangleMesh a = TessellateBox(Box{Pose::Identity(), Vec3(2.0, 1.0, 1.0)});
+  const TriangleMesh b =
+      TessellateBox(Box{MakePose(Vec3(1.5, 0.0, 0.0), Mat3::Identity()), Vec3(1.0, 1.0, 1.0)});
+  const auto merged = UnionOfClosedMeshes({a, b});
+  ASSERT_TRUE(merged.ok()) << merged.status().message();
+  EXPECT_NEAR(SignedVolume(*merged), 3.0, 1e-12);
+  EXPECT_TRUE(CheckMesh(*merged).outward);
+}
+
+TEST(UnionOfClosedMeshes, RejectsOpenParts) {
+  TriangleMesh open = TessellateBox(Box{});
+  open.triangles.pop_back();
+  const auto merged = UnionOfClosedMeshes({TessellateBox(Box{}), open});
+  ASSERT_FALSE(merged.ok());
+  EXPECT_EQ(merged.status().code(), core::StatusCode::kInvalidArgument);
+  EXPECT_NE(merged.status().message().find("part 1"), std::string::npos);
+  EXPECT_FALSE(UnionOfClosedMeshes({}).ok());
+}
+
+}  // namespace
+}  // namespace quadhand::geometry

@@ -1,1 +1,133 @@
-// placeholder
+// Exact point-mesh distances with a CGAL AABB tree. One of the two
+// translation units that include CGAL (each takes about a minute to compile).
+#include "quadhand/geometry/mesh_distance.h"
+
+#include <array>
+#include <cmath>
+#include <exception>
+#include <string>
+#include <vector>
+
+#include <CGAL/AABB_face_graph_triangle_primitive.h>
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Side_of_triangle_mesh.h>
+#include <CGAL/Surface_mesh.h>
+
+#include "quadhand/geometry/mesh_io.h"
+
+namespace quadhand::geometry {
+namespace {
+
+namespace PMP = CGAL::Polygon_mesh_processing;
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = Kernel::Point_3;
+using SurfaceMesh = CGAL::Surface_mesh<Point>;
+using Primitive = CGAL::AABB_face_graph_triangle_primitive<SurfaceMesh>;
+using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, Primitive>>;
+using SideOfMesh = CGAL::Side_of_triangle_mesh<SurfaceMesh, Kernel, CGAL::Default, Tree>;
+
+Point ToPoint(const Vec3& v) { return Point(v.x(), v.y(), v.z()); }
+Vec3 ToVec3(const Point& p) { return Vec3(p.x(), p.y(), p.z()); }
+
+}  // namespace
+
+struct MeshDistanceQuery::Impl {
+  SurfaceMesh mesh;
+  Tree tree;  // refers to `mesh`, so an Impl never moves once built
+  std::unique_ptr<SideOfMesh> side;  // only for signed queries
+};
+
+core::Result<std::unique_ptr<MeshDistanceQuery>> MeshDistanceQuery::Create(
+    const TriangleMesh& mesh, bool is_signed) {
+  if (mesh.triangles.empty()) {
+    return core::Status::InvalidArgument("distance query on an empty mesh");
+  }
+  if (is_signed) {
+    // Side_of_triangle_mesh is silently wrong on a mesh that does not bound a volume.
+    const MeshCheck check = CheckMesh(mesh);
+    if (!check.bounds_volume) {
+      return core::Status::InvalidArgument(
+          "signed distance needs a mesh that bounds a volume: " + check.problem);
+    }
+  }
+  const int num_vertices = static_cast<int>(mesh.vertices.size());
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    if ((t.array() < 0).any() || (t.array() >= num_vertices).any()) {
+      return core::Status::InvalidArgument("distance query: a triangle indexes a missing vertex");
+    }
+  }
+
+  auto impl = std::make_unique<Impl>();
+  std::vector<std::array<std::size_t, 3>> soup;
+  std::vector<Point> points;
+  soup.reserve(mesh.triangles.size());
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    soup.push_back({static_cast<std::size_t>(t[0]), static_cast<std::size_t>(t[1]),
+                    static_cast<std::size_t>(t[2])});
+  }
+  if (PMP::is_polygon_soup_a_polygon_mesh(soup)) {
+    points.reserve(mesh.vertices.size());
+    for (const Vec3& v : mesh.vertices) points.push_back(ToPoint(v));
+  } else {
+    // Unsigned distances only need the triangles, not their connectivity:
+    // give every triangle its own vertices so that any soup fits a surface mesh.
+    points.reserve(3 * mesh.triangles.size());
+    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+      for (int corner = 0; corner < 3; ++corner) {
+        points.push_back(ToPoint(mesh.vertices[mesh.triangles[t][corner]]));
+        soup[t][corner] = 3 * t + corner;
+      }
+    }
+  }
+  try {
+    PMP::polygon_soup_to_polygon_mesh(points, soup, impl->mesh);
+    impl->tree.insert(faces(impl->mesh).first, faces(impl->mesh).second, impl->mesh);
+    // Build the tree and its distance-acceleration structure now: both are
+    // otherwise built lazily by the first query, which concurrent queries would race on.
+    impl->tree.build();
+    impl->tree.accelerate_distance_queries();
+    if (is_signed) {
+      // Given the prebuilt tree, the inside test builds nothing lazily either.
+      impl->side = std::make_unique<SideOfMesh>(impl->tree);
+    }
+  } catch (const std::exception& e) {
+    return core::Status::Internal(std::string("distance query: CGAL failed: ") + e.what());
+  }
+  return std::unique_ptr<MeshDistanceQuery>(new MeshDistanceQuery(std::move(impl), is_signed));
+}
+
+MeshDistanceQuery::MeshDistanceQuery(std::unique_ptr<Impl> impl, bool is_signed)
+    : impl_(std::move(impl)), is_signed_(is_signed) {}
+
+MeshDistanceQuery::~MeshDistanceQuery() = default;
+
+double MeshDistanceQuery::UnsignedDistance(const Vec3& p, Vec3* closest) const {
+  const Point query = ToPoint(p);
+  if (closest == nullptr) return std::sqrt(CGAL::to_double(impl_->tree.squared_distance(query)));
+  const Point nearest = impl_->tree.closest_point(query);
+  *closest = ToVec3(nearest);
+  return std::sqrt(CGAL::squared_distance(query, nearest));
+}
+
+double MeshDistanceQuery::UnsignedDistanceWithHint(const Vec3& p, const Vec3& hint,
+                                                   Vec3* closest) const {
+  const Point query = ToPoint(p);
+  const Point nearest = impl_->tree.closest_point(query, ToPoint(hint));
+  if (closest != nullptr) *closest = ToVec3(nearest);
+  return std::sqrt(CGAL::squared_distance(query, nearest));
+}
+
+bool MeshDistanceQuery::IsInside(const Vec3& p) const {
+  if (!is_signed_) return false;
+  return (*impl_->side)(ToPoint(p)) == CGAL::ON_BOUNDED_SIDE;
+}
+
+double MeshDistanceQuery::SignedDistance(const Vec3& p) const {
+  const double distance = UnsignedDistance(p);
+  return distance > 0.0 && IsInside(p) ? -distance : distance;
+}
+
+}  // namespace quadhand::geometry

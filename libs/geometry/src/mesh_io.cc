@@ -1,1 +1,381 @@
-// placeholder
+// Mesh files, validity checks and boolean union with CGAL. This is one of
+// the two translation units that include CGAL (each takes about a minute to
+// compile); the rest of QuadHand sees only TriangleMesh.
+#include "quadhand/geometry/mesh_io.h"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <charconv>
+#include <cstdint>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <CGAL/Exact_predicates_exact_constructions_kernel.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/IO/polygon_mesh_io.h>
+#include <CGAL/Polygon_mesh_processing/corefinement.h>
+#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/orientation.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Polygon_mesh_processing/shape_predicates.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_faces.h>
+#include <CGAL/Surface_mesh.h>
+
+#include "quadhand/core/file_util.h"
+
+namespace quadhand::geometry {
+namespace {
+
+namespace PMP = CGAL::Polygon_mesh_processing;
+using InexactKernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using ExactKernel = CGAL::Exact_predicates_exact_constructions_kernel;
+using InexactMesh = CGAL::Surface_mesh<InexactKernel::Point_3>;
+using ExactMesh = CGAL::Surface_mesh<ExactKernel::Point_3>;
+using Triangle = std::array<std::size_t, 3>;
+
+std::string LowerCaseExtension(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return extension;
+}
+
+bool IsSupportedExtension(const std::string& extension) {
+  return extension == ".stl" || extension == ".obj" || extension == ".ply" || extension == ".off";
+}
+
+// Empty string if every triangle indexes existing vertices.
+std::string IndexProblem(const TriangleMesh& mesh) {
+  const int num_vertices = static_cast<int>(mesh.vertices.size());
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const Eigen::Vector3i& triangle = mesh.triangles[t];
+    if ((triangle.array() < 0).any() || (triangle.array() >= num_vertices).any()) {
+      return "triangle " + std::to_string(t) + " indexes a vertex outside [0, " +
+             std::to_string(num_vertices) + ")";
+    }
+  }
+  return {};
+}
+
+std::vector<Triangle> TrianglesAsSoup(const TriangleMesh& mesh) {
+  std::vector<Triangle> soup;
+  soup.reserve(mesh.triangles.size());
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    soup.push_back({static_cast<std::size_t>(t[0]), static_cast<std::size_t>(t[1]),
+                    static_cast<std::size_t>(t[2])});
+  }
+  return soup;
+}
+
+// Builds a CGAL surface mesh with the same vertices and triangles. Returns
+// false if the triangles do not form a combinatorial manifold (CGAL's halfedge
+// structure cannot hold an edge with three faces, or two faces that traverse
+// an edge in the same direction).
+template <typename Mesh>
+bool ToSurfaceMesh(const TriangleMesh& mesh, Mesh* out) {
+  using Point = typename Mesh::Point;
+  const std::vector<Triangle> soup = TrianglesAsSoup(mesh);
+  if (!PMP::is_polygon_soup_a_polygon_mesh(soup)) return false;
+  std::vector<Point> points;
+  points.reserve(mesh.vertices.size());
+  for (const Vec3& v : mesh.vertices) points.emplace_back(v.x(), v.y(), v.z());
+  PMP::polygon_soup_to_polygon_mesh(points, soup, *out);
+  return true;
+}
+
+template <typename Mesh>
+TriangleMesh FromSurfaceMesh(const Mesh& mesh) {
+  TriangleMesh out;
+  std::vector<int> index(mesh.number_of_vertices() + mesh.number_of_removed_vertices(), -1);
+  out.vertices.reserve(mesh.number_of_vertices());
+  for (auto v : mesh.vertices()) {
+    const auto& p = mesh.point(v);
+    index[v.idx()] = static_cast<int>(out.vertices.size());
+    out.vertices.emplace_back(CGAL::to_double(p.x()), CGAL::to_double(p.y()),
+                              CGAL::to_double(p.z()));
+  }
+  out.triangles.reserve(mesh.number_of_faces());
+  for (auto f : mesh.faces()) {
+    Eigen::Vector3i triangle;
+    int corner = 0;
+    for (auto v : CGAL::vertices_around_face(mesh.halfedge(f), mesh)) {
+      if (corner < 3) triangle[corner] = index[v.idx()];
+      ++corner;
+    }
+    if (corner == 3) out.triangles.push_back(triangle);
+  }
+  return out;
+}
+
+// Shortest decimal text that reads back as the same double.
+std::string Number(double value) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  return std::string(buffer, result.ptr);
+}
+
+std::string VertexLine(const char* prefix, const Vec3& v) {
+  return prefix + Number(v.x()) + " " + Number(v.y()) + " " + Number(v.z()) + "\n";
+}
+
+template <typename T>
+void AppendBytes(std::string* out, const T& value) {
+  out->append(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+std::string BinaryStl(const TriangleMesh& mesh) {
+  static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "binary STL is little-endian");
+  std::string out;
+  out.reserve(84 + 50 * mesh.triangles.size());
+  // The header must not start with "solid", or readers take the file for ASCII.
+  char header[80] = {};
+  std::strncpy(header, "QuadHand binary STL, metres", sizeof(header) - 1);
+  out.append(header, sizeof(header));
+  AppendBytes(&out, static_cast<uint32_t>(mesh.triangles.size()));
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    const Vec3& a = mesh.vertices[t[0]];
+    const Vec3& b = mesh.vertices[t[1]];
+    const Vec3& c = mesh.vertices[t[2]];
+    Vec3 normal = (b - a).cross(c - a);
+    if (normal.norm() > 0.0) normal.normalize();
+    for (const Vec3* v : std::array<const Vec3*, 4>{&normal, &a, &b, &c}) {
+      for (int i = 0; i < 3; ++i) AppendBytes(&out, static_cast<float>((*v)[i]));
+    }
+    AppendBytes(&out, static_cast<uint16_t>(0));  // attribute byte count
+  }
+  return out;
+}
+
+std::string AsciiOff(const TriangleMesh& mesh) {
+  std::string out = "OFF\n" + std::to_string(mesh.vertices.size()) + " " +
+                    std::to_string(mesh.triangles.size()) + " 0\n";
+  for (const Vec3& v : mesh.vertices) out += VertexLine("", v);
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    out += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) +
+           "\n";
+  }
+  return out;
+}
+
+std::string AsciiObj(const TriangleMesh& mesh) {
+  std::string out = "# QuadHand mesh, metres\n";
+  for (const Vec3& v : mesh.vertices) out += VertexLine("v ", v);
+  for (const Eigen::Vector3i& t : mesh.triangles) {  // OBJ indices start at 1
+    out += "f " + std::to_string(t[0] + 1) + " " + std::to_string(t[1] + 1) + " " +
+           std::to_string(t[2] + 1) + "\n";
+  }
+  return out;
+}
+
+std::string AsciiPly(const TriangleMesh& mesh) {
+  std::string out = "ply\nformat ascii 1.0\ncomment QuadHand mesh, metres\n";
+  out += "element vertex " + std::to_string(mesh.vertices.size()) + "\n";
+  out += "property double x\nproperty double y\nproperty double z\n";
+  out += "element face " + std::to_string(mesh.triangles.size()) + "\n";
+  out += "property list uchar int vertex_indices\nend_header\n";
+  for (const Vec3& v : mesh.vertices) out += VertexLine("", v);
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    out += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) +
+           "\n";
+  }
+  return out;
+}
+
+// CGAL's readers explain format errors on std::cerr. Capturing them keeps a
+// failed read to one message (ours, carrying CGAL's reason) and a good read
+// silent. std::cerr is global, so captures are serialised.
+class CerrCapture {
+ public:
+  CerrCapture() : lock_(Mutex()), previous_(std::cerr.rdbuf(captured_.rdbuf())) {}
+  ~CerrCapture() { std::cerr.rdbuf(previous_); }
+  CerrCapture(const CerrCapture&) = delete;
+  CerrCapture& operator=(const CerrCapture&) = delete;
+
+  // The first captured line, or empty.
+  std::string FirstLine() const {
+    std::string text = captured_.str();
+    text = text.substr(0, text.find('\n'));
+    while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+    return text;
+  }
+
+ private:
+  static std::mutex& Mutex() {
+    static std::mutex mutex;
+    return mutex;
+  }
+  std::lock_guard<std::mutex> lock_;
+  std::ostringstream captured_;
+  std::streambuf* previous_;
+};
+
+}  // namespace
+
+core::Result<TriangleMesh> ReadMesh(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) {
+    return core::Status::NotFound(path + ": no such mesh file");
+  }
+  if (!std::filesystem::is_regular_file(path, error)) {
+    return core::Status::InvalidArgument(path + ": not a regular file");
+  }
+  const std::string extension = LowerCaseExtension(path);
+  if (!IsSupportedExtension(extension)) {
+    return core::Status::InvalidArgument(path + ": unsupported mesh format '" + extension +
+                                         "' (expected .stl, .obj, .ply or .off)");
+  }
+  if (std::filesystem::file_size(path, error) == 0 || error) {
+    return core::Status::InvalidArgument(path + ": empty mesh file");
+  }
+  InexactMesh mesh;
+  bool read = false;
+  std::string reader_message;
+  {
+    const CerrCapture capture;
+    try {
+      // Reads a soup, merges duplicate points, drops degenerate and duplicate
+      // faces and orients the soup consistently before building the mesh.
+      read = PMP::IO::read_polygon_mesh(path, mesh);
+    } catch (const std::exception& e) {
+      reader_message = e.what();
+    }
+    if (reader_message.empty()) reader_message = capture.FirstLine();
+  }
+  if (!read) {
+    return core::Status::InvalidArgument(
+        path + ": cannot read mesh (malformed " + extension.substr(1) +
+        " file, or its faces do not form a manifold surface)" +
+        (reader_message.empty() ? std::string() : ": " + reader_message));
+  }
+  if (mesh.number_of_faces() == 0) {
+    return core::Status::InvalidArgument(path + ": mesh has no faces");
+  }
+  if (!CGAL::is_triangle_mesh(mesh)) PMP::triangulate_faces(mesh);
+  return FromSurfaceMesh(mesh);
+}
+
+core::Status WriteMesh(const std::string& path, const TriangleMesh& mesh) {
+  const std::string index_problem = IndexProblem(mesh);
+  if (!index_problem.empty()) {
+    return core::Status::InvalidArgument("cannot write " + path + ": " + index_problem);
+  }
+  const std::string extension = LowerCaseExtension(path);
+  std::string contents;
+  if (extension == ".stl") {
+    contents = BinaryStl(mesh);
+  } else if (extension == ".off") {
+    contents = AsciiOff(mesh);
+  } else if (extension == ".obj") {
+    contents = AsciiObj(mesh);
+  } else if (extension == ".ply") {
+    contents = AsciiPly(mesh);
+  } else {
+    return core::Status::InvalidArgument(path + ": unsupported mesh format '" + extension +
+                                         "' (expected .stl, .obj, .ply or .off)");
+  }
+  return core::WriteFileAtomically(path, contents);
+}
+
+MeshCheck CheckMesh(const TriangleMesh& mesh) {
+  MeshCheck check;
+  if (mesh.triangles.empty()) {
+    check.problem = "mesh has no triangles";
+    return check;
+  }
+  check.problem = IndexProblem(mesh);
+  if (!check.problem.empty()) return check;
+
+  InexactMesh surface;
+  if (!ToSurfaceMesh(mesh, &surface)) {
+    check.problem =
+        "not a manifold surface (an edge with more than two triangles, two triangles "
+        "traversing an edge the same way, or a pinched vertex); self-intersection not checked";
+    return check;
+  }
+  check.closed = CGAL::is_closed(surface);
+  size_t degenerate_faces = 0;
+  for (auto f : surface.faces()) {
+    if (PMP::is_degenerate_triangle_face(f, surface)) ++degenerate_faces;
+  }
+  // CGAL reports a degenerate triangle as intersecting itself.
+  check.self_intersecting = PMP::does_self_intersect(surface);
+  if (check.closed && !check.self_intersecting) {
+    // does_bound_a_volume accepts nested components only when their
+    // orientations alternate; a consistently inverted mesh bounds a volume
+    // too, just with its faces inward, which `outward` reports.
+    bool bounds = PMP::does_bound_a_volume(surface);
+    if (!bounds) {
+      InexactMesh reversed = surface;
+      PMP::reverse_face_orientations(reversed);
+      bounds = PMP::does_bound_a_volume(reversed);
+    }
+    check.bounds_volume = bounds;
+    check.outward = bounds && SignedVolume(mesh) > 0.0;
+  }
+
+  std::vector<std::string> problems;
+  if (!check.closed) problems.push_back("not closed (some edges have only one triangle)");
+  if (degenerate_faces > 0) {
+    problems.push_back(std::to_string(degenerate_faces) + " degenerate (zero-area) triangles");
+  }
+  if (check.self_intersecting) problems.push_back("self-intersecting");
+  if (check.closed && !check.self_intersecting && !check.bounds_volume) {
+    problems.push_back("components are not oriented consistently, so it bounds no volume");
+  }
+  if (check.bounds_volume && !check.outward) problems.push_back("triangles face inward");
+  for (size_t i = 0; i < problems.size(); ++i) {
+    check.problem += (i == 0 ? "" : "; ") + problems[i];
+  }
+  return check;
+}
+
+core::Result<TriangleMesh> UnionOfClosedMeshes(const std::vector<TriangleMesh>& parts) {
+  if (parts.empty()) return core::Status::InvalidArgument("union of no meshes");
+  std::vector<ExactMesh> exact_parts(parts.size());
+  for (size_t i = 0; i < parts.size(); ++i) {
+    const MeshCheck check = CheckMesh(parts[i]);
+    if (!check.outward) {
+      return core::Status::InvalidArgument("union: part " + std::to_string(i) +
+                                           " does not bound a volume with outward triangles: " +
+                                           check.problem);
+    }
+    ToSurfaceMesh(parts[i], &exact_parts[i]);
+  }
+  ExactMesh accumulated = std::move(exact_parts[0]);
+  for (size_t i = 1; i < exact_parts.size(); ++i) {
+    ExactMesh merged;
+    bool ok = false;
+    try {
+      // Corefinement modifies both inputs (it inserts their intersection curves).
+      ok = PMP::corefine_and_compute_union(accumulated, exact_parts[i], merged);
+    } catch (const std::exception& e) {
+      return core::Status::Internal("union: CGAL failed on part " + std::to_string(i) + ": " +
+                                    e.what());
+    }
+    if (!ok) {
+      return core::Status::Internal("union: the union with part " + std::to_string(i) +
+                                    " is not a manifold surface");
+    }
+    accumulated = std::move(merged);
+  }
+  TriangleMesh result = FromSurfaceMesh(accumulated);
+  // Rounding exact intersection points to doubles can in principle create
+  // tiny self-intersections: verify instead of assuming.
+  const MeshCheck check = CheckMesh(result);
+  if (!check.outward) {
+    return core::Status::Internal("union: the result rounded to double precision is invalid: " +
+                                  check.problem);
+  }
+  return result;
+}
+
+}  // namespace quadhand::geometry

@@ -1,1 +1,189 @@
-// placeholder
+#include "quadhand/geometry/mesh_to_sdf.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+#include "quadhand/geometry/mesh_distance.h"
+#include "quadhand/geometry/mesh_io.h"
+
+namespace quadhand::geometry {
+namespace {
+
+// 2e8 float nodes are 800 MB: beyond that a typo in the resolution is far
+// more likely than a real need.
+constexpr double kMaxNodes = 2e8;
+
+std::string Format(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+bool InBox(const Vec3& p, const AxisAlignedBox& box) {
+  return (p.array() >= box.min.array()).all() && (p.array() <= box.max.array()).all();
+}
+
+// Fills the values of slice z = k. Each slice depends only on its own
+// queries, so the result does not depend on how slices are spread over threads.
+void ComputeSlice(const MeshDistanceQuery& query, const SdfGridInfo& info, int k,
+                  std::vector<float>* values) {
+  const double h = info.resolution;
+  const AxisAlignedBox geometry_box{info.geometry_min, info.geometry_max};
+  // Two neighbouring nodes a, b on opposite sides of the surface have a
+  // surface point s between them, so d(a) + d(b) <= |a - s| + |s - b| = h.
+  // Hence d(a) + d(b) > h means they share a side and the costly inside test
+  // (a ray cast) can be skipped. The margin absorbs rounding in d.
+  const double same_side_threshold = h * (1.0 + 1e-9);
+  const size_t slice_offset = static_cast<size_t>(k) * info.dims.x() * info.dims.y();
+  Vec3 row_hint = Vec3::Zero();
+  bool have_row_hint = false;
+  for (int j = 0; j < info.dims.y(); ++j) {
+    Vec3 hint = row_hint;
+    bool have_hint = have_row_hint;
+    double previous_distance = 0.0;
+    bool previous_inside = false;
+    for (int i = 0; i < info.dims.x(); ++i) {
+      const Vec3 p = info.origin + h * Vec3(i, j, k);
+      Vec3 closest;
+      // The previous node's closest point is a good first guess, which lets
+      // the tree prune most of its boxes at once.
+      const double distance = have_hint ? query.UnsignedDistanceWithHint(p, hint, &closest)
+                                        : query.UnsignedDistance(p, &closest);
+      hint = closest;
+      have_hint = true;
+      if (i == 0) {
+        row_hint = closest;
+        have_row_hint = true;
+      }
+      bool inside = false;
+      // Outside the geometry's bounding box every point is outside.
+      if (query.is_signed() && InBox(p, geometry_box)) {
+        inside = (i > 0 && previous_distance + distance > same_side_threshold)
+                     ? previous_inside
+                     : query.IsInside(p);
+      }
+      (*values)[slice_offset + static_cast<size_t>(j) * info.dims.x() + i] =
+          static_cast<float>(inside ? -distance : distance);
+      previous_distance = distance;
+      previous_inside = inside;
+    }
+  }
+}
+
+}  // namespace
+
+bool SdfGenerationOptions::IsValid(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (!(resolution > 0.0) || !std::isfinite(resolution)) {
+    return fail("resolution must be a positive number of metres, got " + Format(resolution));
+  }
+  if (!(padding >= 0.0) || !std::isfinite(padding)) {
+    return fail("padding must be a non-negative number of metres, got " + Format(padding));
+  }
+  if (num_threads < 0) {
+    return fail("num_threads must be >= 0 (0: all hardware threads), got " +
+                std::to_string(num_threads));
+  }
+  // Even a point-sized mesh gets a grid spanning twice the padding per axis.
+  const double min_nodes_per_axis = std::floor(2.0 * padding / resolution) + 1.0;
+  if (std::pow(min_nodes_per_axis, 3) > kMaxNodes) {
+    return fail("padding " + Format(padding) + " m at resolution " + Format(resolution) +
+                " m alone needs more than " + Format(kMaxNodes) +
+                " grid nodes; use a coarser resolution or less padding");
+  }
+  return true;
+}
+
+core::Result<SdfGrid> GenerateSdf(const TriangleMesh& mesh, const std::string& link_name,
+                                  const std::string& source, const SdfGenerationOptions& options,
+                                  const ProgressCallback& progress) {
+  const std::string what = "SDF of link '" + link_name + "' (" + source + ")";
+  std::string why;
+  if (!options.IsValid(&why)) return core::Status::InvalidArgument(what + ": " + why);
+  if (mesh.triangles.empty() || mesh.vertices.empty()) {
+    return core::Status::InvalidArgument(what + ": the mesh is empty");
+  }
+  const MeshCheck check = CheckMesh(mesh);
+  if (!check.bounds_volume && !options.allow_unsigned) {
+    return core::Status::InvalidArgument(
+        what + ": the mesh does not bound a volume (" + check.problem +
+        "); allow unsigned distances to accept it");
+  }
+  auto query_or = MeshDistanceQuery::Create(mesh, check.bounds_volume);
+  if (!query_or.ok()) return query_or.status().WithPrefix(what);
+  const MeshDistanceQuery& query = **query_or;
+
+  const AxisAlignedBox box = BoundingBox(mesh);
+  SdfGridInfo info;
+  info.link_name = link_name;
+  info.frame = link_name;
+  info.source = source;
+  info.resolution = options.resolution;
+  info.origin = box.min - Vec3::Constant(options.padding);
+  info.is_signed = check.bounds_volume;
+  info.geometry_min = box.min;
+  info.geometry_max = box.max;
+  const Vec3 extent = box.size() + Vec3::Constant(2.0 * options.padding);
+  double num_nodes = 1.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    // The relative slack keeps an extent that is an exact multiple of the
+    // resolution from gaining a node through rounding.
+    const double cells = std::ceil(extent[axis] / options.resolution * (1.0 - 1e-12));
+    num_nodes *= cells + 1.0;
+    if (num_nodes > kMaxNodes) {
+      return core::Status::InvalidArgument(
+          what + ": the grid would have more than " + Format(kMaxNodes) +
+          " nodes; use a coarser resolution or less padding");
+    }
+    info.dims[axis] = static_cast<int>(cells) + 1;
+  }
+
+  const long total = info.NumNodes();
+  std::vector<float> values(static_cast<size_t>(total));
+  int num_threads = options.num_threads > 0
+                        ? options.num_threads
+                        : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  num_threads = std::min(num_threads, info.dims.z());
+
+  std::atomic<int> next_slice{0};
+  std::atomic<bool> failed{false};
+  std::mutex mutex;  // guards `done`, `error` and the progress callback
+  long done = 0;
+  std::string error;
+  auto worker = [&]() {
+    for (;;) {
+      const int k = next_slice.fetch_add(1);
+      if (k >= info.dims.z() || failed.load()) return;
+      try {
+        ComputeSlice(query, info, k, &values);
+      } catch (const std::exception& e) {
+        const std::lock_guard<std::mutex> lock(mutex);
+        if (!failed.exchange(true)) error = e.what();
+        return;
+      }
+      if (progress) {
+        const std::lock_guard<std::mutex> lock(mutex);
+        done += static_cast<long>(info.dims.x()) * info.dims.y();
+        progress(done, total);
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int t = 1; t < num_threads; ++t) threads.emplace_back(worker);
+  worker();  // the calling thread works too
+  for (std::thread& thread : threads) thread.join();
+  if (failed.load()) return core::Status::Internal(what + ": distance query failed: " + error);
+  return SdfGrid(std::move(info), std::move(values));
+}
+
+}  // namespace quadhand::geometry
