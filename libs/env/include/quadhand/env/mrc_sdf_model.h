@@ -1,0 +1,65 @@
+// MRC-SDF (paper Sec. V): the raw obstacle point cloud queried against one
+// pre-generated SDF per robot link. For a link at pose X_WL, each nearby
+// obstacle point x is moved into the link frame, x_L = R_WL^T (x - p_WL), and
+// its distance is SDF_link(x_L); the penalty is the smoothed L1 of
+// threshold - distance, summed over points.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/env/collision_model.h"
+#include "quadhand/geometry/sdf_grid.h"
+#include "quadhand/scene/point_grid.h"
+
+namespace quadhand::env {
+
+struct MrcSdfOptions {
+  double cell_size = 0.05;  // spatial index cell, metres
+
+  bool IsValid(std::string* why) const;
+};
+
+class MrcSdfModel final : public CollisionModel {
+ public:
+  // Loads `<sdf_dir>/<link>.qhsdf` for every collision link of `robot`
+  // (checking each file's link name) and indexes the points (finite, world frame).
+  static core::Result<std::unique_ptr<MrcSdfModel>> Create(const robot::RobotModel& robot,
+                                                           const std::string& sdf_dir,
+                                                           const std::vector<Vec3>& points,
+                                                           const MrcSdfOptions& options = {});
+  // From grids already in memory; grids[i] belongs to robot link links[i].
+  static core::Result<std::unique_ptr<MrcSdfModel>> Create(std::vector<int> links,
+                                                           std::vector<geometry::SdfGrid> grids,
+                                                           const std::vector<Vec3>& points,
+                                                           const MrcSdfOptions& options = {});
+
+  std::string name() const override { return "mrc_sdf"; }
+  DistanceQuality distance_quality() const override { return DistanceQuality::kExact; }
+  const std::vector<int>& links() const override { return links_; }
+
+  double LinkPenalty(int link, const Pose& X_WL, const PenaltyParameters& parameters,
+                     const QueryContext& context, LinkWrench* wrench) const override;
+  double LinkClearance(int link, const Pose& X_WL, double search_radius,
+                       const QueryContext& context) const override;
+
+  const geometry::SdfGrid& grid_of_link(int link) const { return grids_[slot_of_link_[link]]; }
+  const scene::PointGrid& points() const { return points_; }
+
+ private:
+  MrcSdfModel(std::vector<int> links, std::vector<geometry::SdfGrid> grids, scene::PointGrid points);
+
+  // Calls visit(x_W, x_L, distance, gradient_L) for obstacle points whose
+  // distance to the link is below `reach`.
+  template <typename Visitor>
+  void VisitNearbyPoints(int link, const Pose& X_WL, double reach, Visitor&& visit) const;
+
+  std::vector<int> links_;
+  std::vector<int> slot_of_link_;  // robot link index -> index into grids_ (-1 if none)
+  std::vector<geometry::SdfGrid> grids_;
+  scene::PointGrid points_;
+};
+
+}  // namespace quadhand::env

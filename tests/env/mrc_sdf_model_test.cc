@@ -1,0 +1,215 @@
+// MRC-SDF collision model: penalties and their gradients (link wrench and
+// whole-body state gradient through the kinematic chain, mimic battery joint
+// included) against finite differences, and clearance against exact distances.
+#include "quadhand/env/mrc_sdf_model.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "quadhand/geometry/mesh_to_sdf.h"
+#include "quadhand/geometry/primitives.h"
+#include "quadhand/opt/penalty.h"
+#include "quadhand/robot/link_meshes.h"
+
+namespace quadhand::env {
+namespace {
+
+const std::string kUrdf = std::string(QUADHAND_SOURCE_DIR) + "/meshes/quadhand/quadhand.urdf";
+
+// The reference robot with coarse (4 mm) link SDFs, built once.
+struct Fixture {
+  robot::RobotModel robot;
+  std::vector<int> links;
+  std::vector<geometry::SdfGrid> grids;
+};
+
+const Fixture& QuadHand() {
+  static const Fixture fixture = [] {
+    Fixture f{*robot::RobotModel::LoadFromUrdfFile(kUrdf), {}, {}};
+    geometry::SdfGenerationOptions options;
+    options.resolution = 0.004;
+    options.padding = 0.05;
+    for (int link : f.robot.CollisionLinks()) {
+      f.links.push_back(link);
+      f.grids.push_back(*geometry::GenerateSdf(*robot::LinkCollisionMesh(f.robot, link),
+                                               f.robot.link(link).name, kUrdf, options));
+    }
+    return f;
+  }();
+  return fixture;
+}
+
+struct State {
+  Vec3 position;
+  Vec3 rotation_vector;  // attitude = exp([rotation_vector]x)
+  VecX joints;
+  Pose BasePose() const { return MakePose(position, ExpSO3(rotation_vector)); }
+};
+
+// Obstacle points scattered around the robot's links at `state`, many within
+// the threshold, so every link and the mimic battery contribute.
+std::vector<Vec3> PointsAroundRobot(const robot::RobotModel& robot, const State& state, int count,
+                                    unsigned seed) {
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(robot, state.BasePose(), state.joints, &kinematics);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  std::vector<Vec3> points;
+  const std::vector<int> links = robot.CollisionLinks();
+  for (int n = 0; n < count; ++n) {
+    const int link = links[n % links.size()];
+    points.push_back(kinematics.link_poses[link] * Vec3(0.1 + 0.6 * u(rng), u(rng), 0.3 * u(rng)));
+  }
+  return points;
+}
+
+// Central difference of f along one coordinate, and whether the function is
+// smooth across the step: the trilinear SDF has gradient jumps on cell faces,
+// where no finite difference can agree with the (one-sided) analytic value.
+bool SmoothCentralDifference(const std::function<double(double)>& f, double step, double* derivative) {
+  const double f0 = f(0.0), fp = f(step), fm = f(-step);
+  const double forward = (fp - f0) / step, backward = (f0 - fm) / step;
+  *derivative = (fp - fm) / (2 * step);
+  return std::abs(forward - backward) <= 1e-4 * std::max(1.0, std::abs(*derivative));
+}
+
+TEST(SmoothedL1Test, ValueAndSlopeMatchThePaperAndFiniteDifferences) {
+  const double mu = 0.01;
+  double slope;
+  EXPECT_EQ(opt::SmoothedL1(-0.1, mu, &slope), 0.0);
+  EXPECT_EQ(slope, 0.0);
+  EXPECT_NEAR(opt::SmoothedL1(mu, mu, &slope), mu / 2, 1e-15);
+  EXPECT_NEAR(opt::SmoothedL1(0.5, mu, &slope), 0.5 - mu / 2, 1e-15);
+  EXPECT_NEAR(opt::SmoothedL1(0.004, mu, &slope), (mu - 0.002) * std::pow(0.4, 3), 1e-15);
+  for (double x : {-0.005, 0.0005, 0.003, 0.0071, 0.0099, 0.0101, 0.2}) {
+    const double h = 1e-8;
+    double s0, unused;
+    opt::SmoothedL1(x, mu, &s0);
+    const double numeric = (opt::SmoothedL1(x + h, mu, &unused) - opt::SmoothedL1(x - h, mu, &unused)) / (2 * h);
+    EXPECT_NEAR(s0, numeric, 1e-6) << x;
+  }
+}
+
+TEST(MrcSdfModelTest, LinkWrenchMatchesFiniteDifferences) {
+  const Fixture& fx = QuadHand();
+  const State state{Vec3(0.3, -0.2, 1.1), Vec3(0.1, -0.2, 0.3), Vec3(0.7, -0.4, 0.5)};
+  auto model = MrcSdfModel::Create(fx.links, fx.grids, PointsAroundRobot(fx.robot, state, 3000, 1));
+  ASSERT_TRUE(model.ok()) << model.status().message();
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(fx.robot, state.BasePose(), state.joints, &kinematics);
+  const PenaltyParameters parameters{0.03, 0.01};
+  int checked = 0, skipped = 0;
+  for (int link : fx.links) {
+    const Pose X_WL = kinematics.link_poses[link];
+    LinkWrench wrench;
+    const double cost = (*model)->LinkPenalty(link, X_WL, parameters, {}, &wrench);
+    ASSERT_GT(cost, 0.0) << "link " << link << " has no nearby points";
+    for (int axis = 0; axis < 6; ++axis) {
+      auto moved = [&](double s) {
+        Pose X = X_WL;
+        if (axis < 3) X.translation() += s * Vec3::Unit(axis);
+        else X.linear() = ExpSO3(s * Vec3::Unit(axis - 3)) * X_WL.linear();
+        return (*model)->LinkPenalty(link, X, parameters, {}, nullptr);
+      };
+      double numeric;
+      if (!SmoothCentralDifference(moved, 1e-7, &numeric)) {
+        ++skipped;
+        continue;
+      }
+      const double analytic = axis < 3 ? wrench.force[axis] : wrench.torque[axis - 3];
+      EXPECT_LE(std::abs(analytic - numeric), 1e-5 * std::max(1.0, std::abs(numeric)))
+          << "link " << link << " axis " << axis << " analytic " << analytic << " numeric " << numeric;
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 25);
+  EXPECT_LE(skipped, 5);
+}
+
+TEST(MrcSdfModelTest, WholeBodyGradientMatchesFiniteDifferences) {
+  const Fixture& fx = QuadHand();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const VecX lower = fx.robot.LowerLimits(), upper = fx.robot.UpperLimits();
+  int checked = 0, skipped = 0;
+  for (int trial = 0; trial < 4; ++trial) {
+    State state{Vec3(u(rng), u(rng), 1 + u(rng)), 0.4 * Vec3(u(rng), u(rng), u(rng)), VecX(3)};
+    for (int k = 0; k < 3; ++k) state.joints[k] = lower[k] + (upper[k] - lower[k]) * (0.5 + 0.45 * u(rng));
+    auto model = MrcSdfModel::Create(fx.links, fx.grids, PointsAroundRobot(fx.robot, state, 3000, trial));
+    ASSERT_TRUE(model.ok());
+    robot::KinematicsState kinematics;
+    robot::ComputeKinematics(fx.robot, state.BasePose(), state.joints, &kinematics);
+    const PenaltyParameters parameters{0.03, 0.01};
+    StateGradient gradient;
+    gradient.SetZero(3);
+    const double cost = WholeBodyPenalty(fx.robot, kinematics, **model, parameters, {}, &gradient);
+    ASSERT_GT(cost, 0.0);
+    EXPECT_NEAR(WholeBodyPenalty(fx.robot, kinematics, **model, parameters, {}, nullptr), cost, 1e-12);
+    for (int coordinate = 0; coordinate < 9; ++coordinate) {
+      auto moved = [&](double s) {
+        State perturbed = state;
+        Pose base = state.BasePose();
+        if (coordinate < 3) base.translation() += s * Vec3::Unit(coordinate);
+        else if (coordinate < 6) base.linear() = ExpSO3(s * Vec3::Unit(coordinate - 3)) * base.linear();
+        else perturbed.joints[coordinate - 6] += s;
+        robot::KinematicsState k;
+        robot::ComputeKinematics(fx.robot, base, perturbed.joints, &k);
+        return WholeBodyPenalty(fx.robot, k, **model, parameters, {}, nullptr);
+      };
+      double numeric;
+      if (!SmoothCentralDifference(moved, 1e-7, &numeric)) {
+        ++skipped;
+        continue;
+      }
+      const double analytic = coordinate < 3   ? gradient.position[coordinate]
+                              : coordinate < 6 ? gradient.rotation[coordinate - 3]
+                                               : gradient.joints[coordinate - 6];
+      EXPECT_LE(std::abs(analytic - numeric), 1e-5 * std::max(1.0, std::abs(numeric)))
+          << "trial " << trial << " coordinate " << coordinate << " analytic " << analytic << " numeric " << numeric;
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 30);
+  EXPECT_LE(skipped, 6);
+}
+
+TEST(MrcSdfModelTest, ClearanceMatchesExactDistanceToAnOffsetPoint) {
+  const Fixture& fx = QuadHand();
+  // One obstacle point straight below the battery's bottom face (z = -0.018 in
+  // its frame), 25 mm away, at a state where everything is axis aligned.
+  const State state{Vec3(0, 0, 1), Vec3::Zero(), VecX::Zero(3)};
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(fx.robot, state.BasePose(), state.joints, &kinematics);
+  const int battery = fx.robot.LinkIndex("battery");
+  const Vec3 point = kinematics.link_poses[battery] * Vec3(-0.085, 0.0, -0.018 - 0.025);
+  auto model = MrcSdfModel::Create(fx.links, fx.grids, {point});
+  ASSERT_TRUE(model.ok());
+  int closest = -1;
+  const double clearance = WholeBodyClearance(kinematics, **model, 0.1, {}, &closest);
+  EXPECT_EQ(closest, battery);
+  EXPECT_NEAR(clearance, 0.025, 1e-3);
+  // Within threshold 0.03 and smoothing 0.01: penalty (0.01 - 0.005/2)... x = 0.005.
+  double slope;
+  const double expected = opt::SmoothedL1(0.03 - clearance, 0.01, &slope);
+  EXPECT_NEAR(WholeBodyPenalty(fx.robot, kinematics, **model, {0.03, 0.01}, {}, nullptr), expected, 1e-9);
+  // Far away: nothing within the search radius.
+  auto far = MrcSdfModel::Create(fx.links, fx.grids, {Vec3(10, 10, 10)});
+  EXPECT_EQ(WholeBodyClearance(kinematics, **far, 0.1, {}), 0.1);
+  EXPECT_EQ(WholeBodyPenalty(fx.robot, kinematics, **far, {0.03, 0.01}, {}, nullptr), 0.0);
+}
+
+TEST(MrcSdfModelTest, CreateRejectsBadInput) {
+  const Fixture& fx = QuadHand();
+  EXPECT_FALSE(MrcSdfModel::Create(fx.links, {}, {Vec3::Zero()}).ok());
+  EXPECT_FALSE(MrcSdfModel::Create(fx.links, fx.grids, {Vec3(std::nan(""), 0, 0)}).ok());
+  MrcSdfOptions bad;
+  bad.cell_size = 0;
+  EXPECT_FALSE(MrcSdfModel::Create(fx.links, fx.grids, {Vec3::Zero()}, bad).ok());
+  auto missing = MrcSdfModel::Create(fx.robot, "/nonexistent/sdf", {Vec3::Zero()});
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.status().message().find("/nonexistent/sdf/base_link.qhsdf"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace quadhand::env
