@@ -18,6 +18,11 @@
 #include <system_error>
 #include <vector>
 
+// GCC 12 reports a false -Wmaybe-uninitialized inside CGAL's self-intersection
+// test when instantiated for Epeck (from corefinement); the pragma covers only
+// CGAL's headers, where the warning is located.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/IO/polygon_mesh_io.h>
@@ -29,6 +34,7 @@
 #include <CGAL/Polygon_mesh_processing/shape_predicates.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_faces.h>
 #include <CGAL/Surface_mesh.h>
+#pragma GCC diagnostic pop
 
 #include "quadhand/core/file_util.h"
 
@@ -113,6 +119,37 @@ TriangleMesh FromSurfaceMesh(const Mesh& mesh) {
     }
     if (corner == 3) out.triangles.push_back(triangle);
   }
+  return out;
+}
+
+// The same mesh with vertices sorted lexicographically and triangles sorted
+// (each rotated, orientation kept, to start at its smallest index). CGAL's
+// corefinement emits the same triangles in an order that varies from run to
+// run (it hashes addresses); canonical order makes outputs reproducible.
+TriangleMesh CanonicalOrder(const TriangleMesh& mesh) {
+  const auto lexicographic_less = [](const Vec3& a, const Vec3& b) {
+    return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3);
+  };
+  std::vector<int> order(mesh.vertices.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return lexicographic_less(mesh.vertices[a], mesh.vertices[b]);
+  });
+  TriangleMesh out;
+  std::vector<int> new_index(mesh.vertices.size());
+  for (size_t i = 0; i < order.size(); ++i) {
+    new_index[order[i]] = static_cast<int>(i);
+    out.vertices.push_back(mesh.vertices[order[i]]);
+  }
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    Eigen::Vector3i mapped(new_index[t[0]], new_index[t[1]], new_index[t[2]]);
+    while (mapped[0] != mapped.minCoeff()) mapped = Eigen::Vector3i(mapped[1], mapped[2], mapped[0]);
+    out.triangles.push_back(mapped);
+  }
+  std::sort(out.triangles.begin(), out.triangles.end(),
+            [](const Eigen::Vector3i& a, const Eigen::Vector3i& b) {
+              return std::lexicographical_compare(a.data(), a.data() + 3, b.data(), b.data() + 3);
+            });
   return out;
 }
 
@@ -367,7 +404,7 @@ core::Result<TriangleMesh> UnionOfClosedMeshes(const std::vector<TriangleMesh>& 
     }
     accumulated = std::move(merged);
   }
-  TriangleMesh result = FromSurfaceMesh(accumulated);
+  TriangleMesh result = CanonicalOrder(FromSurfaceMesh(accumulated));
   // Rounding exact intersection points to doubles can in principle create
   // tiny self-intersections: verify instead of assuming.
   const MeshCheck check = CheckMesh(result);

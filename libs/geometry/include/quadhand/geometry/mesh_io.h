@@ -30,6 +30,8 @@ MeshCheck CheckMesh(const TriangleMesh& mesh);
 
 // Boolean union of closed meshes (overlapping or touching), one closed surface
 // without self-intersections. Exact constructions, so coplanar faces are fine.
+// Vertices and triangles come in a canonical (sorted) order, so the same input
+// always gives the same output.
 core::Result<TriangleMesh> UnionOfClosedMeshes(const std::vector<TriangleMesh>& parts);
 
 }  // namespace quadhand::geometry
