@@ -11,34 +11,14 @@
 #include "quadhand/geometry/primitives.h"
 #include "quadhand/opt/penalty.h"
 #include "quadhand/robot/link_meshes.h"
+#include "support/quadhand_fixture.h"
 
 namespace quadhand::env {
 namespace {
 
-const std::string kUrdf = std::string(QUADHAND_SOURCE_DIR) + "/meshes/quadhand/quadhand.urdf";
-
-// The reference robot with coarse (4 mm) link SDFs, built once.
-struct Fixture {
-  robot::RobotModel robot;
-  std::vector<int> links;
-  std::vector<geometry::SdfGrid> grids;
-};
-
-const Fixture& QuadHand() {
-  static const Fixture fixture = [] {
-    Fixture f{*robot::RobotModel::LoadFromUrdfFile(kUrdf), {}, {}};
-    geometry::SdfGenerationOptions options;
-    options.resolution = 0.004;
-    options.padding = 0.05;
-    for (int link : f.robot.CollisionLinks()) {
-      f.links.push_back(link);
-      f.grids.push_back(*geometry::GenerateSdf(*robot::LinkCollisionMesh(f.robot, link),
-                                               f.robot.link(link).name, kUrdf, options));
-    }
-    return f;
-  }();
-  return fixture;
-}
+using testing::SmoothCentralDifference;
+using Fixture = testing::QuadHandFixture;
+const Fixture& QuadHand() { return testing::CoarseQuadHand(); }
 
 struct State {
   Vec3 position;
@@ -62,16 +42,6 @@ std::vector<Vec3> PointsAroundRobot(const robot::RobotModel& robot, const State&
     points.push_back(kinematics.link_poses[link] * Vec3(0.1 + 0.6 * u(rng), u(rng), 0.3 * u(rng)));
   }
   return points;
-}
-
-// Central difference of f along one coordinate, and whether the function is
-// smooth across the step: the trilinear SDF has gradient jumps on cell faces,
-// where no finite difference can agree with the (one-sided) analytic value.
-bool SmoothCentralDifference(const std::function<double(double)>& f, double step, double* derivative) {
-  const double f0 = f(0.0), fp = f(step), fm = f(-step);
-  const double forward = (fp - f0) / step, backward = (f0 - fm) / step;
-  *derivative = (fp - fm) / (2 * step);
-  return std::abs(forward - backward) <= 1e-4 * std::max(1.0, std::abs(*derivative));
 }
 
 TEST(SmoothedL1Test, ValueAndSlopeMatchThePaperAndFiniteDifferences) {

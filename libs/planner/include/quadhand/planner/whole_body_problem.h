@@ -1,0 +1,179 @@
+// The whole-body trajectory optimisation problem of the paper (Sec. VI) as an
+// opt::Objective:
+//
+//   min over waypoints q and durations T:
+//     J_s + rho * T + sum over samples of  w_k * lambda . [J_c, J_e, J_v, J_a,
+//                                          J_yawrate, J_jointrate, J_omega_xy, J_jointlimit]
+//
+// as a chain of differentiable layers (forward, then backward in reverse):
+//   tau --time map--> T --MINCO s=4 (position), s=2 (yaw + joints)--> samples
+//   --flatness (Hopf)--> attitude, thrust, body rate --forward kinematics-->
+//   link poses --CollisionModel / insertion / limit penalties--> cost.
+// Samples sit at fixed fractions k/K of each piece with trapezoidal weights
+// w_k = T_i / K (halved at both ends); both parts of the duration gradient
+// (moving sample times and the quadrature step) are included.
+//
+// Variables x = [tau (N); position waypoints (3 x (N-1), column-major);
+//                yaw + joint waypoints ((1 + n) x (N-1), column-major)].
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/core/types.h"
+#include "quadhand/env/collision_model.h"
+#include "quadhand/opt/objective.h"
+#include "quadhand/robot/robot_model.h"
+#include "quadhand/traj/flatness.h"
+#include "quadhand/traj/minco.h"
+
+namespace quadhand::planner {
+
+// A whole-body boundary state: flat outputs and their derivatives.
+struct BoundaryState {
+  Vec3 position = Vec3::Zero();
+  Vec3 velocity = Vec3::Zero();
+  Vec3 acceleration = Vec3::Zero();
+  Vec3 jerk = Vec3::Zero();
+  double yaw = 0.0;  // Hopf yaw (traj/flatness.h), rad
+  double yaw_rate = 0.0;
+  VecX joints;       // actuated joints, URDF order
+  VecX joint_rates;  // empty means zero
+};
+
+struct Limits {
+  double v_max = 2.0;             // m/s
+  double a_max = 4.0;             // m/s^2
+  double yaw_rate_max = 1.5;      // rad/s
+  double body_rate_xy_max = 3.0;  // rad/s
+  VecX joint_rate_max;            // rad/s per actuated joint
+  VecX joint_lower, joint_upper;  // rad (or m), per actuated joint
+};
+
+// Straight-line approach of the tool frame over the last trajectory piece.
+struct InsertionGoal {
+  bool enabled = false;
+  int tool_link = -1;                     // robot link index of the tool frame
+  Vec3 tool_position = Vec3::Zero();      // goal position of the tool, world
+  Quat tool_orientation = Quat::Identity();
+  Vec3 direction = -Vec3::UnitZ();        // unit approach direction, world
+  double length = 0.1;                    // metres of straight approach before the goal
+};
+
+struct WholeBodyCostOptions {
+  int samples_per_piece = 12;  // K: samples at k/K, k = 0..K
+  double time_weight = 20.0;   // rho, per second of total duration
+  double energy_weight_position = 1.0;  // on integral ||snap||^2
+  double energy_weight_aux = 1.0;       // on integral ||(yaw, joints) accel||^2
+  // lambda of each penalty (per second of trajectory: samples are integrated).
+  double weight_collision = 2e4;
+  double weight_insertion = 2e4;
+  double weight_velocity = 1e3;
+  double weight_acceleration = 1e3;
+  double weight_yaw_rate = 1e3;
+  double weight_joint_rate = 1e3;
+  double weight_body_rate = 1e3;
+  double weight_joint_limits = 1e4;
+  // Collision: penalise distances below `collision_threshold` (the safety
+  // distance plus a margin), smoothed over `collision_mu`.
+  double collision_threshold = 0.04;
+  double collision_mu = 0.01;
+  double feasibility_mu = 0.1;     // smoothing of squared-rate penalties (units^2)
+  double joint_limit_mu = 0.02;    // rad
+  // Insertion (paper J_e): tool distance to the insertion line and rotation
+  // distance d_R = (3 - tr(R_e R_g^T)) / 2 to the goal orientation, beyond tolerances.
+  double insertion_position_tolerance = 0.0;  // d_e,th, metres
+  double insertion_rotation_tolerance = 0.0;  // r_e,th
+  double insertion_position_weight = 1.0;     // rho_P
+  double insertion_rotation_weight = 1.0;     // rho_R
+  double insertion_mu = 0.005;
+  traj::FlatnessOptions flatness;
+
+  bool IsValid(std::string* why) const;
+};
+
+// Value of each term at one x (for reports and benchmarks); the weighted sum is `total`.
+struct CostBreakdown {
+  double energy = 0, time = 0, collision = 0, insertion = 0, velocity = 0, acceleration = 0,
+         yaw_rate = 0, joint_rate = 0, body_rate = 0, joint_limits = 0, total = 0;
+};
+
+// One instant of a whole-body trajectory.
+struct WholeBodySample {
+  double t = 0;
+  Vec3 position, velocity, acceleration, jerk;
+  Quat attitude = Quat::Identity();  // from flatness
+  double thrust = 0;                 // m/s^2
+  Vec3 body_rate = Vec3::Zero();     // rad/s, body frame
+  double yaw = 0, yaw_rate = 0;
+  VecX joints, joint_rates;
+  Pose BasePose() const { return MakePose(position, attitude.toRotationMatrix()); }
+};
+
+// The decoded trajectory: both MINCO curves and flatness.
+class WholeBodyTrajectory {
+ public:
+  WholeBodyTrajectory(traj::Minco position, traj::Minco aux, traj::FlatnessOptions flatness);
+  double duration() const { return position_.total_duration(); }
+  int num_pieces() const { return position_.num_pieces(); }
+  // Sample at global time t (clamped to [0, duration()]).
+  WholeBodySample Sample(double t) const;
+  const traj::Minco& position() const { return position_; }
+  const traj::Minco& aux() const { return aux_; }
+
+ private:
+  traj::Minco position_;
+  traj::Minco aux_;
+  traj::FlatnessOptions flatness_;
+};
+
+class WholeBodyProblem final : public opt::Objective {
+ public:
+  // `robot` and `collision` must outlive the problem. Checks sizes and options.
+  static core::Result<std::unique_ptr<WholeBodyProblem>> Create(
+      const robot::RobotModel& robot, const env::CollisionModel& collision, const BoundaryState& start,
+      const BoundaryState& goal, const Limits& limits, const InsertionGoal& insertion,
+      const WholeBodyCostOptions& options, int num_pieces);
+  ~WholeBodyProblem() override;
+
+  int num_variables() const override;
+  int num_pieces() const { return num_pieces_; }
+  int num_joints() const { return num_joints_; }
+
+  // x from waypoints (3 x (N-1) and (1+n) x (N-1)) and durations (N, > 0), and back.
+  VecX Pack(const MatX& position_waypoints, const MatX& aux_waypoints, const VecX& durations) const;
+  void Unpack(const VecX& x, MatX* position_waypoints, MatX* aux_waypoints, VecX* durations) const;
+
+  // Each term at x (unweighted values and the weighted total).
+  core::Result<CostBreakdown> Breakdown(const VecX& x) const;
+  core::Result<WholeBodyTrajectory> Trajectory(const VecX& x) const;
+
+  const WholeBodyCostOptions& options() const { return options_; }
+  // Replaces the weights (e.g. raised after a failed post-check); sizes stay.
+  core::Status SetOptions(const WholeBodyCostOptions& options);
+
+ protected:
+  bool DoEvaluate(const VecX& x, double* cost, VecX* grad) const override;
+
+ private:
+  WholeBodyProblem(const robot::RobotModel& robot, const env::CollisionModel& collision);
+  bool Generate(const VecX& x) const;
+  double Accumulate(CostBreakdown* breakdown, bool with_gradient) const;
+
+  const robot::RobotModel& robot_;
+  const env::CollisionModel& collision_;
+  BoundaryState start_, goal_;
+  Limits limits_;
+  InsertionGoal insertion_;
+  WholeBodyCostOptions options_;
+  int num_pieces_ = 0;
+  int num_joints_ = 0;
+
+  // Evaluation workspace (Evaluate is const; one caller at a time).
+  struct Workspace;
+  std::unique_ptr<Workspace> work_;
+};
+
+}  // namespace quadhand::planner

@@ -1,0 +1,403 @@
+#include "quadhand/planner/whole_body_problem.h"
+
+#include <cmath>
+
+#include "quadhand/opt/penalty.h"
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/traj/time_map.h"
+
+namespace quadhand::planner {
+namespace {
+
+constexpr int kPositionOrder = 4;  // s = 4: minimum snap, C^6 position
+constexpr int kAuxOrder = 2;       // s = 2: minimum acceleration for yaw and joints
+
+bool NonNegativeFinite(double v) { return std::isfinite(v) && v >= 0.0; }
+bool PositiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
+
+// d(world rotation vector)/d(quaternion) for a unit quaternion q: a tangent
+// perturbation dq rotates R(q) by dphi = 2 vec(dq * conj(q)).
+Eigen::Matrix<double, 3, 4> RotationVectorPerQuaternion(const Eigen::Vector4d& q) {
+  const Quat conjugate(q[0], -q[1], -q[2], -q[3]);
+  Eigen::Matrix<double, 3, 4> M;
+  for (int k = 0; k < 4; ++k) {
+    const Quat unit(k == 0 ? 1.0 : 0.0, k == 1 ? 1.0 : 0.0, k == 2 ? 1.0 : 0.0, k == 3 ? 1.0 : 0.0);
+    M.col(k) = 2.0 * (unit * conjugate).vec();
+  }
+  return M;
+}
+
+// Penalty on a squared rate beyond its bound: SmoothedL1(|x|^2 - max^2).
+double SquaredRatePenalty(double squared, double max, double mu, double* slope) {
+  return opt::SmoothedL1(squared - max * max, mu, slope);
+}
+
+}  // namespace
+
+bool WholeBodyCostOptions::IsValid(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (samples_per_piece < 1 || samples_per_piece > 1000) return fail("samples_per_piece must be in [1, 1000]");
+  for (double w : {time_weight, energy_weight_position, energy_weight_aux, weight_collision, weight_insertion,
+                   weight_velocity, weight_acceleration, weight_yaw_rate, weight_joint_rate, weight_body_rate,
+                   weight_joint_limits, insertion_position_weight, insertion_rotation_weight,
+                   insertion_position_tolerance, insertion_rotation_tolerance}) {
+    if (!NonNegativeFinite(w)) return fail("weights and tolerances must be finite and non-negative");
+  }
+  if (!PositiveFinite(collision_threshold)) return fail("collision_threshold must be positive");
+  for (double mu : {collision_mu, feasibility_mu, joint_limit_mu, insertion_mu}) {
+    if (!PositiveFinite(mu)) return fail("smoothing parameters (mu) must be positive");
+  }
+  return true;
+}
+
+// ---------------------------------------------------------------- trajectory
+
+WholeBodyTrajectory::WholeBodyTrajectory(traj::Minco position, traj::Minco aux, traj::FlatnessOptions flatness)
+    : position_(std::move(position)), aux_(std::move(aux)), flatness_(flatness) {}
+
+WholeBodySample WholeBodyTrajectory::Sample(double t) const {
+  WholeBodySample s;
+  s.t = std::clamp(t, 0.0, duration());
+  int piece = 0;
+  double local = 0;
+  position_.LocatePiece(s.t, &piece, &local);
+  s.position = position_.Evaluate(piece, local, 0);
+  s.velocity = position_.Evaluate(piece, local, 1);
+  s.acceleration = position_.Evaluate(piece, local, 2);
+  s.jerk = position_.Evaluate(piece, local, 3);
+  const VecX aux = aux_.Evaluate(piece, local, 0);
+  const VecX aux_rate = aux_.Evaluate(piece, local, 1);
+  s.yaw = aux[0];
+  s.yaw_rate = aux_rate[0];
+  s.joints = aux.tail(aux.size() - 1);
+  s.joint_rates = aux_rate.tail(aux_rate.size() - 1);
+  const traj::FlatState flat = traj::FlatForward(s.velocity, s.acceleration, s.jerk, s.yaw, s.yaw_rate, flatness_);
+  s.attitude = flat.attitude();
+  s.thrust = flat.thrust;
+  s.body_rate = flat.body_rate;
+  return s;
+}
+
+// ------------------------------------------------------------------- problem
+
+struct WholeBodyProblem::Workspace {
+  traj::Minco position, aux;
+  VecX taus, durations;
+  MatX position_waypoints, aux_waypoints;
+  // Partial gradients w.r.t. coefficients and durations (c fixed), per curve.
+  MatX grad_position_coeffs, grad_aux_coeffs;
+  VecX grad_durations_position, grad_durations_aux;
+  // Total gradients after the adjoint step.
+  MatX total_position_waypoints, total_aux_waypoints;
+  VecX total_durations_position, total_durations_aux, grad_taus;
+  robot::KinematicsState kinematics;
+  env::StateGradient collision_gradient, insertion_gradient;
+  VecX aux_value, aux_rate, aux_value_grad, aux_rate_grad;
+};
+
+WholeBodyProblem::WholeBodyProblem(const robot::RobotModel& robot, const env::CollisionModel& collision)
+    : robot_(robot), collision_(collision), work_(std::make_unique<Workspace>()) {}
+
+WholeBodyProblem::~WholeBodyProblem() = default;
+
+core::Result<std::unique_ptr<WholeBodyProblem>> WholeBodyProblem::Create(
+    const robot::RobotModel& robot, const env::CollisionModel& collision, const BoundaryState& start,
+    const BoundaryState& goal, const Limits& limits, const InsertionGoal& insertion,
+    const WholeBodyCostOptions& options, int num_pieces) {
+  const int n = robot.num_actuated();
+  if (num_pieces < 1) return core::Status::InvalidArgument("the trajectory needs at least one piece");
+  for (const BoundaryState* state : {&start, &goal}) {
+    if (state->joints.size() != n) {
+      return core::Status::InvalidArgument("boundary state has " + std::to_string(state->joints.size()) +
+                                           " joint values, the robot has " + std::to_string(n));
+    }
+    if (state->joint_rates.size() != 0 && state->joint_rates.size() != n) {
+      return core::Status::InvalidArgument("boundary joint rates have the wrong size");
+    }
+  }
+  if (limits.joint_rate_max.size() != n || limits.joint_lower.size() != n || limits.joint_upper.size() != n) {
+    return core::Status::InvalidArgument("joint limits must have one entry per actuated joint");
+  }
+  if (insertion.enabled) {
+    if (insertion.tool_link < 0 || insertion.tool_link >= robot.num_links()) {
+      return core::Status::InvalidArgument("insertion needs a valid tool link");
+    }
+    if (!(insertion.direction.norm() > 0.0) || !PositiveFinite(insertion.length)) {
+      return core::Status::InvalidArgument("insertion needs a non-zero direction and a positive length");
+    }
+  }
+  std::unique_ptr<WholeBodyProblem> problem(new WholeBodyProblem(robot, collision));
+  problem->start_ = start;
+  problem->goal_ = goal;
+  for (BoundaryState* state : {&problem->start_, &problem->goal_}) {
+    if (state->joint_rates.size() == 0) state->joint_rates = VecX::Zero(n);
+  }
+  problem->limits_ = limits;
+  problem->insertion_ = insertion;
+  problem->insertion_.direction.normalize();
+  problem->num_pieces_ = num_pieces;
+  problem->num_joints_ = n;
+  QUADHAND_RETURN_IF_ERROR(problem->SetOptions(options));
+
+  Workspace& w = *problem->work_;
+  QUADHAND_RETURN_IF_ERROR(w.position.Reset(kPositionOrder, 3, num_pieces));
+  QUADHAND_RETURN_IF_ERROR(w.aux.Reset(kAuxOrder, 1 + n, num_pieces));
+  auto position_state = [](const BoundaryState& s) {
+    MatX m(kPositionOrder, 3);
+    m << s.position.transpose(), s.velocity.transpose(), s.acceleration.transpose(), s.jerk.transpose();
+    return m;
+  };
+  auto aux_state = [n](const BoundaryState& s) {
+    MatX m(kAuxOrder, 1 + n);
+    m(0, 0) = s.yaw;
+    m(1, 0) = s.yaw_rate;
+    m.block(0, 1, 1, n) = s.joints.transpose();
+    m.block(1, 1, 1, n) = s.joint_rates.transpose();
+    return m;
+  };
+  QUADHAND_RETURN_IF_ERROR(w.position.SetBoundary(position_state(problem->start_), position_state(problem->goal_)));
+  QUADHAND_RETURN_IF_ERROR(w.aux.SetBoundary(aux_state(problem->start_), aux_state(problem->goal_)));
+  w.position_waypoints.resize(3, num_pieces - 1);
+  w.aux_waypoints.resize(1 + n, num_pieces - 1);
+  w.grad_position_coeffs.resize(2 * kPositionOrder * num_pieces, 3);
+  w.grad_aux_coeffs.resize(2 * kAuxOrder * num_pieces, 1 + n);
+  w.grad_durations_position.resize(num_pieces);
+  w.grad_durations_aux.resize(num_pieces);
+  w.aux_value.resize(1 + n);
+  w.aux_rate.resize(1 + n);
+  w.aux_value_grad.resize(1 + n);
+  w.aux_rate_grad.resize(1 + n);
+  return problem;
+}
+
+core::Status WholeBodyProblem::SetOptions(const WholeBodyCostOptions& options) {
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("cost options: " + why);
+  options_ = options;
+  return core::Status::Ok();
+}
+
+int WholeBodyProblem::num_variables() const { return num_pieces_ + (3 + 1 + num_joints_) * (num_pieces_ - 1); }
+
+VecX WholeBodyProblem::Pack(const MatX& position_waypoints, const MatX& aux_waypoints, const VecX& durations) const {
+  VecX x(num_variables());
+  VecX taus;
+  if (!traj::TausFromDurations(durations, &taus).ok()) taus = VecX::Zero(num_pieces_);
+  const int m = num_pieces_ - 1;
+  x.head(num_pieces_) = taus;
+  x.segment(num_pieces_, 3 * m) = Eigen::Map<const VecX>(position_waypoints.data(), 3 * m);
+  x.tail((1 + num_joints_) * m) = Eigen::Map<const VecX>(aux_waypoints.data(), (1 + num_joints_) * m);
+  return x;
+}
+
+void WholeBodyProblem::Unpack(const VecX& x, MatX* position_waypoints, MatX* aux_waypoints, VecX* durations) const {
+  const int m = num_pieces_ - 1;
+  traj::DurationsFromTaus(x.head(num_pieces_), durations);
+  *position_waypoints = Eigen::Map<const MatX>(x.data() + num_pieces_, 3, m);
+  *aux_waypoints = Eigen::Map<const MatX>(x.data() + num_pieces_ + 3 * m, 1 + num_joints_, m);
+}
+
+bool WholeBodyProblem::Generate(const VecX& x) const {
+  Workspace& w = *work_;
+  if (!x.allFinite()) return false;
+  Unpack(x, &w.position_waypoints, &w.aux_waypoints, &w.durations);
+  w.taus = x.head(num_pieces_);
+  if (!(w.durations.array() > 0.0).all()) return false;
+  return w.position.Generate(w.position_waypoints, w.durations).ok() &&
+         w.aux.Generate(w.aux_waypoints, w.durations).ok();
+}
+
+double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient) const {
+  Workspace& w = *work_;
+  const WholeBodyCostOptions& o = options_;
+  const int n = num_joints_;
+  const int K = o.samples_per_piece;
+  CostBreakdown terms;
+  if (with_gradient) {
+    w.grad_position_coeffs.setZero();
+    w.grad_aux_coeffs.setZero();
+    w.grad_durations_position.setZero();
+    w.grad_durations_aux.setZero();
+    w.position.AddEnergyGradient(w.grad_position_coeffs, w.grad_durations_position);
+    w.grad_position_coeffs *= o.energy_weight_position;
+    w.grad_durations_position *= o.energy_weight_position;
+    w.aux.AddEnergyGradient(w.grad_aux_coeffs, w.grad_durations_aux);
+    w.grad_aux_coeffs *= o.energy_weight_aux;
+    w.grad_durations_aux *= o.energy_weight_aux;
+    w.grad_durations_position.array() += o.time_weight;
+  }
+  terms.energy = o.energy_weight_position * w.position.Energy() + o.energy_weight_aux * w.aux.Energy();
+  terms.time = w.durations.sum();
+  double total = terms.energy + o.time_weight * terms.time;
+
+  const env::PenaltyParameters collision_parameters{o.collision_threshold, o.collision_mu};
+  const Mat3 goal_rotation = insertion_.tool_orientation.toRotationMatrix();
+  Vec3 p, v, a, j;
+  for (int piece = 0; piece < num_pieces_; ++piece) {
+    const double duration = w.durations[piece];
+    const bool insertion_piece = insertion_.enabled && piece == num_pieces_ - 1;
+    for (int k = 0; k <= K; ++k) {
+      const double fraction = static_cast<double>(k) / K;
+      const double t = fraction * duration;
+      const double end_weight = (k == 0 || k == K) ? 0.5 : 1.0;
+      const double weight = end_weight * duration / K;  // trapezoidal quadrature
+      w.position.Evaluate(piece, t, 0, p);
+      w.position.Evaluate(piece, t, 1, v);
+      w.position.Evaluate(piece, t, 2, a);
+      w.position.Evaluate(piece, t, 3, j);
+      w.aux.Evaluate(piece, t, 0, w.aux_value);
+      w.aux.Evaluate(piece, t, 1, w.aux_rate);
+      const double yaw = w.aux_value[0], yaw_rate = w.aux_rate[0];
+      const traj::FlatState flat = traj::FlatForward(v, a, j, yaw, yaw_rate, o.flatness);
+
+      // Local gradients of this sample's (unweighted by `weight`) cost.
+      Vec3 grad_p = Vec3::Zero(), grad_v = Vec3::Zero(), grad_a = Vec3::Zero(), grad_rotation = Vec3::Zero();
+      w.aux_value_grad.setZero();
+      w.aux_rate_grad.setZero();
+      traj::FlatStateGrad flat_grad;
+      double sample = 0.0, slope = 0.0, c = 0.0;
+
+      c = SquaredRatePenalty(v.squaredNorm(), limits_.v_max, o.feasibility_mu, &slope);
+      terms.velocity += weight * c;
+      sample += o.weight_velocity * c;
+      grad_v += o.weight_velocity * slope * 2.0 * v;
+
+      c = SquaredRatePenalty(a.squaredNorm(), limits_.a_max, o.feasibility_mu, &slope);
+      terms.acceleration += weight * c;
+      sample += o.weight_acceleration * c;
+      grad_a += o.weight_acceleration * slope * 2.0 * a;
+
+      c = SquaredRatePenalty(yaw_rate * yaw_rate, limits_.yaw_rate_max, o.feasibility_mu, &slope);
+      terms.yaw_rate += weight * c;
+      sample += o.weight_yaw_rate * c;
+      w.aux_rate_grad[0] += o.weight_yaw_rate * slope * 2.0 * yaw_rate;
+
+      for (int q = 0; q < n; ++q) {
+        const double rate = w.aux_rate[1 + q], angle = w.aux_value[1 + q];
+        c = SquaredRatePenalty(rate * rate, limits_.joint_rate_max[q], o.feasibility_mu, &slope);
+        terms.joint_rate += weight * c;
+        sample += o.weight_joint_rate * c;
+        w.aux_rate_grad[1 + q] += o.weight_joint_rate * slope * 2.0 * rate;
+        double slope_low = 0, slope_high = 0;
+        c = opt::SmoothedL1(angle - limits_.joint_upper[q], o.joint_limit_mu, &slope_high) +
+            opt::SmoothedL1(limits_.joint_lower[q] - angle, o.joint_limit_mu, &slope_low);
+        terms.joint_limits += weight * c;
+        sample += o.weight_joint_limits * c;
+        w.aux_value_grad[1 + q] += o.weight_joint_limits * (slope_high - slope_low);
+      }
+
+      c = SquaredRatePenalty(flat.body_rate_xy_sq, limits_.body_rate_xy_max, o.feasibility_mu, &slope);
+      terms.body_rate += weight * c;
+      sample += o.weight_body_rate * c;
+      flat_grad.body_rate_xy_sq += o.weight_body_rate * slope;
+
+      // Collision (and insertion) need the whole-body kinematics.
+      const Pose base = MakePose(p, flat.rotation());
+      robot::ComputeKinematics(robot_, base, w.aux_value.tail(n), &w.kinematics);
+      w.collision_gradient.SetZero(n);
+      c = env::WholeBodyPenalty(robot_, w.kinematics, collision_, collision_parameters,
+                                env::QueryContext{piece, t}, with_gradient ? &w.collision_gradient : nullptr);
+      terms.collision += weight * c;
+      sample += o.weight_collision * c;
+      if (with_gradient && c > 0.0) {
+        grad_p += o.weight_collision * w.collision_gradient.position;
+        grad_rotation += o.weight_collision * w.collision_gradient.rotation;
+        w.aux_value_grad.tail(n) += o.weight_collision * w.collision_gradient.joints;
+      }
+
+      if (insertion_piece) {
+        const Pose& tool = w.kinematics.link_poses[insertion_.tool_link];
+        const Vec3 offset = tool.translation() - insertion_.tool_position;
+        const Vec3 across = offset - insertion_.direction * insertion_.direction.dot(offset);
+        const double off_line = across.norm();
+        double slope_position = 0, slope_rotation = 0;
+        const double c_position =
+            opt::SmoothedL1(off_line - o.insertion_position_tolerance, o.insertion_mu, &slope_position);
+        const Mat3 M = tool.linear() * goal_rotation.transpose();
+        const double rotation_distance = 0.5 * (3.0 - M.trace());
+        const double c_rotation =
+            opt::SmoothedL1(rotation_distance - o.insertion_rotation_tolerance, o.insertion_mu, &slope_rotation);
+        c = o.insertion_position_weight * c_position + o.insertion_rotation_weight * c_rotation;
+        terms.insertion += weight * c;
+        sample += o.weight_insertion * c;
+        if (with_gradient && c > 0.0) {
+          env::LinkWrench wrench;
+          if (off_line > 0.0) {
+            wrench.force = o.weight_insertion * o.insertion_position_weight * slope_position * across / off_line;
+          }
+          // d tr(exp([phi]x) M) / d phi = (M23 - M32, M31 - M13, M12 - M21).
+          const Vec3 trace_gradient(M(1, 2) - M(2, 1), M(2, 0) - M(0, 2), M(0, 1) - M(1, 0));
+          wrench.torque = o.weight_insertion * o.insertion_rotation_weight * slope_rotation * (-0.5) * trace_gradient;
+          w.insertion_gradient.SetZero(n);
+          env::AccumulateLinkWrench(robot_, w.kinematics, insertion_.tool_link, wrench, &w.insertion_gradient);
+          grad_p += w.insertion_gradient.position;
+          grad_rotation += w.insertion_gradient.rotation;
+          w.aux_value_grad.tail(n) += w.insertion_gradient.joints;
+        }
+      }
+
+      total += weight * sample;
+      if (!with_gradient) continue;
+
+      // Backward: the quadrature step moves with the duration...
+      w.grad_durations_position[piece] += sample * end_weight / K;
+      // ...and so does the sample time (dt/dT = fraction), through AddSampleGradient.
+      flat_grad.quat = RotationVectorPerQuaternion(flat.quat).transpose() * grad_rotation;
+      flat_grad.quat *= weight;
+      flat_grad.body_rate_xy_sq *= weight;
+      const traj::FlatInputGrad through_flatness = traj::FlatBackward(v, a, j, yaw, yaw_rate, flat, flat_grad, o.flatness);
+      w.position.AddSampleGradient(piece, t, 0, weight * grad_p, fraction, w.grad_position_coeffs,
+                                   w.grad_durations_position);
+      w.position.AddSampleGradient(piece, t, 1, weight * grad_v + through_flatness.vel, fraction,
+                                   w.grad_position_coeffs, w.grad_durations_position);
+      w.position.AddSampleGradient(piece, t, 2, weight * grad_a + through_flatness.acc, fraction,
+                                   w.grad_position_coeffs, w.grad_durations_position);
+      w.position.AddSampleGradient(piece, t, 3, through_flatness.jerk, fraction, w.grad_position_coeffs,
+                                   w.grad_durations_position);
+      w.aux_value_grad *= weight;
+      w.aux_value_grad[0] += through_flatness.yaw;
+      w.aux_rate_grad *= weight;
+      w.aux_rate_grad[0] += through_flatness.yaw_rate;
+      w.aux.AddSampleGradient(piece, t, 0, w.aux_value_grad, fraction, w.grad_aux_coeffs, w.grad_durations_aux);
+      w.aux.AddSampleGradient(piece, t, 1, w.aux_rate_grad, fraction, w.grad_aux_coeffs, w.grad_durations_aux);
+    }
+  }
+  terms.total = total;
+  if (breakdown != nullptr) *breakdown = terms;
+  return total;
+}
+
+bool WholeBodyProblem::DoEvaluate(const VecX& x, double* cost, VecX* grad) const {
+  if (!Generate(x)) return false;
+  Workspace& w = *work_;
+  *cost = Accumulate(nullptr, grad != nullptr);
+  if (grad == nullptr) return std::isfinite(*cost);
+  if (!w.position.PropagateGradient(w.grad_position_coeffs, w.grad_durations_position, &w.total_position_waypoints,
+                                    &w.total_durations_position).ok() ||
+      !w.aux.PropagateGradient(w.grad_aux_coeffs, w.grad_durations_aux, &w.total_aux_waypoints,
+                               &w.total_durations_aux).ok()) {
+    return false;
+  }
+  traj::DurationGradientToTau(w.taus, w.total_durations_position + w.total_durations_aux, &w.grad_taus);
+  const int m = num_pieces_ - 1;
+  grad->head(num_pieces_) = w.grad_taus;
+  grad->segment(num_pieces_, 3 * m) = Eigen::Map<const VecX>(w.total_position_waypoints.data(), 3 * m);
+  grad->tail((1 + num_joints_) * m) = Eigen::Map<const VecX>(w.total_aux_waypoints.data(), (1 + num_joints_) * m);
+  return grad->allFinite() && std::isfinite(*cost);
+}
+
+core::Result<CostBreakdown> WholeBodyProblem::Breakdown(const VecX& x) const {
+  if (x.size() != num_variables() || !Generate(x)) return core::Status::InvalidArgument("cannot evaluate x");
+  CostBreakdown breakdown;
+  Accumulate(&breakdown, false);
+  return breakdown;
+}
+
+core::Result<WholeBodyTrajectory> WholeBodyProblem::Trajectory(const VecX& x) const {
+  if (x.size() != num_variables() || !Generate(x)) return core::Status::InvalidArgument("cannot evaluate x");
+  return WholeBodyTrajectory(work_->position, work_->aux, options_.flatness);
+}
+
+}  // namespace quadhand::planner

@@ -1,0 +1,222 @@
+// The whole-body objective: its gradient (every term alone, and all together)
+// against finite differences at random points, and its bookkeeping.
+#include "quadhand/planner/whole_body_problem.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <random>
+
+#include "quadhand/env/mrc_sdf_model.h"
+#include "quadhand/robot/kinematics.h"
+#include "support/quadhand_fixture.h"
+
+namespace quadhand::planner {
+namespace {
+
+using testing::CoarseQuadHand;
+using testing::SmoothCentralDifference;
+
+constexpr int kPieces = 5;
+
+BoundaryState Start() {
+  BoundaryState s;
+  s.position = Vec3(0.0, 0.0, 1.0);
+  s.velocity = Vec3(0.3, 0.0, 0.0);
+  s.yaw = 0.2;
+  s.joints = Vec3(0.3, -0.2, 0.1);
+  return s;
+}
+
+BoundaryState Goal() {
+  BoundaryState s;
+  s.position = Vec3(1.6, 0.3, 1.2);
+  s.yaw = 0.5;
+  s.joints = Vec3(0.9, 0.6, -0.3);
+  return s;
+}
+
+// A wall of points at x = 0.8 with a gap, close enough to the straight path
+// that the collision term is active at the test points.
+std::vector<Vec3> Wall() {
+  std::vector<Vec3> points;
+  for (double y = -0.6; y <= 0.9; y += 0.02) {
+    for (double z = 0.6; z <= 1.6; z += 0.02) {
+      if (std::abs(y - 0.15) < 0.22 && std::abs(z - 1.05) < 0.2) continue;  // the gap
+      points.emplace_back(0.8, y, z);
+    }
+  }
+  return points;
+}
+
+struct ProblemSetup {
+  std::unique_ptr<env::MrcSdfModel> model;
+  std::unique_ptr<WholeBodyProblem> problem;
+  VecX x0;
+};
+
+ProblemSetup MakeSetup(const WholeBodyCostOptions& options, bool insertion) {
+  const auto& fx = CoarseQuadHand();
+  ProblemSetup setup;
+  setup.model = std::move(*env::MrcSdfModel::Create(fx.links, fx.grids, Wall()));
+  Limits limits;
+  limits.v_max = 0.6;  // low bounds so that every feasibility term is active
+  limits.a_max = 0.5;
+  limits.yaw_rate_max = 0.1;
+  limits.body_rate_xy_max = 0.05;
+  limits.joint_rate_max = Vec3(0.2, 0.2, 0.2);
+  limits.joint_lower = fx.robot.LowerLimits();
+  limits.joint_upper = Vec3(0.5, 1.5, 3.14);
+  InsertionGoal goal_tool;
+  if (insertion) {
+    goal_tool.enabled = true;
+    goal_tool.tool_link = fx.robot.LinkIndex("tool");
+    robot::KinematicsState k;
+    const Pose base = MakePose(Goal().position, Eigen::AngleAxisd(Goal().yaw, Vec3::UnitZ()).toRotationMatrix());
+    robot::ComputeKinematics(fx.robot, base, Goal().joints, &k);
+    goal_tool.tool_position = k.link_poses[goal_tool.tool_link].translation() + Vec3(0.01, 0.0, 0.0);
+    goal_tool.tool_orientation = Quat(Eigen::AngleAxisd(0.3, Vec3::UnitY()) * k.link_poses[goal_tool.tool_link].linear());
+    goal_tool.direction = Vec3(0.1, 0.0, -1.0);
+    goal_tool.length = 0.1;
+  }
+  auto problem = WholeBodyProblem::Create(fx.robot, *setup.model, Start(), Goal(), limits, goal_tool, options, kPieces);
+  EXPECT_TRUE(problem.ok()) << problem.status().message();
+  setup.problem = std::move(*problem);
+  // Straight-line waypoints, perturbed so nothing is symmetric.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  MatX position(3, kPieces - 1), aux(4, kPieces - 1);
+  for (int i = 0; i < kPieces - 1; ++i) {
+    const double s = (i + 1.0) / kPieces;
+    position.col(i) = (1 - s) * Start().position + s * Goal().position + 0.05 * Vec3(u(rng), u(rng), u(rng));
+    aux(0, i) = (1 - s) * Start().yaw + s * Goal().yaw + 0.1 * u(rng);
+    aux.block(1, i, 3, 1) = (1 - s) * Start().joints + s * Goal().joints + 0.1 * Vec3(u(rng), u(rng), u(rng));
+  }
+  VecX durations(kPieces);
+  for (int i = 0; i < kPieces; ++i) durations[i] = 0.6 + 0.1 * u(rng);
+  setup.x0 = setup.problem->Pack(position, aux, durations);
+  return setup;
+}
+
+// Checks every coordinate of the gradient at x against central differences;
+// coordinates whose one-sided slopes disagree (a trilinear cell face crossed
+// inside the step) are skipped and counted.
+void ExpectGradientMatches(const WholeBodyProblem& problem, const VecX& x, double tolerance, int* skipped) {
+  double cost = 0;
+  VecX grad;
+  ASSERT_TRUE(problem.Evaluate(x, &cost, &grad));
+  for (int i = 0; i < x.size(); ++i) {
+    auto f = [&](double s) {
+      VecX moved = x;
+      moved[i] += s;
+      double c = 0;
+      EXPECT_TRUE(problem.Evaluate(moved, &c, nullptr));
+      return c;
+    };
+    double numeric = 0;
+    if (!SmoothCentralDifference(f, 1e-7, &numeric)) {
+      ++*skipped;
+      continue;
+    }
+    EXPECT_LE(std::abs(grad[i] - numeric), tolerance * std::max(1.0, std::abs(numeric)))
+        << "variable " << i << " analytic " << grad[i] << " numeric " << numeric;
+  }
+}
+
+WholeBodyCostOptions OnlyTerm(const std::string& term) {
+  WholeBodyCostOptions o;
+  o.time_weight = term == "time" ? 20.0 : 0.0;
+  o.energy_weight_position = term == "energy" ? 1.0 : 0.0;
+  o.energy_weight_aux = term == "energy" ? 1.0 : 0.0;
+  o.weight_collision = term == "collision" ? 1e3 : 0.0;
+  o.weight_insertion = term == "insertion" ? 1e3 : 0.0;
+  o.weight_velocity = term == "velocity" ? 1e2 : 0.0;
+  o.weight_acceleration = term == "acceleration" ? 1e2 : 0.0;
+  o.weight_yaw_rate = term == "yaw_rate" ? 1e2 : 0.0;
+  o.weight_joint_rate = term == "joint_rate" ? 1e2 : 0.0;
+  o.weight_body_rate = term == "body_rate" ? 1e2 : 0.0;
+  o.weight_joint_limits = term == "joint_limits" ? 1e2 : 0.0;
+  return o;
+}
+
+class TermGradientTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(TermGradientTest, MatchesFiniteDifferences) {
+  ProblemSetup setup = MakeSetup(OnlyTerm(GetParam()), /*insertion=*/true);
+  auto breakdown = setup.problem->Breakdown(setup.x0);
+  ASSERT_TRUE(breakdown.ok());
+  // The term under test must be active at x0, or the check proves nothing.
+  const std::map<std::string, double> values = {
+      {"time", breakdown->time},           {"energy", breakdown->energy},
+      {"collision", breakdown->collision}, {"insertion", breakdown->insertion},
+      {"velocity", breakdown->velocity},   {"acceleration", breakdown->acceleration},
+      {"yaw_rate", breakdown->yaw_rate},   {"joint_rate", breakdown->joint_rate},
+      {"body_rate", breakdown->body_rate}, {"joint_limits", breakdown->joint_limits}};
+  EXPECT_GT(values.at(GetParam()), 0.0) << GetParam() << " is not active at the test point";
+  int skipped = 0;
+  ExpectGradientMatches(*setup.problem, setup.x0, 1e-5, &skipped);
+  EXPECT_LE(skipped, 3);
+}
+
+INSTANTIATE_TEST_SUITE_P(EveryTerm, TermGradientTest,
+                         ::testing::Values("time", "energy", "collision", "insertion", "velocity", "acceleration",
+                                           "yaw_rate", "joint_rate", "body_rate", "joint_limits"));
+
+TEST(WholeBodyProblemTest, WholeObjectiveGradientAtRandomPoints) {
+  ProblemSetup setup = MakeSetup(WholeBodyCostOptions{}, /*insertion=*/true);
+  std::mt19937 rng(9);
+  std::normal_distribution<double> noise(0.0, 0.03);
+  int skipped = 0;
+  for (int trial = 0; trial < 3; ++trial) {
+    VecX x = setup.x0;
+    for (int i = 0; i < x.size(); ++i) x[i] += noise(rng);
+    ExpectGradientMatches(*setup.problem, x, 1e-5, &skipped);
+  }
+  EXPECT_LE(skipped, 6);
+}
+
+TEST(WholeBodyProblemTest, PackUnpackAndTrajectoryMeetTheBoundaryStates) {
+  ProblemSetup setup = MakeSetup(WholeBodyCostOptions{}, false);
+  MatX position, aux;
+  VecX durations;
+  setup.problem->Unpack(setup.x0, &position, &aux, &durations);
+  EXPECT_LT((setup.problem->Pack(position, aux, durations) - setup.x0).norm(), 1e-9);
+  auto trajectory = setup.problem->Trajectory(setup.x0);
+  ASSERT_TRUE(trajectory.ok());
+  EXPECT_NEAR(trajectory->duration(), durations.sum(), 1e-12);
+  const WholeBodySample first = trajectory->Sample(0.0), last = trajectory->Sample(trajectory->duration());
+  EXPECT_LT((first.position - Start().position).norm(), 1e-9);
+  EXPECT_LT((first.velocity - Start().velocity).norm(), 1e-9);
+  EXPECT_LT((first.joints - Start().joints).norm(), 1e-9);
+  EXPECT_LT((last.position - Goal().position).norm(), 1e-9);
+  EXPECT_LT(last.velocity.norm(), 1e-9);
+  EXPECT_NEAR(last.yaw, Goal().yaw, 1e-9);
+  // Hover at the goal: the attitude is the yaw rotation alone.
+  EXPECT_LT(last.attitude.angularDistance(Quat(Eigen::AngleAxisd(Goal().yaw, Vec3::UnitZ()))), 1e-9);
+  EXPECT_NEAR(last.thrust, 9.81, 1e-9);
+}
+
+TEST(WholeBodyProblemTest, RejectsInconsistentInput) {
+  const auto& fx = CoarseQuadHand();
+  auto model = env::MrcSdfModel::Create(fx.links, fx.grids, Wall());
+  Limits limits;
+  limits.joint_rate_max = Vec3::Constant(2.0);
+  limits.joint_lower = fx.robot.LowerLimits();
+  limits.joint_upper = fx.robot.UpperLimits();
+  BoundaryState bad = Start();
+  bad.joints = VecX::Zero(2);
+  EXPECT_FALSE(WholeBodyProblem::Create(fx.robot, **model, bad, Goal(), limits, {}, {}, 3).ok());
+  EXPECT_FALSE(WholeBodyProblem::Create(fx.robot, **model, Start(), Goal(), limits, {}, {}, 0).ok());
+  WholeBodyCostOptions options;
+  options.collision_mu = 0.0;
+  EXPECT_FALSE(WholeBodyProblem::Create(fx.robot, **model, Start(), Goal(), limits, {}, options, 3).ok());
+  auto ok = WholeBodyProblem::Create(fx.robot, **model, Start(), Goal(), limits, {}, {}, 3);
+  ASSERT_TRUE(ok.ok());
+  double cost;
+  VecX x = VecX::Zero((*ok)->num_variables());
+  x[0] = std::nan("");
+  EXPECT_FALSE((*ok)->Evaluate(x, &cost, nullptr));
+}
+
+}  // namespace
+}  // namespace quadhand::planner
