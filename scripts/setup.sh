@@ -13,6 +13,8 @@ packages=(
   libcli11-dev           # command-line parsing (apps)
   libgtest-dev libgmock-dev  # unit tests
   libbenchmark-dev       # micro-benchmarks
+  libyaml-cpp-dev        # YAML files (primitive lists, tasks)
+  libpcl-dev             # PCD point clouds (libs/scene; only pcl_io and pcl_common are linked)
 )
 
 missing=()
