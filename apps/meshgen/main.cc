@@ -91,7 +91,7 @@ PrimitiveSpec CylinderSpec(const std::string& name, const Vec3& position, const 
 
 // The reference robot, transcribed from robot.md.
 std::vector<LinkSpec> ReferenceRobot() {
-  const Vec3 axis_y_rpy(kPi / 2.0, 0.0, 0.0);  // turns the cylinder's z axis onto y
+  const Vec3 axis_y_rpy(-kPi / 2.0, 0.0, 0.0);  // turns the cylinder's z axis onto +y
   const double guard = 0.1167;
   std::vector<LinkSpec> links;
 
