@@ -246,6 +246,17 @@ int main(int argc, char** argv) {
     if (!mesh.ok()) return Fail(mesh.status().message());
     jobs.push_back({link_name, mesh_path, std::move(*mesh)});
   }
+  // Check every mesh before generating anything, so a bad last link fails in
+  // seconds rather than after the others were computed.
+  if (!options.allow_unsigned) {
+    for (const LinkJob& job : jobs) {
+      const geometry::MeshCheck check = geometry::CheckMesh(job.mesh);
+      if (!check.bounds_volume) {
+        return Fail(job.source + ": mesh of link '" + job.link_name + "' does not bound a volume (" +
+                    check.problem + "); pass --unsigned to accept it with unsigned distances");
+      }
+    }
+  }
   core::LogInfo("quadhand-sdfgen: %zu link(s), resolution %.4g m, padding %.4g m", jobs.size(),
                 options.resolution, options.padding);
   return Generate(jobs, out_dir, options);

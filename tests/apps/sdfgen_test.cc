@@ -50,7 +50,9 @@ class SdfgenTest : public ::testing::Test {
     EXPECT_EQ(result.exit_code, 2) << args << "\n" << result.err;
     EXPECT_EQ(CountLines(result.err), 1) << result.err;
     EXPECT_NE(result.err.find(fragment), std::string::npos) << result.err;
-    if (!out.empty() && fs::exists(out)) EXPECT_TRUE(fs::is_empty(out)) << "partial output in " << out;
+    if (!out.empty() && fs::exists(out)) {
+      EXPECT_TRUE(fs::is_empty(out)) << "partial output in " << out;
+    }
   }
 
   fs::path dir_;
