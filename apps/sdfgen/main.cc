@@ -7,11 +7,10 @@
 //
 // Exit codes: 0 success, 2 bad input (one line on stderr). Files are written
 // only when every link succeeded (docs/sdfgen.md).
-#include <sys/stat.h>
-
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -50,16 +49,13 @@ struct LinkJob {
   geometry::TriangleMesh mesh;
 };
 
-bool IsDirectory(const std::string& path) {
-  struct stat info {};
-  return stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode);
-}
-
 // Generates every job's grid, then writes all files together (or none).
 int Generate(const std::vector<LinkJob>& jobs, const std::string& out_dir,
              const geometry::SdfGenerationOptions& options) {
-  if (!IsDirectory(out_dir) && mkdir(out_dir.c_str(), 0755) != 0 && !IsDirectory(out_dir)) {
-    return Fail(out_dir + ": cannot create output directory");
+  std::error_code error;
+  std::filesystem::create_directories(out_dir, error);
+  if (!std::filesystem::is_directory(out_dir)) {
+    return Fail(out_dir + ": cannot create output directory" + (error ? ": " + error.message() : ""));
   }
   core::AtomicFileSet outputs;
   std::vector<std::string> written;

@@ -54,7 +54,7 @@ void ProgressBar::Update(long done) {
 
 void ProgressBar::Finish() {
   if (finished_) return;
-  Update(total_);
+  if (last_percent_ < 100) Update(total_);
   finished_ = true;
   if (is_terminal_ && GetLogLevel() != LogLevel::kQuiet) std::fputc('\n', stderr);
 }
