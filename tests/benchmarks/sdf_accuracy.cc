@@ -81,7 +81,9 @@ std::vector<Shape> TestPrimitives(double tolerance) {
 }
 
 struct ErrorStats {
-  double max_error = 0, sum_squared = 0, max_error_far = 0;
+  // max_over: largest amount by which the SDF says "farther" than the truth
+  // (the unsafe direction); max_under: "closer" (conservative).
+  double max_error = 0, max_over = 0, max_under = 0, sum_squared = 0, max_error_far = 0;
   long count = 0;
 };
 
@@ -123,6 +125,8 @@ ErrorStats Measure(const Shape& shape, const geometry::SdfGrid& grid, double max
     grid.Evaluate(p, &d, nullptr);
     const double error = std::abs(d - exact);
     stats.max_error = std::max(stats.max_error, error);
+    stats.max_over = std::max(stats.max_over, d - exact);
+    stats.max_under = std::max(stats.max_under, exact - d);
     if (exact >= 0.02) stats.max_error_far = std::max(stats.max_error_far, error);
     stats.sum_squared += error * error;
     ++stats.count;
@@ -172,8 +176,8 @@ int main(int argc, char** argv) {
     }
   }
 
-  std::printf("| geometry | resolution (mm) | max error (mm) | RMS error (mm) | max error at d >= 20 mm (mm) | nodes | memory (MB) | generation (s) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|\n");
+  std::printf("| geometry | resolution (mm) | max error (mm) | max over (mm) | max under (mm) | RMS error (mm) | max error at d >= 20 mm (mm) | nodes | memory (MB) | generation (s) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   for (double resolution : resolutions) {
     for (const Shape& shape : shapes) {
       geometry::SdfGenerationOptions options;
@@ -187,8 +191,8 @@ int main(int argc, char** argv) {
         return 2;
       }
       const ErrorStats stats = Measure(shape, *grid, max_distance, samples, 17);
-      std::printf("| %s | %.1f | %.3f | %.3f | %.4f | %ld | %.1f | %.1f |\n", shape.name.c_str(), resolution * 1e3,
-                  stats.max_error * 1e3, std::sqrt(stats.sum_squared / std::max(1L, stats.count)) * 1e3,
+      std::printf("| %s | %.1f | %.3f | %.3f | %.3f | %.3f | %.4f | %ld | %.1f | %.1f |\n", shape.name.c_str(),
+                  resolution * 1e3, stats.max_error * 1e3, stats.max_over * 1e3, stats.max_under * 1e3, std::sqrt(stats.sum_squared / std::max(1L, stats.count)) * 1e3,
                   stats.max_error_far * 1e3, grid->info().NumNodes(), grid->MemoryBytes() / 1e6, seconds);
       std::fflush(stdout);
     }

@@ -1,0 +1,43 @@
+// The task file of quadhand-plan (docs/task_format.md; contract in
+// shared/spec/contracts.md): robot, SDFs, scene, start state, goal (a full
+// terminal state and/or a tool pose with an insertion), limits, safety distance.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "quadhand/core/status.h"
+#include "quadhand/planner/whole_body_problem.h"
+#include "quadhand/robot/robot_model.h"
+
+namespace quadhand::planner {
+
+struct ToolGoal {
+  Vec3 position = Vec3::Zero();
+  Quat orientation = Quat::Identity();
+  bool has_insertion = false;
+  Vec3 insertion_direction = -Vec3::UnitZ();  // unit
+  double insertion_length = 0.0;              // metres
+};
+
+struct Task {
+  std::string file;        // the task file itself, for messages
+  std::string robot_path;  // resolved against the task file's folder
+  std::string sdf_dir;
+  std::string scene_path;
+  BoundaryState start;                   // joints sized by the file
+  std::optional<BoundaryState> terminal;  // goal.position/yaw/joints, at rest
+  std::optional<ToolGoal> tool;           // goal.tool
+  Limits limits;                          // joint entries filled by ApplyRobot()
+  double safety_distance = 0.03;
+};
+
+// Parses and checks a task file on its own: every error names the file and
+// the key ("task.yaml: start.joints: expected a list of numbers").
+core::Result<Task> LoadTask(const std::string& path);
+
+// Checks the task against the robot (joint counts, start and terminal joints
+// within limits) and fills the joint limits from the URDF.
+core::Status ApplyRobot(const robot::RobotModel& robot, Task* task);
+
+}  // namespace quadhand::planner

@@ -1,0 +1,210 @@
+#include "quadhand/planner/task.h"
+
+#include <cmath>
+#include <set>
+
+#include <yaml-cpp/yaml.h>
+
+#include "quadhand/core/file_util.h"
+
+namespace quadhand::planner {
+namespace {
+
+// Errors carry "<file>: <key>: <problem>".
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  core::Status Error(const std::string& key, const std::string& problem) const {
+    return core::Status::InvalidArgument(file_ + ": " + (key.empty() ? "" : key + ": ") + problem);
+  }
+
+  core::Status CheckKeys(const YAML::Node& map, const std::string& where, const std::set<std::string>& allowed) const {
+    if (!map.IsMap()) return Error(where, "expected a mapping");
+    for (const auto& entry : map) {
+      const std::string key = entry.first.as<std::string>();
+      if (allowed.count(key) == 0) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        return Error(where.empty() ? key : where + "." + key, "unknown key (expected one of: " + list + ")");
+      }
+    }
+    return core::Status::Ok();
+  }
+
+  core::Status Number(const YAML::Node& node, const std::string& key, double* out) const {
+    if (!node || !node.IsScalar()) return Error(key, "expected a number");
+    try {
+      *out = node.as<double>();
+    } catch (const YAML::Exception&) {
+      return Error(key, "expected a number, got '" + node.Scalar() + "'");
+    }
+    if (!std::isfinite(*out)) return Error(key, "must be a finite number");
+    return core::Status::Ok();
+  }
+
+  core::Status Vector(const YAML::Node& node, const std::string& key, int size, VecX* out) const {
+    if (!node || !node.IsSequence()) return Error(key, "expected a list of numbers");
+    if (size >= 0 && static_cast<int>(node.size()) != size) {
+      return Error(key, "expected " + std::to_string(size) + " numbers, got " + std::to_string(node.size()));
+    }
+    out->resize(static_cast<Eigen::Index>(node.size()));
+    for (size_t i = 0; i < node.size(); ++i) {
+      QUADHAND_RETURN_IF_ERROR(Number(node[i], key + "[" + std::to_string(i) + "]", &(*out)[i]));
+    }
+    return core::Status::Ok();
+  }
+
+  core::Status Vector3(const YAML::Node& node, const std::string& key, Vec3* out) const {
+    VecX v;
+    QUADHAND_RETURN_IF_ERROR(Vector(node, key, 3, &v));
+    *out = v;
+    return core::Status::Ok();
+  }
+
+  core::Status Path(const YAML::Node& node, const std::string& key, std::string* out) const {
+    if (!node || !node.IsScalar() || node.Scalar().empty()) return Error(key, "expected a file or folder path");
+    *out = core::ResolvePath(core::DirectoryOf(file_), node.Scalar());
+    return core::Status::Ok();
+  }
+
+ private:
+  std::string file_;
+};
+
+core::Status ReadState(const Reader& r, const YAML::Node& node, const std::string& where, bool with_rates,
+                       BoundaryState* state) {
+  QUADHAND_RETURN_IF_ERROR(r.Vector3(node["position"], where + ".position", &state->position));
+  if (with_rates && node["velocity"]) QUADHAND_RETURN_IF_ERROR(r.Vector3(node["velocity"], where + ".velocity", &state->velocity));
+  if (with_rates && node["acceleration"]) {
+    QUADHAND_RETURN_IF_ERROR(r.Vector3(node["acceleration"], where + ".acceleration", &state->acceleration));
+  }
+  QUADHAND_RETURN_IF_ERROR(r.Number(node["yaw"], where + ".yaw", &state->yaw));
+  QUADHAND_RETURN_IF_ERROR(r.Vector(node["joints"], where + ".joints", -1, &state->joints));
+  return core::Status::Ok();
+}
+
+core::Status ReadTool(const Reader& r, const YAML::Node& node, ToolGoal* tool) {
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(node, "goal.tool", {"position", "orientation", "insertion"}));
+  QUADHAND_RETURN_IF_ERROR(r.Vector3(node["position"], "goal.tool.position", &tool->position));
+  VecX q;
+  QUADHAND_RETURN_IF_ERROR(r.Vector(node["orientation"], "goal.tool.orientation", 4, &q));
+  if (std::abs(q.norm() - 1.0) > 1e-3) {
+    return r.Error("goal.tool.orientation", "expected a unit quaternion [w, x, y, z] (norm " + std::to_string(q.norm()) + ")");
+  }
+  tool->orientation = Quat(q[0], q[1], q[2], q[3]).normalized();
+  if (const YAML::Node insertion = node["insertion"]) {
+    QUADHAND_RETURN_IF_ERROR(r.CheckKeys(insertion, "goal.tool.insertion", {"direction", "length"}));
+    QUADHAND_RETURN_IF_ERROR(r.Vector3(insertion["direction"], "goal.tool.insertion.direction", &tool->insertion_direction));
+    QUADHAND_RETURN_IF_ERROR(r.Number(insertion["length"], "goal.tool.insertion.length", &tool->insertion_length));
+    if (tool->insertion_direction.norm() < 1e-9) return r.Error("goal.tool.insertion.direction", "must not be zero");
+    if (tool->insertion_length <= 0.0) return r.Error("goal.tool.insertion.length", "must be positive");
+    tool->insertion_direction.normalize();
+    tool->has_insertion = true;
+  }
+  return core::Status::Ok();
+}
+
+core::Result<Task> ParseTask(const std::string& path, const YAML::Node& root) {
+  const Reader r(path);
+  Task task;
+  task.file = path;
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(root, "", {"robot", "sdf_dir", "scene", "start", "goal", "limits", "safety_distance"}));
+  QUADHAND_RETURN_IF_ERROR(r.Path(root["robot"], "robot", &task.robot_path));
+  QUADHAND_RETURN_IF_ERROR(r.Path(root["sdf_dir"], "sdf_dir", &task.sdf_dir));
+  QUADHAND_RETURN_IF_ERROR(r.Path(root["scene"], "scene", &task.scene_path));
+
+  const YAML::Node start = root["start"];
+  if (!start) return r.Error("start", "missing");
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(start, "start", {"position", "velocity", "acceleration", "yaw", "joints"}));
+  QUADHAND_RETURN_IF_ERROR(ReadState(r, start, "start", true, &task.start));
+
+  const YAML::Node goal = root["goal"];
+  if (!goal) return r.Error("goal", "missing");
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(goal, "goal", {"position", "yaw", "joints", "tool"}));
+  const bool any_state_key = goal["position"] || goal["yaw"] || goal["joints"];
+  if (any_state_key) {
+    BoundaryState terminal;
+    QUADHAND_RETURN_IF_ERROR(ReadState(r, goal, "goal", false, &terminal));
+    task.terminal = terminal;
+  }
+  if (goal["tool"]) {
+    ToolGoal tool;
+    QUADHAND_RETURN_IF_ERROR(ReadTool(r, goal["tool"], &tool));
+    task.tool = tool;
+  }
+  if (!task.terminal && !task.tool) return r.Error("goal", "needs a terminal state (position, yaw, joints) or a tool pose");
+
+  if (const YAML::Node limits = root["limits"]) {
+    QUADHAND_RETURN_IF_ERROR(r.CheckKeys(limits, "limits", {"v_max", "a_max", "yaw_rate_max", "body_rate_xy_max"}));
+    const std::pair<const char*, double*> fields[] = {{"v_max", &task.limits.v_max},
+                                                      {"a_max", &task.limits.a_max},
+                                                      {"yaw_rate_max", &task.limits.yaw_rate_max},
+                                                      {"body_rate_xy_max", &task.limits.body_rate_xy_max}};
+    for (const auto& [key, value] : fields) {
+      if (!limits[key]) continue;
+      QUADHAND_RETURN_IF_ERROR(r.Number(limits[key], std::string("limits.") + key, value));
+      if (*value <= 0.0) return r.Error(std::string("limits.") + key, "must be positive");
+    }
+  }
+  if (root["safety_distance"]) {
+    QUADHAND_RETURN_IF_ERROR(r.Number(root["safety_distance"], "safety_distance", &task.safety_distance));
+    if (task.safety_distance < 0.0) return r.Error("safety_distance", "must not be negative");
+  }
+  return task;
+}
+
+}  // namespace
+
+core::Result<Task> LoadTask(const std::string& path) {
+  auto text = core::ReadFileToString(path);
+  if (!text.ok()) return text.status();
+  YAML::Node root;
+  try {
+    root = YAML::Load(*text);
+  } catch (const YAML::Exception& e) {
+    return core::Status::InvalidArgument(path + ": not valid YAML: line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+  if (!root.IsMap()) return core::Status::InvalidArgument(path + ": expected a YAML mapping of task keys");
+  try {
+    return ParseTask(path, root);
+  } catch (const YAML::Exception& e) {  // e.g. a key that is not a scalar
+    return core::Status::InvalidArgument(path + ": malformed task: " + e.msg);
+  }
+}
+
+core::Status ApplyRobot(const robot::RobotModel& robot, Task* task) {
+  const int n = robot.num_actuated();
+  const VecX lower = robot.LowerLimits(), upper = robot.UpperLimits();
+  const std::vector<std::string> names = robot.ActuatedJointNames();
+  auto check = [&](const VecX& joints, const std::string& key) -> core::Status {
+    if (joints.size() != n) {
+      return core::Status::InvalidArgument(task->file + ": " + key + ": expected " + std::to_string(n) +
+                                           " joint values (the robot's actuated joints), got " +
+                                           std::to_string(joints.size()));
+    }
+    for (int i = 0; i < n; ++i) {
+      if (joints[i] < lower[i] - 1e-9 || joints[i] > upper[i] + 1e-9) {
+        return core::Status::InvalidArgument(task->file + ": " + key + ": " + names[i] + " = " +
+                                             std::to_string(joints[i]) + " is outside its limits [" +
+                                             std::to_string(lower[i]) + ", " + std::to_string(upper[i]) + "]");
+      }
+    }
+    return core::Status::Ok();
+  };
+  QUADHAND_RETURN_IF_ERROR(check(task->start.joints, "start.joints"));
+  if (task->terminal) QUADHAND_RETURN_IF_ERROR(check(task->terminal->joints, "goal.joints"));
+  task->start.joint_rates = VecX::Zero(n);
+  if (task->terminal) task->terminal->joint_rates = VecX::Zero(n);
+  task->limits.joint_lower = lower;
+  task->limits.joint_upper = upper;
+  task->limits.joint_rate_max = robot.VelocityLimits();
+  for (int i = 0; i < n; ++i) {
+    if (!(task->limits.joint_rate_max[i] > 0.0)) {
+      return core::Status::InvalidArgument(robot.name() + ": joint " + names[i] + " has no velocity limit in the URDF");
+    }
+  }
+  return core::Status::Ok();
+}
+
+}  // namespace quadhand::planner
