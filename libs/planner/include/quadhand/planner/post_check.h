@@ -1,0 +1,81 @@
+// The planner's own verdict on a trajectory (docs/post_check.md): sampled
+// densely, it must keep the safety distance from every obstacle point (exact
+// link meshes), every limit, the joint limits, the start and end states, and
+// a straight tool approach over the insertion. "Success" means all hold.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/env/collision_model.h"
+#include "quadhand/geometry/mesh_distance.h"
+#include "quadhand/planner/task.h"
+#include "quadhand/planner/whole_body_problem.h"
+#include "quadhand/scene/point_grid.h"
+
+namespace quadhand::planner {
+
+struct PostCheckOptions {
+  double dt = 0.01;                        // sampling step, seconds (at most the plan's --dt)
+  double clearance_tolerance = 0.002;      // metres below the safety distance still accepted
+  double limit_tolerance = 0.02;           // relative excess over a limit still accepted
+  double position_tolerance = 0.01;        // start/end position, metres
+  double angle_tolerance = 0.02;           // start/end yaw and joints, radians
+  double rate_tolerance = 0.05;            // end velocity (m/s) and rates (rad/s): "at rest"
+  double insertion_tolerance = 0.01;       // tool distance from the insertion line, metres
+
+  bool IsValid(std::string* why) const;
+};
+
+// One check: `value` measured against `bound`; `ratio` = value / bound for
+// limits (1.0 = at the bound), or the worst excess for tolerances.
+struct CheckResult {
+  std::string name;
+  bool passed = true;
+  double value = 0.0;
+  double bound = 0.0;
+  double time = 0.0;  // where the worst value occurred, seconds
+  std::string detail;
+};
+
+struct PostCheckReport {
+  bool passed = false;
+  std::vector<CheckResult> checks;
+  double min_clearance_exact = 0.0;   // link meshes vs raw points
+  double min_clearance_model = 0.0;   // as the planner's collision model measures it
+  int closest_link = -1;
+  // Worst ratio of each limit (1.0 = at the bound): v, a, yaw_rate, body_rate_xy, joint rates.
+  std::vector<std::pair<std::string, double>> violations;
+  std::string FirstFailure() const;   // "clearance: 0.021 m < 0.028 m at t = 3.2 s", or empty
+};
+
+// Exact distances from raw obstacle points to the robot's link meshes.
+class ExactClearance {
+ public:
+  static core::Result<std::unique_ptr<ExactClearance>> Create(const robot::RobotModel& robot,
+                                                              const std::vector<Vec3>& points);
+  // Smallest signed distance between any link and any point within `reach`
+  // of it (returns `reach` if none is closer); `link` gets the closest link.
+  double WholeBody(const robot::KinematicsState& kinematics, double reach, int* link) const;
+
+ private:
+  struct LinkGeometry {
+    int link;
+    std::unique_ptr<geometry::MeshDistanceQuery> query;
+    Vec3 box_min, box_max;  // link-frame bounding box of the mesh
+  };
+  ExactClearance(std::vector<LinkGeometry> links, scene::PointGrid points);
+  std::vector<LinkGeometry> links_;
+  scene::PointGrid points_;
+};
+
+// Checks `trajectory` for `task` (whose joint limits ApplyRobot filled).
+// `insertion` is the straight approach the plan had to make (enabled or not).
+PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, const Task& task,
+                          const BoundaryState& terminal, const InsertionGoal& insertion,
+                          const env::CollisionModel& model, const ExactClearance& exact,
+                          const PostCheckOptions& options);
+
+}  // namespace quadhand::planner

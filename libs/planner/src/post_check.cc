@@ -1,0 +1,224 @@
+#include "quadhand/planner/post_check.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/robot/link_meshes.h"
+
+namespace quadhand::planner {
+namespace {
+
+std::string Format(const char* format, double a, double b, double t) {
+  char buffer[160];
+  std::snprintf(buffer, sizeof(buffer), format, a, b, t);
+  return buffer;
+}
+
+// Tracks the worst value of one quantity over the samples.
+struct Worst {
+  double value = -1e300;
+  double time = 0.0;
+  void Update(double v, double t) {
+    if (v > value) {
+      value = v;
+      time = t;
+    }
+  }
+};
+
+double WrapAngle(double a) { return std::remainder(a, 2.0 * M_PI); }
+
+}  // namespace
+
+bool PostCheckOptions::IsValid(std::string* why) const {
+  for (double v : {dt, clearance_tolerance, limit_tolerance, position_tolerance, angle_tolerance, rate_tolerance,
+                   insertion_tolerance}) {
+    if (!(std::isfinite(v) && v >= 0.0)) {
+      if (why != nullptr) *why = "post-check tolerances must be finite and non-negative";
+      return false;
+    }
+  }
+  if (!(dt > 0.0)) {
+    if (why != nullptr) *why = "post-check dt must be positive";
+    return false;
+  }
+  return true;
+}
+
+std::string PostCheckReport::FirstFailure() const {
+  for (const CheckResult& check : checks) {
+    if (!check.passed) return check.name + ": " + check.detail;
+  }
+  return "";
+}
+
+// ------------------------------------------------------------ exact clearance
+
+ExactClearance::ExactClearance(std::vector<LinkGeometry> links, scene::PointGrid points)
+    : links_(std::move(links)), points_(std::move(points)) {}
+
+core::Result<std::unique_ptr<ExactClearance>> ExactClearance::Create(const robot::RobotModel& robot,
+                                                                    const std::vector<Vec3>& points) {
+  std::vector<LinkGeometry> links;
+  for (int link : robot.CollisionLinks()) {
+    auto mesh = robot::LinkCollisionMesh(robot, link);
+    if (!mesh.ok()) return mesh.status();
+    auto query = geometry::MeshDistanceQuery::Create(*mesh, /*is_signed=*/true);
+    if (!query.ok()) return query.status();
+    const geometry::AxisAlignedBox box = geometry::BoundingBox(*mesh);
+    links.push_back({link, std::move(*query), box.min, box.max});
+  }
+  return std::unique_ptr<ExactClearance>(new ExactClearance(std::move(links), scene::PointGrid(points, 0.05)));
+}
+
+double ExactClearance::WholeBody(const robot::KinematicsState& kinematics, double reach, int* closest_link) const {
+  double clearance = reach;
+  for (const LinkGeometry& g : links_) {
+    const Pose& X = kinematics.link_poses[g.link];
+    const Vec3 lo = g.box_min - Vec3::Constant(reach), hi = g.box_max + Vec3::Constant(reach);
+    const Vec3 center = X * (0.5 * (lo + hi));
+    const Vec3 half = X.linear().cwiseAbs() * (0.5 * (hi - lo));
+    points_.VisitBox(center - half, center + half, [&](const Vec3& x) {
+      const Vec3 local = X.linear().transpose() * (x - X.translation());
+      if ((local.array() < lo.array()).any() || (local.array() > hi.array()).any()) return;
+      // The box distance is a lower bound of the mesh distance: skip points
+      // that cannot beat the current minimum before the exact query.
+      const Vec3 outside = (g.box_min - local).cwiseMax(local - g.box_max).cwiseMax(0.0);
+      if (outside.norm() >= clearance) return;
+      const double d = g.query->SignedDistance(local);
+      if (d < clearance) {
+        clearance = d;
+        if (closest_link != nullptr) *closest_link = g.link;
+      }
+    });
+  }
+  return clearance;
+}
+
+// ------------------------------------------------------------------ post-check
+
+PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, const Task& task,
+                          const BoundaryState& terminal, const InsertionGoal& insertion,
+                          const env::CollisionModel& model, const ExactClearance& exact,
+                          const PostCheckOptions& options) {
+  PostCheckReport report;
+  const Limits& limits = task.limits;
+  const int n = robot.num_actuated();
+  const std::vector<std::string> joint_names = robot.ActuatedJointNames();
+  const double duration = trajectory.duration();
+  const int steps = std::max(1, static_cast<int>(std::ceil(duration / options.dt - 1e-9)));
+  const double reach = task.safety_distance + 0.05;
+
+  Worst clearance_deficit, model_deficit, speed, acceleration, yaw_rate, body_rate, joint_excess;
+  std::vector<Worst> joint_rate(n);
+  double min_exact = reach, min_model = reach;
+  int closest = -1;
+  robot::KinematicsState kinematics;
+  std::vector<std::pair<double, double>> tool_track;  // (along line, off line) per sample
+  std::vector<double> times;
+  for (int step = 0; step <= steps; ++step) {
+    const double t = std::min(duration, step * duration / steps);
+    const WholeBodySample s = trajectory.Sample(t);
+    robot::ComputeKinematics(robot, s.BasePose(), s.joints, &kinematics);
+    int link = -1;
+    const double d_exact = exact.WholeBody(kinematics, reach, &link);
+    if (d_exact < min_exact) {
+      min_exact = d_exact;
+      closest = link;
+    }
+    clearance_deficit.Update(-d_exact, t);
+    int piece = 0;
+    double local = 0;
+    trajectory.position().LocatePiece(t, &piece, &local);
+    const double d_model = env::WholeBodyClearance(kinematics, model, reach, env::QueryContext{piece, local});
+    min_model = std::min(min_model, d_model);
+    model_deficit.Update(-d_model, t);
+    speed.Update(s.velocity.norm() / limits.v_max, t);
+    acceleration.Update(s.acceleration.norm() / limits.a_max, t);
+    yaw_rate.Update(std::abs(s.yaw_rate) / limits.yaw_rate_max, t);
+    body_rate.Update(s.body_rate.head<2>().norm() / limits.body_rate_xy_max, t);
+    for (int q = 0; q < n; ++q) {
+      joint_rate[q].Update(std::abs(s.joint_rates[q]) / limits.joint_rate_max[q], t);
+      joint_excess.Update(std::max(s.joints[q] - limits.joint_upper[q], limits.joint_lower[q] - s.joints[q]), t);
+    }
+    if (insertion.enabled) {
+      const Vec3 offset = kinematics.link_poses[insertion.tool_link].translation() - insertion.tool_position;
+      const double along = insertion.direction.dot(offset);
+      tool_track.emplace_back(along, (offset - along * insertion.direction).norm());
+      times.push_back(t);
+    }
+  }
+  report.min_clearance_exact = min_exact;
+  report.min_clearance_model = min_model;
+  report.closest_link = closest;
+
+  auto add = [&report](std::string name, bool passed, double value, double bound, double time, std::string detail) {
+    report.checks.push_back({std::move(name), passed, value, bound, time, std::move(detail)});
+  };
+  const double clearance_bound = task.safety_distance - options.clearance_tolerance;
+  add("clearance", min_exact >= clearance_bound, min_exact, task.safety_distance, clearance_deficit.time,
+      Format("exact clearance %.4f m (safety distance %.4f m) at t = %.2f s", min_exact, task.safety_distance,
+             clearance_deficit.time) +
+          (closest >= 0 ? ", link " + robot.link(closest).name : ""));
+  const double ratio_bound = 1.0 + options.limit_tolerance;
+  auto add_limit = [&](const std::string& name, const Worst& w) {
+    report.violations.emplace_back(name, w.value);
+    add(name, w.value <= ratio_bound, w.value, 1.0, w.time,
+        Format("peak %.3f of the limit (accepted up to %.3f) at t = %.2f s", w.value, ratio_bound, w.time));
+  };
+  add_limit("velocity", speed);
+  add_limit("acceleration", acceleration);
+  add_limit("yaw_rate", yaw_rate);
+  add_limit("body_rate_xy", body_rate);
+  for (int q = 0; q < n; ++q) add_limit(joint_names[q] + "_rate", joint_rate[q]);
+  add("joint_limits", joint_excess.value <= 1e-3, joint_excess.value, 0.0, joint_excess.time,
+      Format("worst excess %.4f rad beyond a joint limit (accepted up to %.4f) at t = %.2f s", joint_excess.value,
+             1e-3, joint_excess.time));
+
+  // Start and end states.
+  const WholeBodySample first = trajectory.Sample(0.0), last = trajectory.Sample(duration);
+  double start_error = (first.position - task.start.position).norm();
+  double start_angle = std::abs(WrapAngle(first.yaw - task.start.yaw));
+  double end_angle = std::abs(WrapAngle(last.yaw - terminal.yaw));
+  start_angle = std::max(start_angle, (first.joints - task.start.joints).cwiseAbs().maxCoeff());
+  end_angle = std::max(end_angle, (last.joints - terminal.joints).cwiseAbs().maxCoeff());
+  const double end_error = (last.position - terminal.position).norm();
+  const double end_rate = std::max({last.velocity.norm(), std::abs(last.yaw_rate), last.joint_rates.cwiseAbs().maxCoeff()});
+  add("start_state", start_error <= options.position_tolerance && start_angle <= options.angle_tolerance, start_error,
+      options.position_tolerance, 0.0, Format("position error %.4f m, angle error %.4f rad", start_error, start_angle, 0));
+  add("end_state",
+      end_error <= options.position_tolerance && end_angle <= options.angle_tolerance && end_rate <= options.rate_tolerance,
+      end_error, options.position_tolerance, duration,
+      Format("position error %.4f m, angle error %.4f rad, residual rate %.4f", end_error, end_angle, end_rate));
+
+  if (insertion.enabled) {
+    // The final approach starts at the last sample where the tool was at least
+    // `length` back along the line; from there on it must stay on the line.
+    int approach_start = -1;
+    for (int i = static_cast<int>(tool_track.size()) - 1; i >= 0; --i) {
+      if (tool_track[i].first <= -insertion.length + 1e-3) {
+        approach_start = i;
+        break;
+      }
+    }
+    if (approach_start < 0) {
+      add("insertion", false, 0.0, insertion.length, 0.0,
+          Format("the tool never backs off %.3f m along the insertion line (closest approach start %.3f m)",
+                 insertion.length, -tool_track.front().first, 0));
+    } else {
+      Worst off_line;
+      for (size_t i = approach_start; i < tool_track.size(); ++i) off_line.Update(tool_track[i].second, times[i]);
+      const double tool_end_error = std::hypot(tool_track.back().first, tool_track.back().second);
+      add("insertion", off_line.value <= options.insertion_tolerance && tool_end_error <= options.position_tolerance,
+          off_line.value, options.insertion_tolerance, off_line.time,
+          Format("tool up to %.4f m off the insertion line (accepted %.4f m), ends %.4f m from the goal",
+                 off_line.value, options.insertion_tolerance, tool_end_error));
+    }
+  }
+  report.passed = true;
+  for (const CheckResult& check : report.checks) report.passed = report.passed && check.passed;
+  return report;
+}
+
+}  // namespace quadhand::planner
