@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages QuadHand builds and tests with. Idempotent:
-# when everything is already installed it does nothing (and needs no root).
+# when everything is already installed it does nothing (and needs no root)
+# beyond `npm ci` for libs/viz/web if its node_modules is missing.
 # Usage: bash scripts/setup.sh
 set -euo pipefail
 
@@ -15,6 +16,7 @@ packages=(
   libbenchmark-dev       # micro-benchmarks
   libyaml-cpp-dev        # YAML files (primitive lists, tasks)
   libpcl-dev             # PCD point clouds (libs/scene; only pcl_io and pcl_common are linked)
+  chromium               # headless browser that loads the HTML view in tests/viz
 )
 
 missing=()
@@ -23,8 +25,26 @@ for package in "${packages[@]}"; do
     missing+=("$package")
   fi
 done
+# Node.js and npm install the pinned three.js of the HTML view (libs/viz/web).
+# Any npm will do: NodeSource's nodejs bundles one and conflicts with Debian's npm.
+if ! command -v npm >/dev/null; then
+  missing+=(nodejs npm)
+fi
+
+# three.js as pinned in libs/viz/web/package-lock.json (CMake runs the same
+# `npm ci` when node_modules is missing; the built pages never fetch it).
+install_viz_web() {
+  local web
+  web="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/libs/viz/web"
+  if [ ! -f "$web/node_modules/three/package.json" ]; then
+    echo "setup: npm ci in $web"
+    (cd "$web" && npm ci --no-audit --no-fund)
+  fi
+}
+
 if [ ${#missing[@]} -eq 0 ]; then
-  echo "setup: all ${#packages[@]} packages already installed"
+  echo "setup: all packages already installed"
+  install_viz_web
   exit 0
 fi
 
@@ -37,4 +57,5 @@ fi
 export DEBIAN_FRONTEND=noninteractive
 "${sudo_cmd[@]}" apt-get -o DPkg::Lock::Timeout=900 update -qq
 "${sudo_cmd[@]}" apt-get -o DPkg::Lock::Timeout=900 install -y -qq --no-install-recommends "${missing[@]}"
+install_viz_web
 echo "setup: done"
