@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-bash scripts/build.sh
+bash scripts/build.sh quadhand-sdfgen quadhand-meshgen
 echo
 echo "== Generating the link SDFs of the reference robot"
 ./build/bin/quadhand-sdfgen --urdf meshes/quadhand/quadhand.urdf --out data/sdf/quadhand

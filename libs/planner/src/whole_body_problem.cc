@@ -47,6 +47,8 @@ bool WholeBodyCostOptions::IsValid(std::string* why) const {
     if (!NonNegativeFinite(w)) return fail("weights and tolerances must be finite and non-negative");
   }
   if (!PositiveFinite(collision_threshold)) return fail("collision_threshold must be positive");
+  if (!(limit_fraction > 0.0 && limit_fraction <= 1.0)) return fail("limit_fraction must be in (0, 1]");
+  if (!NonNegativeFinite(joint_limit_margin)) return fail("joint_limit_margin must be >= 0");
   for (double mu : {collision_mu, feasibility_mu, joint_limit_mu, insertion_mu}) {
     if (!PositiveFinite(mu)) return fail("smoothing parameters (mu) must be positive");
   }
@@ -259,36 +261,36 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
       traj::FlatStateGrad flat_grad;
       double sample = 0.0, slope = 0.0, c = 0.0;
 
-      c = SquaredRatePenalty(v.squaredNorm(), limits_.v_max, o.feasibility_mu, &slope);
+      c = SquaredRatePenalty(v.squaredNorm(), o.limit_fraction * limits_.v_max, o.feasibility_mu, &slope);
       terms.velocity += weight * c;
       sample += o.weight_velocity * c;
       grad_v += o.weight_velocity * slope * 2.0 * v;
 
-      c = SquaredRatePenalty(a.squaredNorm(), limits_.a_max, o.feasibility_mu, &slope);
+      c = SquaredRatePenalty(a.squaredNorm(), o.limit_fraction * limits_.a_max, o.feasibility_mu, &slope);
       terms.acceleration += weight * c;
       sample += o.weight_acceleration * c;
       grad_a += o.weight_acceleration * slope * 2.0 * a;
 
-      c = SquaredRatePenalty(yaw_rate * yaw_rate, limits_.yaw_rate_max, o.feasibility_mu, &slope);
+      c = SquaredRatePenalty(yaw_rate * yaw_rate, o.limit_fraction * limits_.yaw_rate_max, o.feasibility_mu, &slope);
       terms.yaw_rate += weight * c;
       sample += o.weight_yaw_rate * c;
       w.aux_rate_grad[0] += o.weight_yaw_rate * slope * 2.0 * yaw_rate;
 
       for (int q = 0; q < n; ++q) {
         const double rate = w.aux_rate[1 + q], angle = w.aux_value[1 + q];
-        c = SquaredRatePenalty(rate * rate, limits_.joint_rate_max[q], o.feasibility_mu, &slope);
+        c = SquaredRatePenalty(rate * rate, o.limit_fraction * limits_.joint_rate_max[q], o.feasibility_mu, &slope);
         terms.joint_rate += weight * c;
         sample += o.weight_joint_rate * c;
         w.aux_rate_grad[1 + q] += o.weight_joint_rate * slope * 2.0 * rate;
         double slope_low = 0, slope_high = 0;
-        c = opt::SmoothedL1(angle - limits_.joint_upper[q], o.joint_limit_mu, &slope_high) +
-            opt::SmoothedL1(limits_.joint_lower[q] - angle, o.joint_limit_mu, &slope_low);
+        c = opt::SmoothedL1(angle - (limits_.joint_upper[q] - o.joint_limit_margin), o.joint_limit_mu, &slope_high) +
+            opt::SmoothedL1(limits_.joint_lower[q] + o.joint_limit_margin - angle, o.joint_limit_mu, &slope_low);
         terms.joint_limits += weight * c;
         sample += o.weight_joint_limits * c;
         w.aux_value_grad[1 + q] += o.weight_joint_limits * (slope_high - slope_low);
       }
 
-      c = SquaredRatePenalty(flat.body_rate_xy_sq, limits_.body_rate_xy_max, o.feasibility_mu, &slope);
+      c = SquaredRatePenalty(flat.body_rate_xy_sq, o.limit_fraction * limits_.body_rate_xy_max, o.feasibility_mu, &slope);
       terms.body_rate += weight * c;
       sample += o.weight_body_rate * c;
       flat_grad.body_rate_xy_sq += o.weight_body_rate * slope;

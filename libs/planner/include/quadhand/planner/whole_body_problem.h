@@ -68,14 +68,19 @@ struct WholeBodyCostOptions {
   double energy_weight_position = 1.0;  // on integral ||snap||^2
   double energy_weight_aux = 1.0;       // on integral ||(yaw, joints) accel||^2
   // lambda of each penalty (per second of trajectory: samples are integrated).
-  double weight_collision = 2e4;
-  double weight_insertion = 2e4;
-  double weight_velocity = 1e3;
-  double weight_acceleration = 1e3;
-  double weight_yaw_rate = 1e3;
-  double weight_joint_rate = 1e3;
-  double weight_body_rate = 1e3;
-  double weight_joint_limits = 1e4;
+  double weight_collision = 1e5;
+  double weight_insertion = 1e5;
+  double weight_velocity = 1e4;
+  double weight_acceleration = 1e4;
+  double weight_yaw_rate = 1e4;
+  double weight_joint_rate = 1e4;
+  double weight_body_rate = 1e4;
+  double weight_joint_limits = 1e5;
+  // Penalties start at limit_fraction of each rate limit and joint_limit_margin
+  // inside each joint limit, so that the soft penalties leave the post-check's
+  // hard limits intact.
+  double limit_fraction = 0.97;
+  double joint_limit_margin = 0.02;  // rad
   // Collision: penalise distances below `collision_threshold` (the safety
   // distance plus a margin), smoothed over `collision_mu`.
   double collision_threshold = 0.04;

@@ -1,0 +1,268 @@
+// quadhand-plan: a task (YAML) on a point-cloud scene (PCD) -> a verified
+// whole-body trajectory (CSV), a report (JSON) and optionally a 3-D page.
+// Contract: shared/spec/contracts.md; options: docs/plan.md.
+// Exit codes: 0 success, 1 planning ran but no plan passed the post-check
+// (the report says why), 2 bad input (one line on stderr).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "quadhand/core/file_util.h"
+#include "quadhand/core/log.h"
+#include "quadhand/env/mrc_sdf_model.h"
+#include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/planner.h"
+#include "quadhand/planner/task.h"
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/scene/point_cloud.h"
+#include "quadhand/solvers/builtin_solvers.h"
+#include "quadhand/robot/link_meshes.h"
+#include "quadhand/viz/html_view.h"
+
+namespace {
+
+using namespace quadhand;
+using Clock = std::chrono::steady_clock;
+
+constexpr int kExitNoPlan = 1;
+constexpr int kExitBadInput = 2;
+
+int Fail(const std::string& message) {
+  std::fprintf(stderr, "quadhand-plan: error: %s\n", message.c_str());
+  return kExitBadInput;
+}
+
+double Ms(Clock::time_point since) { return std::chrono::duration<double, std::milli>(Clock::now() - since).count(); }
+
+// The plan file of contracts.md: uniform samples from 0 to T inclusive.
+std::string PlanCsv(const planner::WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, double dt) {
+  std::ostringstream out;
+  out << "t,px,py,pz,vx,vy,vz,ax,ay,az,qw,qx,qy,qz,yaw,yaw_rate";
+  const std::vector<std::string> names = robot.ActuatedJointNames();
+  for (const auto& name : names) out << ',' << name;
+  for (const auto& name : names) out << ',' << name << "_rate";
+  out << '\n';
+  const double duration = trajectory.duration();
+  const long steps = std::max(1L, static_cast<long>(std::ceil(duration / dt - 1e-9)));
+  char buffer[64];
+  auto put = [&](double v) {
+    std::snprintf(buffer, sizeof(buffer), ",%.10g", v);
+    out << buffer;
+  };
+  for (long k = 0; k <= steps; ++k) {
+    const double t = k == steps ? duration : k * dt;
+    const planner::WholeBodySample s = trajectory.Sample(t);
+    std::snprintf(buffer, sizeof(buffer), "%.10g", t);
+    out << buffer;
+    for (int i = 0; i < 3; ++i) put(s.position[i]);
+    for (int i = 0; i < 3; ++i) put(s.velocity[i]);
+    for (int i = 0; i < 3; ++i) put(s.acceleration[i]);
+    put(s.attitude.w());
+    put(s.attitude.x());
+    put(s.attitude.y());
+    put(s.attitude.z());
+    put(s.yaw);
+    put(s.yaw_rate);
+    for (int i = 0; i < s.joints.size(); ++i) put(s.joints[i]);
+    for (int i = 0; i < s.joint_rates.size(); ++i) put(s.joint_rates[i]);
+    out << '\n';
+  }
+  return out.str();
+}
+
+nlohmann::json Report(const planner::PlanResult& result, const robot::RobotModel& robot, const std::string& solver,
+                      const std::string& representation, double representation_ms, double total_ms,
+                      const std::string& task_file, unsigned seed) {
+  nlohmann::json report;
+  report["success"] = result.success;
+  report["status"] = result.status;
+  report["message"] = result.message;
+  report["task"] = task_file;
+  report["solver"] = solver;
+  report["representation"] = representation;
+  report["seed"] = seed;
+  report["solve_ms"] = result.solve_ms;
+  report["front_end_ms"] = result.front_end_ms;
+  report["representation_build_ms"] = representation_ms;
+  report["total_ms"] = total_ms;
+  report["iterations"] = result.iterations;
+  report["cost_evaluations"] = result.evaluations;
+  report["num_pieces"] = result.num_pieces;
+  report["duration_s"] = result.trajectory ? result.trajectory->duration() : 0.0;
+  report["min_clearance_m"] = result.post_check.min_clearance_model;
+  report["min_clearance_exact_m"] = result.post_check.min_clearance_exact;
+  report["closest_link"] = result.post_check.closest_link >= 0 ? robot.link(result.post_check.closest_link).name : "";
+  nlohmann::json violations = nlohmann::json::object();
+  for (const auto& [name, ratio] : result.post_check.violations) violations[name] = ratio;
+  report["violations"] = violations;
+  nlohmann::json checks = nlohmann::json::array();
+  for (const auto& c : result.post_check.checks) {
+    checks.push_back({{"name", c.name}, {"passed", c.passed}, {"value", c.value}, {"bound", c.bound},
+                      {"time_s", c.time}, {"detail", c.detail}});
+  }
+  report["checks"] = checks;
+  nlohmann::json attempts = nlohmann::json::array();
+  for (const auto& a : result.attempts) {
+    attempts.push_back({{"solve_ms", a.solve_ms}, {"iterations", a.iterations}, {"cost_evaluations", a.evaluations},
+                        {"solver_status", a.solver_status}, {"post_check_failure", a.post_check_failure}});
+  }
+  report["attempts"] = attempts;
+  const auto& c = result.final_cost;
+  report["final_cost"] = {{"total", c.total},       {"energy", c.energy},         {"time_s", c.time},
+                          {"collision", c.collision}, {"insertion", c.insertion}, {"velocity", c.velocity},
+                          {"acceleration", c.acceleration}, {"yaw_rate", c.yaw_rate}, {"joint_rate", c.joint_rate},
+                          {"body_rate", c.body_rate}, {"joint_limits", c.joint_limits}};
+  nlohmann::json path = nlohmann::json::array();
+  for (const Vec3& p : result.path.shortcut) path.push_back({p.x(), p.y(), p.z()});
+  report["front_end_path"] = path;
+  return report;
+}
+
+// The 3-D page: the cloud, the base and tool paths, the link meshes along the plan.
+core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robot::RobotModel& robot,
+                                   const std::vector<Vec3>& points, const std::string& task_path) {
+  viz::HtmlViewData data;
+  data.title = "QuadHand plan: " + task_path;
+  data.points = points;
+  const std::vector<int> links = robot.CollisionLinks();
+  for (int link : links) {
+    auto mesh = robot::LinkCollisionMesh(robot, link);
+    if (!mesh.ok()) return mesh.status();
+    data.links.push_back({robot.link(link).name, std::move(*mesh)});
+  }
+  const planner::WholeBodyTrajectory& trajectory = *result.trajectory;
+  const int tool = robot.LinkIndex("tool");
+  robot::KinematicsState kinematics;
+  const int steps = std::max(2, static_cast<int>(std::ceil(trajectory.duration() / 0.02)));
+  for (int k = 0; k <= steps; ++k) {
+    const double t = trajectory.duration() * k / steps;
+    const planner::WholeBodySample s = trajectory.Sample(t);
+    robot::ComputeKinematics(robot, s.BasePose(), s.joints, &kinematics);
+    data.times.push_back(t);
+    std::vector<Pose> poses;
+    for (int link : links) poses.push_back(kinematics.link_poses[link]);
+    data.link_poses.push_back(std::move(poses));
+    data.base_path.push_back(s.position);
+    if (tool >= 0) data.tool_path.push_back(kinematics.link_poses[tool].translation());
+  }
+  if (result.insertion.enabled) {
+    data.has_insertion = true;
+    data.insertion_end = result.insertion.tool_position;
+    data.insertion_start = result.insertion.tool_position - result.insertion.length * result.insertion.direction;
+  }
+  char summary[512];
+  std::snprintf(summary, sizeof(summary),
+                "%s\nduration %.2f s, optimisation %.1f ms\nmin clearance %.4f m (exact link meshes)\n%s",
+                result.success ? "SUCCESS: passed the post-check" : "FAILED the post-check", trajectory.duration(),
+                result.solve_ms, result.post_check.min_clearance_exact, result.message.c_str());
+  data.summary = summary;
+  return viz::RenderHtmlView(data);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const auto start_time = Clock::now();
+  CLI::App app{
+      "quadhand-plan: plan a whole-body trajectory for a task (YAML) on a point-cloud scene (PCD).\n"
+      "Writes the plan (CSV), a report (JSON) and optionally a 3-D page (HTML); see docs/plan.md.\n"
+      "Exit codes: 0 a plan passed the post-check, 1 no plan passed it (the report says why),\n"
+      "2 bad input."};
+  std::string task_path, out_path, report_path, html_path, solver_name = "lbfgs", representation = "mrc_sdf";
+  double dt = 0.01;
+  unsigned seed = 0;
+  bool verbose = false, keep_failed_plan = false;
+  app.add_option("task", task_path, "Task file (YAML, docs/task_format.md)")->required();
+  app.add_option("--out", out_path, "Plan file to write (CSV), written only when the plan passed the post-check")
+      ->required();
+  app.add_option("--report", report_path, "Report file to write (JSON), always written when planning ran")->required();
+  app.add_option("--html", html_path, "Also write a self-contained 3-D page of the plan");
+  app.add_option("--solver", solver_name, "Optimiser back-end: lbfgs (see docs/plan.md)")->capture_default_str();
+  app.add_option("--representation", representation, "Collision representation: mrc_sdf")->capture_default_str();
+  app.add_option("--dt", dt, "Time step of the plan file and of the post-check, seconds")->capture_default_str();
+  app.add_option("--seed", seed, "Seed of every random choice (recorded in the report)")->capture_default_str();
+  app.add_flag("-v,--verbose", verbose, "Print solver progress");
+  app.add_flag("--keep-failed-plan", keep_failed_plan,
+               "Write the plan file even when the plan failed the post-check (for inspection only)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    return Fail(e.what());
+  }
+  core::SetLogLevel(verbose ? core::LogLevel::kVerbose : core::LogLevel::kInfo);
+  if (!(std::isfinite(dt) && dt > 0.0 && dt <= 1.0)) return Fail("--dt must be in (0, 1] seconds");
+  if (representation != "mrc_sdf") {
+    return Fail("--representation '" + representation + "' is not available (this build has: mrc_sdf)");
+  }
+  if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
+  auto solver = opt::CreateSolver(solver_name);
+  if (!solver.ok()) return Fail("--solver: " + solver.status().message());
+  if (!(*solver)->available()) return Fail("--solver '" + solver_name + "' was built without its library");
+
+  auto task = planner::LoadTask(task_path);
+  if (!task.ok()) return Fail(task.status().message());
+  auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
+  if (!robot.ok()) return Fail(robot.status().message());
+  if (core::Status s = planner::ApplyRobot(*robot, &*task); !s.ok()) return Fail(s.message());
+  auto cloud = scene::LoadPcd(task->scene_path);
+  if (!cloud.ok()) return Fail(cloud.status().message());
+  if (cloud->dropped_non_finite > 0) {
+    core::LogInfo("%s: dropped %ld non-finite points", task->scene_path.c_str(), cloud->dropped_non_finite);
+  }
+  core::LogInfo("quadhand-plan: %s, %zu scene points, robot %s", task_path.c_str(), cloud->points.size(),
+                robot->name().c_str());
+
+  const auto representation_start = Clock::now();
+  auto model = env::MrcSdfModel::Create(*robot, task->sdf_dir, cloud->points);
+  if (!model.ok()) return Fail(model.status().message());
+  const double representation_ms = Ms(representation_start);
+  auto exact = planner::ExactClearance::Create(*robot, cloud->points);
+  if (!exact.ok()) return Fail(exact.status().message());
+  planner::FrontEndOptions front_end_options;
+  std::vector<Vec3> contain = {task->start.position};
+  if (task->terminal) contain.push_back(task->terminal->position);
+  auto front_end = planner::FrontEndMap::Build(cloud->points, front_end_options, contain);
+  if (!front_end.ok()) return Fail(task->scene_path + ": " + front_end.status().message());
+
+  planner::PlannerOptions options = planner::DefaultPlannerOptions();
+  options.post_check.dt = std::min(options.post_check.dt, dt);
+  options.solver.verbosity = verbose ? 1 : 0;
+  const planner::PlanningScene scene{*robot, **model, **exact, *front_end};
+  auto result = planner::Plan(scene, *task, options, **solver);
+  if (!result.ok()) return Fail(result.status().message());
+
+  const double total_ms = Ms(start_time);
+  core::AtomicFileSet outputs;
+  const nlohmann::json report =
+      Report(*result, *robot, solver_name, representation, representation_ms, total_ms, task_path, seed);
+  if (core::Status s = outputs.Stage(report_path, report.dump(2) + "\n"); !s.ok()) return Fail(s.message());
+  if (result->trajectory && (result->success || keep_failed_plan)) {
+    if (core::Status s = outputs.Stage(out_path, PlanCsv(*result->trajectory, *robot, dt)); !s.ok()) {
+      return Fail(s.message());
+    }
+  }
+  if (!html_path.empty() && result->trajectory) {
+    auto page = HtmlPage(*result, *robot, cloud->points, task_path);
+    if (!page.ok()) return Fail(html_path + ": " + page.status().message());
+    if (core::Status s = outputs.Stage(html_path, *page); !s.ok()) return Fail(s.message());
+  }
+  if (core::Status s = outputs.Commit(); !s.ok()) return Fail(s.message());
+
+  std::printf("%s: %s in %.1f ms of optimisation (%d iterations, %d evaluations, %zu attempt(s)), "
+              "duration %.2f s, min clearance %.4f m (exact %.4f m)\n",
+              result->success ? "success" : "FAILED", result->message.c_str(), result->solve_ms, result->iterations,
+              result->evaluations, result->attempts.size(), result->trajectory ? result->trajectory->duration() : 0.0,
+              result->post_check.min_clearance_model, result->post_check.min_clearance_exact);
+  if (result->trajectory && (result->success || keep_failed_plan)) std::printf("plan:   %s\n", out_path.c_str());
+  std::printf("report: %s\n", report_path.c_str());
+  if (!html_path.empty() && result->trajectory) std::printf("page:   %s\n", html_path.c_str());
+  return result->success ? 0 : kExitNoPlan;
+}

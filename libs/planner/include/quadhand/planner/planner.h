@@ -1,0 +1,93 @@
+// The planning pipeline behind quadhand-plan: front-end path -> initial MINCO
+// guess (yaw and joints interpolated in time, as the paper) -> whole-body
+// optimisation with any opt::Solver -> post-check; when the post-check fails,
+// the weights of the violated terms are raised and the solve is resumed from
+// where it stopped (each attempt is reported).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/env/collision_model.h"
+#include "quadhand/opt/solver.h"
+#include "quadhand/planner/front_end.h"
+#include "quadhand/planner/post_check.h"
+#include "quadhand/planner/task.h"
+#include "quadhand/planner/whole_body_problem.h"
+
+namespace quadhand::planner {
+
+struct PlannerOptions {
+  WholeBodyCostOptions cost;
+  opt::SolverOptions solver;  // defaults set by DefaultPlannerOptions()
+  PostCheckOptions post_check;
+  // The optimiser penalises distances below safety distance + this margin, so
+  // that SDF interpolation (< 1 mm) and sampling between cost samples do not
+  // eat into the safety distance the post-check demands.
+  double collision_margin = 0.01;
+  double piece_length = 0.6;    // metres of front-end path per MINCO piece
+  int min_pieces = 4;
+  double cruise_speed = 1.0;    // of the initial time allocation, m/s (capped by v_max)
+  double cruise_acceleration = 1.5;  // m/s^2 (capped by a_max)
+  // Initial guess of the joints. The paper interpolates them linearly in time
+  // from start to goal; with `stow_joints_in_transit` they instead move to the
+  // stowed configuration (each joint at the value within its limits closest
+  // to zero, plus `stow_margin` from a limit: QuadHand's arm then points
+  // straight forward, flat enough for the benchmark windows) along the first
+  // leg of the front-end path, keep it through the corners, and reach the
+  // goal configuration along the last leg before the insertion. Used only
+  // when the path has at least three legs.
+  bool stow_joints_in_transit = true;
+  double stow_margin = 0.05;
+  int max_attempts = 3;         // solves per plan (the first plus re-solves with raised weights)
+  double weight_raise_factor = 5.0;
+
+  bool IsValid(std::string* why) const;
+};
+
+PlannerOptions DefaultPlannerOptions();
+
+struct PlanAttempt {
+  double solve_ms = 0;
+  int iterations = 0;
+  int evaluations = 0;
+  std::string solver_status;
+  std::string post_check_failure;  // empty when it passed
+};
+
+struct PlanResult {
+  bool success = false;
+  // "success", "post_check_failed", "solver_failed" (no usable result).
+  std::string status;
+  std::string message;
+  std::optional<WholeBodyTrajectory> trajectory;
+  PostCheckReport post_check;
+  BoundaryState terminal;   // the terminal state planned to (yaw unwrapped)
+  InsertionGoal insertion;  // the insertion enforced (enabled or not)
+  FrontEndPath path;
+  CostBreakdown final_cost;
+  std::vector<PlanAttempt> attempts;
+  double front_end_ms = 0;
+  double solve_ms = 0;  // optimisation wall time, all attempts
+  int iterations = 0;
+  int evaluations = 0;
+  int num_pieces = 0;
+};
+
+// What a plan needs besides the task: built once per scene and reused.
+struct PlanningScene {
+  const robot::RobotModel& robot;
+  const env::CollisionModel& collision;  // the representation optimised against
+  const ExactClearance& exact;           // for the post-check
+  const FrontEndMap& front_end;
+};
+
+// InvalidArgument for inconsistent input (e.g. a start in collision, or a
+// goal the front end cannot reach from inside the scene box); otherwise a
+// PlanResult whose `success` says whether the post-check passed.
+core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                              const opt::Solver& solver);
+
+}  // namespace quadhand::planner

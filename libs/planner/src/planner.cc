@@ -1,0 +1,233 @@
+#include "quadhand/planner/planner.h"
+
+#include <chrono>
+#include <algorithm>
+#include <cmath>
+
+#include "quadhand/robot/kinematics.h"
+
+namespace quadhand::planner {
+namespace {
+
+double MillisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Raises the weight of every term whose check failed; false if no failed
+// check has a weight to raise (then re-solving cannot help).
+bool RaiseViolatedWeights(const PostCheckReport& report, double factor, WholeBodyCostOptions* cost) {
+  bool raised = false;
+  for (const CheckResult& check : report.checks) {
+    if (check.passed) continue;
+    double* weight = nullptr;
+    if (check.name == "clearance") weight = &cost->weight_collision;
+    else if (check.name == "velocity") weight = &cost->weight_velocity;
+    else if (check.name == "acceleration") weight = &cost->weight_acceleration;
+    else if (check.name == "yaw_rate") weight = &cost->weight_yaw_rate;
+    else if (check.name == "body_rate_xy") weight = &cost->weight_body_rate;
+    else if (check.name == "joint_limits") weight = &cost->weight_joint_limits;
+    else if (check.name == "insertion") weight = &cost->weight_insertion;
+    else if (check.name.size() > 5 && check.name.compare(check.name.size() - 5, 5, "_rate") == 0) {
+      weight = &cost->weight_joint_rate;
+    }
+    if (weight != nullptr) {
+      *weight *= factor;
+      raised = true;
+    }
+  }
+  return raised;
+}
+
+}  // namespace
+
+bool PlannerOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  std::string inner;
+  if (!cost.IsValid(&inner) || !solver.IsValid(&inner) || !post_check.IsValid(&inner)) {
+    if (why != nullptr) *why = inner;
+    return false;
+  }
+  if (!(collision_margin >= 0.0 && std::isfinite(collision_margin))) return fail("collision_margin must be >= 0");
+  if (!(piece_length > 0.0 && std::isfinite(piece_length))) return fail("piece_length must be positive");
+  if (min_pieces < 2) return fail("min_pieces must be at least 2");
+  if (!(cruise_speed > 0.0 && cruise_acceleration > 0.0)) return fail("cruise speed and acceleration must be positive");
+  if (max_attempts < 1) return fail("max_attempts must be at least 1");
+  if (!(weight_raise_factor >= 1.0)) return fail("weight_raise_factor must be at least 1");
+  return true;
+}
+
+PlannerOptions DefaultPlannerOptions() {
+  PlannerOptions options;
+  options.solver.max_iterations = 400;
+  options.solver.relative_cost_tolerance = 1e-5;
+  options.solver.relative_cost_window = 3;
+  options.solver.gradient_tolerance = 1e-5;
+  options.solver.max_time_seconds = 10.0;
+  return options;
+}
+
+core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                              const opt::Solver& solver) {
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
+  const robot::RobotModel& robot = scene.robot;
+  if (!task.terminal) {
+    return core::Status::InvalidArgument(task.file +
+                                         ": goal: a goal with only a tool pose needs the terminal-state search, "
+                                         "which this version does not have; give goal.position, goal.yaw and goal.joints");
+  }
+  PlanResult result;
+  result.terminal = *task.terminal;
+  // The shortest way round to the goal heading.
+  result.terminal.yaw = task.start.yaw + std::remainder(task.terminal->yaw - task.start.yaw, 2.0 * M_PI);
+
+  InsertionGoal& insertion = result.insertion;
+  if (task.tool && task.tool->has_insertion) {
+    insertion.enabled = true;
+    insertion.tool_link = robot.LinkIndex("tool");
+    if (insertion.tool_link < 0) return core::Status::InvalidArgument(task.robot_path + ": no link named 'tool' for the insertion");
+    insertion.tool_position = task.tool->position;
+    insertion.tool_orientation = task.tool->orientation;
+    insertion.direction = task.tool->insertion_direction;
+    insertion.length = task.tool->insertion_length;
+    // The terminal state must put the tool where the task says.
+    const Pose hover = MakePose(result.terminal.position,
+                                Eigen::AngleAxisd(result.terminal.yaw, Vec3::UnitZ()).toRotationMatrix());
+    const Pose tool = robot::LinkPose(robot, hover, result.terminal.joints, insertion.tool_link);
+    const double mismatch = (tool.translation() - insertion.tool_position).norm();
+    if (mismatch > options.post_check.position_tolerance) {
+      return core::Status::InvalidArgument(task.file + ": goal: the terminal state puts the tool " +
+                                           std::to_string(mismatch) + " m from goal.tool.position");
+    }
+  }
+
+  // Start and goal must be collision-free, or no plan can pass the post-check.
+  robot::KinematicsState kinematics;
+  const double reach = task.safety_distance + 0.05;
+  const std::pair<const char*, BoundaryState> ends[] = {{"start", task.start}, {"goal", result.terminal}};
+  for (const auto& [name, state] : ends) {
+    const Pose base = MakePose(state.position, Eigen::AngleAxisd(state.yaw, Vec3::UnitZ()).toRotationMatrix());
+    robot::ComputeKinematics(robot, base, state.joints, &kinematics);
+    int link = -1;
+    const double clearance = scene.exact.WholeBody(kinematics, reach, &link);
+    if (clearance < task.safety_distance - options.post_check.clearance_tolerance) {
+      return core::Status::InvalidArgument(task.file + ": " + name + " state is in collision: link " +
+                                           robot.link(link).name + " is " + std::to_string(clearance) +
+                                           " m from the scene (safety distance " +
+                                           std::to_string(task.safety_distance) + " m)");
+    }
+  }
+
+  // Front end: the base path to the start of the insertion, then straight down.
+  const auto front_start = std::chrono::steady_clock::now();
+  const Vec3 approach_start = insertion.enabled
+                                  ? Vec3(result.terminal.position - insertion.direction * insertion.length)
+                                  : result.terminal.position;
+  auto path = scene.front_end.FindPath(task.start.position, approach_start);
+  result.front_end_ms = MillisecondsSince(front_start);
+  if (!path.ok()) {
+    if (path.status().code() == core::StatusCode::kInfeasible) {
+      result.status = "front_end_failed";
+      result.message = path.status().message();
+      return result;
+    }
+    return path.status().WithPrefix(task.file);
+  }
+  result.path = *path;
+  std::vector<Vec3> corners = path->shortcut;
+  if (insertion.enabled) corners.push_back(result.terminal.position);
+
+  // Initial guess: waypoints along the path; yaw and joints linear in time,
+  // reaching their terminal values where the insertion starts.
+  const double cruise = std::min(options.cruise_speed, task.limits.v_max);
+  const double acceleration = std::min(options.cruise_acceleration, task.limits.a_max);
+  const int pieces = PieceCountForPath(corners, options.piece_length, options.min_pieces);
+  MatX position_waypoints;
+  VecX durations;
+  QUADHAND_RETURN_IF_ERROR(InitialGuessFromPath(corners, pieces, cruise, acceleration, &position_waypoints, &durations));
+  const int n = robot.num_actuated();
+  MatX aux_waypoints(1 + n, pieces - 1);
+  VecX aux_start(1 + n), aux_end(1 + n);
+  aux_start << task.start.yaw, task.start.joints;
+  aux_end << result.terminal.yaw, result.terminal.joints;
+  const double aux_time = durations.sum() - (insertion.enabled ? durations[pieces - 1] : 0.0);
+  // Times of the path corners (where the stowed phase begins and ends).
+  const std::vector<Vec3>& legs = path->shortcut;
+  const bool stow = options.stow_joints_in_transit && legs.size() >= 4;
+  double stow_begin = 0.0, stow_end = aux_time;
+  VecX stowed = VecX::Zero(n);
+  if (stow) {
+    for (int q = 0; q < n; ++q) {
+      const double lo = task.limits.joint_lower[q] + options.stow_margin;
+      const double hi = task.limits.joint_upper[q] - options.stow_margin;
+      stowed[q] = lo <= hi ? std::clamp(0.0, lo, hi) : 0.5 * (task.limits.joint_lower[q] + task.limits.joint_upper[q]);
+    }
+    const double length = PathLength(legs);
+    stow_begin = aux_time * (legs[1] - legs[0]).norm() / length;
+    stow_end = aux_time * (1.0 - (legs[legs.size() - 1] - legs[legs.size() - 2]).norm() / length);
+  }
+  double elapsed = 0.0;
+  for (int i = 0; i < pieces - 1; ++i) {
+    elapsed += durations[i];
+    const double f = std::min(1.0, elapsed / aux_time);
+    aux_waypoints.col(i) = (1.0 - f) * aux_start + f * aux_end;  // yaw: linear in time throughout
+    if (!stow) continue;
+    VecX joints;
+    if (elapsed <= stow_begin) {
+      const double g = elapsed / stow_begin;
+      joints = (1.0 - g) * task.start.joints + g * stowed;
+    } else if (elapsed < stow_end) {
+      joints = stowed;
+    } else {
+      const double g = std::min(1.0, (elapsed - stow_end) / (aux_time - stow_end));
+      joints = (1.0 - g) * stowed + g * result.terminal.joints;
+    }
+    aux_waypoints.block(1, i, n, 1) = joints;
+  }
+  result.num_pieces = pieces;
+
+  WholeBodyCostOptions cost = options.cost;
+  cost.collision_threshold = task.safety_distance + options.collision_margin;
+  auto problem = WholeBodyProblem::Create(robot, scene.collision, task.start, result.terminal, task.limits, insertion,
+                                          cost, pieces);
+  if (!problem.ok()) return problem.status().WithPrefix(task.file);
+  VecX x = (*problem)->Pack(position_waypoints, aux_waypoints, durations);
+
+  for (int attempt = 0; attempt < options.max_attempts; ++attempt) {
+    const opt::SolveResult solved = solver.Solve(**problem, x, options.solver);
+    PlanAttempt record;
+    record.solve_ms = solved.wall_time_seconds * 1e3;
+    record.iterations = solved.iterations;
+    record.evaluations = solved.evaluations;
+    record.solver_status = solved.StatusName();
+    result.solve_ms += record.solve_ms;
+    result.iterations += solved.iterations;
+    result.evaluations += solved.evaluations;
+    auto trajectory = (*problem)->Trajectory(solved.x);
+    if (!std::isfinite(solved.cost) || !trajectory.ok()) {
+      record.post_check_failure = "solver returned no usable trajectory (" + solved.message + ")";
+      result.attempts.push_back(record);
+      result.status = "solver_failed";
+      result.message = record.post_check_failure;
+      return result;
+    }
+    x = solved.x;
+    result.post_check = PostCheck(*trajectory, robot, task, result.terminal, insertion, scene.collision, scene.exact,
+                                  options.post_check);
+    result.trajectory = std::move(*trajectory);
+    result.final_cost = *(*problem)->Breakdown(x);
+    record.post_check_failure = result.post_check.FirstFailure();
+    result.attempts.push_back(record);
+    if (result.post_check.passed) break;
+    if (!RaiseViolatedWeights(result.post_check, options.weight_raise_factor, &cost)) break;
+    QUADHAND_RETURN_IF_ERROR((*problem)->SetOptions(cost));
+  }
+  result.success = result.post_check.passed;
+  result.status = result.success ? "success" : "post_check_failed";
+  result.message = result.success ? "plan passed the post-check" : result.post_check.FirstFailure();
+  return result;
+}
+
+}  // namespace quadhand::planner
