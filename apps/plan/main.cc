@@ -94,6 +94,10 @@ nlohmann::json Report(const planner::PlanResult& result, const robot::RobotModel
   report["iterations"] = result.iterations;
   report["cost_evaluations"] = result.evaluations;
   report["num_pieces"] = result.num_pieces;
+  if (result.trajectory) {
+    const VecX& durations = result.trajectory->position().durations();
+    report["piece_durations_s"] = std::vector<double>(durations.data(), durations.data() + durations.size());
+  }
   report["duration_s"] = result.trajectory ? result.trajectory->duration() : 0.0;
   report["min_clearance_m"] = result.post_check.min_clearance_model;
   report["min_clearance_exact_m"] = result.post_check.min_clearance_exact;

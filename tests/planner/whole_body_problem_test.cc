@@ -162,8 +162,20 @@ INSTANTIATE_TEST_SUITE_P(EveryTerm, TermGradientTest,
                          ::testing::Values("time", "energy", "collision", "insertion", "velocity", "acceleration",
                                            "yaw_rate", "joint_rate", "body_rate", "joint_limits"));
 
+// Weights fixed here (not the defaults, which get tuned): large enough that
+// every term matters, moderate enough that a trilinear cell face crossed
+// inside the finite-difference step is still detected as a kink.
+WholeBodyCostOptions AllTerms() {
+  WholeBodyCostOptions o;
+  o.weight_collision = 2e4;
+  o.weight_insertion = 2e4;
+  o.weight_velocity = o.weight_acceleration = o.weight_yaw_rate = o.weight_joint_rate = o.weight_body_rate = 1e3;
+  o.weight_joint_limits = 1e4;
+  return o;
+}
+
 TEST(WholeBodyProblemTest, WholeObjectiveGradientAtRandomPoints) {
-  ProblemSetup setup = MakeSetup(WholeBodyCostOptions{}, /*insertion=*/true);
+  ProblemSetup setup = MakeSetup(AllTerms(), /*insertion=*/true);
   std::mt19937 rng(9);
   std::normal_distribution<double> noise(0.0, 0.03);
   int skipped = 0;

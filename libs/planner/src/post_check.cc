@@ -213,7 +213,8 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       add("insertion", off_line.value <= options.insertion_tolerance && tool_end_error <= options.position_tolerance,
           off_line.value, options.insertion_tolerance, off_line.time,
           Format("tool up to %.4f m off the insertion line (accepted %.4f m), ends %.4f m from the goal",
-                 off_line.value, options.insertion_tolerance, tool_end_error));
+                 off_line.value, options.insertion_tolerance, tool_end_error) +
+              Format(", over the approach from t = %.2f s", times[approach_start], 0, 0));
     }
   }
   report.passed = true;

@@ -96,7 +96,7 @@ struct WholeBodyProblem::Workspace {
   MatX total_position_waypoints, total_aux_waypoints;
   VecX total_durations_position, total_durations_aux, grad_taus;
   robot::KinematicsState kinematics;
-  env::StateGradient collision_gradient, insertion_gradient;
+  env::StateGradient collision_gradient, insertion_gradient, point_gradient;
   VecX aux_value, aux_rate, aux_value_grad, aux_rate_grad;
 };
 
@@ -260,6 +260,9 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
       w.aux_rate_grad.setZero();
       traj::FlatStateGrad flat_grad;
       double sample = 0.0, slope = 0.0, c = 0.0;
+      // Gradient of point (not integrated) costs of this sample.
+      env::StateGradient& point_gradient = w.point_gradient;
+      point_gradient.SetZero(n);
 
       c = SquaredRatePenalty(v.squaredNorm(), o.limit_fraction * limits_.v_max, o.feasibility_mu, &slope);
       terms.velocity += weight * c;
@@ -324,6 +327,24 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
         c = o.insertion_position_weight * c_position + o.insertion_rotation_weight * c_rotation;
         terms.insertion += weight * c;
         sample += o.weight_insertion * c;
+        // The insertion piece must start with the tool backed off by the full
+        // length (plus a margin) along the line, or part of the approach would
+        // escape the penalty. A point cost at the piece's first sample, not
+        // integrated: a quadrature weight there would make it negligible.
+        if (k == 0) {
+          double slope_backoff = 0.0;
+          const double along = insertion_.direction.dot(offset);
+          const double c_backoff = opt::SmoothedL1(along + insertion_.length + o.insertion_backoff_margin,
+                                                   o.insertion_mu, &slope_backoff);
+          const double scale = o.weight_insertion * o.insertion_position_weight;
+          terms.insertion += c_backoff;
+          total += scale * c_backoff;
+          if (with_gradient && c_backoff > 0.0) {
+            env::LinkWrench wrench;
+            wrench.force = scale * slope_backoff * insertion_.direction;
+            env::AccumulateLinkWrench(robot_, w.kinematics, insertion_.tool_link, wrench, &point_gradient);
+          }
+        }
         if (with_gradient && c > 0.0) {
           env::LinkWrench wrench;
           if (off_line > 0.0) {
@@ -346,11 +367,11 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
       // Backward: the quadrature step moves with the duration...
       w.grad_durations_position[piece] += sample * end_weight / K;
       // ...and so does the sample time (dt/dT = fraction), through AddSampleGradient.
-      flat_grad.quat = RotationVectorPerQuaternion(flat.quat).transpose() * grad_rotation;
-      flat_grad.quat *= weight;
+      flat_grad.quat = RotationVectorPerQuaternion(flat.quat).transpose() *
+                       (weight * grad_rotation + point_gradient.rotation);
       flat_grad.body_rate_xy_sq *= weight;
       const traj::FlatInputGrad through_flatness = traj::FlatBackward(v, a, j, yaw, yaw_rate, flat, flat_grad, o.flatness);
-      w.position.AddSampleGradient(piece, t, 0, weight * grad_p, fraction, w.grad_position_coeffs,
+      w.position.AddSampleGradient(piece, t, 0, weight * grad_p + point_gradient.position, fraction, w.grad_position_coeffs,
                                    w.grad_durations_position);
       w.position.AddSampleGradient(piece, t, 1, weight * grad_v + through_flatness.vel, fraction,
                                    w.grad_position_coeffs, w.grad_durations_position);
@@ -359,6 +380,7 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
       w.position.AddSampleGradient(piece, t, 3, through_flatness.jerk, fraction, w.grad_position_coeffs,
                                    w.grad_durations_position);
       w.aux_value_grad *= weight;
+      w.aux_value_grad.tail(n) += point_gradient.joints;
       w.aux_value_grad[0] += through_flatness.yaw;
       w.aux_rate_grad *= weight;
       w.aux_rate_grad[0] += through_flatness.yaw_rate;

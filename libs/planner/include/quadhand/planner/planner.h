@@ -27,7 +27,7 @@ struct PlannerOptions {
   // that SDF interpolation (< 1 mm) and sampling between cost samples do not
   // eat into the safety distance the post-check demands.
   double collision_margin = 0.01;
-  double piece_length = 0.6;    // metres of front-end path per MINCO piece
+  double piece_length = 0.4;    // metres of front-end path per MINCO piece
   int min_pieces = 4;
   double cruise_speed = 1.0;    // of the initial time allocation, m/s (capped by v_max)
   double cruise_acceleration = 1.5;  // m/s^2 (capped by a_max)

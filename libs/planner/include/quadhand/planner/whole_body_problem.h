@@ -63,7 +63,7 @@ struct InsertionGoal {
 };
 
 struct WholeBodyCostOptions {
-  int samples_per_piece = 12;  // K: samples at k/K, k = 0..K
+  int samples_per_piece = 16;  // K: samples at k/K, k = 0..K
   double time_weight = 20.0;   // rho, per second of total duration
   double energy_weight_position = 1.0;  // on integral ||snap||^2
   double energy_weight_aux = 1.0;       // on integral ||(yaw, joints) accel||^2
@@ -87,13 +87,16 @@ struct WholeBodyCostOptions {
   double collision_mu = 0.01;
   double feasibility_mu = 0.1;     // smoothing of squared-rate penalties (units^2)
   double joint_limit_mu = 0.02;    // rad
-  // Insertion (paper J_e): tool distance to the insertion line and rotation
-  // distance d_R = (3 - tr(R_e R_g^T)) / 2 to the goal orientation, beyond tolerances.
+  // Insertion (paper J_e), on the samples of the last piece: tool distance to
+  // the insertion line and rotation distance d_R = (3 - tr(R_e R_g^T)) / 2 to
+  // the goal orientation, beyond tolerances; plus, at the piece's first
+  // sample, how far the tool is short of backing off the full insertion length.
   double insertion_position_tolerance = 0.0;  // d_e,th, metres
   double insertion_rotation_tolerance = 0.0;  // r_e,th
   double insertion_position_weight = 1.0;     // rho_P
   double insertion_rotation_weight = 1.0;     // rho_R
   double insertion_mu = 0.005;
+  double insertion_backoff_margin = 0.01;  // metres beyond the insertion length
   traj::FlatnessOptions flatness;
 
   bool IsValid(std::string* why) const;
