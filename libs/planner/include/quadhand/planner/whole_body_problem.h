@@ -95,8 +95,8 @@ struct WholeBodyCostOptions {
   double insertion_rotation_tolerance = 0.0;  // r_e,th
   double insertion_position_weight = 1.0;     // rho_P
   double insertion_rotation_weight = 1.0;     // rho_R
-  double insertion_mu = 0.005;
-  double insertion_backoff_margin = 0.01;  // metres beyond the insertion length
+  double insertion_mu = 0.002;
+  double insertion_backoff_margin = 0.02;  // metres beyond the insertion length
   traj::FlatnessOptions flatness;
 
   bool IsValid(std::string* why) const;
