@@ -94,6 +94,19 @@ nlohmann::json Report(const planner::PlanResult& result, const robot::RobotModel
   report["iterations"] = result.iterations;
   report["cost_evaluations"] = result.evaluations;
   report["num_pieces"] = result.num_pieces;
+  report["terminal_state"] = {{"position", {result.terminal.position.x(), result.terminal.position.y(),
+                                            result.terminal.position.z()}},
+                              {"yaw", result.terminal.yaw},
+                              {"joints", std::vector<double>(result.terminal.joints.data(),
+                                                             result.terminal.joints.data() + result.terminal.joints.size())},
+                              {"searched", result.terminal_searched}};
+  if (result.terminal_searched) {
+    report["terminal_state"]["search"] = {{"tool_position_error_m", result.terminal_search.position_error},
+                                          {"tool_angle_error_rad", result.terminal_search.angle_error},
+                                          {"clearance_m", result.terminal_search.clearance},
+                                          {"restarts", result.terminal_search.restarts_used},
+                                          {"seconds", result.terminal_search.seconds}};
+  }
   if (result.trajectory) {
     const VecX& durations = result.trajectory->position().durations();
     report["piece_durations_s"] = std::vector<double>(durations.data(), durations.data() + durations.size());
@@ -233,12 +246,18 @@ int main(int argc, char** argv) {
   planner::FrontEndOptions front_end_options;
   std::vector<Vec3> contain = {task->start.position};
   if (task->terminal) contain.push_back(task->terminal->position);
+  // A goal given as a tool pose: the base ends within the arm's reach of it.
+  if (task->tool) {
+    contain.push_back(task->tool->position - Vec3::Constant(1.0));
+    contain.push_back(task->tool->position + Vec3::Constant(1.0));
+  }
   auto front_end = planner::FrontEndMap::Build(cloud->points, front_end_options, contain);
   if (!front_end.ok()) return Fail(task->scene_path + ": " + front_end.status().message());
 
   planner::PlannerOptions options = planner::DefaultPlannerOptions();
   options.post_check.dt = std::min(options.post_check.dt, dt);
   options.solver.verbosity = verbose ? 1 : 0;
+  options.terminal_state.seed = seed;
   const planner::PlanningScene scene{*robot, **model, **exact, *front_end};
   auto result = planner::Plan(scene, *task, options, **solver);
   if (!result.ok()) return Fail(result.status().message());

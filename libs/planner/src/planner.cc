@@ -73,15 +73,27 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
                               const opt::Solver& solver) {
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
   const robot::RobotModel& robot = scene.robot;
-  if (!task.terminal) {
-    return core::Status::InvalidArgument(task.file +
-                                         ": goal: a goal with only a tool pose needs the terminal-state search, "
-                                         "which this version does not have; give goal.position, goal.yaw and goal.joints");
-  }
+  if (!task.terminal && !task.tool) return core::Status::InvalidArgument(task.file + ": goal: no terminal state or tool pose");
   PlanResult result;
-  result.terminal = *task.terminal;
+  if (task.terminal) {
+    result.terminal = *task.terminal;
+  } else {
+    const int tool_link = robot.LinkIndex("tool");
+    if (tool_link < 0) return core::Status::InvalidArgument(task.robot_path + ": no link named 'tool' for the goal pose");
+    auto found = FindTerminalState(robot, scene.collision, scene.exact, task, *task.tool, tool_link,
+                                   options.terminal_state, solver);
+    if (!found.ok()) {
+      if (found.status().code() != core::StatusCode::kInfeasible) return found.status();
+      result.status = "terminal_state_failed";
+      result.message = found.status().message();
+      return result;
+    }
+    result.terminal_searched = true;
+    result.terminal_search = *found;
+    result.terminal = found->state;
+  }
   // The shortest way round to the goal heading.
-  result.terminal.yaw = task.start.yaw + std::remainder(task.terminal->yaw - task.start.yaw, 2.0 * M_PI);
+  result.terminal.yaw = task.start.yaw + std::remainder(result.terminal.yaw - task.start.yaw, 2.0 * M_PI);
 
   InsertionGoal& insertion = result.insertion;
   if (task.tool && task.tool->has_insertion) {

@@ -15,6 +15,7 @@
 #include "quadhand/planner/front_end.h"
 #include "quadhand/planner/post_check.h"
 #include "quadhand/planner/task.h"
+#include "quadhand/planner/terminal_state.h"
 #include "quadhand/planner/whole_body_problem.h"
 
 namespace quadhand::planner {
@@ -23,6 +24,7 @@ struct PlannerOptions {
   WholeBodyCostOptions cost;
   opt::SolverOptions solver;  // defaults set by DefaultPlannerOptions()
   PostCheckOptions post_check;
+  TerminalStateOptions terminal_state;  // for goals given only as a tool pose
   // The optimiser penalises distances below safety distance + this margin, so
   // that SDF interpolation (< 1 mm) and sampling between cost samples do not
   // eat into the safety distance the post-check demands.
@@ -65,6 +67,8 @@ struct PlanResult {
   std::optional<WholeBodyTrajectory> trajectory;
   PostCheckReport post_check;
   BoundaryState terminal;   // the terminal state planned to (yaw unwrapped)
+  bool terminal_searched = false;  // found by FindTerminalState (goal was a tool pose only)
+  TerminalStateResult terminal_search;
   InsertionGoal insertion;  // the insertion enforced (enabled or not)
   FrontEndPath path;
   CostBreakdown final_cost;

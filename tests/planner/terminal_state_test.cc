@@ -1,0 +1,137 @@
+// Collision-free inverse kinematics for goals given only as a tool pose.
+#include "quadhand/planner/terminal_state.h"
+
+#include <gtest/gtest.h>
+
+#include "quadhand/env/mrc_sdf_model.h"
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/scene/point_cloud.h"
+#include "quadhand/solvers/lbfgs_solver.h"
+#include "support/quadhand_fixture.h"
+
+namespace quadhand::planner {
+namespace {
+
+struct CupScene {
+  std::vector<Vec3> points;
+  std::unique_ptr<env::MrcSdfModel> model;
+  std::unique_ptr<ExactClearance> exact;
+  Task task;
+};
+
+const CupScene& Cup() {
+  static const CupScene scene = [] {
+    const auto& fx = testing::CoarseQuadHand();
+    CupScene s;
+    s.points = scene::LoadPcd(std::string(QUADHAND_SOURCE_DIR) + "/data/scenes/window_cup.pcd")->points;
+    s.model = std::move(*env::MrcSdfModel::Create(fx.links, fx.grids, s.points));
+    s.exact = std::move(*ExactClearance::Create(fx.robot, s.points));
+    s.task.start.yaw = M_PI;
+    s.task.start.joints = Vec3(0.3, -0.2, 0.0);
+    s.task.limits.joint_lower = fx.robot.LowerLimits();
+    s.task.limits.joint_upper = fx.robot.UpperLimits();
+    s.task.safety_distance = 0.03;
+    return s;
+  }();
+  return scene;
+}
+
+ToolGoal CupGoal() {
+  ToolGoal tool;
+  tool.position = Vec3(-3.2, 0.0, 0.86);
+  tool.orientation = Quat(0.0, -std::sqrt(0.5), 0.0, std::sqrt(0.5));  // approach axis pointing down
+  tool.has_insertion = true;
+  tool.insertion_direction = -Vec3::UnitZ();
+  tool.insertion_length = 0.10;
+  return tool;
+}
+
+TEST(TerminalStateTest, FindsACollisionFreeStateWithTheToolAtTheCup) {
+  const auto& fx = testing::CoarseQuadHand();
+  const CupScene& s = Cup();
+  solvers::LbfgsSolver solver;
+  const int tool_link = fx.robot.LinkIndex("tool");
+  auto found = FindTerminalState(fx.robot, *s.model, *s.exact, s.task, CupGoal(), tool_link, {}, solver);
+  ASSERT_TRUE(found.ok()) << found.status().message();
+  // Independent check of the returned state.
+  robot::KinematicsState k;
+  const Pose base = MakePose(found->state.position, Eigen::AngleAxisd(found->state.yaw, Vec3::UnitZ()).toRotationMatrix());
+  robot::ComputeKinematics(fx.robot, base, found->state.joints, &k);
+  const Pose& tool = k.link_poses[tool_link];
+  EXPECT_LT((tool.translation() - CupGoal().position).norm(), 0.002);
+  EXPECT_LT(Eigen::AngleAxisd(tool.linear() * CupGoal().orientation.toRotationMatrix().transpose()).angle(), 0.01);
+  EXPECT_GE(s.exact->WholeBody(k, 0.1, nullptr), 0.03);
+  for (int q = 0; q < 3; ++q) {
+    EXPECT_GE(found->state.joints[q], s.task.limits.joint_lower[q]);
+    EXPECT_LE(found->state.joints[q], s.task.limits.joint_upper[q]);
+  }
+  // Backed off along the insertion, the robot is clear too.
+  robot::ComputeKinematics(fx.robot, MakePose(base.translation() + Vec3(0, 0, 0.1), base.linear()), found->state.joints, &k);
+  EXPECT_GE(s.exact->WholeBody(k, 0.1, nullptr), 0.03);
+}
+
+TEST(TerminalStateTest, ObjectiveGradientMatchesFiniteDifferences) {
+  const auto& fx = testing::CoarseQuadHand();
+  const CupScene& s = Cup();
+  const int tool_link = fx.robot.LinkIndex("tool");
+  TerminalStateOptions options;
+  options.collision_margin = 0.02;  // so the collision terms are active near the cup
+  auto objective = MakeTerminalStateObjective(fx.robot, *s.model, s.task, CupGoal(), tool_link, options);
+  // Near the goal (a state whose tool is close to the cup, joints near limits).
+  VecX x(7);
+  x << -2.99, 0.01, 1.29, M_PI - 0.05, 0.62, 0.95, 0.03;
+  double cost = 0;
+  VecX grad;
+  ASSERT_TRUE(objective->Evaluate(x, &cost, &grad));
+  int skipped = 0;
+  for (int i = 0; i < x.size(); ++i) {
+    auto f = [&](double step) {
+      VecX moved = x;
+      moved[i] += step;
+      double c = 0;
+      objective->Evaluate(moved, &c, nullptr);
+      return c;
+    };
+    double numeric = 0;
+    if (!testing::SmoothCentralDifference(f, 1e-7, &numeric)) {
+      ++skipped;
+      continue;
+    }
+    EXPECT_LE(std::abs(grad[i] - numeric), 1e-5 * std::max(1.0, std::abs(numeric)))
+        << "variable " << i << " analytic " << grad[i] << " numeric " << numeric;
+  }
+  EXPECT_LE(skipped, 1);
+}
+
+TEST(TerminalStateTest, SameSeedSameState) {
+  const auto& fx = testing::CoarseQuadHand();
+  const CupScene& s = Cup();
+  solvers::LbfgsSolver solver;
+  TerminalStateOptions options;
+  options.seed = 7;
+  auto a = FindTerminalState(fx.robot, *s.model, *s.exact, s.task, CupGoal(), fx.robot.LinkIndex("tool"), options, solver);
+  auto b = FindTerminalState(fx.robot, *s.model, *s.exact, s.task, CupGoal(), fx.robot.LinkIndex("tool"), options, solver);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ((a->state.position - b->state.position).norm(), 0.0);
+  EXPECT_EQ((a->state.joints - b->state.joints).norm(), 0.0);
+}
+
+TEST(TerminalStateTest, ToolInsideThePedestalIsInfeasible) {
+  const auto& fx = testing::CoarseQuadHand();
+  const CupScene& s = Cup();
+  solvers::LbfgsSolver solver;
+  ToolGoal inside = CupGoal();
+  inside.position = Vec3(-3.2, 0.0, 0.65);  // the pedestal's centre
+  TerminalStateOptions options;
+  options.restarts = 4;
+  auto found = FindTerminalState(fx.robot, *s.model, *s.exact, s.task, inside, fx.robot.LinkIndex("tool"), options, solver);
+  ASSERT_FALSE(found.ok());
+  EXPECT_EQ(found.status().code(), core::StatusCode::kInfeasible);
+  EXPECT_NE(found.status().message().find("no collision-free"), std::string::npos);
+  options.restarts = 0;
+  EXPECT_EQ(FindTerminalState(fx.robot, *s.model, *s.exact, s.task, inside, 0, options, solver).status().code(),
+            core::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace quadhand::planner
