@@ -66,6 +66,7 @@ PlannerOptions DefaultPlannerOptions() {
   options.solver.relative_cost_window = 3;
   options.solver.gradient_tolerance = 1e-5;
   options.solver.max_time_seconds = 10.0;
+  options.solver.memory_size = 24;
   return options;
 }
 
