@@ -61,7 +61,7 @@ bool PlannerOptions::IsValid(std::string* why) const {
 
 PlannerOptions DefaultPlannerOptions() {
   PlannerOptions options;
-  options.solver.max_iterations = 400;
+  options.solver.max_iterations = 150;
   options.solver.relative_cost_tolerance = 1e-5;
   options.solver.relative_cost_window = 3;
   options.solver.gradient_tolerance = 1e-5;

@@ -43,7 +43,7 @@ struct PlannerOptions {
   // when the path has at least three legs.
   bool stow_joints_in_transit = true;
   double stow_margin = 0.05;
-  int max_attempts = 3;         // solves per plan (the first plus re-solves with raised weights)
+  int max_attempts = 4;         // solves per plan (the first plus re-solves with raised weights)
   double weight_raise_factor = 5.0;
 
   bool IsValid(std::string* why) const;
