@@ -16,6 +16,7 @@ packages=(
   libbenchmark-dev       # micro-benchmarks
   libyaml-cpp-dev        # YAML files (primitive lists, tasks)
   libpcl-dev             # PCD point clouds (libs/scene; only pcl_io and pcl_common are linked)
+  liboctomap-dev libdynamicedt3d-dev  # ESDF baseline: occupancy octree and distance transform (libs/env)
   chromium               # headless browser that loads the HTML view in tests/viz
 )
 
