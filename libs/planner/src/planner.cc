@@ -201,9 +201,26 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
   }
   result.num_pieces = pieces;
 
+  const env::CollisionModel* collision = &scene.collision;
+  std::unique_ptr<env::CollisionModel> per_plan;
+  if (scene.per_plan_collision) {
+    std::vector<Vec3> boundaries = {task.start.position};
+    for (int i = 0; i < position_waypoints.cols(); ++i) boundaries.push_back(position_waypoints.col(i));
+    boundaries.push_back(result.terminal.position);
+    auto built = scene.per_plan_collision(corners, boundaries, &result.per_plan_collision_ms);
+    if (!built.ok()) {
+      if (built.status().code() != core::StatusCode::kInfeasible) return built.status();
+      result.status = "representation_failed";
+      result.message = built.status().message();
+      return result;
+    }
+    per_plan = std::move(*built);
+    collision = per_plan.get();
+  }
+
   WholeBodyCostOptions cost = options.cost;
   cost.collision_threshold = task.safety_distance + options.collision_margin;
-  auto problem = WholeBodyProblem::Create(robot, scene.collision, task.start, result.terminal, task.limits, insertion,
+  auto problem = WholeBodyProblem::Create(robot, *collision, task.start, result.terminal, task.limits, insertion,
                                           cost, pieces);
   if (!problem.ok()) return problem.status().WithPrefix(task.file);
   VecX x = (*problem)->Pack(position_waypoints, aux_waypoints, durations);
@@ -227,7 +244,7 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
       return result;
     }
     x = solved.x;
-    result.post_check = PostCheck(*trajectory, robot, task, result.terminal, insertion, scene.collision, scene.exact,
+    result.post_check = PostCheck(*trajectory, robot, task, result.terminal, insertion, *collision, scene.exact,
                                   options.post_check);
     result.trajectory = std::move(*trajectory);
     result.final_cost = *(*problem)->Breakdown(x);

@@ -5,6 +5,8 @@
 // where it stopped (each attempt is reported).
 #pragma once
 
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -74,18 +76,29 @@ struct PlanResult {
   CostBreakdown final_cost;
   std::vector<PlanAttempt> attempts;
   double front_end_ms = 0;
+  double per_plan_collision_ms = 0;  // building a per-plan representation (corridors)
   double solve_ms = 0;  // optimisation wall time, all attempts
   int iterations = 0;
   int evaluations = 0;
   int num_pieces = 0;
 };
 
+// Builds a collision model for one plan from the front-end path (its corner
+// points) and the initial piece boundaries (start, waypoints, goal): for
+// representations that depend on the path, such as safe-flight corridors.
+// Writes the build time in milliseconds.
+using PerPlanCollisionBuilder = std::function<core::Result<std::unique_ptr<env::CollisionModel>>(
+    const std::vector<Vec3>& path, const std::vector<Vec3>& piece_boundaries, double* build_ms)>;
+
 // What a plan needs besides the task: built once per scene and reused.
 struct PlanningScene {
   const robot::RobotModel& robot;
-  const env::CollisionModel& collision;  // the representation optimised against
+  // The representation optimised against, and the one the terminal-state
+  // search uses; with `per_plan_collision` set, only the latter.
+  const env::CollisionModel& collision;
   const ExactClearance& exact;           // for the post-check
   const FrontEndMap& front_end;
+  PerPlanCollisionBuilder per_plan_collision = nullptr;
 };
 
 // InvalidArgument for inconsistent input (e.g. a start in collision, or a

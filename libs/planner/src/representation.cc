@@ -1,0 +1,65 @@
+#include "quadhand/planner/representation.h"
+
+#include <chrono>
+
+#include "quadhand/env/esdf_model.h"
+#include "quadhand/env/mrc_sdf_model.h"
+#include "quadhand/env/sfc_model.h"
+#include "quadhand/robot/link_meshes.h"
+
+namespace quadhand::planner {
+namespace {
+
+double MillisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+std::vector<std::string> RepresentationNames() { return {"mrc_sdf", "esdf", "sfc"}; }
+
+core::Result<Representation> MakeRepresentation(const std::string& name, const robot::RobotModel& robot,
+                                                const std::string& sdf_dir, const std::vector<Vec3>& points) {
+  Representation representation;
+  representation.name = name;
+  const auto start = std::chrono::steady_clock::now();
+  if (name == "mrc_sdf" || name == "sfc") {
+    auto model = env::MrcSdfModel::Create(robot, sdf_dir, points);
+    if (!model.ok()) return model.status();
+    representation.scene_model = std::move(*model);
+    representation.build_ms = MillisecondsSince(start);
+  } else if (name == "esdf") {
+    auto model = env::EsdfModel::Create(robot, points);
+    if (!model.ok()) return model.status();
+    representation.build_ms = (*model)->build_seconds() * 1e3;
+    representation.scene_model = std::move(*model);
+  } else {
+    std::string known;
+    for (const auto& n : RepresentationNames()) known += (known.empty() ? "" : ", ") + n;
+    return core::Status::InvalidArgument("unknown representation '" + name + "' (known: " + known + ")");
+  }
+  if (name == "sfc") {
+    // Corridors depend on the path, so they are built per plan; the robot's
+    // link meshes are loaded once here.
+    std::vector<int> links = robot.CollisionLinks();
+    std::vector<geometry::TriangleMesh> meshes;
+    for (int link : links) {
+      auto mesh = robot::LinkCollisionMesh(robot, link);
+      if (!mesh.ok()) return mesh.status();
+      meshes.push_back(std::move(*mesh));
+    }
+    representation.per_plan = [links, meshes, points](const std::vector<Vec3>& path,
+                                                      const std::vector<Vec3>& boundaries,
+                                                      double* build_ms) -> core::Result<std::unique_ptr<env::CollisionModel>> {
+      const auto corridor_start = std::chrono::steady_clock::now();
+      auto model = env::SfcModel::Create(links, meshes, points, path);
+      if (!model.ok()) return model.status();
+      QUADHAND_RETURN_IF_ERROR((*model)->SetPieceAssignment(env::AssignPiecesToSegments(path, boundaries)));
+      *build_ms = MillisecondsSince(corridor_start);
+      return std::unique_ptr<env::CollisionModel>(std::move(*model));
+    };
+  }
+  return representation;
+}
+
+}  // namespace quadhand::planner
