@@ -18,6 +18,7 @@ packages=(
   libpcl-dev             # PCD point clouds (libs/scene; only pcl_io and pcl_common are linked)
   liboctomap-dev libdynamicedt3d-dev  # ESDF baseline: occupancy octree and distance transform (libs/env)
   chromium               # headless browser that loads the HTML view in tests/viz
+  python3-matplotlib     # plots of scripts/figure8.py (the simulator's figure-eight experiment)
 )
 
 missing=()

@@ -1,0 +1,55 @@
+// Plan files (CSV, shared/spec/contracts.md): read, sample between rows, write.
+// Columns: t,px,py,pz,vx,vy,vz,ax,ay,az,qw,qx,qy,qz,yaw,yaw_rate, then the
+// actuated joints by their URDF names, then "<name>_rate" for each. Columns
+// are found by name; extra columns are ignored.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/core/types.h"
+#include "quadhand/sim/controller.h"
+
+namespace quadhand::sim {
+
+struct PlanRow {
+  double t = 0.0;
+  Vec3 position = Vec3::Zero();
+  Vec3 velocity = Vec3::Zero();
+  Vec3 acceleration = Vec3::Zero();
+  Quat attitude = Quat::Identity();
+  double yaw = 0.0;
+  double yaw_rate = 0.0;
+  VecX joints;
+  VecX joint_rates;
+};
+
+struct Plan {
+  std::vector<std::string> joint_names;
+  std::vector<PlanRow> rows;  // t strictly increasing, at least 2 rows
+
+  double start_time() const { return rows.front().t; }
+  double end_time() const { return rows.back().t; }
+};
+
+// Parses a plan; `source` (the file name) starts every error message.
+// Errors: missing columns, rows of the wrong width, non-numbers or non-finite
+// values (with their line), time not strictly increasing, fewer than 2 rows.
+core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::string>& joint_names,
+                                const std::string& source);
+core::Result<Plan> LoadPlanCsv(const std::string& path, const std::vector<std::string>& joint_names);
+
+// The setpoint at time t (clamped to the plan's span): linear interpolation
+// between rows (yaw along the shorter arc), jerk from the difference of the
+// accelerations of the surrounding rows (zero outside the plan).
+Setpoint SamplePlan(const Plan& plan, double t);
+
+// The header line (without newline) of a plan file for these joints.
+std::string PlanCsvHeader(const std::vector<std::string>& joint_names);
+// One row of numbers in the plan columns' order (no newline, >= 10 significant digits).
+std::string PlanCsvRow(const PlanRow& row);
+// A whole plan file.
+std::string WritePlanCsv(const Plan& plan);
+
+}  // namespace quadhand::sim

@@ -1,0 +1,103 @@
+// The simulation loop: measure (with optional seeded noise) -> controller ->
+// mixer -> RK4 step of the vehicle, at the configured step. Setpoints come
+// from the caller, so the offline mode (TrackPlan, a plan file) and a future
+// online mode (setpoints over UDP) share the same Step().
+#pragma once
+
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/sim/controller.h"
+#include "quadhand/sim/dynamics.h"
+#include "quadhand/sim/plan_io.h"
+#include "quadhand/sim/vehicle_model.h"
+
+namespace quadhand::sim {
+
+// The arm pose the controller's inertia is taken at: controller.nominal_joints,
+// or the middle of each joint's limits.
+VecX NominalJoints(const VehicleModel& model);
+
+class Simulator {
+ public:
+  // The controller's mass and inertia are the configured ones, or (when 0)
+  // the vehicle's total mass and its inertia tensor about the CoG at NominalJoints().
+  Simulator(VehicleModel model, uint64_t seed);
+
+  const VehicleModel& model() const { return model_; }
+  const GeometricController& controller() const { return controller_; }
+
+  // Sets the state and time, clears the controller's integrators.
+  void Reset(const VehicleState& state, double time = 0.0);
+
+  // Advances by h seconds (0 < h <= the configured step; 0: one full step)
+  // holding `setpoint`: the controller runs once at the start of the step.
+  void Step(const Setpoint& setpoint, double h = 0.0);
+
+  double time() const { return time_; }
+  double step() const { return model_.config().step; }
+  const VehicleState& state() const { return state_; }
+  const ControlInput& last_input() const { return input_; }
+  const ControllerOutput& last_output() const { return output_; }
+  // The dynamics at the current state under the last input (accelerations,
+  // arm wrench, rotor wrench).
+  DynamicsInfo CurrentDynamics() const;
+
+ private:
+  Measurement Measure();
+
+  VehicleModel model_;
+  GeometricController controller_;
+  std::mt19937_64 rng_;
+  VehicleState state_;
+  double time_ = 0.0;
+  ControlInput input_;
+  ControllerOutput output_;
+};
+
+// The Hopf yaw (traj/flatness.h) of an attitude, in (-pi, pi], and the yaw
+// rate that goes with a body rate (inverse of the flatness map's omega_z).
+double HopfYaw(const Quat& attitude);
+double HopfYawRate(const Quat& attitude, const Vec3& body_rate);
+
+// One recorded sample of a flight: the flown state in the plan's columns and diagnostics.
+struct FlownSample {
+  PlanRow flown;                        // t, base state (acceleration from the dynamics), Hopf yaw, joints
+  Vec3 position_error = Vec3::Zero();   // flown - planned, W, m
+  double yaw_error = 0.0;               // wrapped, rad
+  Vec3 center_of_mass = Vec3::Zero();   // whole vehicle, base frame, m
+  BaseWrench arm_wrench;                // arm (battery, payload) on the base, base frame
+  double thrust = 0.0;                  // sum of rotor thrusts, N
+};
+
+struct TrackOptions {
+  // Seconds of hovering at the plan's first setpoint (velocities zeroed)
+  // before t0, not recorded, so integrators settle; meant for plans that start at rest.
+  double settle = 0.0;
+};
+
+struct TrackingErrorStats {
+  double mean = 0.0, median = 0.0, p95 = 0.0, max = 0.0, rms = 0.0;  // of |position error|, m
+};
+
+struct TrackResult {
+  std::vector<FlownSample> samples;  // one per plan row, at the row's time
+  TrackingErrorStats error;
+  double simulated_s = 0.0;          // including settling
+};
+
+// Flies `plan` from its first row's state (at rest in body rate; thrusts that
+// hold the vehicle) and records one sample per plan row. Fails if the plan's
+// joints do not match the model.
+core::Result<TrackResult> TrackPlan(Simulator* simulator, const Plan& plan, const TrackOptions& options = {});
+
+TrackingErrorStats ComputeErrorStats(const std::vector<FlownSample>& samples);
+
+// The flown file: the plan columns, then err_x,err_y,err_z,err_pos,err_yaw,
+// cog_x,cog_y,cog_z,arm_fx,arm_fy,arm_fz,arm_tx,arm_ty,arm_tz,thrust.
+std::string FlownCsv(const std::vector<FlownSample>& samples, const std::vector<std::string>& joint_names);
+
+}  // namespace quadhand::sim

@@ -1,0 +1,236 @@
+#include "quadhand/sim/config.h"
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "quadhand/core/file_util.h"
+
+namespace quadhand::sim {
+namespace {
+
+using core::Status;
+
+// Reads a YAML map, remembering its path for messages and rejecting unknown keys.
+class Reader {
+ public:
+  Reader(const YAML::Node& node, std::string path, std::string source)
+      : node_(node), path_(std::move(path)), source_(std::move(source)) {}
+
+  Status CheckKeys(const std::set<std::string>& known) const {
+    if (!node_.IsMap()) return Bad(path_.empty() ? "the file" : path_, "must be a map");
+    for (const auto& kv : node_) {
+      const std::string key = kv.first.as<std::string>();
+      if (!known.count(key)) return Bad(Join(key), "unknown key");
+    }
+    return Status::Ok();
+  }
+
+  bool Has(const std::string& key) const { return node_[key].IsDefined() && !node_[key].IsNull(); }
+  Reader Child(const std::string& key) const { return Reader(node_[key], Join(key), source_); }
+
+  Status Get(const std::string& key, double* value) const {
+    if (!Has(key)) return Status::Ok();
+    try {
+      *value = node_[key].as<double>();
+    } catch (const YAML::Exception&) {
+      return Bad(Join(key), "expected a number");
+    }
+    if (!std::isfinite(*value)) return Bad(Join(key), "must be finite");
+    return Status::Ok();
+  }
+  Status Get(const std::string& key, bool* value) const {
+    if (!Has(key)) return Status::Ok();
+    try {
+      *value = node_[key].as<bool>();
+    } catch (const YAML::Exception&) {
+      return Bad(Join(key), "expected true or false");
+    }
+    return Status::Ok();
+  }
+  Status Get(const std::string& key, std::string* value) const {
+    if (!Has(key)) return Status::Ok();
+    try {
+      *value = node_[key].as<std::string>();
+    } catch (const YAML::Exception&) {
+      return Bad(Join(key), "expected a string");
+    }
+    return Status::Ok();
+  }
+  Status Get(const std::string& key, std::vector<double>* value) const {
+    if (!Has(key)) return Status::Ok();
+    const YAML::Node n = node_[key];
+    if (!n.IsSequence()) return Bad(Join(key), "expected a list of numbers");
+    value->clear();
+    for (const auto& item : n) {
+      try {
+        value->push_back(item.as<double>());
+      } catch (const YAML::Exception&) {
+        return Bad(Join(key), "expected a list of numbers");
+      }
+      if (!std::isfinite(value->back())) return Bad(Join(key), "must be finite");
+    }
+    return Status::Ok();
+  }
+  Status Get(const std::string& key, Vec3* value) const {
+    if (!Has(key)) return Status::Ok();
+    std::vector<double> v;
+    QUADHAND_RETURN_IF_ERROR(Get(key, &v));
+    if (v.size() != 3) return Bad(Join(key), "expected 3 numbers");
+    *value = Vec3(v[0], v[1], v[2]);
+    return Status::Ok();
+  }
+
+ private:
+  std::string Join(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+  Status Bad(const std::string& key, const std::string& what) const {
+    return Status::InvalidArgument(source_ + ": " + key + ": " + what);
+  }
+
+  YAML::Node node_;
+  std::string path_;
+  std::string source_;
+};
+
+Status ParseInto(const YAML::Node& root, const std::string& base_dir, const std::string& source, SimConfig* c) {
+  const Reader r(root, "", source);
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys({"robot", "step", "gravity", "pcgc", "payload", "rotors", "linear_drag",
+                                        "servo", "controller", "noise"}));
+  std::string robot;
+  QUADHAND_RETURN_IF_ERROR(r.Get("robot", &robot));
+  if (!robot.empty()) c->robot_path = core::ResolvePath(base_dir, robot);
+  QUADHAND_RETURN_IF_ERROR(r.Get("step", &c->step));
+  QUADHAND_RETURN_IF_ERROR(r.Get("gravity", &c->gravity));
+  QUADHAND_RETURN_IF_ERROR(r.Get("linear_drag", &c->linear_drag));
+  if (r.Has("pcgc")) {
+    const Reader p = r.Child("pcgc");
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"enabled", "joint"}));
+    QUADHAND_RETURN_IF_ERROR(p.Get("enabled", &c->pcgc));
+    QUADHAND_RETURN_IF_ERROR(p.Get("joint", &c->pcgc_joint));
+  }
+  if (r.Has("payload")) {
+    const Reader p = r.Child("payload");
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"attached", "mass", "offset"}));
+    QUADHAND_RETURN_IF_ERROR(p.Get("attached", &c->payload.attached));
+    QUADHAND_RETURN_IF_ERROR(p.Get("mass", &c->payload.mass));
+    QUADHAND_RETURN_IF_ERROR(p.Get("offset", &c->payload.offset));
+  }
+  if (r.Has("rotors")) {
+    const Reader p = r.Child("rotors");
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys(
+        {"wheelbase", "height", "min_thrust", "max_thrust", "time_constant", "torque_coefficient"}));
+    QUADHAND_RETURN_IF_ERROR(p.Get("wheelbase", &c->rotors.wheelbase));
+    QUADHAND_RETURN_IF_ERROR(p.Get("height", &c->rotors.height));
+    QUADHAND_RETURN_IF_ERROR(p.Get("min_thrust", &c->rotors.min_thrust));
+    QUADHAND_RETURN_IF_ERROR(p.Get("max_thrust", &c->rotors.max_thrust));
+    QUADHAND_RETURN_IF_ERROR(p.Get("time_constant", &c->rotors.time_constant));
+    QUADHAND_RETURN_IF_ERROR(p.Get("torque_coefficient", &c->rotors.torque_coefficient));
+  }
+  if (r.Has("servo")) {
+    const Reader p = r.Child("servo");
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"position_gain", "time_constant", "max_rate", "max_acceleration"}));
+    QUADHAND_RETURN_IF_ERROR(p.Get("position_gain", &c->servo.position_gain));
+    QUADHAND_RETURN_IF_ERROR(p.Get("time_constant", &c->servo.time_constant));
+    QUADHAND_RETURN_IF_ERROR(p.Get("max_rate", &c->servo.max_rate));
+    QUADHAND_RETURN_IF_ERROR(p.Get("max_acceleration", &c->servo.max_acceleration));
+  }
+  if (r.Has("controller")) {
+    const Reader p = r.Child("controller");
+    ControllerConfig& k = c->controller;
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"mass", "inertia", "nominal_joints", "position_gain", "velocity_gain",
+                                          "position_integral_gain", "position_integral_limit", "attitude_gain",
+                                          "rate_gain", "attitude_integral_gain", "attitude_integral_limit"}));
+    QUADHAND_RETURN_IF_ERROR(p.Get("mass", &k.mass));
+    QUADHAND_RETURN_IF_ERROR(p.Get("inertia", &k.inertia));
+    QUADHAND_RETURN_IF_ERROR(p.Get("nominal_joints", &k.nominal_joints));
+    QUADHAND_RETURN_IF_ERROR(p.Get("position_gain", &k.position_gain));
+    QUADHAND_RETURN_IF_ERROR(p.Get("velocity_gain", &k.velocity_gain));
+    QUADHAND_RETURN_IF_ERROR(p.Get("position_integral_gain", &k.position_integral_gain));
+    QUADHAND_RETURN_IF_ERROR(p.Get("position_integral_limit", &k.position_integral_limit));
+    QUADHAND_RETURN_IF_ERROR(p.Get("attitude_gain", &k.attitude_gain));
+    QUADHAND_RETURN_IF_ERROR(p.Get("rate_gain", &k.rate_gain));
+    QUADHAND_RETURN_IF_ERROR(p.Get("attitude_integral_gain", &k.attitude_integral_gain));
+    QUADHAND_RETURN_IF_ERROR(p.Get("attitude_integral_limit", &k.attitude_integral_limit));
+  }
+  if (r.Has("noise")) {
+    const Reader p = r.Child("noise");
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"enabled", "position", "velocity", "attitude", "body_rate"}));
+    QUADHAND_RETURN_IF_ERROR(p.Get("enabled", &c->noise.enabled));
+    QUADHAND_RETURN_IF_ERROR(p.Get("position", &c->noise.position));
+    QUADHAND_RETURN_IF_ERROR(p.Get("velocity", &c->noise.velocity));
+    QUADHAND_RETURN_IF_ERROR(p.Get("attitude", &c->noise.attitude));
+    QUADHAND_RETURN_IF_ERROR(p.Get("body_rate", &c->noise.body_rate));
+  }
+  return Status::Ok();
+}
+
+bool Fail(std::string* why, const std::string& message) {
+  if (why) *why = message;
+  return false;
+}
+
+bool NonNegative(const Vec3& v) { return (v.array() >= 0.0).all(); }
+
+}  // namespace
+
+bool SimConfig::IsValid(std::string* why) const {
+  if (!(step > 0.0 && step <= 0.002)) return Fail(why, "step must be in (0, 0.002] s (RK4 at >= 500 Hz)");
+  if (!(gravity >= 0.0)) return Fail(why, "gravity must be >= 0");
+  if (!NonNegative(linear_drag)) return Fail(why, "linear_drag must be >= 0");
+  if (!(rotors.wheelbase > 0.0)) return Fail(why, "rotors.wheelbase must be > 0");
+  if (!(rotors.min_thrust >= 0.0 && rotors.max_thrust > rotors.min_thrust)) {
+    return Fail(why, "rotors: need 0 <= min_thrust < max_thrust");
+  }
+  if (!(rotors.time_constant >= 0.0)) return Fail(why, "rotors.time_constant must be >= 0");
+  if (!(rotors.torque_coefficient > 0.0)) return Fail(why, "rotors.torque_coefficient must be > 0");
+  if (!(servo.position_gain >= 0.0)) return Fail(why, "servo.position_gain must be >= 0");
+  if (!(servo.time_constant > 0.0)) return Fail(why, "servo.time_constant must be > 0");
+  for (double v : servo.max_rate) {
+    if (!(v > 0.0)) return Fail(why, "servo.max_rate entries must be > 0");
+  }
+  for (double v : servo.max_acceleration) {
+    if (!(v > 0.0)) return Fail(why, "servo.max_acceleration entries must be > 0");
+  }
+  if (!(payload.mass >= 0.0)) return Fail(why, "payload.mass must be >= 0");
+  const ControllerConfig& k = controller;
+  if (!(k.mass >= 0.0) || !NonNegative(k.inertia)) return Fail(why, "controller mass and inertia must be >= 0");
+  if (!NonNegative(k.position_gain) || !NonNegative(k.velocity_gain) || !NonNegative(k.position_integral_gain) ||
+      !NonNegative(k.attitude_gain) || !NonNegative(k.rate_gain) || !NonNegative(k.attitude_integral_gain) ||
+      !(k.position_integral_limit >= 0.0) || !(k.attitude_integral_limit >= 0.0)) {
+    return Fail(why, "controller gains and limits must be >= 0");
+  }
+  if (!(noise.position >= 0.0 && noise.velocity >= 0.0 && noise.attitude >= 0.0 && noise.body_rate >= 0.0)) {
+    return Fail(why, "noise standard deviations must be >= 0");
+  }
+  return true;
+}
+
+core::Result<SimConfig> ParseSimConfig(const std::string& yaml, const std::string& base_dir,
+                                       const std::string& source) {
+  SimConfig config;
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml);
+  } catch (const YAML::Exception& e) {
+    return Status::InvalidArgument(source + ": malformed YAML: " + e.msg);
+  }
+  if (root.IsNull()) return Status::InvalidArgument(source + ": empty configuration");
+  try {
+    QUADHAND_RETURN_IF_ERROR(ParseInto(root, base_dir, source, &config));
+  } catch (const YAML::Exception& e) {
+    return Status::InvalidArgument(source + ": " + e.msg);
+  }
+  std::string why;
+  if (!config.IsValid(&why)) return Status::InvalidArgument(source + ": " + why);
+  return config;
+}
+
+core::Result<SimConfig> LoadSimConfig(const std::string& path) {
+  auto text = core::ReadFileToString(path);
+  if (!text.ok()) return text.status();
+  return ParseSimConfig(*text, core::DirectoryOf(path), path);
+}
+
+}  // namespace quadhand::sim

@@ -1,0 +1,225 @@
+#include "quadhand/sim/simulator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace quadhand::sim {
+
+VecX NominalJoints(const VehicleModel& model) {
+  const std::vector<double>& given = model.config().controller.nominal_joints;
+  if (!given.empty()) return Eigen::Map<const VecX>(given.data(), static_cast<Eigen::Index>(given.size()));
+  VecX q = VecX::Zero(model.num_actuated());
+  for (int k = 0; k < q.size(); ++k) {
+    const double lo = model.joint_lower()[k], hi = model.joint_upper()[k];
+    if (std::isfinite(lo) && std::isfinite(hi)) q[k] = 0.5 * (lo + hi);
+  }
+  return q;
+}
+
+namespace {
+
+double ControllerMass(const VehicleModel& model) {
+  const double m = model.config().controller.mass;
+  return m > 0.0 ? m : model.TotalMass();
+}
+
+Mat3 ControllerInertia(const VehicleModel& model) {
+  const Vec3& J = model.config().controller.inertia;
+  if ((J.array() > 0.0).all()) return J.asDiagonal();
+  return model.MassPropertiesAt(NominalJoints(model)).inertia;
+}
+
+// Minimal-tilt quaternion taking e3 to z (the Hopf chart of traj/flatness.h).
+Quat TiltOf(const Vec3& z) {
+  const double one_c = std::max(1.0 + z.z(), 1e-9);
+  Quat q(one_c, -z.y(), z.x(), 0.0);
+  q.normalize();
+  return q;
+}
+
+void PutNumber(std::string* out, double v) {
+  char buffer[40];
+  std::snprintf(buffer, sizeof(buffer), ",%.10g", v);
+  *out += buffer;
+}
+
+}  // namespace
+
+double HopfYaw(const Quat& attitude) {
+  const Quat q = attitude.normalized();
+  const Quat q_yaw = TiltOf(q * Vec3::UnitZ()).conjugate() * q;
+  return std::remainder(2.0 * std::atan2(q_yaw.z(), q_yaw.w()), 2.0 * M_PI);
+}
+
+double HopfYawRate(const Quat& attitude, const Vec3& body_rate) {
+  const Mat3 R = attitude.normalized().toRotationMatrix();
+  const Vec3 z = R.col(2);
+  const Vec3 z_dot = R * body_rate.cross(Vec3::UnitZ());
+  const double one_c = std::max(1.0 + z.z(), 1e-9);
+  return body_rate.z() - (z.y() * z_dot.x() - z.x() * z_dot.y()) / one_c;
+}
+
+Simulator::Simulator(VehicleModel model, uint64_t seed)
+    : model_(std::move(model)),
+      controller_(model_.config().controller, ControllerMass(model_), ControllerInertia(model_), model_.gravity()),
+      rng_(seed) {
+  const int n = model_.num_actuated();
+  state_ = VehicleState::AtRest(model_, Vec3::Zero(), VecX::Zero(n));
+  input_.thrust_command = state_.thrusts;
+  input_.joint_setpoints = VecX::Zero(n);
+  input_.joint_rate_setpoints = VecX::Zero(n);
+}
+
+void Simulator::Reset(const VehicleState& state, double time) {
+  state_ = state;
+  time_ = time;
+  controller_.Reset();
+  input_.thrust_command = state.thrusts;
+  input_.joint_setpoints = state.joints;
+  input_.joint_rate_setpoints = state.joint_rates;
+  output_ = ControllerOutput{};
+}
+
+Measurement Simulator::Measure() {
+  Measurement m{state_.position, state_.velocity, state_.attitude, state_.body_rate};
+  const NoiseConfig& noise = model_.config().noise;
+  if (!noise.enabled) return m;
+  std::normal_distribution<double> normal(0.0, 1.0);
+  auto gaussian = [&](double sigma) -> Vec3 {
+    Vec3 v;
+    for (int i = 0; i < 3; ++i) v[i] = sigma * normal(rng_);
+    return v;
+  };
+  m.position += gaussian(noise.position);
+  m.velocity += gaussian(noise.velocity);
+  m.attitude = (m.attitude * Quat(ExpSO3(gaussian(noise.attitude)))).normalized();
+  m.body_rate += gaussian(noise.body_rate);
+  return m;
+}
+
+void Simulator::Step(const Setpoint& setpoint, double h) {
+  const double full = model_.config().step;
+  if (!(h > 0.0) || h > full) h = full;
+  output_ = controller_.Update(Measure(), setpoint, h);
+  const RotorConfig& rotors = model_.config().rotors;
+  input_.thrust_command =
+      MixRotors(model_.allocation(), output_.thrust, output_.torque, rotors.min_thrust, rotors.max_thrust);
+  input_.joint_setpoints = setpoint.joints;
+  input_.joint_rate_setpoints = setpoint.joint_rates;
+  state_ = Rk4Step(model_, state_, input_, h);
+  time_ += h;
+}
+
+DynamicsInfo Simulator::CurrentDynamics() const {
+  DynamicsInfo info;
+  StateDerivative(model_, PackState(state_), input_, &info);
+  return info;
+}
+
+TrackingErrorStats ComputeErrorStats(const std::vector<FlownSample>& samples) {
+  TrackingErrorStats s;
+  if (samples.empty()) return s;
+  std::vector<double> e;
+  e.reserve(samples.size());
+  double sum = 0.0, sum_sq = 0.0;
+  for (const FlownSample& f : samples) {
+    const double v = f.position_error.norm();
+    e.push_back(v);
+    sum += v;
+    sum_sq += v * v;
+  }
+  std::sort(e.begin(), e.end());
+  const double n = static_cast<double>(e.size());
+  auto quantile = [&](double p) {  // linear interpolation between order statistics
+    const double x = p * (n - 1.0);
+    const size_t i = static_cast<size_t>(std::floor(x));
+    const size_t j = std::min(i + 1, e.size() - 1);
+    return e[i] + (x - i) * (e[j] - e[i]);
+  };
+  s.mean = sum / n;
+  s.rms = std::sqrt(sum_sq / n);
+  s.median = quantile(0.5);
+  s.p95 = quantile(0.95);
+  s.max = e.back();
+  return s;
+}
+
+core::Result<TrackResult> TrackPlan(Simulator* sim, const Plan& plan, const TrackOptions& options) {
+  const VehicleModel& model = sim->model();
+  if (plan.joint_names != model.robot().ActuatedJointNames()) {
+    return core::Status::InvalidArgument("the plan's joints do not match the robot's actuated joints");
+  }
+  if (plan.rows.size() < 2) return core::Status::InvalidArgument("a plan needs at least 2 rows");
+  if (!(options.settle >= 0.0)) return core::Status::InvalidArgument("settle time must be >= 0");
+
+  const PlanRow& first = plan.rows.front();
+  VehicleState initial = VehicleState::AtRest(model, first.position, first.joints);
+  initial.velocity = first.velocity;
+  initial.attitude = first.attitude;
+  initial.joint_rates = first.joint_rates;
+  const double t0 = first.t;
+  TrackResult result;
+
+  sim->Reset(initial, t0 - options.settle);
+  if (options.settle > 0.0) {
+    Setpoint hold = SamplePlan(plan, t0);
+    hold.velocity.setZero();
+    hold.acceleration.setZero();
+    hold.jerk.setZero();
+    hold.yaw_rate = 0.0;
+    hold.joint_rates.setZero();
+    while (sim->time() < t0 - 1e-12) sim->Step(hold, std::min(sim->step(), t0 - sim->time()));
+  }
+
+  result.samples.reserve(plan.rows.size());
+  for (const PlanRow& row : plan.rows) {
+    while (sim->time() < row.t - 1e-9) {
+      sim->Step(SamplePlan(plan, sim->time()), std::min(sim->step(), row.t - sim->time()));
+    }
+    const VehicleState& s = sim->state();
+    if (!PackState(s).allFinite()) {
+      return core::Status::Infeasible("the simulation diverged before t = " + std::to_string(row.t) + " s");
+    }
+    const DynamicsInfo info = sim->CurrentDynamics();
+    FlownSample f;
+    f.flown.t = row.t;
+    f.flown.position = s.position;
+    f.flown.velocity = s.velocity;
+    f.flown.acceleration = info.acceleration;
+    f.flown.attitude = s.attitude;
+    f.flown.yaw = HopfYaw(s.attitude);
+    f.flown.yaw_rate = HopfYawRate(s.attitude, s.body_rate);
+    f.flown.joints = s.joints;
+    f.flown.joint_rates = s.joint_rates;
+    f.position_error = s.position - row.position;
+    f.yaw_error = std::remainder(f.flown.yaw - row.yaw, 2.0 * M_PI);
+    f.center_of_mass = model.MassPropertiesAt(s.joints).com;
+    f.arm_wrench = info.arm_wrench;
+    f.thrust = s.thrusts.sum();
+    result.samples.push_back(std::move(f));
+  }
+  result.error = ComputeErrorStats(result.samples);
+  result.simulated_s = options.settle + (plan.end_time() - t0);
+  return result;
+}
+
+std::string FlownCsv(const std::vector<FlownSample>& samples, const std::vector<std::string>& joint_names) {
+  std::string out = PlanCsvHeader(joint_names) +
+                    ",err_x,err_y,err_z,err_pos,err_yaw,cog_x,cog_y,cog_z,arm_fx,arm_fy,arm_fz,arm_tx,arm_ty,arm_tz,"
+                    "thrust\n";
+  for (const FlownSample& f : samples) {
+    out += PlanCsvRow(f.flown);
+    for (int i = 0; i < 3; ++i) PutNumber(&out, f.position_error[i]);
+    PutNumber(&out, f.position_error.norm());
+    PutNumber(&out, f.yaw_error);
+    for (int i = 0; i < 3; ++i) PutNumber(&out, f.center_of_mass[i]);
+    for (int i = 0; i < 3; ++i) PutNumber(&out, f.arm_wrench.force[i]);
+    for (int i = 0; i < 3; ++i) PutNumber(&out, f.arm_wrench.torque[i]);
+    PutNumber(&out, f.thrust);
+    out += '\n';
+  }
+  return out;
+}
+
+}  // namespace quadhand::sim

@@ -1,0 +1,197 @@
+// Plan files, the figure-eight plan, the configuration file, and TrackPlan.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "quadhand/sim/figure_eight.h"
+#include "quadhand/sim/plan_io.h"
+#include "quadhand/sim/simulator.h"
+#include "sim/sim_test_util.h"
+
+namespace quadhand::sim {
+namespace {
+
+using testing::Config;
+using testing::Model;
+using testing::Robot;
+
+const std::vector<std::string> kJoints = {"joint1", "joint2", "joint3"};
+
+// A plan hovering at (0, 0, 1) while joint1 moves linearly from 0.2 to 0.4.
+std::string SmallPlan() {
+  Plan plan;
+  plan.joint_names = kJoints;
+  for (int k = 0; k <= 10; ++k) {
+    PlanRow r;
+    r.t = 0.1 * k;
+    r.position = Vec3(0, 0, 1);
+    r.yaw = 3.1;
+    r.attitude = Quat(Eigen::AngleAxisd(3.1, Vec3::UnitZ()));
+    r.joints = VecX::Zero(3);
+    r.joints[0] = 0.2 + 0.02 * k;
+    r.joint_rates = VecX::Zero(3);
+    r.joint_rates[0] = 0.2;
+    plan.rows.push_back(r);
+  }
+  return WritePlanCsv(plan);
+}
+
+void ExpectError(const std::string& text, const std::string& fragment) {
+  auto plan = ParsePlanCsv(text, kJoints, "p.csv");
+  ASSERT_FALSE(plan.ok());
+  EXPECT_EQ(plan.status().code(), core::StatusCode::kInvalidArgument);
+  EXPECT_EQ(plan.status().message().rfind("p.csv: ", 0), 0u) << plan.status().message();
+  EXPECT_NE(plan.status().message().find(fragment), std::string::npos) << plan.status().message();
+}
+
+TEST(PlanIoTest, RoundTripsAndFindsColumnsByName) {
+  const std::string text = SmallPlan();
+  EXPECT_EQ(text.substr(0, text.find('\n')),
+            "t,px,py,pz,vx,vy,vz,ax,ay,az,qw,qx,qy,qz,yaw,yaw_rate,joint1,joint2,joint3,joint1_rate,joint2_rate,"
+            "joint3_rate");
+  auto plan = ParsePlanCsv(text, kJoints, "p.csv");
+  ASSERT_TRUE(plan.ok()) << plan.status().message();
+  ASSERT_EQ(plan->rows.size(), 11u);
+  EXPECT_NEAR(plan->rows[5].joints[0], 0.3, 1e-12);
+  EXPECT_EQ(WritePlanCsv(*plan), text);
+  // Extra columns are ignored, whatever their place.
+  auto extra = ParsePlanCsv("note,t,px,py,pz,vx,vy,vz,ax,ay,az,qw,qx,qy,qz,yaw,yaw_rate,joint1,joint2,joint3,"
+                            "joint1_rate,joint2_rate,joint3_rate\n"
+                            "x,0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0\n"
+                            "y,1,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.2,0,0,0,0,0\n",
+                            kJoints, "p.csv");
+  ASSERT_TRUE(extra.ok()) << extra.status().message();
+  EXPECT_NEAR(extra->rows[1].joints[0], 0.2, 1e-15);
+}
+
+TEST(PlanIoTest, RejectsMalformedPlans) {
+  const std::string text = SmallPlan();
+  const std::string header = text.substr(0, text.find('\n') + 1);
+  ExpectError("", "empty");
+  ExpectError(header.substr(0, header.find(",joint2,")) + "\n", "missing column 'joint2'");
+  ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0\n", "line 2");
+  ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0\n"
+                       "0.1,0,0,abc,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0\n",
+              "line 3: column 'pz'");
+  ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,nan,0,0,0,0,0\n", "column 'joint1'");
+  ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0\n"
+                       "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0\n",
+              "does not increase");
+  ExpectError(header + "0,0,0,1,0,0,0,0,0,0,2,0,0,0,0,0,0.1,0,0,0,0,0\n", "unit length");
+  ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0\n", "at least 2 rows");
+}
+
+TEST(PlanIoTest, SamplesBetweenRows) {
+  Plan plan;
+  plan.joint_names = kJoints;
+  for (int k = 0; k < 2; ++k) {
+    PlanRow r;
+    r.t = 1.0 + k;
+    r.position = Vec3(k, 2 * k, 1);
+    r.acceleration = Vec3(0, 0, 3 * k);
+    r.yaw = k == 0 ? 3.0 : -3.0;  // across +-pi: along the shorter arc
+    r.joints = VecX::Constant(3, k);
+    r.joint_rates = VecX::Zero(3);
+    plan.rows.push_back(r);
+  }
+  const Setpoint sp = SamplePlan(plan, 1.25);
+  EXPECT_LT((sp.position - Vec3(0.25, 0.5, 1)).norm(), 1e-12);
+  EXPECT_LT((sp.jerk - Vec3(0, 0, 3)).norm(), 1e-12);
+  EXPECT_NEAR(std::remainder(sp.yaw - (3.0 + 0.25 * (2 * M_PI - 6.0)), 2 * M_PI), 0.0, 1e-12);
+  EXPECT_NEAR(sp.joints[1], 0.25, 1e-12);
+  EXPECT_LT((SamplePlan(plan, 5.0).position - Vec3(1, 2, 1)).norm(), 1e-12);
+  EXPECT_LT((SamplePlan(plan, 0.0).position - Vec3(0, 0, 1)).norm(), 1e-12);
+}
+
+TEST(FigureEightTest, IsTheExperimentsShapeAndStartsAndEndsAtRest) {
+  const robot::RobotModel& robot = Robot();
+  FigureEightOptions o;
+  auto plan = MakeFigureEightPlan(o, robot.ActuatedJointNames(), robot.LowerLimits(), robot.UpperLimits(),
+                                  robot.VelocityLimits());
+  ASSERT_TRUE(plan.ok()) << plan.status().message();
+  EXPECT_NEAR(plan->end_time(), o.loops * o.period + o.ramp, 1e-12);
+  Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
+  for (const PlanRow& r : plan->rows) {
+    lo = lo.cwiseMin(r.position);
+    hi = hi.cwiseMax(r.position);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_GE(r.joints[k], robot.LowerLimits()[k] - 1e-12);
+      EXPECT_LE(r.joints[k], robot.UpperLimits()[k] + 1e-12);
+    }
+  }
+  EXPECT_NEAR(hi.x() - lo.x(), 3.6, 1e-3);
+  EXPECT_NEAR(hi.y() - lo.y(), 2.0, 1e-3);
+  EXPECT_NEAR(hi.z() - lo.z(), 0.0, 1e-12);
+  for (const PlanRow* r : {&plan->rows.front(), &plan->rows.back()}) {
+    EXPECT_LT(r->velocity.norm(), 1e-9);
+    EXPECT_LT(r->acceleration.norm(), 1e-9);
+    EXPECT_LT(r->joint_rates.norm(), 1e-9);
+  }
+  EXPECT_LT((plan->rows.back().position - plan->rows.front().position).norm(), 1e-9);  // closed loops
+  // Velocity and acceleration are the derivatives of position and velocity.
+  const std::vector<PlanRow>& rows = plan->rows;
+  for (size_t i = 1; i + 1 < rows.size(); i += 37) {
+    const double h = rows[i + 1].t - rows[i - 1].t;
+    EXPECT_LT(((rows[i + 1].position - rows[i - 1].position) / h - rows[i].velocity).norm(), 1e-3);
+    EXPECT_LT(((rows[i + 1].velocity - rows[i - 1].velocity) / h - rows[i].acceleration).norm(), 1e-3);
+    EXPECT_NEAR((rows[i + 1].joints[0] - rows[i - 1].joints[0]) / h, rows[i].joint_rates[0], 1e-3);
+  }
+  // Joint motion beyond the limits is refused.
+  o.joint_amplitude[0] = 1.0;
+  EXPECT_FALSE(MakeFigureEightPlan(o, robot.ActuatedJointNames(), robot.LowerLimits(), robot.UpperLimits(),
+                                   robot.VelocityLimits())
+                   .ok());
+}
+
+TEST(SimConfigTest, ShippedFileLoadsAndTyposAreErrors) {
+  auto config = LoadSimConfig(testing::kConfigPath);
+  ASSERT_TRUE(config.ok()) << config.status().message();
+  EXPECT_EQ(config->step, 0.001);
+  EXPECT_EQ(config->rotors.wheelbase, 0.33);
+  EXPECT_EQ(config->payload.mass, 0.15);
+  EXPECT_NE(config->robot_path.find("quadhand.urdf"), std::string::npos);
+
+  auto typo = ParseSimConfig("rotors:\n  max_trust: 9\n", ".", "c.yaml");
+  ASSERT_FALSE(typo.ok());
+  EXPECT_NE(typo.status().message().find("c.yaml: rotors.max_trust: unknown key"), std::string::npos)
+      << typo.status().message();
+  auto slow = ParseSimConfig("step: 0.01\n", ".", "c.yaml");
+  ASSERT_FALSE(slow.ok());
+  EXPECT_NE(slow.status().message().find("500 Hz"), std::string::npos);
+  EXPECT_FALSE(ParseSimConfig("step: [1, 2\n", ".", "c.yaml").ok());
+  EXPECT_FALSE(ParseSimConfig("gravity: abc\n", ".", "c.yaml").ok());
+  EXPECT_FALSE(LoadSimConfig("/nonexistent/sim.yaml").ok());
+
+  SimConfig c = Config();
+  c.pcgc_joint = "joint1";  // not a mimic joint
+  EXPECT_FALSE(VehicleModel::Create(Robot(), c).ok());
+  c = Config();
+  c.servo.max_acceleration = {1.0};
+  EXPECT_FALSE(VehicleModel::Create(Robot(), c).ok());
+}
+
+TEST(TrackPlanTest, FliesASmallPlanAndRecordsEveryRow) {
+  auto plan = ParsePlanCsv(SmallPlan(), kJoints, "p.csv");
+  ASSERT_TRUE(plan.ok());
+  Simulator sim(Model(true, 0.0), 1);
+  TrackOptions options;
+  options.settle = 2.0;
+  auto result = TrackPlan(&sim, *plan, options);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  ASSERT_EQ(result->samples.size(), plan->rows.size());
+  for (size_t i = 0; i < plan->rows.size(); ++i) {
+    EXPECT_NEAR(result->samples[i].flown.t, plan->rows[i].t, 1e-12);
+    EXPECT_LT(result->samples[i].position_error.norm(), 0.02);
+    EXPECT_LT(std::abs(result->samples[i].yaw_error), 0.02);
+  }
+  EXPECT_NEAR(result->samples.back().flown.joints[0], 0.4, 0.02);
+  EXPECT_NEAR(result->simulated_s, 3.0, 1e-12);
+  const std::string csv = FlownCsv(result->samples, kJoints);
+  EXPECT_NE(csv.find(",err_x,err_y,err_z,err_pos,err_yaw,cog_x"), std::string::npos);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 12);
+  // The flown file is itself a readable plan.
+  EXPECT_TRUE(ParsePlanCsv(csv, kJoints, "flown.csv").ok());
+}
+
+}  // namespace
+}  // namespace quadhand::sim

@@ -1,0 +1,126 @@
+// Command-line behaviour of quadhand-sim: bad input gives exit code 2, one
+// line naming the file, and no output; --track and --figure8 write their files.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "support/run_command.h"
+
+namespace quadhand {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::CountLines;
+using testing::ReadAll;
+using testing::RunCommand;
+
+const std::string kSim = std::string(QUADHAND_BIN_DIR) + "/quadhand-sim";
+const std::string kConfig = std::string(QUADHAND_SOURCE_DIR) + "/data/sim/quadhand_sim.yaml";
+
+const char* const kHeader =
+    "t,px,py,pz,vx,vy,vz,ax,ay,az,qw,qx,qy,qz,yaw,yaw_rate,joint1,joint2,joint3,joint1_rate,joint2_rate,joint3_rate";
+
+class SimCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("quadhand_sim_" + std::to_string(getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string Write(const std::string& name, const std::string& text) {
+    const std::string path = (dir_ / name).string();
+    std::ofstream(path) << text;
+    return path;
+  }
+
+  // Half a second hovering with joint1 moving.
+  std::string ShortPlan() {
+    std::string text = std::string(kHeader) + "\n";
+    for (int k = 0; k <= 50; ++k) {
+      text += std::to_string(0.01 * k) + ",0,0,1,0,0,0,0,0,0,1,0,0,0,0,0," + std::to_string(0.3 + 0.002 * k) +
+              ",0.1,0,0.2,0,0\n";
+    }
+    return Write("plan.csv", text);
+  }
+
+  void ExpectBadInput(const std::string& args, const std::string& fragment) {
+    const std::string out = (dir_ / "out.csv").string();
+    const std::string config = args.find("--config") == std::string::npos ? " --config " + kConfig : "";
+    const auto r = RunCommand(kSim + config + " --out " + out + " " + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
+    EXPECT_EQ(CountLines(r.err), 1) << r.err;
+    EXPECT_EQ(r.err.rfind("quadhand-sim: error: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << args;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(SimCliTest, HelpListsEveryOption) {
+  const auto r = RunCommand(kSim + " --help");
+  EXPECT_EQ(r.exit_code, 0);
+  for (const char* option : {"--track", "--figure8", "--out", "--config", "--pcgc", "--payload", "--seed", "--noise",
+                             "--settle"}) {
+    EXPECT_NE(r.out.find(option), std::string::npos) << option;
+  }
+}
+
+TEST_F(SimCliTest, TracksAShortPlan) {
+  const std::string plan = ShortPlan();
+  const std::string out = (dir_ / "flown.csv").string();
+  const auto r = RunCommand(kSim + " --config " + kConfig + " --track " + plan + " --out " + out +
+                            " --pcgc off --payload 0.15 --seed 3 --settle 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("PCGC off, payload 0.150 kg"), std::string::npos) << r.out;
+  const std::string flown = ReadAll(out);
+  EXPECT_EQ(flown.rfind(std::string(kHeader) + ",err_x,err_y,err_z,err_pos", 0), 0u);
+  EXPECT_EQ(CountLines(flown), 52);
+  // Same seed, same flight; no temporary files left.
+  const std::string again = (dir_ / "again.csv").string();
+  ASSERT_EQ(RunCommand(kSim + " -q --config " + kConfig + " --track " + plan + " --out " + again +
+                       " --pcgc off --payload 0.15 --seed 3 --settle 1")
+                .exit_code,
+            0);
+  EXPECT_EQ(ReadAll(again), flown);
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(dir_)) files += entry.is_regular_file();
+  EXPECT_EQ(files, 3);
+}
+
+TEST_F(SimCliTest, WritesTheFigureEightPlan) {
+  const std::string out = (dir_ / "eight.csv").string();
+  const auto r = RunCommand(kSim + " --config " + kConfig + " --figure8 --loops 1 --period 6 --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string text = ReadAll(out);
+  EXPECT_EQ(text.rfind(std::string(kHeader) + "\n", 0), 0u);
+  EXPECT_EQ(CountLines(text), 1 + 801);  // 8 s at 0.01 s, both ends
+}
+
+TEST_F(SimCliTest, RejectsBadInput) {
+  const std::string plan = ShortPlan();
+  ExpectBadInput("--track " + (dir_ / "missing.csv").string(), "missing.csv");
+  ExpectBadInput("--track " + Write("bad.csv", std::string(kHeader) + "\n0,0,0,1\n"), "bad.csv: line 2");
+  ExpectBadInput("--track " + Write("nojoint.csv", "t,px,py,pz\n0,0,0,1\n"), "nojoint.csv: missing column");
+  ExpectBadInput("--track " + plan + " --pcgc maybe", "--pcgc");
+  ExpectBadInput("--track " + plan + " --payload -1", "--payload");
+  ExpectBadInput("--track " + plan + " --figure8", "exactly one");
+  ExpectBadInput("", "exactly one");
+  ExpectBadInput("--track " + plan + " --config " + Write("c.yaml", "step: 0.1\n"), "c.yaml");
+  ExpectBadInput("--track " + plan + " --config " + Write("typo.yaml", "noise: {enabld: true}\n"),
+                 "typo.yaml: noise.enabld: unknown key");
+  ExpectBadInput("--track " + plan + " --config " + (dir_ / "none.yaml").string(), "none.yaml");
+  // An unwritable output is bad input too, and leaves nothing behind.
+  const auto r = RunCommand(kSim + " --config " + kConfig + " --track " + plan + " --out /nonexistent/dir/out.csv");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("/nonexistent/dir/out.csv"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace quadhand
