@@ -17,6 +17,7 @@ packages=(
   libyaml-cpp-dev        # YAML files (primitive lists, tasks)
   libpcl-dev             # PCD point clouds (libs/scene; only pcl_io and pcl_common are linked)
   liboctomap-dev libdynamicedt3d-dev  # ESDF baseline: occupancy octree and distance transform (libs/env)
+  libceres-dev coinor-libipopt-dev libnlopt-cxx-dev  # optional solver back-ends (solvers/ceres, ipopt, nlopt)
   chromium               # headless browser that loads the HTML view in tests/viz
   python3-matplotlib     # plots of scripts/figure8.py (the simulator's figure-eight experiment)
 )

@@ -6,8 +6,9 @@
 
 namespace quadhand::solvers {
 
-// Registers "lbfgs" (and later ceres, ipopt, nlopt, also when their library is
-// absent: those report available() == false). Idempotent and thread-safe.
+// Registers "lbfgs", "ceres", "ipopt" and "nlopt" (docs/solvers.md), the last
+// three also when their library is absent: they then report available() ==
+// false. Idempotent and thread-safe.
 core::Status RegisterBuiltinSolvers();
 
 }  // namespace quadhand::solvers
