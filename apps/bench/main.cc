@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
   app.add_option("--config", config_path, "Benchmark config (YAML)")->capture_default_str();
   app.add_option("--trials", trials, "Number of trials")->capture_default_str()->check(CLI::Range(1, 1000000));
   app.add_option("--first", first, "Index (= seed) of the first trial")->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--solver", solver_name, "Optimiser back-end")->capture_default_str();
+  app.add_option("--solver", solver_name, "Optimiser back-end: lbfgs, ceres, ipopt, nlopt[:ALGORITHM] (docs/solvers.md)")->capture_default_str();
   app.add_option("--representation", representation, "Collision representation: mrc_sdf, esdf or sfc")->capture_default_str();
   app.add_option("--out", out_path, "Results, one JSON line per trial")->required();
   try {

@@ -201,7 +201,7 @@ int main(int argc, char** argv) {
       ->required();
   app.add_option("--report", report_path, "Report file to write (JSON), always written when planning ran")->required();
   app.add_option("--html", html_path, "Also write a self-contained 3-D page of the plan");
-  app.add_option("--solver", solver_name, "Optimiser back-end: lbfgs (see docs/plan.md)")->capture_default_str();
+  app.add_option("--solver", solver_name, "Optimiser back-end: lbfgs, ceres, ceres:BFGS, ipopt, nlopt, nlopt:ALGORITHM (docs/solvers.md)")->capture_default_str();
   app.add_option("--representation", representation, "Collision representation: mrc_sdf, esdf or sfc")->capture_default_str();
   app.add_option("--dt", dt, "Time step of the plan file and of the post-check, seconds")->capture_default_str();
   app.add_option("--seed", seed, "Seed of every random choice (recorded in the report)")->capture_default_str();
