@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
+#include <memory>
 #include <random>
 #include <sstream>
 #include <string>
@@ -98,16 +100,44 @@ double Percentile(std::vector<double> values, double p) {
 
 }  // namespace
 
+// Per (representation, solver) tallies for the summary lines.
+struct Tally {
+  int trials = 0, successes = 0;
+  std::vector<double> solve_ms, front_ms, clearances;
+};
+
+// "K/N" -> shard K of N (0 <= K < N).
+bool ParseShard(const std::string& text, int* index, int* count) {
+  const size_t slash = text.find('/');
+  if (slash == std::string::npos) return false;
+  try {
+    size_t used_k = 0, used_n = 0;
+    *index = std::stoi(text.substr(0, slash), &used_k);
+    *count = std::stoi(text.substr(slash + 1), &used_n);
+    if (used_k != slash || used_n != text.size() - slash - 1) return false;
+  } catch (const std::exception&) {
+    return false;
+  }
+  return *count >= 1 && *index >= 0 && *index < *count;
+}
+
 int main(int argc, char** argv) {
-  CLI::App app{"quadhand-bench: seeded trials of the window-and-cup benchmark, one JSON line per trial"};
-  std::string config_path = "data/bench/window_cup.yaml", out_path, solver_name = "lbfgs", representation = "mrc_sdf";
+  CLI::App app{"quadhand-bench: seeded trials of the window-and-cup benchmark, one JSON line per\n"
+               "(trial, representation, solver); trial k uses seed k. See docs/benchmark.md."};
+  std::string config_path = "data/bench/window_cup.yaml", out_path, shard_text = "0/1";
+  std::vector<std::string> representations = {"mrc_sdf"}, solver_names = {"lbfgs"};
   int trials = 100, first = 0;
   app.add_option("--config", config_path, "Benchmark config (YAML)")->capture_default_str();
   app.add_option("--trials", trials, "Number of trials")->capture_default_str()->check(CLI::Range(1, 1000000));
   app.add_option("--first", first, "Index (= seed) of the first trial")->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--solver", solver_name, "Optimiser back-end: lbfgs, ceres, ipopt, nlopt[:ALGORITHM] (docs/solvers.md)")->capture_default_str();
-  app.add_option("--representation", representation, "Collision representation: mrc_sdf, esdf or sfc")->capture_default_str();
-  app.add_option("--out", out_path, "Results, one JSON line per trial")->required();
+  app.add_option("--solvers,--solver", solver_names,
+                 "Optimiser back-ends, comma separated: lbfgs, ceres, ipopt, nlopt[:ALGORITHM] (docs/solvers.md)")
+      ->delimiter(',')->capture_default_str();
+  app.add_option("--representations,--representation", representations,
+                 "Collision representations, comma separated: mrc_sdf, esdf, sfc")->delimiter(',')->capture_default_str();
+  app.add_option("--shard", shard_text, "K/N: run only the trials k with k % N == K (for running on many machines)")
+      ->capture_default_str();
+  app.add_option("--out", out_path, "Results, one JSON line per (trial, representation, solver)")->required();
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -115,9 +145,22 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return Fail(e.what());
   }
+  int shard = 0, shards = 1;
+  if (!ParseShard(shard_text, &shard, &shards)) return Fail("--shard '" + shard_text + "': expected K/N with 0 <= K < N");
   if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
-  auto solver = opt::CreateSolver(solver_name);
-  if (!solver.ok()) return Fail("--solver: " + solver.status().message());
+  std::vector<std::unique_ptr<opt::Solver>> solver_list;
+  for (const std::string& name : solver_names) {
+    auto solver = opt::CreateSolver(name);
+    if (!solver.ok()) return Fail("--solvers: " + solver.status().message());
+    if (!(*solver)->available()) return Fail("--solvers: '" + name + "' was built without its library");
+    solver_list.push_back(std::move(*solver));
+  }
+  for (const std::string& name : representations) {
+    const auto known = planner::RepresentationNames();
+    if (std::find(known.begin(), known.end(), name) == known.end()) {
+      return Fail("--representations: unknown representation '" + name + "' (known: mrc_sdf, esdf, sfc)");
+    }
+  }
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status().message());
   auto task = planner::LoadTask(config->task_path);
@@ -127,69 +170,87 @@ int main(int argc, char** argv) {
   if (core::Status s = planner::ApplyRobot(*robot, &*task); !s.ok()) return Fail(s.message());
   auto cloud = scene::LoadPcd(task->scene_path);
   if (!cloud.ok()) return Fail(cloud.status().message());
-  auto model = planner::MakeRepresentation(representation, *robot, task->sdf_dir, cloud->points);
-  if (!model.ok()) return Fail(model.status().message());
-  const double build_ms = model->build_ms;
   auto exact = planner::ExactClearance::Create(*robot, cloud->points);
   if (!exact.ok()) return Fail(exact.status().message());
   std::vector<Vec3> contain = {config->box_min, config->box_max};
   if (task->terminal) contain.push_back(task->terminal->position);
   auto front_end = planner::FrontEndMap::Build(cloud->points, planner::FrontEndOptions{}, contain);
   if (!front_end.ok()) return Fail(front_end.status().message());
-  const planner::PlanningScene scene{*robot, *model->scene_model, **exact, *front_end, model->per_plan};
+  std::vector<planner::Representation> models;
+  for (const std::string& name : representations) {
+    std::fprintf(stderr, "building representation %s...\n", name.c_str());
+    auto model = planner::MakeRepresentation(name, *robot, task->sdf_dir, cloud->points);
+    if (!model.ok()) return Fail(model.status().message());
+    models.push_back(std::move(*model));
+  }
   const planner::PlannerOptions options = planner::DefaultPlannerOptions();
 
   std::ostringstream lines;
-  std::vector<double> solve_ms, front_ms, clearances;
-  int successes = 0;
+  std::map<std::string, Tally> tallies;
+  int done = 0;
+  const int mine = (trials + shards - 1 - ((shard - first % shards + shards) % shards)) / shards;
   for (int k = first; k < first + trials; ++k) {
+    if (k % shards != shard) continue;
     planner::Task trial = *task;
     if (!DrawStart(static_cast<unsigned>(k), *config, *robot, **exact, task->safety_distance, &trial.start)) {
       return Fail("trial " + std::to_string(k) + ": no collision-free start found in 1000 draws");
     }
     trial.start.joint_rates = VecX::Zero(robot->num_actuated());
-    auto result = planner::Plan(scene, trial, options, **solver);
-    nlohmann::json line;
-    line["trial"] = k;
-    line["seed"] = k;
-    line["representation"] = representation;
-    line["solver"] = solver_name;
-    line["start"] = {{"position", {trial.start.position.x(), trial.start.position.y(), trial.start.position.z()}},
-                     {"yaw", trial.start.yaw},
-                     {"joints", std::vector<double>(trial.start.joints.data(), trial.start.joints.data() + trial.start.joints.size())}};
-    if (!result.ok()) {
-      line["success"] = false;
-      line["status"] = "invalid_input";
-      line["failure"] = result.status().message();
-    } else {
-      line["success"] = result->success;
-      line["status"] = result->status;
-      line["failure"] = result->success ? "" : result->message;
-      line["solve_ms"] = result->solve_ms;
-      line["front_end_ms"] = result->front_end_ms;
-      line["representation_build_ms"] = build_ms + result->per_plan_collision_ms;
-      line["iterations"] = result->iterations;
-      line["cost_evaluations"] = result->evaluations;
-      line["attempts"] = result->attempts.size();
-      line["min_clearance_m"] = result->post_check.min_clearance_model;
-      line["min_clearance_exact_m"] = result->post_check.min_clearance_exact;
-      line["duration_s"] = result->trajectory ? result->trajectory->duration() : 0.0;
-      front_ms.push_back(result->front_end_ms);
-      if (result->success) {
-        ++successes;
-        solve_ms.push_back(result->solve_ms);
-        clearances.push_back(result->post_check.min_clearance_exact);
+    for (const planner::Representation& model : models) {
+      const planner::PlanningScene scene{*robot, *model.scene_model, **exact, *front_end, model.per_plan};
+      for (size_t si = 0; si < solver_list.size(); ++si) {
+        auto result = planner::Plan(scene, trial, options, *solver_list[si]);
+        nlohmann::json line;
+        line["trial"] = k;
+        line["seed"] = k;
+        line["representation"] = model.name;
+        line["solver"] = solver_names[si];
+        line["start"] = {{"position", {trial.start.position.x(), trial.start.position.y(), trial.start.position.z()}},
+                         {"yaw", trial.start.yaw},
+                         {"joints", std::vector<double>(trial.start.joints.data(),
+                                                        trial.start.joints.data() + trial.start.joints.size())}};
+        Tally& tally = tallies[model.name + " + " + solver_names[si]];
+        ++tally.trials;
+        if (!result.ok()) {
+          line["success"] = false;
+          line["status"] = "invalid_input";
+          line["failure"] = result.status().message();
+        } else {
+          line["success"] = result->success;
+          line["status"] = result->status;
+          line["failure"] = result->success ? "" : result->message;
+          line["solve_ms"] = result->solve_ms;
+          line["front_end_ms"] = result->front_end_ms;
+          line["representation_build_ms"] = model.build_ms + result->per_plan_collision_ms;
+          line["iterations"] = result->iterations;
+          line["cost_evaluations"] = result->evaluations;
+          line["attempts"] = result->attempts.size();
+          line["min_clearance_m"] = result->post_check.min_clearance_model;
+          line["min_clearance_exact_m"] = result->post_check.min_clearance_exact;
+          line["duration_s"] = result->trajectory ? result->trajectory->duration() : 0.0;
+          tally.front_ms.push_back(result->front_end_ms);
+          if (result->success) {
+            ++tally.successes;
+            tally.solve_ms.push_back(result->solve_ms);
+            tally.clearances.push_back(result->post_check.min_clearance_exact);
+          }
+        }
+        lines << line.dump() << '\n';
+        std::fprintf(stderr, "[%d/%d] trial %d %s + %s: %s%s%s\n", done + 1, mine, k, model.name.c_str(),
+                     solver_names[si].c_str(), line["success"].get<bool>() ? "success" : "FAILED",
+                     line["success"].get<bool>() ? "" : ": ", line["failure"].get<std::string>().c_str());
       }
     }
-    lines << line.dump() << '\n';
-    std::fprintf(stderr, "trial %d: %s%s%s\n", k, line["success"].get<bool>() ? "success" : "FAILED",
-                 line["success"].get<bool>() ? "" : ": ", line["failure"].get<std::string>().c_str());
+    ++done;
   }
   if (core::Status s = core::WriteFileAtomically(out_path, lines.str()); !s.ok()) return Fail(s.message());
-  std::printf("%d/%d successful (%.1f %%); solve ms over successes: median %.1f, p95 %.1f; front end median %.2f ms; "
-              "min exact clearance over successes: min %.4f, median %.4f m\n",
-              successes, trials, 100.0 * successes / trials, Percentile(solve_ms, 0.5), Percentile(solve_ms, 0.95),
-              Percentile(front_ms, 0.5), clearances.empty() ? NAN : *std::min_element(clearances.begin(), clearances.end()),
-              Percentile(clearances, 0.5));
+  for (const auto& [name, t] : tallies) {
+    std::printf("%s: %d/%d successful (%.1f %%); solve ms over successes: median %.1f, p95 %.1f; front end median "
+                "%.2f ms; min exact clearance over successes: min %.4f, median %.4f m\n",
+                name.c_str(), t.successes, t.trials, 100.0 * t.successes / std::max(1, t.trials),
+                Percentile(t.solve_ms, 0.5), Percentile(t.solve_ms, 0.95), Percentile(t.front_ms, 0.5),
+                t.clearances.empty() ? NAN : *std::min_element(t.clearances.begin(), t.clearances.end()),
+                Percentile(t.clearances, 0.5));
+  }
   return 0;
 }
