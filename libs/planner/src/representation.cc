@@ -39,6 +39,9 @@ core::Result<Representation> MakeRepresentation(const std::string& name, const r
     return core::Status::InvalidArgument("unknown representation '" + name + "' (known: " + known + ")");
   }
   if (name == "sfc") {
+    // The MRC-SDF model above only serves the terminal-state search; what sfc
+    // builds is its corridors, per plan (PlanResult::per_plan_collision_ms).
+    representation.build_ms = 0.0;
     // Corridors depend on the path, so they are built per plan; the robot's
     // link meshes are loaded once here.
     std::vector<int> links = robot.CollisionLinks();

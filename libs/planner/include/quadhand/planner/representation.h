@@ -22,7 +22,7 @@ struct Representation {
   // terminal-state search (for sfc it is the MRC-SDF model).
   std::unique_ptr<env::CollisionModel> scene_model;
   PerPlanCollisionBuilder per_plan;  // set for sfc
-  double build_ms = 0;               // SDF loading + indexing, or the ESDF build
+  double build_ms = 0;               // SDF loading + indexing, or the ESDF build (0 for sfc: per plan)
 };
 
 std::vector<std::string> RepresentationNames();
