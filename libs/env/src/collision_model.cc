@@ -53,6 +53,14 @@ double WholeBodyPenalty(const robot::RobotModel& robot, const robot::KinematicsS
   return total;
 }
 
+std::vector<int> SlotsOfLinks(const std::vector<int>& links) {
+  int max_link = 0;
+  for (int link : links) max_link = std::max(max_link, link);
+  std::vector<int> slots(max_link + 1, -1);
+  for (size_t i = 0; i < links.size(); ++i) slots[links[i]] = static_cast<int>(i);
+  return slots;
+}
+
 double WholeBodyClearance(const robot::KinematicsState& kinematics, const CollisionModel& model,
                           double search_radius, const QueryContext& context, int* closest_link) {
   double clearance = search_radius;

@@ -15,12 +15,7 @@ bool MrcSdfOptions::IsValid(std::string* why) const {
 }
 
 MrcSdfModel::MrcSdfModel(std::vector<int> links, std::vector<geometry::SdfGrid> grids, scene::PointGrid points)
-    : links_(std::move(links)), grids_(std::move(grids)), points_(std::move(points)) {
-  int max_link = 0;
-  for (int link : links_) max_link = std::max(max_link, link);
-  slot_of_link_.assign(max_link + 1, -1);
-  for (size_t i = 0; i < links_.size(); ++i) slot_of_link_[links_[i]] = static_cast<int>(i);
-}
+    : links_(std::move(links)), slot_of_link_(SlotsOfLinks(links_)), grids_(std::move(grids)), points_(std::move(points)) {}
 
 core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> links,
                                                                std::vector<geometry::SdfGrid> grids,

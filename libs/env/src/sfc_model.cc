@@ -177,11 +177,8 @@ core::Result<std::unique_ptr<SfcModel>> SfcModel::Create(std::vector<int> links,
   std::unique_ptr<SfcModel> model(new SfcModel());
   model->options_ = options;
   model->links_ = std::move(links);
-  int max_link = 0;
-  for (int link : model->links_) max_link = std::max(max_link, link);
-  model->slot_of_link_.assign(max_link + 1, -1);
+  model->slot_of_link_ = SlotsOfLinks(model->links_);
   for (size_t i = 0; i < model->links_.size(); ++i) {
-    model->slot_of_link_[model->links_[i]] = static_cast<int>(i);
     model->samples_.push_back(SampleLinkSurface(meshes[i], options.surface_spacing));
   }
 

@@ -84,6 +84,10 @@ double WholeBodyPenalty(const robot::RobotModel& robot, const robot::KinematicsS
 void AccumulateLinkWrench(const robot::RobotModel& robot, const robot::KinematicsState& kinematics,
                           int link, const LinkWrench& wrench, StateGradient* gradient);
 
+// For models that keep per-link data in `links` order: slot[link] is the
+// position of robot link `link` in `links`, -1 for links not in it.
+std::vector<int> SlotsOfLinks(const std::vector<int>& links);
+
 // Smallest LinkClearance over the model's links; `closest_link` gets the link.
 double WholeBodyClearance(const robot::KinematicsState& kinematics, const CollisionModel& model,
                           double search_radius, const QueryContext& context, int* closest_link = nullptr);
