@@ -5,30 +5,13 @@
 // identity, near it and at random states.
 #include "quadhand/robot/kinematics.h"
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
 #include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "robot/robot_test_util.h"
-
-// Counts heap allocations so that the allocation-free steady state of
-// ComputeKinematics can be tested. Replacing the global operator new applies
-// to the whole test binary; it only counts, then defers to malloc.
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#include "support/allocation_counter.h"
 
 namespace quadhand::robot {
 namespace {
@@ -250,13 +233,13 @@ TEST_F(KinematicsTest, SteadyStateDoesNotAllocate) {
   ComputeKinematics(model_, a.X_WB, a.q, &state);  // first call sizes the buffers
   PointJacobian(model_, state, 3, Vec3(1, 2, 3), &J_point);
   LinkJacobian(model_, state, 6, &J_link);
-  const long before = g_allocations.load();
+  const long before = quadhand::testing::AllocationCount();
   for (int i = 0; i < 10; ++i) {
     ComputeKinematics(model_, (i % 2 ? a : b).X_WB, (i % 2 ? a : b).q, &state);
     PointJacobian(model_, state, i % model_.num_links(), Vec3(1, 2, 3), &J_point);
     LinkJacobian(model_, state, i % model_.num_links(), &J_link);
   }
-  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_EQ(quadhand::testing::AllocationCount() - before, 0);
 }
 
 }  // namespace

@@ -1,25 +1,10 @@
 // The MINCO hot path (Generate, energy, sample gradients, propagation) does
 // not allocate once the object and the output arrays have their sizes.
-// This file replaces the global operator new of traj_test to count calls.
-#include <atomic>
-#include <cstdlib>
-#include <new>
-
+// support/allocation_counter.h replaces traj_test's operator new to count calls.
 #include <gtest/gtest.h>
 
 #include "quadhand/traj/minco.h"
-
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#include "support/allocation_counter.h"
 
 namespace quadhand::traj {
 namespace {
@@ -39,7 +24,7 @@ TEST(MincoAllocationTest, HotPathDoesNotAllocate) {
     VectorXd gt = VectorXd::Zero(n), total(n), sample = VectorXd::Ones(m), value(m);
     ASSERT_TRUE(minco.Generate(q, t).ok());  // warm-up
 
-    const long before = g_allocations.load();
+    const long before = quadhand::testing::AllocationCount();
     bool ok = minco.Generate(q, t).ok();
     double e = minco.Energy();
     minco.AddEnergyGradient(gc, gt);
@@ -47,7 +32,7 @@ TEST(MincoAllocationTest, HotPathDoesNotAllocate) {
     minco.AddSampleGradient(3, 0.2, 1, sample, 0.3, gc, gt);
     ok = ok && minco.PropagateGradient(gc, gt, &gq, &total, &gh, &gtl).ok();
     ok = ok && minco.Reset(s, m, n).ok();  // same sizes: no-op
-    const long after = g_allocations.load();
+    const long after = quadhand::testing::AllocationCount();
 
     EXPECT_TRUE(ok);
     EXPECT_GT(e, 0.0);
