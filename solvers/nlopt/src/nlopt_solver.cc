@@ -23,8 +23,22 @@ struct Context {
   SolverRun* run;
   nlopt::opt* optimizer;
   int stall_limit;  // evaluations without a new best point before giving up
+  bool scale_by_first_gradient = false;
+  double scale = 1.0;  // NLopt sees scale * cost; our tests see the cost itself
   double best = HUGE_VAL;
 };
+
+// Luksan's codes in NLopt (LBFGS, VAR1/2, the truncated-Newton family) try a
+// first step of unit length along -g and give up after ten halvings, so on a
+// cost whose gradient is of order 1e6 (the planner's, at its initial guess)
+// they never take a step. They get the cost multiplied by 1 / max(1, |g(x0)|inf),
+// which makes that first trial step move no variable by more than 1: the
+// minimiser is the same; their built-in gradient test (|g|inf <= 1e-8 on what
+// they see) becomes 1e-8 / scale on the true gradient.
+bool StartsWithUnitStep(const std::string& algorithm) {
+  return algorithm == "LD_LBFGS" || algorithm == "LD_VAR1" || algorithm == "LD_VAR2" ||
+         algorithm.rfind("LD_TNEWTON", 0) == 0;
+}
 
 // The cost as NLopt sees it. A new best point is an iterate for the
 // SolverRun; when one of its tests is met, NLopt is asked to stop.
@@ -46,6 +60,9 @@ double Cost(const std::vector<double>& x, std::vector<double>& grad, void* data)
     g_max = 0.0;
     for (double g : grad) g_max = std::max(g_max, std::abs(g));
   }
+  if (context.scale_by_first_gradient && !run.has_iterate() && want_gradient) {
+    context.scale = 1.0 / std::max(1.0, g_max);  // fixed at x0, before NLopt sees a value
+  }
   SolverRun::Stop stop = SolverRun::Stop::kNone;
   if (cost < context.best) {
     context.best = cost;
@@ -57,7 +74,10 @@ double Cost(const std::vector<double>& x, std::vector<double>& grad, void* data)
       run.StopIfTimeUp()) {
     context.optimizer->force_stop();
   }
-  return cost;
+  if (context.scale != 1.0) {
+    for (double& g : grad) g *= context.scale;
+  }
+  return context.scale * cost;
 }
 
 const char* ResultName(nlopt::result result) {
@@ -92,6 +112,7 @@ void NloptSolver::DoSolve(const opt::Objective& objective, const VecX& x0,
   try {
     nlopt::opt optimizer(algorithm_.c_str(), static_cast<unsigned>(x0.size()));
     Context context{&run, &optimizer, stall_limit};
+    context.scale_by_first_gradient = StartsWithUnitStep(algorithm_);
     optimizer.set_min_objective(Cost, &context);
     optimizer.set_vector_storage(static_cast<unsigned>(options.memory_size));
     // Only a step that leaves x unchanged in floating point meets this test.
