@@ -28,6 +28,9 @@
 //   memory_size             -> vector_storage (LBFGS, VAR1/2, TNEWTON*)
 //   line_search_c1, c2      -> not used (each algorithm has its own search)
 //   verbosity               -> one line per new best point at 2
+// Luksan's codes (LD_LBFGS, LD_VAR1/2, LD_TNEWTON*) see the cost scaled by
+// 1 / max(1, |g(x0)|inf): they try a unit first step along -g, hopeless on
+// costs with gradients of order 1e6. Results and tests use the true cost.
 // A failed or non-finite evaluation is returned to NLopt as cost +infinity
 // (and a zero gradient), which its line searches treat as a step too long.
 // The solve is stopped with nlopt::opt::force_stop() when a test is met.
