@@ -1,0 +1,165 @@
+// Command-line behaviour of quadhand-bench: bad input gives exit code 2, one
+// line and no results file; shards together give exactly the records of one
+// run (all but the wall times), and scripts/bench_report.py merges them into
+// the same table rows and rejects overlapping shards.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "support/run_command.h"
+
+namespace quadhand {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::CountLines;
+using testing::ReadAll;
+using testing::RunCommand;
+
+const std::string kBench = std::string(QUADHAND_BIN_DIR) + "/quadhand-bench";
+const std::string kSdfgen = std::string(QUADHAND_BIN_DIR) + "/quadhand-sdfgen";
+const std::string kRoot = QUADHAND_SOURCE_DIR;
+
+class BenchCliTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("quadhand_bench_" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    // Coarse link SDFs keep the test quick; the trials are what they are with them.
+    const auto r = RunCommand(kSdfgen + " -q --urdf " + kRoot + "/meshes/quadhand/quadhand.urdf --out " +
+                              (dir_ / "sdf").string() + " --resolution 0.005 --padding 0.05");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    std::ifstream in(kRoot + "/data/tasks/window_cup.yaml");
+    std::ofstream task(dir_ / "task.yaml");
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.rfind("robot:", 0) == 0) line = "robot: " + kRoot + "/meshes/quadhand/quadhand.urdf";
+      if (line.rfind("sdf_dir:", 0) == 0) line = "sdf_dir: " + (dir_ / "sdf").string();
+      if (line.rfind("scene:", 0) == 0) line = "scene: " + kRoot + "/data/scenes/window_cup.pcd";
+      task << line << "\n";
+    }
+    std::ifstream bench_in(kRoot + "/data/bench/window_cup.yaml");
+    std::ofstream bench(Config());
+    while (std::getline(bench_in, line)) {
+      if (line.rfind("task:", 0) == 0) line = "task: task.yaml";
+      bench << line << "\n";
+    }
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+
+  static std::string Config() { return (dir_ / "bench.yaml").string(); }
+  static std::string Path(const std::string& name) { return (dir_ / name).string(); }
+
+  void ExpectBadInput(const std::string& arguments, const std::string& fragment) {
+    const std::string out = Path("bad.jsonl");
+    fs::remove(out);
+    const auto r = RunCommand(kBench + " " + arguments + " --out " + out);
+    EXPECT_EQ(r.exit_code, 2) << arguments << "\n" << r.err;
+    const size_t at = r.err.find("quadhand-bench: error");
+    ASSERT_NE(at, std::string::npos) << r.err;
+    EXPECT_EQ(CountLines(r.err.substr(at)), 1) << r.err;
+    EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << arguments;
+  }
+
+  static fs::path dir_;
+};
+
+fs::path BenchCliTest::dir_;
+
+// Records by (trial, representation, solver), without the wall-time fields.
+std::map<std::string, nlohmann::json> Records(const std::vector<std::string>& files) {
+  std::map<std::string, nlohmann::json> records;
+  for (const std::string& file : files) {
+    std::istringstream lines(ReadAll(file));
+    std::string line;
+    while (std::getline(lines, line)) {
+      nlohmann::json record = nlohmann::json::parse(line);
+      for (const char* timing : {"solve_ms", "front_end_ms", "representation_build_ms"}) {
+        EXPECT_TRUE(record.contains(timing)) << line;
+        record.erase(timing);
+      }
+      const std::string key = std::to_string(record["trial"].get<int>()) + " " +
+                              record["representation"].get<std::string>() + " " +
+                              record["solver"].get<std::string>();
+      EXPECT_TRUE(records.emplace(key, record).second) << "duplicate " << key;
+    }
+  }
+  return records;
+}
+
+TEST_F(BenchCliTest, HelpListsEveryOption) {
+  const auto r = RunCommand(kBench + " --help");
+  EXPECT_EQ(r.exit_code, 0);
+  for (const char* option : {"--config", "--trials", "--first", "--solvers", "--representations", "--shard", "--out"}) {
+    EXPECT_NE(r.out.find(option), std::string::npos) << option;
+  }
+}
+
+TEST_F(BenchCliTest, BadInputExitsWithTwoAndOneLine) {
+  const std::string config = " --config " + Config() + " --trials 1";
+  ExpectBadInput(config + " --representations mrc_sdf,octree", "unknown representation 'octree'");
+  ExpectBadInput(config + " --solvers lbfgs,newton", "newton");
+  ExpectBadInput(config + " --solvers nlopt:LN_COBYLA", "LN_COBYLA");
+  ExpectBadInput(config + " --shard 2/2", "--shard '2/2'");
+  ExpectBadInput(config + " --shard 0/0", "--shard '0/0'");
+  ExpectBadInput(config + " --shard one/two", "--shard 'one/two'");
+  ExpectBadInput(config + " --trials 0", "--trials");
+  ExpectBadInput("--config " + Path("missing.yaml"), "missing.yaml");
+
+  std::ofstream(Path("no_box.yaml")) << "task: task.yaml\nyaw: [0, 1]\n";
+  ExpectBadInput("--config " + Path("no_box.yaml"), "no_box.yaml");
+  std::ofstream(Path("not_yaml.yaml")) << "task: [unclosed\n";
+  ExpectBadInput("--config " + Path("not_yaml.yaml"), "not_yaml.yaml");
+  std::ofstream(Path("no_task.yaml")) << "task: nowhere.yaml\nstart_box: {min: [0, 0, 1], max: [1, 1, 1.5]}\n";
+  ExpectBadInput("--config " + Path("no_task.yaml"), "nowhere.yaml");
+}
+
+TEST_F(BenchCliTest, TwoShardsGiveTheRecordsOfOneRun) {
+  const std::string common = kBench + " --config " + Config() + " --first 3 --trials 4";
+  const auto whole = RunCommand(common + " --out " + Path("all.jsonl"));
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  for (int shard = 0; shard < 2; ++shard) {
+    const auto r = RunCommand(common + " --shard " + std::to_string(shard) + "/2 --out " +
+                              Path("shard" + std::to_string(shard) + ".jsonl"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  const auto one = Records({Path("all.jsonl")});
+  const auto merged = Records({Path("shard0.jsonl"), Path("shard1.jsonl")});
+  ASSERT_EQ(one.size(), 4u);
+  for (const char* key : {"3 mrc_sdf lbfgs", "4 mrc_sdf lbfgs", "5 mrc_sdf lbfgs", "6 mrc_sdf lbfgs"}) {
+    EXPECT_TRUE(one.count(key)) << key;
+  }
+  // Shard K of 2 holds the trials k with k % 2 == K.
+  EXPECT_EQ(Records({Path("shard0.jsonl")}).count("4 mrc_sdf lbfgs"), 1u);
+  EXPECT_EQ(Records({Path("shard1.jsonl")}).count("3 mrc_sdf lbfgs"), 1u);
+  EXPECT_EQ(one, merged);
+
+  // The report: the same success column from one run and from the shards;
+  // a trial given twice is an error.
+  const std::string report = "python3 " + kRoot + "/scripts/bench_report.py ";
+  const auto table_one = RunCommand(report + Path("all.jsonl"));
+  const auto table_merged = RunCommand(report + Path("shard0.jsonl") + " " + Path("shard1.jsonl"));
+  ASSERT_EQ(table_one.exit_code, 0) << table_one.err;
+  ASSERT_EQ(table_merged.exit_code, 0) << table_merged.err;
+  const auto success_column = [](const std::string& table) {  // "| mrc_sdf | lbfgs | 3/4 (75 %) | ..."
+    const size_t row = table.find("| mrc_sdf | lbfgs |");
+    EXPECT_NE(row, std::string::npos) << table;
+    if (row == std::string::npos) return std::string();
+    const size_t begin = row + std::string("| mrc_sdf | lbfgs |").size();
+    return table.substr(begin, table.find('|', begin) - begin);
+  };
+  EXPECT_EQ(success_column(table_one.out), success_column(table_merged.out));
+  const auto overlapping = RunCommand(report + Path("all.jsonl") + " " + Path("shard0.jsonl"));
+  EXPECT_NE(overlapping.exit_code, 0);
+  EXPECT_NE(overlapping.err.find("trial"), std::string::npos) << overlapping.err;
+}
+
+}  // namespace
+}  // namespace quadhand
