@@ -117,6 +117,7 @@ class Parser {
   std::vector<uint8_t> buffer_;
   std::vector<std::array<uint64_t, 3>> last_timestamps_;  // (sys<<16|comp<<8|link, timestamp, -)
   std::vector<std::array<uint32_t, 2>> last_sequences_;   // (sys<<8|comp, seq)
+  uint64_t newest_timestamp_ = 0;  // newest signing timestamp accepted from any stream
 };
 
 // Decodes a frame's message; nullopt for unknown ids.

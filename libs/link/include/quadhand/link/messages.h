@@ -117,7 +117,9 @@ struct DebugFloatArray {  // DEBUG_FLOAT_ARRAY (350)
   uint64_t time_usec = 0;
   uint16_t array_id = 0;
   std::string name;         // at most 10 characters on the wire
-  std::vector<float> data;  // extension, at most 58 values (zero-padded on the wire)
+  // Extension, at most 58 values (zero-padded on the wire). Decoded arrays
+  // always hold all 58: trailing zeros cannot be told from padding.
+  std::vector<float> data;
 };
 
 using Message = std::variant<Heartbeat, AttitudeQuaternion, LocalPositionNed, CommandLong, CommandAck,
