@@ -19,12 +19,10 @@
 
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
-#include "quadhand/env/mrc_sdf_model.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/planner.h"
-#include "quadhand/planner/representation.h"
+#include "quadhand/planner/planning_context.h"
 #include "quadhand/robot/kinematics.h"
-#include "quadhand/scene/point_cloud.h"
 #include "quadhand/solvers/builtin_solvers.h"
 
 namespace {
@@ -155,34 +153,21 @@ int main(int argc, char** argv) {
     if (!(*solver)->available()) return Fail("--solvers: '" + name + "' was built without its library");
     solver_list.push_back(std::move(*solver));
   }
-  for (const std::string& name : representations) {
-    const auto known = planner::RepresentationNames();
-    if (std::find(known.begin(), known.end(), name) == known.end()) {
-      return Fail("--representations: unknown representation '" + name + "' (known: mrc_sdf, esdf, sfc)");
-    }
-  }
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status().message());
-  auto task = planner::LoadTask(config->task_path);
-  if (!task.ok()) return Fail(task.status().message());
-  auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
-  if (!robot.ok()) return Fail(robot.status().message());
-  if (core::Status s = planner::ApplyRobot(*robot, &*task); !s.ok()) return Fail(s.message());
-  auto cloud = scene::LoadPcd(task->scene_path);
-  if (!cloud.ok()) return Fail(cloud.status().message());
-  auto exact = planner::ExactClearance::Create(*robot, cloud->points);
-  if (!exact.ok()) return Fail(exact.status().message());
-  std::vector<Vec3> contain = {config->box_min, config->box_max};
-  if (task->terminal) contain.push_back(task->terminal->position);
-  auto front_end = planner::FrontEndMap::Build(cloud->points, planner::FrontEndOptions{}, contain);
-  if (!front_end.ok()) return Fail(front_end.status().message());
-  std::vector<planner::Representation> models;
-  for (const std::string& name : representations) {
-    std::fprintf(stderr, "building representation %s...\n", name.c_str());
-    auto model = planner::MakeRepresentation(name, *robot, task->sdf_dir, cloud->points);
-    if (!model.ok()) return Fail(model.status().message());
-    models.push_back(std::move(*model));
+  planner::PlanningContextOptions context_options;
+  context_options.representations = representations;
+  context_options.front_end_also_contain = {config->box_min, config->box_max};
+  std::fprintf(stderr, "loading %s and building %zu representation(s)...\n", config->task_path.c_str(),
+               representations.size());
+  auto context = planner::PlanningContext::Load(config->task_path, context_options);
+  if (!context.ok()) {
+    const bool bad_name = context.status().message().rfind("unknown representation", 0) == 0;
+    return Fail((bad_name ? "--representations: " : "") + context.status().message());
   }
+  const planner::Task* task = &(*context)->task();
+  const robot::RobotModel* robot = &(*context)->robot();
+  const planner::ExactClearance* exact = &(*context)->exact();
   const planner::PlannerOptions options = planner::DefaultPlannerOptions();
 
   std::ostringstream lines;
@@ -192,12 +177,13 @@ int main(int argc, char** argv) {
   for (int k = first; k < first + trials; ++k) {
     if (k % shards != shard) continue;
     planner::Task trial = *task;
-    if (!DrawStart(static_cast<unsigned>(k), *config, *robot, **exact, task->safety_distance, &trial.start)) {
+    if (!DrawStart(static_cast<unsigned>(k), *config, *robot, *exact, task->safety_distance, &trial.start)) {
       return Fail("trial " + std::to_string(k) + ": no collision-free start found in 1000 draws");
     }
     trial.start.joint_rates = VecX::Zero(robot->num_actuated());
-    for (const planner::Representation& model : models) {
-      const planner::PlanningScene scene{*robot, *model.scene_model, **exact, *front_end, model.per_plan};
+    for (size_t ri = 0; ri < (*context)->representations().size(); ++ri) {
+      const planner::Representation& model = (*context)->representations()[ri];
+      const planner::PlanningScene scene = (*context)->Scene(ri);
       for (size_t si = 0; si < solver_list.size(); ++si) {
         auto result = planner::Plan(scene, trial, options, *solver_list[si]);
         nlohmann::json line;

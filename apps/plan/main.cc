@@ -15,13 +15,10 @@
 
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
-#include "quadhand/env/mrc_sdf_model.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/planner.h"
-#include "quadhand/planner/representation.h"
-#include "quadhand/planner/task.h"
+#include "quadhand/planner/planning_context.h"
 #include "quadhand/robot/kinematics.h"
-#include "quadhand/scene/point_cloud.h"
 #include "quadhand/solvers/builtin_solvers.h"
 #include "quadhand/robot/link_meshes.h"
 #include "quadhand/viz/html_view.h"
@@ -222,55 +219,39 @@ int main(int argc, char** argv) {
   if (!solver.ok()) return Fail("--solver: " + solver.status().message());
   if (!(*solver)->available()) return Fail("--solver '" + solver_name + "' was built without its library");
 
-  auto task = planner::LoadTask(task_path);
-  if (!task.ok()) return Fail(task.status().message());
-  auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
-  if (!robot.ok()) return Fail(robot.status().message());
-  if (core::Status s = planner::ApplyRobot(*robot, &*task); !s.ok()) return Fail(s.message());
-  auto cloud = scene::LoadPcd(task->scene_path);
-  if (!cloud.ok()) return Fail(cloud.status().message());
-  if (cloud->dropped_non_finite > 0) {
-    core::LogInfo("%s: dropped %ld non-finite points", task->scene_path.c_str(), cloud->dropped_non_finite);
+  planner::PlanningContextOptions context_options;
+  context_options.representations = {representation};
+  auto context = planner::PlanningContext::Load(task_path, context_options);
+  if (!context.ok()) return Fail(context.status().message());
+  const planner::Task& task = (*context)->task();
+  const robot::RobotModel& robot = (*context)->robot();
+  if ((*context)->dropped_non_finite_points() > 0) {
+    core::LogInfo("%s: dropped %ld non-finite points", task.scene_path.c_str(),
+                  (*context)->dropped_non_finite_points());
   }
-  core::LogInfo("quadhand-plan: %s, %zu scene points, robot %s", task_path.c_str(), cloud->points.size(),
-                robot->name().c_str());
-
-  auto model = planner::MakeRepresentation(representation, *robot, task->sdf_dir, cloud->points);
-  if (!model.ok()) return Fail(model.status().message());
-  const double representation_ms = model->build_ms;
-  auto exact = planner::ExactClearance::Create(*robot, cloud->points);
-  if (!exact.ok()) return Fail(exact.status().message());
-  planner::FrontEndOptions front_end_options;
-  std::vector<Vec3> contain = {task->start.position};
-  if (task->terminal) contain.push_back(task->terminal->position);
-  // A goal given as a tool pose: the base ends within the arm's reach of it.
-  if (task->tool) {
-    contain.push_back(task->tool->position - Vec3::Constant(1.0));
-    contain.push_back(task->tool->position + Vec3::Constant(1.0));
-  }
-  auto front_end = planner::FrontEndMap::Build(cloud->points, front_end_options, contain);
-  if (!front_end.ok()) return Fail(task->scene_path + ": " + front_end.status().message());
+  core::LogInfo("quadhand-plan: %s, %zu scene points, robot %s", task_path.c_str(), (*context)->points().size(),
+                robot.name().c_str());
+  const double representation_ms = (*context)->representations().front().build_ms;
 
   planner::PlannerOptions options = planner::DefaultPlannerOptions();
   options.post_check.dt = std::min(options.post_check.dt, dt);
   options.solver.verbosity = verbose ? 1 : 0;
   options.terminal_state.seed = seed;
-  const planner::PlanningScene scene{*robot, *model->scene_model, **exact, *front_end, model->per_plan};
-  auto result = planner::Plan(scene, *task, options, **solver);
+  auto result = planner::Plan((*context)->Scene(), task, options, **solver);
   if (!result.ok()) return Fail(result.status().message());
 
   const double total_ms = Ms(start_time);
   core::AtomicFileSet outputs;
   const nlohmann::json report =
-      Report(*result, *robot, solver_name, representation, representation_ms, total_ms, task_path, seed);
+      Report(*result, robot, solver_name, representation, representation_ms, total_ms, task_path, seed);
   if (core::Status s = outputs.Stage(report_path, report.dump(2) + "\n"); !s.ok()) return Fail(s.message());
   if (result->trajectory && (result->success || keep_failed_plan)) {
-    if (core::Status s = outputs.Stage(out_path, PlanCsv(*result->trajectory, *robot, dt)); !s.ok()) {
+    if (core::Status s = outputs.Stage(out_path, PlanCsv(*result->trajectory, robot, dt)); !s.ok()) {
       return Fail(s.message());
     }
   }
   if (!html_path.empty() && result->trajectory) {
-    auto page = HtmlPage(*result, *robot, cloud->points, task_path);
+    auto page = HtmlPage(*result, robot, (*context)->points(), task_path);
     if (!page.ok()) return Fail(html_path + ": " + page.status().message());
     if (core::Status s = outputs.Stage(html_path, *page); !s.ok()) return Fail(s.message());
   }

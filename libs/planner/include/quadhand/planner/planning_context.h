@@ -1,0 +1,64 @@
+// Everything a plan needs that is built once per task file and scene: the
+// task, the robot (with the task's joint limits applied), the scene cloud,
+// the collision representations by name, the exact clearance of the
+// post-check and the front-end map. quadhand-plan, quadhand-bench and
+// quadhand-online load it the same way.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/core/types.h"
+#include "quadhand/planner/front_end.h"
+#include "quadhand/planner/planner.h"
+#include "quadhand/planner/post_check.h"
+#include "quadhand/planner/representation.h"
+#include "quadhand/planner/task.h"
+#include "quadhand/robot/robot_model.h"
+
+namespace quadhand::planner {
+
+struct PlanningContextOptions {
+  // Built in this order; names from RepresentationNames().
+  std::vector<std::string> representations = {"mrc_sdf"};
+  FrontEndOptions front_end;
+  // Points the front-end map must cover besides the cloud, the task's start,
+  // its terminal state and (for a tool-pose goal) the arm's reach around the
+  // tool: e.g. the corners of a benchmark's start box.
+  std::vector<Vec3> front_end_also_contain;
+};
+
+class PlanningContext {
+ public:
+  // Loads the task, its robot and scene and builds the representations.
+  // Errors name the file and the problem (InvalidArgument for an unknown
+  // representation name).
+  static core::Result<std::unique_ptr<PlanningContext>> Load(const std::string& task_path,
+                                                             const PlanningContextOptions& options);
+
+  const Task& task() const { return task_; }
+  const robot::RobotModel& robot() const { return robot_; }
+  const std::vector<Vec3>& points() const { return points_; }
+  long dropped_non_finite_points() const { return dropped_non_finite_; }
+  const ExactClearance& exact() const { return *exact_; }
+  const FrontEndMap& front_end() const { return *front_end_; }
+  const std::vector<Representation>& representations() const { return representations_; }
+  // The scene of representation `index` (in PlanningContextOptions order);
+  // valid while this context lives.
+  PlanningScene Scene(size_t index = 0) const;
+
+ private:
+  PlanningContext(Task task, robot::RobotModel robot) : task_(std::move(task)), robot_(std::move(robot)) {}
+
+  Task task_;
+  robot::RobotModel robot_;
+  std::vector<Vec3> points_;
+  long dropped_non_finite_ = 0;
+  std::unique_ptr<ExactClearance> exact_;
+  std::unique_ptr<FrontEndMap> front_end_;
+  std::vector<Representation> representations_;
+};
+
+}  // namespace quadhand::planner

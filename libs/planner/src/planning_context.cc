@@ -1,0 +1,58 @@
+#include "quadhand/planner/planning_context.h"
+
+#include <algorithm>
+
+#include "quadhand/scene/point_cloud.h"
+
+namespace quadhand::planner {
+
+core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Load(const std::string& task_path,
+                                                                     const PlanningContextOptions& options) {
+  const std::vector<std::string> known = RepresentationNames();
+  for (const std::string& name : options.representations) {
+    if (std::find(known.begin(), known.end(), name) == known.end()) {
+      return core::Status::InvalidArgument("unknown representation '" + name + "' (known: mrc_sdf, esdf, sfc)");
+    }
+  }
+  auto task = LoadTask(task_path);
+  if (!task.ok()) return task.status();
+  auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
+  if (!robot.ok()) return robot.status();
+  QUADHAND_RETURN_IF_ERROR(ApplyRobot(*robot, &*task));
+  auto cloud = scene::LoadPcd(task->scene_path);
+  if (!cloud.ok()) return cloud.status();
+
+  std::unique_ptr<PlanningContext> context(new PlanningContext(std::move(*task), std::move(*robot)));
+  context->points_ = std::move(cloud->points);
+  context->dropped_non_finite_ = cloud->dropped_non_finite;
+  const Task& t = context->task_;
+
+  auto exact = ExactClearance::Create(context->robot_, context->points_);
+  if (!exact.ok()) return exact.status();
+  context->exact_ = std::move(*exact);
+
+  std::vector<Vec3> contain = options.front_end_also_contain;
+  contain.push_back(t.start.position);
+  if (t.terminal) contain.push_back(t.terminal->position);
+  if (t.tool) {  // a goal given as a tool pose: the base ends within the arm's reach of it
+    contain.push_back(t.tool->position - Vec3::Constant(1.0));
+    contain.push_back(t.tool->position + Vec3::Constant(1.0));
+  }
+  auto front_end = FrontEndMap::Build(context->points_, options.front_end, contain);
+  if (!front_end.ok()) return front_end.status().WithPrefix(t.scene_path);
+  context->front_end_ = std::make_unique<FrontEndMap>(std::move(*front_end));
+
+  for (const std::string& name : options.representations) {
+    auto model = MakeRepresentation(name, context->robot_, t.sdf_dir, context->points_);
+    if (!model.ok()) return model.status();
+    context->representations_.push_back(std::move(*model));
+  }
+  return context;
+}
+
+PlanningScene PlanningContext::Scene(size_t index) const {
+  const Representation& model = representations_.at(index);
+  return PlanningScene{robot_, *model.scene_model, *exact_, *front_end_, model.per_plan};
+}
+
+}  // namespace quadhand::planner
