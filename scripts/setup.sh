@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages QuadHand builds and tests with. Idempotent:
 # when everything is already installed it does nothing (and needs no root)
-# beyond `npm ci` for libs/viz/web if its node_modules is missing.
+# beyond `npm ci` for libs/viz/web and tests/link/peer if their node_modules are missing.
 # Usage: bash scripts/setup.sh
 set -euo pipefail
 
@@ -20,6 +20,7 @@ packages=(
   libceres-dev coinor-libipopt-dev libnlopt-cxx-dev  # optional solver back-ends (solvers/ceres, ipopt, nlopt)
   chromium               # headless browser that loads the HTML view in tests/viz
   python3-matplotlib     # plots of scripts/figure8.py (the simulator's figure-eight experiment)
+  libssl-dev             # libcrypto's SHA-256 for MAVLink message signing (libs/link)
 )
 
 missing=()
@@ -45,9 +46,21 @@ install_viz_web() {
   fi
 }
 
+# node-mavlink as pinned in tests/link/peer/package-lock.json: the independent
+# MAVLink peer the link tests talk to (tests/link/peer_test.cc fails without it).
+install_link_peer() {
+  local peer
+  peer="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/tests/link/peer"
+  if [ ! -f "$peer/node_modules/node-mavlink/package.json" ]; then
+    echo "setup: npm ci in $peer"
+    (cd "$peer" && npm ci --no-audit --no-fund)
+  fi
+}
+
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all packages already installed"
   install_viz_web
+  install_link_peer
   exit 0
 fi
 
@@ -61,4 +74,5 @@ export DEBIAN_FRONTEND=noninteractive
 "${sudo_cmd[@]}" apt-get -o DPkg::Lock::Timeout=900 update -qq
 "${sudo_cmd[@]}" apt-get -o DPkg::Lock::Timeout=900 install -y -qq --no-install-recommends "${missing[@]}"
 install_viz_web
+install_link_peer
 echo "setup: done"

@@ -11,6 +11,7 @@
 
 #include "quadhand/link/frame.h"
 #include "quadhand/link/messages.h"
+#include "link/sample_messages.h"
 
 namespace quadhand::link {
 namespace {
@@ -27,75 +28,7 @@ SigningKey KeyOf(uint8_t first) {
   return key;
 }
 
-// One of each message, every field non-zero where the type allows.
-std::vector<Message> SampleMessages() {
-  Heartbeat heartbeat;
-  heartbeat.custom_mode = mav::Px4CustomMode(mav::kPx4MainModeOffboard);
-  heartbeat.type = mav::kTypeQuadrotor;
-  heartbeat.autopilot = mav::kAutopilotPx4;
-  heartbeat.base_mode = mav::kModeFlagCustomModeEnabled | mav::kModeFlagSafetyArmed;
-  heartbeat.system_status = mav::kStateActive;
-  AttitudeQuaternion attitude;
-  attitude.time_boot_ms = 123456;
-  attitude.q1 = 0.5f;
-  attitude.q2 = -0.5f;
-  attitude.q3 = 0.5f;
-  attitude.q4 = -0.5f;
-  attitude.rollspeed = 0.1f;
-  attitude.pitchspeed = -0.2f;
-  attitude.yawspeed = 0.3f;
-  attitude.repr_offset_q = {1.0f, 0.0f, 0.0f, 0.25f};
-  LocalPositionNed position;
-  position.time_boot_ms = 4000000000u;
-  position.x = 1.5f;
-  position.y = -2.25f;
-  position.z = -3.0f;
-  position.vx = 0.125f;
-  position.vy = -0.5f;
-  position.vz = 0.75f;
-  CommandLong command;
-  command.command = mav::kCmdDoSetMode;
-  command.param1 = 1;
-  command.param2 = 6;
-  command.param7 = -7.5f;
-  command.target_system = 1;
-  command.target_component = 1;
-  command.confirmation = 2;
-  CommandAck ack;
-  ack.command = mav::kCmdComponentArmDisarm;
-  ack.result = mav::kResultDenied;
-  ack.progress = 100;
-  ack.result_param2 = -42;
-  ack.target_system = 255;
-  ack.target_component = 190;
-  SetPositionTargetLocalNed setpoint;
-  setpoint.time_boot_ms = 77;
-  setpoint.x = 1;
-  setpoint.y = 2;
-  setpoint.z = -3;
-  setpoint.vx = 0.1f;
-  setpoint.vy = 0.2f;
-  setpoint.vz = 0.3f;
-  setpoint.afx = -0.1f;
-  setpoint.afy = -0.2f;
-  setpoint.afz = -0.3f;
-  setpoint.yaw = 1.25f;
-  setpoint.yaw_rate = -0.5f;
-  setpoint.type_mask = 0x0C00;
-  setpoint.target_system = 1;
-  setpoint.target_component = 1;
-  StatusText text;
-  text.severity = 4;
-  text.text = "Offboard lost: holding position";
-  text.id = 3;
-  text.chunk_seq = 1;
-  DebugFloatArray joints;
-  joints.time_usec = 1234567890123ULL;
-  joints.array_id = 1;
-  joints.name = "JOINTS";
-  joints.data = {0.1f, -0.2f, 0.3f, 0.4f};
-  return {heartbeat, attitude, position, command, ack, setpoint, text, joints};
-}
+using link_testing::SampleMessages;
 
 std::vector<Frame> ParseAll(Parser& parser) {
   std::vector<Frame> frames;
