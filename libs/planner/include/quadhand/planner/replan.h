@@ -1,0 +1,80 @@
+// Warm-started replanning: a new plan from a measured state to the same goal,
+// started from what is left of the current plan instead of a front-end search.
+//
+//   current plan (pieces T_0 .. T_{N-1})      t_from in piece i, local time s
+//   initial guess: durations (T_i - s, T_{i+1}, .., T_{N-1}), waypoints the
+//                  current plan's junctions after t_from (position, yaw and
+//                  joints); a first piece shorter than min_piece_duration is
+//                  merged into the next one (its junction dropped)
+//   start boundary: the given (measured) state; goal: the current terminal
+//   solve with warm-start settings (few iterations, loose stopping rule)
+//   -> the same post-check as Plan() -> raise violated weights and resume
+//
+// The result's time 0 is the start state's time (t_from on the old clock).
+// World ENU, metres, radians, seconds.
+#pragma once
+
+#include <string>
+
+#include "quadhand/core/status.h"
+#include "quadhand/opt/solver.h"
+#include "quadhand/planner/planner.h"
+
+namespace quadhand::planner {
+
+struct ReplanOptions {
+  // Stopping rules of a warm-started solve. The guess is close to a local
+  // minimum already, so a few iterations with a looser cost test recover
+  // most of the improvement (DefaultReplanOptions() sets them; measured
+  // figures in docs/online.md).
+  opt::SolverOptions solver;
+  int max_attempts = 2;  // solves (the first plus re-solves with raised weights)
+  // A remaining first piece shorter than this (s) is merged into the next
+  // one: a very short piece cannot absorb the start-state offset without
+  // extreme accelerations.
+  double min_piece_duration = 0.15;
+
+  bool IsValid(std::string* why) const;
+};
+
+ReplanOptions DefaultReplanOptions();
+
+// Runs solves of `problem` from `x0` (at most `max_attempts`), each followed by
+// the post-check against `task` (whose start is the problem's start state),
+// raising the weights of the violated terms between solves. Fills the
+// trajectory, post_check, final_cost, attempts, solve_ms, iterations,
+// evaluations, success, status ("success", "post_check_failed",
+// "solver_failed") and message of *result; reads result->terminal and
+// result->insertion. Errors only for inconsistent input (sizes, options).
+core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const PlanningScene& scene,
+                               const env::CollisionModel& collision, const Task& task,
+                               const PlannerOptions& options, const opt::SolverOptions& solver_options,
+                               int max_attempts, const opt::Solver& solver, PlanResult* result);
+
+// Raises (by `factor`) the weight of each term whose post-check failed; false
+// when no failed check has a weight to raise (re-solving cannot help).
+bool RaiseWeightsOfFailedChecks(const PostCheckReport& report, double factor, WholeBodyCostOptions* cost);
+
+// The remainder of `trajectory` from t_from as an initial guess for a
+// problem of `*num_pieces` pieces (see the header comment): waypoints
+// 3 x (N-1) and (1 + n) x (N-1), durations N. InvalidArgument when t_from is
+// outside [0, duration).
+core::Status RemainderGuess(const WholeBodyTrajectory& trajectory, double t_from, double min_piece_duration,
+                            MatX* position_waypoints, MatX* aux_waypoints, VecX* durations, int* first_piece);
+
+// A new plan from `start` (measured, e.g. 10-20 cm off the current plan) to
+// current.terminal, warm-started from current.trajectory's remainder after
+// t_from (seconds on the current plan's clock). `task` is the task the
+// current plan was made for (its goal, limits, safety distance); its start is
+// replaced by `start`. Ordinary outcomes are PlanResults with success false:
+// status "insertion_in_progress" (t_from lies in the insertion piece: a plan
+// starting partway down the insertion line cannot pass the insertion check),
+// "start_in_collision" (the measured state is closer than the safety
+// distance), "representation_failed", or the statuses of SolveAndPostCheck.
+// InvalidArgument for inconsistent input (no current trajectory, joint
+// counts, invalid options).
+core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                                const ReplanOptions& replan, const opt::Solver& solver, const PlanResult& current,
+                                double t_from, const BoundaryState& start);
+
+}  // namespace quadhand::planner

@@ -1,0 +1,245 @@
+#include "quadhand/planner/replan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "quadhand/robot/kinematics.h"
+
+namespace quadhand::planner {
+
+bool ReplanOptions::IsValid(std::string* why) const {
+  std::string inner;
+  if (!solver.IsValid(&inner)) {
+    if (why != nullptr) *why = "replan solver: " + inner;
+    return false;
+  }
+  if (max_attempts < 1) {
+    if (why != nullptr) *why = "replan max_attempts must be at least 1";
+    return false;
+  }
+  if (!(std::isfinite(min_piece_duration) && min_piece_duration > 0.0)) {
+    if (why != nullptr) *why = "replan min_piece_duration must be positive";
+    return false;
+  }
+  return true;
+}
+
+ReplanOptions DefaultReplanOptions() {
+  ReplanOptions options;
+  // Measured on the default task (docs/online.md): from a guess 5-20 cm off,
+  // the cost stops falling by more than 1e-3 per two steps within about
+  // 10-20 iterations; the post-check decides whether that was enough.
+  options.solver.max_iterations = 20;
+  options.solver.relative_cost_tolerance = 1e-3;
+  options.solver.relative_cost_window = 2;
+  options.solver.gradient_tolerance = 1e-4;
+  options.solver.max_time_seconds = 0.2;
+  options.solver.memory_size = 8;
+  return options;
+}
+
+bool RaiseWeightsOfFailedChecks(const PostCheckReport& report, double factor, WholeBodyCostOptions* cost) {
+  bool raised = false;
+  for (const CheckResult& check : report.checks) {
+    if (check.passed) continue;
+    double* weight = nullptr;
+    if (check.name == "clearance") weight = &cost->weight_collision;
+    else if (check.name == "velocity") weight = &cost->weight_velocity;
+    else if (check.name == "acceleration") weight = &cost->weight_acceleration;
+    else if (check.name == "yaw_rate") weight = &cost->weight_yaw_rate;
+    else if (check.name == "body_rate_xy") weight = &cost->weight_body_rate;
+    else if (check.name == "joint_limits") weight = &cost->weight_joint_limits;
+    else if (check.name == "insertion") weight = &cost->weight_insertion;
+    else if (check.name.size() > 5 && check.name.compare(check.name.size() - 5, 5, "_rate") == 0) {
+      weight = &cost->weight_joint_rate;  // "<joint>_rate"
+    }
+    if (weight != nullptr) {
+      *weight *= factor;
+      raised = true;
+    }
+  }
+  return raised;
+}
+
+core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const PlanningScene& scene,
+                               const env::CollisionModel& collision, const Task& task,
+                               const PlannerOptions& options, const opt::SolverOptions& solver_options,
+                               int max_attempts, const opt::Solver& solver, PlanResult* result) {
+  if (problem == nullptr || result == nullptr) return core::Status::InvalidArgument("no problem or result");
+  if (x0.size() != problem->num_variables()) return core::Status::InvalidArgument("initial guess has the wrong size");
+  if (std::string why; !solver_options.IsValid(&why)) return core::Status::InvalidArgument("solver options: " + why);
+  WholeBodyCostOptions cost = problem->options();
+  VecX x = x0;
+  result->success = false;
+  for (int attempt = 0; attempt < max_attempts; ++attempt) {
+    const opt::SolveResult solved = solver.Solve(*problem, x, solver_options);
+    PlanAttempt record;
+    record.solve_ms = solved.wall_time_seconds * 1e3;
+    record.iterations = solved.iterations;
+    record.evaluations = solved.evaluations;
+    record.solver_status = solved.StatusName();
+    result->solve_ms += record.solve_ms;
+    result->iterations += solved.iterations;
+    result->evaluations += solved.evaluations;
+    auto trajectory = problem->Trajectory(solved.x);
+    if (!std::isfinite(solved.cost) || !trajectory.ok()) {
+      record.post_check_failure = "solver returned no usable trajectory (" + solved.message + ")";
+      result->attempts.push_back(record);
+      result->status = "solver_failed";
+      result->message = record.post_check_failure;
+      return core::Status::Ok();
+    }
+    x = solved.x;
+    result->post_check = PostCheck(*trajectory, scene.robot, task, result->terminal, result->insertion, collision,
+                                   scene.exact, options.post_check);
+    result->trajectory = std::move(*trajectory);
+    if (auto breakdown = problem->Breakdown(x); breakdown.ok()) result->final_cost = *breakdown;
+    record.post_check_failure = result->post_check.FirstFailure();
+    result->attempts.push_back(record);
+    if (result->post_check.passed) break;
+    if (!RaiseWeightsOfFailedChecks(result->post_check, options.weight_raise_factor, &cost)) break;
+    QUADHAND_RETURN_IF_ERROR(problem->SetOptions(cost));
+  }
+  result->success = result->post_check.passed;
+  result->status = result->success ? "success" : "post_check_failed";
+  result->message = result->success ? "plan passed the post-check" : result->post_check.FirstFailure();
+  return core::Status::Ok();
+}
+
+core::Status RemainderGuess(const WholeBodyTrajectory& trajectory, double t_from, double min_piece_duration,
+                            MatX* position_waypoints, MatX* aux_waypoints, VecX* durations, int* first_piece) {
+  const traj::Minco& position = trajectory.position();
+  const traj::Minco& aux = trajectory.aux();
+  const VecX& T = position.durations();
+  const int N = static_cast<int>(T.size());
+  if (!(t_from >= 0.0 && t_from < trajectory.duration())) {
+    return core::Status::InvalidArgument("replanning time " + std::to_string(t_from) + " s is outside the plan [0, " +
+                                         std::to_string(trajectory.duration()) + ")");
+  }
+  int piece = 0;
+  double local = 0.0;
+  position.LocatePiece(t_from, &piece, &local);
+  double first_duration = std::max(0.0, T[piece] - local);
+  // `last` is the last old piece folded into the new first piece.
+  int last = piece;
+  if (first_duration < min_piece_duration && piece + 1 < N) {
+    ++last;
+    first_duration += T[last];
+  }
+  const int pieces = N - last;
+  if (pieces == 1) first_duration = std::max(first_duration, min_piece_duration);
+  durations->resize(pieces);
+  (*durations)[0] = first_duration;
+  for (int i = 1; i < pieces; ++i) (*durations)[i] = T[last + i];
+  position_waypoints->resize(3, pieces - 1);
+  aux_waypoints->resize(aux.dims(), pieces - 1);
+  for (int i = 0; i + 1 < pieces; ++i) {
+    const int junction_piece = last + i;  // the junction at the end of this old piece
+    position_waypoints->col(i) = position.Evaluate(junction_piece, T[junction_piece], 0);
+    aux_waypoints->col(i) = aux.Evaluate(junction_piece, T[junction_piece], 0);
+  }
+  if (first_piece != nullptr) *first_piece = piece;
+  return core::Status::Ok();
+}
+
+core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                                const ReplanOptions& replan, const opt::Solver& solver, const PlanResult& current,
+                                double t_from, const BoundaryState& start) {
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
+  if (std::string why; !replan.IsValid(&why)) return core::Status::InvalidArgument(why);
+  if (!current.trajectory) return core::Status::InvalidArgument("replanning needs a current trajectory");
+  const robot::RobotModel& robot = scene.robot;
+  const int n = robot.num_actuated();
+  if (start.joints.size() != n) {
+    return core::Status::InvalidArgument("start state has " + std::to_string(start.joints.size()) +
+                                         " joint values, the robot has " + std::to_string(n));
+  }
+  if (!start.position.allFinite() || !start.velocity.allFinite() || !start.acceleration.allFinite() ||
+      !start.jerk.allFinite() || !std::isfinite(start.yaw) || !std::isfinite(start.yaw_rate) ||
+      !start.joints.allFinite() || !start.joint_rates.allFinite()) {
+    return core::Status::InvalidArgument("start state is not finite");
+  }
+  const WholeBodyTrajectory& trajectory = *current.trajectory;
+  PlanResult result;
+  result.terminal = current.terminal;
+  result.terminal_searched = current.terminal_searched;
+  result.terminal_search = current.terminal_search;
+  result.insertion = current.insertion;
+
+  MatX position_waypoints, aux_waypoints;
+  VecX durations;
+  int first_piece = 0;
+  QUADHAND_RETURN_IF_ERROR(RemainderGuess(trajectory, t_from, replan.min_piece_duration, &position_waypoints,
+                                          &aux_waypoints, &durations, &first_piece));
+  const int old_pieces = trajectory.num_pieces();
+  if (current.insertion.enabled) {
+    // The insertion piece must start backed off the full length above the
+    // goal; a start inside it, or too close before it to keep a proper first
+    // piece, cannot give a plan that passes the insertion check.
+    const bool inside = first_piece == old_pieces - 1;
+    const bool merged_into_insertion = durations.size() == 1;
+    if (inside || merged_into_insertion) {
+      result.status = "insertion_in_progress";
+      result.message = "the current plan is in (or about to start) its insertion piece: not replanned";
+      return result;
+    }
+  }
+
+  Task replan_task = task;
+  replan_task.start = start;
+  if (replan_task.start.joint_rates.size() == 0) replan_task.start.joint_rates = VecX::Zero(n);
+  // The measured yaw, unwrapped next to the plan's (the plan may have turned
+  // past +-pi; the terminal yaw is unwrapped relative to the plan).
+  const double plan_yaw = trajectory.Sample(t_from).yaw;
+  replan_task.start.yaw = plan_yaw + std::remainder(start.yaw - plan_yaw, 2.0 * M_PI);
+
+  // A start closer than the safety distance cannot pass the post-check.
+  {
+    robot::KinematicsState kinematics;
+    const Pose base = MakePose(replan_task.start.position,
+                               Eigen::AngleAxisd(replan_task.start.yaw, Vec3::UnitZ()).toRotationMatrix());
+    robot::ComputeKinematics(robot, base, replan_task.start.joints, &kinematics);
+    int link = -1;
+    const double clearance = scene.exact.WholeBody(kinematics, task.safety_distance + 0.05, &link);
+    if (clearance < task.safety_distance - options.post_check.clearance_tolerance) {
+      result.status = "start_in_collision";
+      result.message = "the start state is " + std::to_string(clearance) + " m from the scene (link " +
+                       (link >= 0 ? robot.link(link).name : std::string("?")) + ", safety distance " +
+                       std::to_string(task.safety_distance) + " m)";
+      return result;
+    }
+  }
+
+  const int pieces = static_cast<int>(durations.size());
+  result.num_pieces = pieces;
+  const env::CollisionModel* collision = &scene.collision;
+  std::unique_ptr<env::CollisionModel> per_plan;
+  if (scene.per_plan_collision) {
+    // Corridors along the remaining piece boundaries (there is no front-end path).
+    std::vector<Vec3> boundaries = {replan_task.start.position};
+    for (int i = 0; i < position_waypoints.cols(); ++i) boundaries.push_back(position_waypoints.col(i));
+    boundaries.push_back(result.terminal.position);
+    auto built = scene.per_plan_collision(boundaries, boundaries, &result.per_plan_collision_ms);
+    if (!built.ok()) {
+      if (built.status().code() != core::StatusCode::kInfeasible) return built.status();
+      result.status = "representation_failed";
+      result.message = built.status().message();
+      return result;
+    }
+    per_plan = std::move(*built);
+    collision = per_plan.get();
+  }
+
+  WholeBodyCostOptions cost = options.cost;
+  cost.collision_threshold = task.safety_distance + options.collision_margin;
+  auto problem = WholeBodyProblem::Create(robot, *collision, replan_task.start, result.terminal, task.limits,
+                                          result.insertion, cost, pieces);
+  if (!problem.ok()) return problem.status();
+  const VecX x0 = (*problem)->Pack(position_waypoints, aux_waypoints, durations);
+  QUADHAND_RETURN_IF_ERROR(SolveAndPostCheck(problem->get(), x0, scene, *collision, replan_task, options,
+                                             replan.solver, replan.max_attempts, solver, &result));
+  return result;
+}
+
+}  // namespace quadhand::planner
