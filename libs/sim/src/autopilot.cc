@@ -1,0 +1,377 @@
+// The PX4-like autopilot of quadhand-sim --udp (see autopilot.h, docs/sim.md).
+#include "quadhand/sim/autopilot.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+#include "quadhand/link/frames.h"
+
+namespace quadhand::sim {
+namespace {
+
+constexpr double kTimeEpsilon = 1e-9;
+constexpr uint8_t kSeverityWarning = 4;  // MAV_SEVERITY_WARNING
+constexpr uint8_t kSeverityInfo = 6;     // MAV_SEVERITY_INFO
+
+link::StatusText Text(uint8_t severity, const std::string& text) {
+  link::StatusText s;
+  s.severity = severity;
+  s.text = text;
+  return s;
+}
+
+bool AllFinite(std::initializer_list<float> values) {
+  for (float v : values) {
+    if (!std::isfinite(v)) return false;
+  }
+  return true;
+}
+
+// Reads a list of numbers from a YAML node; nullopt when it is not one.
+std::optional<std::vector<double>> Numbers(const YAML::Node& node) {
+  if (!node || !node.IsSequence()) return std::nullopt;
+  std::vector<double> values;
+  for (const YAML::Node& item : node) {
+    if (!item.IsScalar()) return std::nullopt;
+    double v = 0.0;
+    if (!YAML::convert<double>::decode(item, v) || !std::isfinite(v)) return std::nullopt;
+    values.push_back(v);
+  }
+  return values;
+}
+
+}  // namespace
+
+bool AutopilotOptions::IsValid(std::string* why) const {
+  auto fail = [&](const char* message) {
+    if (why) *why = message;
+    return false;
+  };
+  if (!(telemetry_period > 0.0 && std::isfinite(telemetry_period))) return fail("telemetry_period must be > 0");
+  if (!(heartbeat_period > 0.0 && std::isfinite(heartbeat_period))) return fail("heartbeat_period must be > 0");
+  if (!(offboard_timeout > 0.0 && std::isfinite(offboard_timeout))) return fail("offboard_timeout must be > 0");
+  if (!(offboard_min_stream >= 0.0 && std::isfinite(offboard_min_stream))) {
+    return fail("offboard_min_stream must be >= 0");
+  }
+  return true;
+}
+
+const char* FlightModeName(FlightMode mode) { return mode == FlightMode::kOffboard ? "OFFBOARD" : "POSITION"; }
+
+core::Result<StartPose> ParseStartPose(const std::string& text) {
+  auto bad = [&]() {
+    return core::Status::InvalidArgument("--start '" + text + "': expected x,y,z or x,y,z,yaw (m, rad; ENU)");
+  };
+  std::vector<double> values;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    char* end = nullptr;
+    const double v = std::strtod(item.c_str(), &end);
+    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(v)) return bad();
+    values.push_back(v);
+  }
+  if (!text.empty() && text.back() == ',') return bad();
+  if (values.size() != 3 && values.size() != 4) return bad();
+  StartPose start;
+  start.position = Vec3(values[0], values[1], values[2]);
+  start.yaw = values.size() == 4 ? values[3] : 0.0;
+  return start;
+}
+
+core::Result<StartPose> LoadTaskStartPose(const std::string& task_path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(task_path);
+  } catch (const YAML::BadFile&) {
+    return core::Status::NotFound(task_path + ": cannot read the task file");
+  } catch (const YAML::Exception& e) {
+    return core::Status::InvalidArgument(task_path + ": not valid YAML: " + e.what());
+  }
+  const YAML::Node start = root.IsMap() ? root["start"] : YAML::Node();
+  if (!start || !start.IsMap()) return core::Status::InvalidArgument(task_path + ": start: missing (a map)");
+  StartPose pose;
+  const std::optional<std::vector<double>> position = Numbers(start["position"]);
+  if (!position || position->size() != 3) {
+    return core::Status::InvalidArgument(task_path + ": start.position: expected a list of 3 numbers");
+  }
+  pose.position = Vec3((*position)[0], (*position)[1], (*position)[2]);
+  double yaw = 0.0;
+  if (!start["yaw"] || !start["yaw"].IsScalar() || !YAML::convert<double>::decode(start["yaw"], yaw) ||
+      !std::isfinite(yaw)) {
+    return core::Status::InvalidArgument(task_path + ": start.yaw: expected a number");
+  }
+  pose.yaw = yaw;
+  const std::optional<std::vector<double>> joints = Numbers(start["joints"]);
+  if (!joints) return core::Status::InvalidArgument(task_path + ": start.joints: expected a list of numbers");
+  pose.joints = Eigen::Map<const VecX>(joints->data(), static_cast<Eigen::Index>(joints->size()));
+  return pose;
+}
+
+Autopilot::Autopilot(Simulator simulator, const AutopilotOptions& options)
+    : simulator_(std::move(simulator)), options_(options) {}
+
+core::Result<Autopilot> Autopilot::Create(Simulator simulator, const StartPose& start,
+                                          const AutopilotOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) return core::Status::InvalidArgument("autopilot options: " + why);
+  const VehicleModel& model = simulator.model();
+  const VecX joints = start.joints.size() == 0 ? NominalJoints(model) : start.joints;
+  if (joints.size() != model.num_actuated()) {
+    return core::Status::InvalidArgument("start: " + std::to_string(joints.size()) + " joint angles for a robot with " +
+                                         std::to_string(model.num_actuated()) + " actuated joints");
+  }
+  if (!start.position.allFinite() || !std::isfinite(start.yaw) || !joints.allFinite()) {
+    return core::Status::InvalidArgument("start: values must be finite");
+  }
+  VehicleState state = VehicleState::AtRest(model, start.position, joints);
+  state.attitude = Quat(Eigen::AngleAxisd(start.yaw, Vec3::UnitZ()));
+  simulator.Reset(state, 0.0);
+  Autopilot autopilot(std::move(simulator), options);
+  autopilot.EnterHold();
+  autopilot.joint_target_ = joints;
+  autopilot.joint_rate_target_ = VecX::Zero(joints.size());
+  return autopilot;
+}
+
+void Autopilot::EnterHold() {
+  const VehicleState& s = simulator_.state();
+  hold_ = Setpoint{};
+  hold_.position = s.position;
+  hold_.yaw = HopfYaw(s.attitude);
+  hold_.joints = s.joints;
+  hold_.joint_rates = VecX::Zero(s.joints.size());
+  mode_ = FlightMode::kPosition;
+}
+
+Setpoint Autopilot::CurrentSetpoint() const {
+  if (mode_ != FlightMode::kOffboard || !armed_ || !have_offboard_) return hold_;
+  const VehicleState& s = simulator_.state();
+  Setpoint sp;
+  const uint16_t m = offboard_.type_mask;
+  // Ignore bits are per ENU axis here (converted on receipt). An ignored
+  // position axis follows the vehicle (no position feedback on it); ignored
+  // velocity, acceleration and yaw rate are zero feed-forward; an ignored yaw
+  // follows the vehicle's yaw (yaw-rate control).
+  for (int i = 0; i < 3; ++i) {
+    sp.position[i] = (m & (typemask::kXIgnore << i)) ? s.position[i] : offboard_.position[i];
+    sp.velocity[i] = (m & (typemask::kVxIgnore << i)) ? 0.0 : offboard_.velocity[i];
+    sp.acceleration[i] = (m & (typemask::kAxIgnore << i)) ? 0.0 : offboard_.acceleration[i];
+  }
+  sp.yaw = (m & typemask::kYawIgnore) ? HopfYaw(s.attitude) : offboard_.yaw;
+  sp.yaw_rate = (m & typemask::kYawRateIgnore) ? 0.0 : offboard_.yaw_rate;
+  sp.joints = joint_target_;
+  sp.joint_rates = joint_rate_target_;
+  return sp;
+}
+
+void Autopilot::Handle(const link::Message& message, uint8_t from_system, uint8_t from_component,
+                       std::vector<link::Message>* out) {
+  auto for_us = [&](uint8_t target) { return target == 0 || options_.system_id == 0 || target == options_.system_id; };
+  if (const auto* command = std::get_if<link::CommandLong>(&message)) {
+    if (for_us(command->target_system)) HandleCommand(*command, from_system, from_component, out);
+  } else if (const auto* setpoint = std::get_if<link::SetPositionTargetLocalNed>(&message)) {
+    if (for_us(setpoint->target_system)) HandleSetpoint(*setpoint);
+  } else if (const auto* array = std::get_if<link::DebugFloatArray>(&message)) {
+    if (array->name == kJointSetpointArrayName) HandleJointSetpoint(*array);
+  }
+}
+
+void Autopilot::HandleCommand(const link::CommandLong& command, uint8_t from_system, uint8_t from_component,
+                              std::vector<link::Message>* out) {
+  link::CommandAck ack;
+  ack.command = command.command;
+  ack.target_system = from_system;
+  ack.target_component = from_component;
+  ack.result = link::mav::kResultUnsupported;
+  const double now = time();
+  if (command.command == link::mav::kCmdDoSetMode) {
+    const long base_mode = std::lround(command.param1);
+    const long main_mode = std::lround(command.param2);
+    if (!(base_mode & link::mav::kModeFlagCustomModeEnabled)) {
+      ack.result = link::mav::kResultDenied;
+    } else if (main_mode == static_cast<long>(link::mav::kPx4MainModePosition)) {
+      if (mode_ != FlightMode::kPosition) EnterHold();
+      ack.result = link::mav::kResultAccepted;
+    } else if (main_mode == static_cast<long>(link::mav::kPx4MainModeOffboard)) {
+      const bool streaming = have_offboard_ && now - last_setpoint_time_ <= options_.offboard_timeout + kTimeEpsilon &&
+                             now - stream_start_time_ >= options_.offboard_min_stream - kTimeEpsilon;
+      if (mode_ == FlightMode::kOffboard) {
+        ack.result = link::mav::kResultAccepted;
+      } else if (streaming) {
+        mode_ = FlightMode::kOffboard;
+        // Without a fresh JOINT_SP the arm keeps the pose it holds now.
+        if (now - last_joint_setpoint_time_ > options_.offboard_timeout + kTimeEpsilon) {
+          joint_target_ = hold_.joints;
+          joint_rate_target_ = VecX::Zero(hold_.joints.size());
+        }
+        ack.result = link::mav::kResultAccepted;
+        out->push_back(Text(kSeverityInfo, "Offboard mode"));
+      } else {
+        ack.result = link::mav::kResultTemporarilyRejected;
+        out->push_back(Text(kSeverityWarning, "Offboard rejected: stream setpoints for 1 s first"));
+      }
+    } else {
+      ack.result = link::mav::kResultDenied;
+    }
+  } else if (command.command == link::mav::kCmdComponentArmDisarm) {
+    const long action = std::lround(command.param1);
+    if (action == 1) {
+      armed_ = true;
+      ack.result = link::mav::kResultAccepted;
+    } else if (action == 0) {
+      // Disarmed in the air: a real vehicle would fall; the simulated one
+      // keeps hovering in POSITION mode where it is.
+      armed_ = false;
+      if (mode_ == FlightMode::kOffboard) EnterHold();
+      ack.result = link::mav::kResultAccepted;
+    } else {
+      ack.result = link::mav::kResultDenied;
+    }
+  }
+  out->push_back(ack);
+}
+
+void Autopilot::HandleSetpoint(const link::SetPositionTargetLocalNed& m) {
+  if (m.coordinate_frame != link::mav::kFrameLocalNed ||
+      !AllFinite({m.x, m.y, m.z, m.vx, m.vy, m.vz, m.afx, m.afy, m.afz, m.yaw, m.yaw_rate})) {
+    ++setpoints_rejected_;
+    return;
+  }
+  OffboardTarget target;
+  target.position = link::NedToEnu(Vec3(m.x, m.y, m.z));
+  target.velocity = link::NedToEnu(Vec3(m.vx, m.vy, m.vz));
+  target.acceleration = link::NedToEnu(Vec3(m.afx, m.afy, m.afz));
+  target.yaw = link::YawNedToEnu(m.yaw);
+  target.yaw_rate = -m.yaw_rate;  // about down -> about up
+  // The mask's x and y bits name NED axes: swap them into ENU axes.
+  uint16_t mask = m.type_mask & ~(typemask::kXIgnore | typemask::kYIgnore | typemask::kVxIgnore |
+                                  typemask::kVyIgnore | typemask::kAxIgnore | typemask::kAyIgnore);
+  auto swap_xy = [&](uint16_t x_bit, uint16_t y_bit) {
+    if (m.type_mask & x_bit) mask |= y_bit;
+    if (m.type_mask & y_bit) mask |= x_bit;
+  };
+  swap_xy(typemask::kXIgnore, typemask::kYIgnore);
+  swap_xy(typemask::kVxIgnore, typemask::kVyIgnore);
+  swap_xy(typemask::kAxIgnore, typemask::kAyIgnore);
+  target.type_mask = mask;
+
+  const double now = time();
+  if (now - last_setpoint_time_ > options_.offboard_timeout + kTimeEpsilon) stream_start_time_ = now;
+  last_setpoint_time_ = now;
+  offboard_ = target;
+  have_offboard_ = true;
+  ++setpoints_received_;
+}
+
+void Autopilot::HandleJointSetpoint(const link::DebugFloatArray& array) {
+  const int n = simulator_.model().num_actuated();
+  if (2 * n > static_cast<int>(array.data.size())) {
+    ++setpoints_rejected_;
+    return;
+  }
+  VecX q(n), qd(n);
+  for (int k = 0; k < n; ++k) {
+    q[k] = array.data[static_cast<size_t>(k)];
+    qd[k] = array.data[static_cast<size_t>(n + k)];
+  }
+  if (!q.allFinite() || !qd.allFinite()) {
+    ++setpoints_rejected_;
+    return;
+  }
+  joint_target_ = q;
+  joint_rate_target_ = qd;
+  last_joint_setpoint_time_ = time();
+}
+
+core::Status Autopilot::AdvanceTo(double t, std::vector<link::Message>* out) {
+  EmitDue(out);
+  while (time() < t - kTimeEpsilon) {
+    const double h = std::min(simulator_.step(), t - time());
+    simulator_.Step(CurrentSetpoint(), h);
+    if (!PackState(simulator_.state()).allFinite()) {
+      return core::Status::Infeasible("the simulation diverged at t = " + std::to_string(time()) + " s");
+    }
+    if (mode_ == FlightMode::kOffboard && time() - last_setpoint_time_ > options_.offboard_timeout + kTimeEpsilon) {
+      EnterHold();
+      out->push_back(Text(kSeverityWarning, "Offboard lost: holding position"));
+    }
+    EmitDue(out);
+  }
+  return core::Status::Ok();
+}
+
+void Autopilot::EmitDue(std::vector<link::Message>* out) {
+  const double now = time();
+  const VehicleState& s = simulator_.state();
+  if (now >= next_heartbeat_ - kTimeEpsilon) {
+    link::Heartbeat heartbeat;
+    heartbeat.type = link::mav::kTypeQuadrotor;
+    heartbeat.autopilot = link::mav::kAutopilotPx4;
+    heartbeat.base_mode = link::mav::kModeFlagCustomModeEnabled | (armed_ ? link::mav::kModeFlagSafetyArmed : 0);
+    heartbeat.custom_mode = link::mav::Px4CustomMode(mode_ == FlightMode::kOffboard ? link::mav::kPx4MainModeOffboard
+                                                                                    : link::mav::kPx4MainModePosition);
+    heartbeat.system_status = armed_ ? link::mav::kStateActive : link::mav::kStateStandby;
+    out->push_back(heartbeat);
+    next_heartbeat_ += options_.heartbeat_period;
+    if (next_heartbeat_ <= now) next_heartbeat_ = now + options_.heartbeat_period;
+  }
+  if (now >= next_telemetry_ - kTimeEpsilon) {
+    const uint32_t time_boot_ms = static_cast<uint32_t>(std::llround(now * 1e3));
+    link::LocalPositionNed position;
+    position.time_boot_ms = time_boot_ms;
+    const Vec3 p = link::EnuToNed(s.position), v = link::EnuToNed(s.velocity);
+    position.x = static_cast<float>(p.x());
+    position.y = static_cast<float>(p.y());
+    position.z = static_cast<float>(p.z());
+    position.vx = static_cast<float>(v.x());
+    position.vy = static_cast<float>(v.y());
+    position.vz = static_cast<float>(v.z());
+    out->push_back(position);
+
+    link::AttitudeQuaternion attitude;
+    attitude.time_boot_ms = time_boot_ms;
+    const Quat q = link::AttitudeEnuFluToNedFrd(s.attitude);
+    attitude.q1 = static_cast<float>(q.w());
+    attitude.q2 = static_cast<float>(q.x());
+    attitude.q3 = static_cast<float>(q.y());
+    attitude.q4 = static_cast<float>(q.z());
+    const Vec3 rates = link::FluToFrd(s.body_rate);
+    attitude.rollspeed = static_cast<float>(rates.x());
+    attitude.pitchspeed = static_cast<float>(rates.y());
+    attitude.yawspeed = static_cast<float>(rates.z());
+    out->push_back(attitude);
+
+    link::DebugFloatArray joints;
+    joints.time_usec = static_cast<uint64_t>(std::llround(now * 1e6));
+    joints.array_id = kJointsArrayId;
+    joints.name = kJointsArrayName;
+    for (int k = 0; k < s.joints.size(); ++k) joints.data.push_back(static_cast<float>(s.joints[k]));
+    for (int k = 0; k < s.joint_rates.size(); ++k) joints.data.push_back(static_cast<float>(s.joint_rates[k]));
+    out->push_back(joints);
+
+    if (options_.record_flown) RecordFlown();
+    next_telemetry_ += options_.telemetry_period;
+    if (next_telemetry_ <= now) next_telemetry_ = now + options_.telemetry_period;
+  }
+}
+
+void Autopilot::RecordFlown() {
+  const VehicleState& s = simulator_.state();
+  PlanRow row;
+  row.t = time();
+  row.position = s.position;
+  row.velocity = s.velocity;
+  row.acceleration = simulator_.CurrentDynamics().acceleration;
+  row.attitude = s.attitude;
+  row.yaw = HopfYaw(s.attitude);
+  row.yaw_rate = HopfYawRate(s.attitude, s.body_rate);
+  row.joints = s.joints;
+  row.joint_rates = s.joint_rates;
+  flown_.push_back(std::move(row));
+}
+
+}  // namespace quadhand::sim
