@@ -2,20 +2,28 @@
 //   --track plan.csv --out flown.csv   fly a plan (contracts.md) with the
 //                                      geometric controller, write the flown states
 //   --figure8 --out plan.csv           write the paper's figure-eight plan
+//   --udp udp://ADDR:PORT              behave like a PX4 autopilot over MAVLink
+//                                      (udp_mode.h, sim/autopilot.h)
 // Exit codes: 0 success, 1 the simulation diverged, 2 bad input (one line on stderr).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <string>
+#include <utility>
 
 #include <CLI/CLI.hpp>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/link/frame.h"
+#include "quadhand/link/udp.h"
 #include "quadhand/robot/robot_model.h"
+#include "quadhand/sim/autopilot.h"
 #include "quadhand/sim/config.h"
 #include "quadhand/sim/figure_eight.h"
 #include "quadhand/sim/plan_io.h"
 #include "quadhand/sim/simulator.h"
+#include "udp_mode.h"
 
 namespace {
 
@@ -37,6 +45,8 @@ int main(int argc, char** argv) {
       "geometric tracking controller; see docs/sim.md.\n"
       "  quadhand-sim --track plan.csv --out flown.csv [--pcgc on|off] [--payload KG] [--seed N]\n"
       "  quadhand-sim --figure8 --out plan.csv [--loops N] [--period S]\n"
+      "  quadhand-sim --udp udp://127.0.0.1:14540 [--realtime] [--duration S] [--start X,Y,Z[,YAW] | --start-task\n"
+      "               TASK] [--log flown.csv] [--signing-key FILE [--require-signing]] [--system-id N]\n"
       "Exit codes: 0 success, 1 the simulation diverged, 2 bad input."};
   std::string track_path, out_path, config_path = "data/sim/quadhand_sim.yaml", pcgc, noise;
   bool figure8 = false, quiet = false;
@@ -45,7 +55,7 @@ int main(int argc, char** argv) {
   sim::FigureEightOptions eight;
   app.add_option("--track", track_path, "Plan file to fly (CSV, contracts.md)");
   app.add_flag("--figure8", figure8, "Write the figure-eight plan of the paper's experiment to --out instead");
-  app.add_option("--out", out_path, "Output file (CSV): the flown states, or the figure-eight plan")->required();
+  app.add_option("--out", out_path, "Output file (CSV): the flown states, or the figure-eight plan (not with --udp)");
   app.add_option("--config", config_path, "Simulator configuration (YAML, docs/sim.md)")->capture_default_str();
   app.add_option("--pcgc", pcgc, "Passive CoG compensation: on (battery on its mimic joint) or off (battery locked)")
       ->check(CLI::IsMember({"on", "off"}));
@@ -60,7 +70,31 @@ int main(int argc, char** argv) {
   app.add_option("--loops", eight.loops, "--figure8: loops")->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--period", eight.period, "--figure8: seconds per loop")->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--dt", eight.dt, "--figure8: row spacing, s")->check(CLI::PositiveNumber)->capture_default_str();
-  app.add_flag("-q,--quiet", quiet, "Print nothing on success");
+  app.add_flag("-q,--quiet", quiet, "Print nothing on success (--udp: no status lines)");
+  // MAVLink mode (docs/sim.md, "MAVLink mode").
+  std::string udp_url, remote_url, start_text, start_task, log_path, key_path;
+  bool realtime = false, require_signing = false;
+  double duration = 0.0;
+  int system_id = 1;
+  app.add_option("--udp", udp_url,
+                 "Act as a PX4-like autopilot over MAVLink 2 on this local UDP address (udp://ADDR:PORT); replies go "
+                 "to the sender of the first accepted frame");
+  app.add_option("--remote", remote_url, "--udp: send to this address (udp://HOST:PORT) from the start instead");
+  app.add_flag("--realtime", realtime,
+               "--udp: pace simulated time to the wall clock (default: lockstep, 20 ms of simulated time per "
+               "SET_POSITION_TARGET_LOCAL_NED, the wall clock while none arrive)");
+  app.add_option("--duration", duration, "--udp: exit after this many simulated seconds (0: until SIGINT/SIGTERM)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--start", start_text, "--udp: hover start X,Y,Z[,YAW] (ENU m, rad; joints at mid-range; default 0,0,1)");
+  app.add_option("--start-task", start_task, "--udp: start at a task file's start state (position, yaw, joints)");
+  app.add_option("--log", log_path, "--udp: write the flown states (plan CSV columns, 50 Hz) here on exit");
+  app.add_option("--signing-key", key_path, "--udp: MAVLink 2 signing key (64 hex digits or 32 raw bytes): signs what is sent, verifies what is received");
+  app.add_flag("--require-signing", require_signing,
+               "--udp: drop unsigned, wrongly signed and replayed frames (needs --signing-key)");
+  app.add_option("--system-id", system_id, "--udp: MAVLink system id of the vehicle")
+      ->check(CLI::Range(1, 255))
+      ->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -68,7 +102,24 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return Fail(e.what());
   }
-  if (figure8 == !track_path.empty()) return Fail("give exactly one of --track PLAN and --figure8");
+  const bool udp = !udp_url.empty();
+  if (int{figure8} + int{!track_path.empty()} + int{udp} != 1) {
+    return Fail("give exactly one of --track PLAN, --figure8 and --udp URL");
+  }
+  if (udp && !out_path.empty()) return Fail("--out is not used with --udp (use --log for the flown states)");
+  if (udp && app.count("--settle") > 0) return Fail("--settle is only used with --track");
+  if (!udp && out_path.empty()) return Fail("--out is required with --track and --figure8");
+  if (!udp) {
+    const std::vector<std::pair<bool, const char*>> udp_only = {
+        {!remote_url.empty(), "--remote"},     {realtime, "--realtime"},
+        {app.count("--duration") > 0, "--duration"}, {!start_text.empty(), "--start"},
+        {!start_task.empty(), "--start-task"}, {!log_path.empty(), "--log"},
+        {!key_path.empty(), "--signing-key"},  {require_signing, "--require-signing"},
+        {app.count("--system-id") > 0, "--system-id"}};
+    for (const auto& [given, name] : udp_only) {
+      if (given) return Fail(std::string(name) + " is only used with --udp");
+    }
+  }
 
   auto config = sim::LoadSimConfig(config_path);
   if (!config.ok()) return Fail(config.status().message());
@@ -97,6 +148,56 @@ int main(int argc, char** argv) {
 
   auto model = sim::VehicleModel::Create(*robot, *config);
   if (!model.ok()) return Fail(config_path + ": " + model.status().message());
+
+  if (udp) {
+    sim_app::UdpModeOptions options;
+    auto bind = link::ParseUdpUrl(udp_url);
+    if (!bind.ok()) return Fail("--udp " + bind.status().message());
+    options.bind = *bind;
+    if (!remote_url.empty()) {
+      auto remote = link::ParseUdpUrl(remote_url);
+      if (!remote.ok()) return Fail("--remote " + remote.status().message());
+      options.remote = *remote;
+    }
+    if (!start_text.empty() && !start_task.empty()) return Fail("give at most one of --start and --start-task");
+    sim::StartPose start;
+    if (!start_text.empty()) {
+      auto parsed = sim::ParseStartPose(start_text);
+      if (!parsed.ok()) return Fail(parsed.status().message());
+      start = *parsed;
+    } else if (!start_task.empty()) {
+      auto loaded = sim::LoadTaskStartPose(start_task);
+      if (!loaded.ok()) return Fail(loaded.status().message());
+      start = *loaded;
+    }
+    if (require_signing && key_path.empty()) return Fail("--require-signing needs --signing-key FILE");
+    if (!key_path.empty()) {
+      auto key = link::LoadSigningKey(key_path);
+      if (!key.ok()) return Fail("--signing-key " + key.status().message());
+      options.signing_key = *key;
+    }
+    if (!log_path.empty()) {
+      std::error_code ec;
+      if (!std::filesystem::is_directory(core::DirectoryOf(log_path), ec)) {
+        return Fail("--log " + log_path + ": its folder does not exist");
+      }
+    }
+    options.log_path = log_path;
+    options.realtime = realtime;
+    options.duration = duration;
+    options.require_signing = require_signing;
+    options.system_id = static_cast<uint8_t>(system_id);
+    options.quiet = quiet;
+    sim::AutopilotOptions autopilot_options;
+    autopilot_options.system_id = options.system_id;
+    autopilot_options.record_flown = !log_path.empty();
+    auto autopilot = sim::Autopilot::Create(sim::Simulator(std::move(*model), seed), start, autopilot_options);
+    if (!autopilot.ok()) {
+      return Fail((start_task.empty() ? std::string("--start") : start_task) + ": " + autopilot.status().message());
+    }
+    return sim_app::RunUdpMode(std::move(*autopilot), options, joints);
+  }
+
   auto plan = sim::LoadPlanCsv(track_path, joints);
   if (!plan.ok()) return Fail(plan.status().message());
   const auto start = std::chrono::steady_clock::now();

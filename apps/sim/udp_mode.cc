@@ -1,0 +1,132 @@
+#include "udp_mode.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <limits>
+#include <variant>
+
+#include "quadhand/core/file_util.h"
+#include "quadhand/link/connection.h"
+#include "quadhand/sim/plan_io.h"
+
+namespace quadhand::sim_app {
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;
+
+extern "C" void OnSignal(int) { g_stop = 1; }
+
+void InstallSignalHandlers() {
+  struct sigaction action {};
+  action.sa_handler = OnSignal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = 0;  // no SA_RESTART: poll() returns early so the loop sees the flag
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+int Fail(const std::string& message, int code) {
+  std::fprintf(stderr, "quadhand-sim: error: %s\n", message.c_str());
+  return code;
+}
+
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+}  // namespace
+
+int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const std::vector<std::string>& joint_names) {
+  core::Result<link::UdpSocket> socket = link::UdpSocket::Bind(options.bind);
+  if (!socket.ok()) return Fail("--udp " + options.bind.ToString() + ": " + socket.status().message(), 2);
+  link::EncoderOptions encoder;
+  encoder.system_id = options.system_id;
+  encoder.component_id = 1;  // MAV_COMP_ID_AUTOPILOT1
+  encoder.signing_key = options.signing_key;
+  link::ParserOptions parser;
+  parser.signing_key = options.signing_key;
+  parser.require_signing = options.require_signing;
+  link::Connection connection(std::move(*socket), encoder, parser, options.remote);
+  InstallSignalHandlers();
+  if (!options.quiet) {
+    std::fprintf(stderr, "quadhand-sim: MAVLink on %s (%s)%s\n", options.bind.ToString().c_str(),
+                 options.realtime ? "real time" : "lockstep", options.signing_key ? ", signed" : "");
+  }
+
+  uint64_t send_failures = 0;
+  std::vector<link::Message> out;
+  // Until a peer has spoken (or --remote names one) there is nobody to send to.
+  auto flush = [&]() {
+    if (connection.remote()) {
+      for (const link::Message& m : out) {
+        if (!connection.Send(m).ok()) ++send_failures;
+      }
+    }
+    out.clear();
+  };
+  const double end = options.duration > 0.0 ? options.duration : std::numeric_limits<double>::infinity();
+  auto advance = [&](double t) -> core::Status {
+    core::Status s = autopilot.AdvanceTo(std::min(t, end), &out);
+    flush();
+    return s;
+  };
+
+  const Clock::time_point wall_start = Clock::now();
+  Clock::time_point last_advance = wall_start;
+  double next_status = 0.0;
+  core::Status status = advance(0.0);
+  while (status.ok() && !g_stop && autopilot.time() < end - 1e-9) {
+    connection.WaitReadable(options.realtime ? 0.002 : 0.005);
+    for (const link::ReceivedMessage& r : connection.Poll()) {
+      autopilot.Handle(r.message, r.frame.system_id, r.frame.component_id, &out);
+      flush();  // acknowledgements go out before the vehicle moves on
+      if (!options.realtime && std::holds_alternative<link::SetPositionTargetLocalNed>(r.message)) {
+        status = advance(autopilot.time() + options.lockstep_period);
+        last_advance = Clock::now();
+        if (!status.ok()) break;
+      }
+    }
+    if (!status.ok()) break;
+    const Clock::time_point now = Clock::now();
+    if (options.realtime) {
+      status = advance(Seconds(now - wall_start));
+    } else if (Seconds(now - last_advance) >= options.lockstep_idle) {
+      status = advance(autopilot.time() + Seconds(now - last_advance));
+      last_advance = now;
+    }
+    if (!options.quiet && autopilot.time() >= next_status) {
+      const Vec3& p = autopilot.state().position;
+      std::fprintf(stderr, "t %7.2f s  %-8s %-8s  ENU (%7.3f, %7.3f, %7.3f) m  rx %llu tx %llu\n", autopilot.time(),
+                   sim::FlightModeName(autopilot.mode()), autopilot.armed() ? "armed" : "disarmed", p.x(), p.y(),
+                   p.z(), static_cast<unsigned long long>(connection.stats().frames_accepted),
+                   static_cast<unsigned long long>(connection.frames_sent()));
+      next_status = std::floor(autopilot.time()) + 1.0;
+    }
+  }
+  if (!status.ok()) return Fail(status.message(), 1);
+
+  if (!options.log_path.empty()) {
+    std::string csv = sim::PlanCsvHeader(joint_names) + "\n";
+    for (const sim::PlanRow& row : autopilot.flown()) csv += sim::PlanCsvRow(row) + "\n";
+    if (core::Status s = core::WriteFileAtomically(options.log_path, csv); !s.ok()) return Fail(s.message(), 2);
+  }
+  if (!options.quiet) {
+    const link::ParserStats& st = connection.stats();
+    std::fprintf(stderr,
+                 "quadhand-sim: %.2f s simulated in %.2f s; frames received %llu, sent %llu (%llu send failures); "
+                 "dropped: %llu bad CRC, %llu unsigned, %llu bad signature, %llu replayed, %llu unknown\n",
+                 autopilot.time(), Seconds(Clock::now() - wall_start),
+                 static_cast<unsigned long long>(st.frames_accepted),
+                 static_cast<unsigned long long>(connection.frames_sent()),
+                 static_cast<unsigned long long>(send_failures), static_cast<unsigned long long>(st.bad_checksum),
+                 static_cast<unsigned long long>(st.unsigned_rejected),
+                 static_cast<unsigned long long>(st.bad_signature), static_cast<unsigned long long>(st.replayed),
+                 static_cast<unsigned long long>(st.unknown_message));
+  }
+  return 0;
+}
+
+}  // namespace quadhand::sim_app

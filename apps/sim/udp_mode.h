@@ -1,0 +1,37 @@
+// quadhand-sim --udp: the socket loop around sim::Autopilot (docs/sim.md,
+// "MAVLink mode").
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "quadhand/link/frame.h"
+#include "quadhand/link/udp.h"
+#include "quadhand/sim/autopilot.h"
+
+namespace quadhand::sim_app {
+
+struct UdpModeOptions {
+  link::UdpEndpoint bind;                    // where the simulated autopilot listens
+  std::optional<link::UdpEndpoint> remote;   // fixed peer; default: the sender of the first accepted frame
+  bool realtime = false;                     // pace simulated time to the wall clock
+  double duration = 0.0;                     // simulated s; 0: until SIGINT/SIGTERM
+  std::string log_path;                      // flown states (plan columns), empty: none
+  std::optional<link::SigningKey> signing_key;
+  bool require_signing = false;
+  uint8_t system_id = 1;
+  bool quiet = false;
+  // Lockstep (no --realtime): each SET_POSITION_TARGET_LOCAL_NED advances
+  // simulated time by `lockstep_period`; after `lockstep_idle` s of wall time
+  // without one, simulated time follows the wall clock.
+  double lockstep_period = 0.02;
+  double lockstep_idle = 0.1;
+};
+
+// Runs until the duration is reached or a signal arrives; returns the exit
+// code (0 done, 1 the simulation diverged, 2 the socket or the log could not
+// be used), having printed one error line when it is not 0.
+int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const std::vector<std::string>& joint_names);
+
+}  // namespace quadhand::sim_app
