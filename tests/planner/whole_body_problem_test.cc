@@ -55,10 +55,12 @@ struct ProblemSetup {
   VecX x0;
 };
 
-ProblemSetup MakeSetup(const WholeBodyCostOptions& options, bool insertion) {
+ProblemSetup MakeSetup(const WholeBodyCostOptions& options, bool insertion, const std::vector<Vec3>& extra_points = {}) {
   const auto& fx = CoarseQuadHand();
   ProblemSetup setup;
-  setup.model = std::move(*env::MrcSdfModel::Create(fx.links, fx.grids, Wall()));
+  std::vector<Vec3> points = Wall();
+  points.insert(points.end(), extra_points.begin(), extra_points.end());
+  setup.model = std::move(*env::MrcSdfModel::Create(fx.links, fx.grids, points));
   Limits limits;
   limits.v_max = 0.6;  // low bounds so that every feasibility term is active
   limits.a_max = 0.5;
@@ -185,6 +187,58 @@ TEST(WholeBodyProblemTest, WholeObjectiveGradientAtRandomPoints) {
     ExpectGradientMatches(*setup.problem, x, 1e-5, &skipped);
   }
   EXPECT_LE(skipped, 6);
+}
+
+// Points on a vertical ring of radius `radius` around the robot's tool at the goal.
+std::vector<Vec3> RingAroundGoalTool(double radius) {
+  const auto& fx = CoarseQuadHand();
+  robot::KinematicsState k;
+  const Pose base = MakePose(Goal().position, Eigen::AngleAxisd(Goal().yaw, Vec3::UnitZ()).toRotationMatrix());
+  robot::ComputeKinematics(fx.robot, base, Goal().joints, &k);
+  const Vec3 center = k.link_poses[fx.robot.LinkIndex("tool")].translation();
+  std::vector<Vec3> ring;
+  for (int i = 0; i < 24; ++i) {
+    const double a = 2.0 * M_PI * i / 24;
+    ring.push_back(center + radius * Vec3(std::cos(a), std::sin(a), 0.0));
+  }
+  return ring;
+}
+
+TEST(WholeBodyProblemTest, InsertionCollisionThresholdActsOnTheInsertionPieceOnly) {
+  WholeBodyCostOptions o = OnlyTerm("collision");
+  auto collision_with = [&](double insertion_threshold, bool insertion, const std::vector<Vec3>& extra) {
+    o.insertion_collision_threshold = insertion_threshold;
+    ProblemSetup setup = MakeSetup(o, insertion, extra);
+    auto breakdown = setup.problem->Breakdown(setup.x0);
+    EXPECT_TRUE(breakdown.ok());
+    return breakdown.ok() ? breakdown->collision : -1.0;
+  };
+  // The wall is passed in the middle pieces: the insertion threshold does not touch it.
+  const double wall = collision_with(0.0, true, {});
+  ASSERT_GT(wall, 0.0);
+  EXPECT_EQ(collision_with(1e-3, true, {}), wall);
+  // Points around the goal are reached on the last piece only.
+  const std::vector<Vec3> ring = RingAroundGoalTool(0.05);
+  const double both = collision_with(0.0, true, ring);
+  ASSERT_GT(both, wall);
+  EXPECT_EQ(collision_with(o.collision_threshold, true, ring), both);  // non-positive means the same
+  const double relaxed = collision_with(1e-3, true, ring);
+  EXPECT_LT(relaxed, both);
+  EXPECT_GE(relaxed, wall);
+  // Without an insertion there is no insertion piece.
+  EXPECT_EQ(collision_with(1e-3, false, ring), collision_with(0.0, false, ring));
+}
+
+TEST(WholeBodyProblemTest, GradientWithAnInsertionCollisionThreshold) {
+  WholeBodyCostOptions o = AllTerms();
+  o.insertion_collision_threshold = 0.75 * o.collision_threshold;
+  ProblemSetup setup = MakeSetup(o, /*insertion=*/true, RingAroundGoalTool(0.045));
+  // The ring must be within the insertion threshold on the last piece.
+  ProblemSetup without_ring = MakeSetup(o, /*insertion=*/true);
+  ASSERT_GT(setup.problem->Breakdown(setup.x0)->collision, without_ring.problem->Breakdown(without_ring.x0)->collision);
+  int skipped = 0;
+  ExpectGradientMatches(*setup.problem, setup.x0, 1e-5, &skipped);
+  EXPECT_LE(skipped, 3);
 }
 
 TEST(WholeBodyProblemTest, PackUnpackAndTrajectoryMeetTheBoundaryStates) {

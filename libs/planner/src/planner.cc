@@ -51,6 +51,9 @@ bool PlannerOptions::IsValid(std::string* why) const {
     return false;
   }
   if (!(collision_margin >= 0.0 && std::isfinite(collision_margin))) return fail("collision_margin must be >= 0");
+  if (!(insertion_collision_margin >= 0.0 && std::isfinite(insertion_collision_margin))) {
+    return fail("insertion_collision_margin must be >= 0");
+  }
   if (!(piece_length > 0.0 && std::isfinite(piece_length))) return fail("piece_length must be positive");
   if (min_pieces < 2) return fail("min_pieces must be at least 2");
   if (!(cruise_speed > 0.0 && cruise_acceleration > 0.0)) return fail("cruise speed and acceleration must be positive");
@@ -220,6 +223,7 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
 
   WholeBodyCostOptions cost = options.cost;
   cost.collision_threshold = task.safety_distance + options.collision_margin;
+  cost.insertion_collision_threshold = task.safety_distance + options.insertion_collision_margin;
   auto problem = WholeBodyProblem::Create(robot, *collision, task.start, result.terminal, task.limits, insertion,
                                           cost, pieces);
   if (!problem.ok()) return problem.status().WithPrefix(task.file);

@@ -47,6 +47,7 @@ bool WholeBodyCostOptions::IsValid(std::string* why) const {
     if (!NonNegativeFinite(w)) return fail("weights and tolerances must be finite and non-negative");
   }
   if (!PositiveFinite(collision_threshold)) return fail("collision_threshold must be positive");
+  if (!std::isfinite(insertion_collision_threshold)) return fail("insertion_collision_threshold must be finite");
   if (!(limit_fraction > 0.0 && limit_fraction <= 1.0)) return fail("limit_fraction must be in (0, 1]");
   if (!NonNegativeFinite(joint_limit_margin)) return fail("joint_limit_margin must be >= 0");
   for (double mu : {collision_mu, feasibility_mu, joint_limit_mu, insertion_mu}) {
@@ -234,12 +235,15 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
   terms.time = w.durations.sum();
   double total = terms.energy + o.time_weight * terms.time;
 
-  const env::PenaltyParameters collision_parameters{o.collision_threshold, o.collision_mu};
+  const env::PenaltyParameters transit_collision{o.collision_threshold, o.collision_mu};
+  const env::PenaltyParameters insertion_collision{
+      o.insertion_collision_threshold > 0.0 ? o.insertion_collision_threshold : o.collision_threshold, o.collision_mu};
   const Mat3 goal_rotation = insertion_.tool_orientation.toRotationMatrix();
   Vec3 p, v, a, j;
   for (int piece = 0; piece < num_pieces_; ++piece) {
     const double duration = w.durations[piece];
     const bool insertion_piece = insertion_.enabled && piece == num_pieces_ - 1;
+    const env::PenaltyParameters& collision_parameters = insertion_piece ? insertion_collision : transit_collision;
     for (int k = 0; k <= K; ++k) {
       const double fraction = static_cast<double>(k) / K;
       const double t = fraction * duration;

@@ -31,6 +31,10 @@ struct PlannerOptions {
   // that SDF interpolation (< 1 mm) and sampling between cost samples do not
   // eat into the safety distance the post-check demands.
   double collision_margin = 0.01;
+  // The same margin over the insertion piece (WholeBodyCostOptions::
+  // insertion_collision_threshold): small, because there the robot moves
+  // slowly and the gripper is meant to come close to the target.
+  double insertion_collision_margin = 0.003;
   double piece_length = 0.4;    // metres of front-end path per MINCO piece
   int min_pieces = 4;
   double cruise_speed = 1.0;    // of the initial time allocation, m/s (capped by v_max)

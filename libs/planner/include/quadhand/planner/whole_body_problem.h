@@ -85,6 +85,14 @@ struct WholeBodyCostOptions {
   // distance plus a margin), smoothed over `collision_mu`.
   double collision_threshold = 0.04;
   double collision_mu = 0.01;
+  // Threshold of the collision penalty on the insertion piece (when the
+  // insertion is enabled), for every link; non-positive: collision_threshold.
+  // A grasp may be designed with less clearance than collision_threshold
+  // (QuadHand's fingers pass the benchmark cup with 35 mm, the planner's
+  // threshold is 40 mm), and then the two penalties fight over the final
+  // approach; there the robot moves slowly, so the samples are dense and a
+  // smaller margin over the safety distance suffices.
+  double insertion_collision_threshold = 0.0;
   double feasibility_mu = 0.1;     // smoothing of squared-rate penalties (units^2)
   double joint_limit_mu = 0.02;    // rad
   // Insertion (paper J_e), on the samples of the last piece: tool distance to
