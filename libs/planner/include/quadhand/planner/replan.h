@@ -28,7 +28,9 @@ struct ReplanOptions {
   // most of the improvement (DefaultReplanOptions() sets them; measured
   // figures in docs/online.md).
   opt::SolverOptions solver;
-  int max_attempts = 2;  // solves (the first plus re-solves with raised weights)
+  int max_attempts = 4;  // solves (the first plus re-solves with raised weights)
+  // The re-solves after a failed post-check use the planner's own stopping
+  // rules (PlannerOptions::solver): with raised weights they need more steps.
   // A remaining first piece shorter than this (s) is merged into the next
   // one: a very short piece cannot absorb the start-state offset without
   // extreme accelerations.
@@ -41,15 +43,17 @@ ReplanOptions DefaultReplanOptions();
 
 // Runs solves of `problem` from `x0` (at most `max_attempts`), each followed by
 // the post-check against `task` (whose start is the problem's start state),
-// raising the weights of the violated terms between solves. Fills the
+// raising the weights of the violated terms between solves. The first solve
+// uses `first_options`, the re-solves `retry_options`. Fills the
 // trajectory, post_check, final_cost, attempts, solve_ms, iterations,
 // evaluations, success, status ("success", "post_check_failed",
 // "solver_failed") and message of *result; reads result->terminal and
 // result->insertion. Errors only for inconsistent input (sizes, options).
 core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const PlanningScene& scene,
                                const env::CollisionModel& collision, const Task& task,
-                               const PlannerOptions& options, const opt::SolverOptions& solver_options,
-                               int max_attempts, const opt::Solver& solver, PlanResult* result);
+                               const PlannerOptions& options, const opt::SolverOptions& first_options,
+                               const opt::SolverOptions& retry_options, int max_attempts, const opt::Solver& solver,
+                               PlanResult* result);
 
 // Raises (by `factor`) the weight of each term whose post-check failed; false
 // when no failed check has a weight to raise (re-solving cannot help).

@@ -1,0 +1,262 @@
+// The online controller of quadhand-online, without any transport: it is given
+// the vehicle's measurements and acknowledgements with their times, and asked
+// what to stream at a given time. Every time comes from the caller (an
+// injected clock), so tests run it deterministically against a simulator.
+//
+// Phases (Phase below):
+//   waiting_for_vehicle  no position, attitude and joints yet; nothing streamed
+//   streaming_hold       a hold at the first measured pose, >= hold_time s,
+//                        while the first plan is computed from that pose
+//   requesting_offboard  MAV_CMD_DO_SET_MODE (OFFBOARD) until acknowledged
+//   arming               MAV_CMD_COMPONENT_ARM_DISARM (arm) until acknowledged
+//   waiting_for_plan     offboard and armed, the first plan not ready yet
+//   flying               streaming the plan (replanning when off track)
+//   arrived              the plan has ended: a hold at its last setpoint for
+//                        arrival_hold s, then finished() is true
+//   holding_after_failure a plan failed (or failed the post-check): a hold at
+//                        the last setpoint streamed, until the caller stops
+//   vehicle_lost         no position for vehicle_timeout s: nothing streamed
+//   handshake_failed     OFFBOARD or arming refused or never acknowledged
+//                        after max_command_attempts, or the vehicle left
+//                        OFFBOARD / disarmed during the flight: nothing streamed
+// Commands are retried every ack_timeout s (a command is also taken as done
+// when the vehicle's heartbeat already shows the mode or the armed flag).
+//
+// Replanning: on every position measurement while flying, the tracking error
+// |p_measured - p_setpoint(t)| is compared with replan_threshold; above it (and
+// at least min_replan_interval after the last trigger, with no replan or
+// splice under way, and outside the plan's insertion piece) a replan is
+// started in a background thread from the measured state predicted to
+// t_splice = now + replan_lead (the tracking error is taken as constant over
+// the lead: measured + (reference(t_splice) - reference(now)) for position,
+// velocity, yaw and joints; acceleration, jerk and rates of the reference at
+// t_splice). The new plan's time 0 is t_splice; it is blended in over
+// blend_window s from t_splice (or from its arrival, when it comes late) as
+// setpoint.h describes. A replan that fails, or fails the post-check, is
+// never streamed: the controller holds at the last setpoint streamed.
+//
+// Threads: planning runs in one worker thread owned by the controller; every
+// other method must be called from one thread.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/core/types.h"
+#include "quadhand/opt/solver.h"
+#include "quadhand/online/setpoint.h"
+#include "quadhand/planner/planner.h"
+#include "quadhand/planner/replan.h"
+
+namespace quadhand::online {
+
+struct OnlineOptions {
+  // s of hold setpoints before OFFBOARD is requested: PX4 refuses OFFBOARD
+  // until setpoints have streamed for a while (1 s in the simulator); the
+  // margin covers the link's latency.
+  double hold_time = 1.2;
+  double ack_timeout = 0.5;          // s to wait for each COMMAND_ACK
+  int max_command_attempts = 5;      // per command, with confirmation counting up
+  double vehicle_timeout = 1.0;      // s without a position measurement -> vehicle_lost
+  double connect_timeout = 10.0;     // s from the first Tick to the first complete state -> vehicle_lost
+  bool replanning = true;
+  double replan_threshold = 0.10;    // m of 3-D tracking error that triggers a replan
+  double min_replan_interval = 1.0;  // s between two triggers
+  double replan_lead = 0.25;         // s between a trigger and the new plan's start
+  double blend_window = 0.5;         // s of old -> new blending
+  // When the warm-started replan fails (solver or post-check), plan again from
+  // the same start with the full pipeline (front end, cold solve): slower
+  // (hundreds of ms; the blend then starts when it arrives) but it escapes
+  // the old plan's homotopy, e.g. after a push towards a window frame.
+  bool cold_fallback = true;
+  double arrival_hold = 1.0;         // s of holding at the goal before finished()
+  double heartbeat_period = 1.0;     // s between our own heartbeats
+
+  bool IsValid(std::string* why) const;
+};
+
+enum class Phase {
+  kWaitingForVehicle,
+  kStreamingHold,
+  kRequestingOffboard,
+  kArming,
+  kWaitingForPlan,
+  kFlying,
+  kArrived,
+  kHoldingAfterFailure,
+  kVehicleLost,
+  kHandshakeFailed,
+};
+const char* PhaseName(Phase phase);  // "streaming_hold", ...
+
+enum class Command { kSetOffboardMode, kArm };
+struct CommandRequest {
+  Command command = Command::kSetOffboardMode;
+  int attempt = 0;  // 0 first, then 1, 2, ... (MAVLink's confirmation field)
+};
+
+// How an acknowledgement answered a command.
+enum class AckResult { kAccepted, kTemporarilyRejected, kRejected };
+
+// The latest measurements, ENU/FLU (what the controller plans from).
+struct MeasuredState {
+  double time = 0.0;  // controller time of the position
+  Vec3 position = Vec3::Zero();
+  Vec3 velocity = Vec3::Zero();
+  Quat attitude = Quat::Identity();
+  Vec3 body_rate = Vec3::Zero();
+  VecX joints, joint_rates;
+};
+
+// What the planner needs; the scene, task and solver must outlive the controller.
+struct PlanningSetup {
+  planner::PlanningScene scene;
+  const planner::Task* task = nullptr;  // goal, limits, safety distance (its start is replaced)
+  planner::PlannerOptions plan_options = planner::DefaultPlannerOptions();
+  planner::ReplanOptions replan_options = planner::DefaultReplanOptions();
+  const opt::Solver* solver = nullptr;
+};
+
+// One planning run, as the worker reports it.
+struct PlanRecord {
+  double requested_at = 0.0;  // controller time
+  bool replan = false;
+  bool success = false;
+  std::string status;         // PlanResult status, or "error"
+  std::string message;
+  double latency_ms = 0.0;    // wall time of Plan()/Replan() (both, with a cold fallback)
+  double warm_ms = 0.0;       // replans: the warm-started Replan() alone
+  bool cold_fallback = false; // replans: the warm start failed and a cold plan was made
+  double solve_ms = 0.0;
+  int iterations = 0;
+};
+
+struct OnlineStats {
+  long setpoints = 0;
+  long position_measurements = 0;
+  std::vector<PlanRecord> plans;       // every plan and replan, in order
+  int replans_triggered = 0;
+  int splices = 0;
+  double max_tracking_error = 0.0;     // m, while flying
+  double sum_tracking_error = 0.0;     // over flying measurements (mean = sum / count)
+  double sum_squared_tracking_error = 0.0;
+  long tracking_samples = 0;
+  double max_setpoint_step = 0.0;      // m between consecutive streamed setpoints
+  double max_splice_step = 0.0;        // m, the same during blend windows
+};
+
+struct ControllerOutput {
+  std::optional<Setpoint> setpoint;      // stream this now (none: stream nothing)
+  std::vector<CommandRequest> commands;  // send these now
+  bool send_heartbeat = false;
+  std::vector<std::string> events;       // what happened, in words, for the operator
+  Phase phase = Phase::kWaitingForVehicle;
+};
+
+class OnlineController {
+ public:
+  static core::Result<std::unique_ptr<OnlineController>> Create(const PlanningSetup& setup,
+                                                                const OnlineOptions& options);
+  ~OnlineController();
+  OnlineController(const OnlineController&) = delete;
+  OnlineController& operator=(const OnlineController&) = delete;
+
+  // Measurements at controller time t (s), ENU/FLU.
+  void OnPosition(double t, const Vec3& position, const Vec3& velocity);
+  void OnAttitude(double t, const Quat& attitude, const Vec3& body_rate);
+  void OnJoints(double t, const VecX& joints, const VecX& joint_rates);
+  // The vehicle's heartbeat: armed flag and whether it is in OFFBOARD.
+  void OnHeartbeat(double t, bool armed, bool offboard);
+  void OnCommandAck(double t, Command command, AckResult result);
+
+  // What to send at time t (call at the streaming rate, t non-decreasing).
+  ControllerOutput Tick(double t);
+
+  Phase phase() const { return phase_; }
+  bool finished() const;  // arrived and held, or a phase that ends the flight
+  const OnlineStats& stats() const { return stats_; }
+  // The plan being flown (null before the first plan).
+  std::shared_ptr<const planner::PlanResult> current_plan() const { return to_.plan; }
+  // Time offset of the current plan: plan time = t - current_plan_start().
+  double current_plan_start() const { return to_.start; }
+  // The latest measurements (meaningful once a position, attitude and joints arrived).
+  MeasuredState measured() const;
+  bool has_measured_state() const { return HaveState(); }
+  // The last setpoint Tick() returned (none before the first).
+  const std::optional<Setpoint>& last_setpoint() const { return last_setpoint_; }
+  // The reference at time t while flying (blended during a splice).
+  std::optional<Setpoint> Reference(double t) const;
+
+  // For tests and tools: whether the worker is planning, and waiting for it.
+  bool planning() const;
+  void WaitUntilIdle();
+
+ private:
+  struct ActivePlan {
+    std::shared_ptr<const planner::PlanResult> plan;
+    double start = 0.0;  // controller time of the plan's t = 0
+  };
+  class Worker;
+
+  OnlineController(const PlanningSetup& setup, const OnlineOptions& options);
+  bool HaveState() const;
+  void Event(std::string text);
+  void CollectPlan(double t);
+  void MaybeReplan(double t);
+  void Fail(Phase phase, const std::string& why);
+  planner::BoundaryState MeasuredBoundaryState() const;
+  void RunHandshake(double t, ControllerOutput* out);
+
+  PlanningSetup setup_;
+  OnlineOptions options_;
+  std::unique_ptr<Worker> worker_;
+  Phase phase_ = Phase::kWaitingForVehicle;
+  std::vector<std::string> events_;
+
+  // Latest measurements.
+  bool have_position_ = false, have_attitude_ = false, have_joints_ = false;
+  double position_time_ = 0.0;
+  Vec3 position_ = Vec3::Zero(), velocity_ = Vec3::Zero();
+  Quat attitude_ = Quat::Identity();
+  Vec3 body_rate_ = Vec3::Zero();
+  VecX joints_, joint_rates_;
+  bool vehicle_armed_ = false, vehicle_offboard_ = false, seen_heartbeat_ = false;
+
+  // Handshake.
+  double hold_start_ = 0.0;
+  Setpoint hold_;
+  Command pending_command_ = Command::kSetOffboardMode;
+  int attempts_ = 0;
+  double last_command_time_ = 0.0;
+  double confirmed_time_ = 0.0;  // when OFFBOARD and arming were both confirmed
+  double first_tick_ = 0.0;
+  bool ticked_ = false;
+  bool arrival_done_ = false;
+  bool offboard_confirmed_ = false, armed_confirmed_ = false;
+  double next_heartbeat_ = 0.0;
+
+  // Plans.
+  std::shared_ptr<const planner::PlanResult> first_plan_;
+  ActivePlan from_, to_;          // blending from_ -> to_ during [blend_start_, blend_start_ + window)
+  bool blending_ = false;
+  double blend_start_ = 0.0;
+  double last_trigger_ = -1e300;
+  bool replan_pending_ = false;
+  double pending_splice_time_ = 0.0;
+  std::shared_ptr<const planner::PlanResult> pending_base_;  // the plan the pending replan started from
+  double arrival_time_ = 0.0;
+  std::optional<Setpoint> last_setpoint_;
+  bool last_setpoint_in_blend_ = false;
+
+  OnlineStats stats_;
+};
+
+// The Hopf yaw (traj/flatness.h) of an attitude, in (-pi, pi], and the yaw
+// rate that goes with a body rate (FLU).
+double HopfYaw(const Quat& attitude);
+double HopfYawRate(const Quat& attitude, const Vec3& body_rate);
+
+}  // namespace quadhand::online

@@ -1,0 +1,66 @@
+// The flight record of quadhand-online (--log) and the figures of a flight.
+//
+// One row per position measurement: the measured vehicle state in the plan
+// file's columns (shared/spec/contracts.md: t,px..pz,vx..vz,ax..az,qw..qz,yaw,
+// yaw_rate, joints, joint rates; so sim::LoadPlanCsv reads it), then what was
+// streamed at that moment: sp_px..sp_pz, sp_vx..sp_vz, sp_ax..sp_az, sp_yaw,
+// sp_yaw_rate, sp_<joint>..., sp_<joint>_rate... (empty when nothing was
+// streamed), err_pos (|p - sp_p|, m, empty likewise) and phase (PhaseName).
+// The measured acceleration is not sent by the vehicle: it is the backward
+// difference of the measured velocities (0 in the first row). yaw is the Hopf
+// yaw of the measured attitude, yaw_rate the matching rate of the body rates.
+// Times are the controller's clock in seconds.
+#pragma once
+
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "quadhand/online/controller.h"
+#include "quadhand/planner/post_check.h"
+#include "quadhand/planner/task.h"
+#include "quadhand/robot/robot_model.h"
+
+namespace quadhand::online {
+
+struct FlightSample {
+  MeasuredState measured;
+  Vec3 acceleration = Vec3::Zero();  // difference of measured velocities
+  std::optional<Setpoint> setpoint;  // streamed at the time (none: nothing streamed)
+  Phase phase = Phase::kWaitingForVehicle;
+};
+
+class FlightLog {
+ public:
+  // Appends one row (times must increase; a row at the same time replaces the last).
+  void Record(const MeasuredState& measured, const std::optional<Setpoint>& setpoint, Phase phase);
+  const std::vector<FlightSample>& samples() const { return samples_; }
+  std::string Csv(const std::vector<std::string>& joint_names) const;
+
+ private:
+  std::vector<FlightSample> samples_;
+};
+
+struct FlightMetrics {
+  static constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+  long flying_samples = 0;          // rows in the flying phase
+  // |p - sp_p| while flying, m.
+  double tracking_mean = kNan, tracking_median = kNan, tracking_p95 = kNan, tracking_max = kNan, tracking_rms = kNan;
+  // Smallest exact clearance (link meshes vs the scene points, as the
+  // post-check measures it) over the rows from the first flying one on, at
+  // the measured attitude and joints; capped at `reach`.
+  double min_clearance = kNan;
+  double min_clearance_time = kNan;
+  std::string closest_link;
+  // Tool at the last row vs the task's goal.tool.position (NaN without a
+  // tool goal), and the base vs `terminal`.
+  double final_tool_error = kNan;
+  double final_base_error = kNan;
+};
+
+FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
+                             const planner::ExactClearance& exact, const planner::Task& task,
+                             const Vec3& terminal_position, double reach = 0.3);
+
+}  // namespace quadhand::online

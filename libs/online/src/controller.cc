@@ -1,0 +1,582 @@
+#include "quadhand/online/controller.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <mutex>
+#include <thread>
+
+namespace quadhand::online {
+namespace {
+
+std::string Format(const char* format, double a, double b = 0.0) {
+  char buffer[200];
+  std::snprintf(buffer, sizeof(buffer), format, a, b);
+  return buffer;
+}
+
+// Minimal-tilt quaternion taking e3 to z (the Hopf chart of traj/flatness.h).
+Quat TiltOf(const Vec3& z) {
+  const double one_c = std::max(1.0 + z.z(), 1e-9);
+  Quat q(one_c, -z.y(), z.x(), 0.0);
+  q.normalize();
+  return q;
+}
+
+}  // namespace
+
+double HopfYaw(const Quat& attitude) {
+  const Quat q = attitude.normalized();
+  const Quat q_yaw = TiltOf(q * Vec3::UnitZ()).conjugate() * q;
+  return std::remainder(2.0 * std::atan2(q_yaw.z(), q_yaw.w()), 2.0 * M_PI);
+}
+
+double HopfYawRate(const Quat& attitude, const Vec3& body_rate) {
+  const Mat3 R = attitude.normalized().toRotationMatrix();
+  const Vec3 z = R.col(2);
+  const Vec3 z_dot = R * body_rate.cross(Vec3::UnitZ());
+  const double one_c = std::max(1.0 + z.z(), 1e-9);
+  return body_rate.z() - (z.y() * z_dot.x() - z.x() * z_dot.y()) / one_c;
+}
+
+const char* PhaseName(Phase phase) {
+  switch (phase) {
+    case Phase::kWaitingForVehicle: return "waiting_for_vehicle";
+    case Phase::kStreamingHold: return "streaming_hold";
+    case Phase::kRequestingOffboard: return "requesting_offboard";
+    case Phase::kArming: return "arming";
+    case Phase::kWaitingForPlan: return "waiting_for_plan";
+    case Phase::kFlying: return "flying";
+    case Phase::kArrived: return "arrived";
+    case Phase::kHoldingAfterFailure: return "holding_after_failure";
+    case Phase::kVehicleLost: return "vehicle_lost";
+    case Phase::kHandshakeFailed: return "handshake_failed";
+  }
+  return "?";
+}
+
+bool OnlineOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!positive(hold_time)) return fail("hold_time must be positive");
+  if (!positive(ack_timeout)) return fail("ack_timeout must be positive");
+  if (max_command_attempts < 1) return fail("max_command_attempts must be at least 1");
+  if (!positive(vehicle_timeout)) return fail("vehicle_timeout must be positive");
+  if (!positive(connect_timeout)) return fail("connect_timeout must be positive");
+  if (!positive(replan_threshold)) return fail("replan_threshold must be positive");
+  if (!(std::isfinite(min_replan_interval) && min_replan_interval >= 0.0)) return fail("min_replan_interval must be >= 0");
+  if (!(std::isfinite(replan_lead) && replan_lead >= 0.0)) return fail("replan_lead must be >= 0");
+  if (!positive(blend_window)) return fail("blend_window must be positive");
+  if (!(std::isfinite(arrival_hold) && arrival_hold >= 0.0)) return fail("arrival_hold must be >= 0");
+  if (!positive(heartbeat_period)) return fail("heartbeat_period must be positive");
+  return true;
+}
+
+// ------------------------------------------------------------------ worker
+
+// Runs one Plan() or Replan() at a time in its own thread; the controller
+// submits a job and polls for the result, so the setpoint stream never waits.
+class OnlineController::Worker {
+ public:
+  struct Job {
+    bool replan = false;
+    planner::BoundaryState start;
+    std::shared_ptr<const planner::PlanResult> base;  // replans: the plan to warm-start from
+    double t_from = 0.0;                              // replans: on base's clock
+    double requested_at = 0.0;
+  };
+  struct Done {
+    PlanRecord record;
+    std::shared_ptr<const planner::PlanResult> plan;  // set when it succeeded
+  };
+
+  Worker(const PlanningSetup& setup, bool cold_fallback)
+      : setup_(setup), cold_fallback_(cold_fallback), thread_([this] { Run(); }) {}
+
+  ~Worker() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();
+  }
+
+  void Submit(Job job) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      job_ = std::move(job);
+      busy_ = true;
+    }
+    wake_.notify_all();
+  }
+
+  std::optional<Done> Take() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::optional<Done> done = std::move(done_);
+    done_.reset();
+    return done;
+  }
+
+  bool busy() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return busy_;
+  }
+
+  void WaitUntilIdle() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    idle_.wait(lock, [this] { return !busy_; });
+  }
+
+ private:
+  void Run() {
+    for (;;) {
+      Job job;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this] { return stop_ || job_.has_value(); });
+        if (stop_) return;
+        job = std::move(*job_);
+        job_.reset();
+      }
+      Done done = Execute(job);
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        done_ = std::move(done);
+        busy_ = false;
+      }
+      idle_.notify_all();
+    }
+  }
+
+  Done Execute(const Job& job) const {
+    Done done;
+    done.record.requested_at = job.requested_at;
+    done.record.replan = job.replan;
+    const auto begin = std::chrono::steady_clock::now();
+    auto cold_plan = [&]() {
+      planner::Task task = *setup_.task;
+      task.start = job.start;
+      return planner::Plan(setup_.scene, task, setup_.plan_options, *setup_.solver);
+    };
+    core::Result<planner::PlanResult> result = core::Status::Internal("not run");
+    if (job.replan) {
+      result = planner::Replan(setup_.scene, *setup_.task, setup_.plan_options, setup_.replan_options, *setup_.solver,
+                               *job.base, job.t_from, job.start);
+      done.record.warm_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
+      const bool warm_failed =
+          result.ok() && !result->success && (result->status == "post_check_failed" || result->status == "solver_failed");
+      if (warm_failed && cold_fallback_) {
+        done.record.cold_fallback = true;
+        result = cold_plan();
+      }
+    } else {
+      result = cold_plan();
+    }
+    done.record.latency_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
+    if (!result.ok()) {
+      done.record.status = "error";
+      done.record.message = result.status().message();
+      return done;
+    }
+    done.record.success = result->success;
+    done.record.status = result->status;
+    done.record.message = result->message;
+    done.record.solve_ms = result->solve_ms;
+    done.record.iterations = result->iterations;
+    // Only a plan that passed the post-check is handed over.
+    if (result->success && result->trajectory) done.plan = std::make_shared<const planner::PlanResult>(std::move(*result));
+    return done;
+  }
+
+  PlanningSetup setup_;
+  bool cold_fallback_;
+  mutable std::mutex mutex_;
+  std::condition_variable wake_, idle_;
+  std::optional<Job> job_;
+  std::optional<Done> done_;
+  bool busy_ = false;
+  bool stop_ = false;
+  std::thread thread_;  // last: starts once everything above exists
+};
+
+// -------------------------------------------------------------- controller
+
+core::Result<std::unique_ptr<OnlineController>> OnlineController::Create(const PlanningSetup& setup,
+                                                                          const OnlineOptions& options) {
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("online options: " + why);
+  if (setup.task == nullptr || setup.solver == nullptr) {
+    return core::Status::InvalidArgument("the planning setup needs a task and a solver");
+  }
+  if (std::string why; !setup.plan_options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
+  if (std::string why; !setup.replan_options.IsValid(&why)) return core::Status::InvalidArgument(why);
+  return std::unique_ptr<OnlineController>(new OnlineController(setup, options));
+}
+
+OnlineController::OnlineController(const PlanningSetup& setup, const OnlineOptions& options)
+    : setup_(setup), options_(options), worker_(std::make_unique<Worker>(setup, options.cold_fallback)) {}
+
+OnlineController::~OnlineController() = default;
+
+bool OnlineController::planning() const { return worker_->busy(); }
+void OnlineController::WaitUntilIdle() { worker_->WaitUntilIdle(); }
+
+bool OnlineController::HaveState() const { return have_position_ && have_attitude_ && have_joints_; }
+
+bool OnlineController::finished() const {
+  return arrival_done_ || phase_ == Phase::kVehicleLost || phase_ == Phase::kHandshakeFailed;
+}
+
+void OnlineController::Event(std::string text) { events_.push_back(std::move(text)); }
+
+void OnlineController::Fail(Phase phase, const std::string& why) {
+  phase_ = phase;
+  blending_ = false;
+  if (phase == Phase::kHoldingAfterFailure) {
+    // The last setpoint streamed came from a plan that passed the post-check
+    // (or is the initial hold): stay there.
+    if (last_setpoint_) hold_ = HoldAt(*last_setpoint_);
+    Event(why + "; holding at the last setpoint (" + Format("%.3f, ", hold_.position.x()) +
+          Format("%.3f, %.3f)", hold_.position.y(), hold_.position.z()));
+  } else {
+    Event(why + "; streaming stopped");
+  }
+}
+
+void OnlineController::OnPosition(double t, const Vec3& position, const Vec3& velocity) {
+  if (!position.allFinite() || !velocity.allFinite()) return;
+  have_position_ = true;
+  position_time_ = t;
+  position_ = position;
+  velocity_ = velocity;
+  ++stats_.position_measurements;
+  if (phase_ != Phase::kFlying) return;
+  const std::optional<Setpoint> reference = Reference(t);
+  if (!reference) return;
+  const double error = (position - reference->position).norm();
+  stats_.max_tracking_error = std::max(stats_.max_tracking_error, error);
+  stats_.sum_tracking_error += error;
+  stats_.sum_squared_tracking_error += error * error;
+  ++stats_.tracking_samples;
+  if (error > options_.replan_threshold) MaybeReplan(t);
+}
+
+void OnlineController::OnAttitude(double t, const Quat& attitude, const Vec3& body_rate) {
+  (void)t;
+  if (!attitude.coeffs().allFinite() || !(attitude.norm() > 0.5) || !body_rate.allFinite()) return;
+  have_attitude_ = true;
+  attitude_ = attitude.normalized();
+  body_rate_ = body_rate;
+}
+
+void OnlineController::OnJoints(double t, const VecX& joints, const VecX& joint_rates) {
+  (void)t;
+  const int n = setup_.scene.robot.num_actuated();
+  if (joints.size() != n || joint_rates.size() != n || !joints.allFinite() || !joint_rates.allFinite()) return;
+  have_joints_ = true;
+  joints_ = joints;
+  joint_rates_ = joint_rates;
+}
+
+void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
+  seen_heartbeat_ = true;
+  vehicle_armed_ = armed;
+  vehicle_offboard_ = offboard;
+  // After both were confirmed, a heartbeat without them means the vehicle
+  // (or its pilot) took over. A grace period covers heartbeats sent before
+  // the mode change that arrive after its acknowledgement.
+  const bool confirmed_phase = phase_ == Phase::kWaitingForPlan || phase_ == Phase::kFlying ||
+                               phase_ == Phase::kArrived || phase_ == Phase::kHoldingAfterFailure;
+  const double grace = options_.heartbeat_period + options_.ack_timeout + 0.5;
+  if (confirmed_phase && (!armed || !offboard) && t - confirmed_time_ > grace && !arrival_done_) {
+    Fail(Phase::kHandshakeFailed, std::string("the vehicle left ") + (!offboard ? "OFFBOARD" : "the armed state"));
+  }
+}
+
+void OnlineController::OnCommandAck(double t, Command command, AckResult result) {
+  (void)t;
+  const bool expected = (phase_ == Phase::kRequestingOffboard && command == Command::kSetOffboardMode) ||
+                        (phase_ == Phase::kArming && command == Command::kArm);
+  if (!expected) return;
+  const char* name = command == Command::kSetOffboardMode ? "OFFBOARD" : "arming";
+  switch (result) {
+    case AckResult::kAccepted:
+      if (command == Command::kSetOffboardMode) offboard_confirmed_ = true;
+      else armed_confirmed_ = true;
+      Event(std::string(name) + " accepted");
+      break;
+    case AckResult::kTemporarilyRejected:
+      Event(std::string(name) + " temporarily rejected; retrying");
+      break;
+    case AckResult::kRejected:
+      Fail(Phase::kHandshakeFailed, std::string("the vehicle refused ") + name);
+      break;
+  }
+}
+
+MeasuredState OnlineController::measured() const {
+  MeasuredState m;
+  m.time = position_time_;
+  m.position = position_;
+  m.velocity = velocity_;
+  m.attitude = attitude_;
+  m.body_rate = body_rate_;
+  m.joints = joints_;
+  m.joint_rates = joint_rates_;
+  return m;
+}
+
+planner::BoundaryState OnlineController::MeasuredBoundaryState() const {
+  planner::BoundaryState s;
+  s.position = position_;
+  s.velocity = velocity_;
+  s.yaw = HopfYaw(attitude_);
+  s.yaw_rate = HopfYawRate(attitude_, body_rate_);
+  s.joints = joints_;
+  s.joint_rates = joint_rates_;
+  return s;
+}
+
+void OnlineController::MaybeReplan(double t) {
+  if (!options_.replanning || phase_ != Phase::kFlying || blending_ || replan_pending_ || !to_.plan) return;
+  if (t - last_trigger_ < options_.min_replan_interval) return;
+  const planner::WholeBodyTrajectory& trajectory = *to_.plan->trajectory;
+  const double t_splice = t + options_.replan_lead;
+  const double plan_time = t_splice - to_.start;
+  // Not in (or right before) the insertion piece: Replan would refuse.
+  const VecX& T = trajectory.position().durations();
+  double last_start = trajectory.duration();
+  if (to_.plan->insertion.enabled) last_start -= T[T.size() - 1];
+  if (plan_time >= last_start - setup_.replan_options.min_piece_duration) return;
+
+  // The measured state predicted to the splice time, the tracking error held constant.
+  const planner::WholeBodySample now = trajectory.Sample(t - to_.start);
+  const planner::WholeBodySample then = trajectory.Sample(plan_time);
+  const planner::BoundaryState measured = MeasuredBoundaryState();
+  Worker::Job job;
+  job.replan = true;
+  job.base = to_.plan;
+  job.t_from = plan_time;
+  job.requested_at = t;
+  planner::BoundaryState& s = job.start;
+  s.position = measured.position + (then.position - now.position);
+  s.velocity = measured.velocity + (then.velocity - now.velocity);
+  s.acceleration = then.acceleration;
+  s.jerk = then.jerk;
+  s.yaw = measured.yaw + (then.yaw - now.yaw);
+  s.yaw_rate = then.yaw_rate;
+  s.joints = measured.joints + (then.joints - now.joints);
+  s.joint_rates = then.joint_rates;
+  const double error = (measured.position - now.position).norm();
+  worker_->Submit(std::move(job));
+  replan_pending_ = true;
+  pending_splice_time_ = t_splice;
+  last_trigger_ = t;
+  ++stats_.replans_triggered;
+  Event(Format("tracking error %.3f m > %.3f m: replanning from the measured state", error, options_.replan_threshold));
+}
+
+void OnlineController::CollectPlan(double t) {
+  std::optional<Worker::Done> done = worker_->Take();
+  if (!done) return;
+  stats_.plans.push_back(done->record);
+  const PlanRecord& record = done->record;
+  if (!record.replan) {
+    if (!done->plan) {
+      Fail(Phase::kHoldingAfterFailure, "the plan failed (" + record.status + ": " + record.message + ")");
+      return;
+    }
+    first_plan_ = done->plan;
+    Event(Format("plan ready: %.2f s long, ", first_plan_->trajectory->duration()) +
+          Format("planned in %.1f ms", record.latency_ms));
+    if (phase_ == Phase::kWaitingForPlan) {
+      to_ = {first_plan_, t};
+      phase_ = Phase::kFlying;
+      Event("flying the plan");
+    }
+    return;
+  }
+  replan_pending_ = false;
+  if (phase_ != Phase::kFlying) return;  // arrived or failed meanwhile: nothing to splice into
+  if (done->plan) {
+    from_ = to_;
+    to_ = {done->plan, pending_splice_time_};
+    blending_ = true;
+    blend_start_ = std::max(t, pending_splice_time_);
+    ++stats_.splices;
+    Event(Format(record.cold_fallback ? "replanned in %.1f ms (the warm start failed the post-check: planned cold); "
+                                        "blending the new plan in from t = %.2f s"
+                                      : "replanned in %.1f ms; blending the new plan in from t = %.2f s",
+                 record.latency_ms, blend_start_));
+  } else if (record.status == "insertion_in_progress") {
+    Event("not replanned: the insertion has begun");
+  } else {
+    Fail(Phase::kHoldingAfterFailure, "the replan failed (" + record.status + ": " + record.message + ")");
+  }
+}
+
+std::optional<Setpoint> OnlineController::Reference(double t) const {
+  if (!to_.plan) return std::nullopt;
+  auto sample = [t](const ActivePlan& p) { return FromSample(p.plan->trajectory->Sample(t - p.start)); };
+  if (blending_) {
+    if (t < blend_start_) return sample(from_);
+    const double s = (t - blend_start_) / options_.blend_window;
+    if (s < 1.0) return Blend(sample(from_), sample(to_), SpliceWeight(s));
+  }
+  return sample(to_);
+}
+
+void OnlineController::RunHandshake(double t, ControllerOutput* out) {
+  auto step = [&](Command command, bool confirmed, const char* name) {
+    if (confirmed) return true;
+    if (attempts_ > 0 && t - last_command_time_ < options_.ack_timeout) return false;
+    if (attempts_ >= options_.max_command_attempts) {
+      Fail(Phase::kHandshakeFailed, std::string("no ") + name + " acknowledgement after " +
+                                        std::to_string(attempts_) + " attempts");
+      return false;
+    }
+    out->commands.push_back({command, attempts_});
+    if (attempts_ == 0) Event(std::string("requesting ") + name);
+    ++attempts_;
+    last_command_time_ = t;
+    return false;
+  };
+  if (phase_ == Phase::kRequestingOffboard) {
+    if (vehicle_offboard_ && seen_heartbeat_) offboard_confirmed_ = true;
+    if (!step(Command::kSetOffboardMode, offboard_confirmed_, "OFFBOARD")) return;
+    phase_ = Phase::kArming;
+    attempts_ = 0;
+  }
+  if (phase_ == Phase::kArming) {
+    if (vehicle_armed_ && seen_heartbeat_) armed_confirmed_ = true;
+    if (!step(Command::kArm, armed_confirmed_, "arming")) return;
+    confirmed_time_ = t;
+    if (first_plan_) {
+      to_ = {first_plan_, t};
+      phase_ = Phase::kFlying;
+      Event("offboard and armed: flying the plan");
+    } else {
+      phase_ = Phase::kWaitingForPlan;
+      Event("offboard and armed: waiting for the plan");
+    }
+  }
+}
+
+ControllerOutput OnlineController::Tick(double t) {
+  ControllerOutput out;
+  if (!ticked_) {
+    ticked_ = true;
+    first_tick_ = t;
+    next_heartbeat_ = t;
+  }
+  CollectPlan(t);
+
+  // The vehicle's silence ends everything.
+  if (phase_ != Phase::kVehicleLost && phase_ != Phase::kHandshakeFailed && !arrival_done_) {
+    if (have_position_ && t - position_time_ > options_.vehicle_timeout) {
+      Fail(Phase::kVehicleLost, Format("no position from the vehicle for %.2f s", t - position_time_));
+    } else if (!HaveState() && t - first_tick_ > options_.connect_timeout) {
+      Fail(Phase::kVehicleLost, Format("no complete vehicle state within %.1f s", options_.connect_timeout));
+    }
+  }
+
+  switch (phase_) {
+    case Phase::kWaitingForVehicle:
+      if (HaveState()) {
+        hold_ = Setpoint{};
+        hold_.position = position_;
+        hold_.yaw = HopfYaw(attitude_);
+        hold_.joints = joints_;
+        hold_.joint_rates = VecX::Zero(joints_.size());
+        hold_start_ = t;
+        phase_ = Phase::kStreamingHold;
+        Worker::Job job;
+        job.start.position = hold_.position;
+        job.start.yaw = hold_.yaw;
+        job.start.joints = hold_.joints;
+        job.start.joint_rates = hold_.joint_rates;
+        job.requested_at = t;
+        worker_->Submit(std::move(job));
+        Event(Format("vehicle state received: holding at (%.3f, ", position_.x()) +
+              Format("%.3f, %.3f) and planning from there", position_.y(), position_.z()));
+      }
+      break;
+    case Phase::kStreamingHold:
+      if (t - hold_start_ >= options_.hold_time) {
+        phase_ = Phase::kRequestingOffboard;
+        attempts_ = 0;
+      }
+      break;
+    default:
+      break;
+  }
+  if (phase_ == Phase::kRequestingOffboard || phase_ == Phase::kArming) RunHandshake(t, &out);
+
+  if (phase_ == Phase::kFlying) {
+    if (blending_ && t >= blend_start_ + options_.blend_window) {
+      blending_ = false;
+      from_ = ActivePlan{};
+    }
+    if (!blending_ && t - to_.start >= to_.plan->trajectory->duration()) {
+      phase_ = Phase::kArrived;
+      arrival_time_ = t;
+      Event("the plan has ended: holding at the goal");
+    }
+  }
+  if (phase_ == Phase::kArrived && !arrival_done_ && t - arrival_time_ >= options_.arrival_hold) {
+    arrival_done_ = true;
+    Event("done");
+  }
+
+  std::optional<Setpoint> setpoint;
+  bool in_blend = false;
+  switch (phase_) {
+    case Phase::kStreamingHold:
+    case Phase::kRequestingOffboard:
+    case Phase::kArming:
+    case Phase::kWaitingForPlan:
+    case Phase::kHoldingAfterFailure:
+      setpoint = hold_;
+      break;
+    case Phase::kFlying:
+      setpoint = Reference(t);
+      in_blend = blending_ && t >= blend_start_;
+      break;
+    case Phase::kArrived:
+      setpoint = HoldAt(FromSample(to_.plan->trajectory->Sample(to_.plan->trajectory->duration())));
+      break;
+    default:
+      break;
+  }
+  if (arrival_done_) setpoint.reset();
+  if (setpoint) {
+    if (last_setpoint_) {
+      const double step = (setpoint->position - last_setpoint_->position).norm();
+      stats_.max_setpoint_step = std::max(stats_.max_setpoint_step, step);
+      if (in_blend || last_setpoint_in_blend_) stats_.max_splice_step = std::max(stats_.max_splice_step, step);
+    }
+    last_setpoint_ = setpoint;
+    last_setpoint_in_blend_ = in_blend;
+    ++stats_.setpoints;
+    out.setpoint = std::move(setpoint);
+  }
+  const bool streaming_phase = phase_ != Phase::kVehicleLost && phase_ != Phase::kHandshakeFailed && !arrival_done_;
+  if (streaming_phase && t >= next_heartbeat_) {
+    out.send_heartbeat = true;
+    next_heartbeat_ += options_.heartbeat_period;
+    if (next_heartbeat_ <= t) next_heartbeat_ = t + options_.heartbeat_period;
+  }
+  out.events = std::move(events_);
+  events_.clear();
+  out.phase = phase_;
+  return out;
+}
+
+}  // namespace quadhand::online

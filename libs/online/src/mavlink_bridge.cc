@@ -1,0 +1,132 @@
+#include "quadhand/online/mavlink_bridge.h"
+
+#include <cmath>
+
+#include "quadhand/link/frames.h"
+
+namespace quadhand::online {
+namespace {
+
+constexpr uint8_t kResultInProgress = 5;  // MAV_RESULT_IN_PROGRESS
+
+uint32_t TimeBootMs(double t) { return static_cast<uint32_t>(std::llround(std::max(0.0, t) * 1e3)); }
+
+}  // namespace
+
+bool DeliverToController(const link::Message& message, uint8_t from_system, double t, const LinkTargets& targets,
+                         OnlineController* controller) {
+  if (targets.vehicle_system != 0 && from_system != targets.vehicle_system) return false;
+  if (const auto* heartbeat = std::get_if<link::Heartbeat>(&message)) {
+    if (heartbeat->type == link::mav::kTypeOnboardController) return false;  // another companion, not the vehicle
+    const bool armed = (heartbeat->base_mode & link::mav::kModeFlagSafetyArmed) != 0;
+    const bool custom = (heartbeat->base_mode & link::mav::kModeFlagCustomModeEnabled) != 0;
+    const uint32_t main_mode = (heartbeat->custom_mode >> 16) & 0xFFu;
+    controller->OnHeartbeat(t, armed, custom && main_mode == link::mav::kPx4MainModeOffboard);
+    return true;
+  }
+  if (const auto* position = std::get_if<link::LocalPositionNed>(&message)) {
+    controller->OnPosition(t, link::NedToEnu(Vec3(position->x, position->y, position->z)),
+                           link::NedToEnu(Vec3(position->vx, position->vy, position->vz)));
+    return true;
+  }
+  if (const auto* attitude = std::get_if<link::AttitudeQuaternion>(&message)) {
+    const Quat q_ned_frd(attitude->q1, attitude->q2, attitude->q3, attitude->q4);
+    if (!(q_ned_frd.norm() > 0.5)) return false;
+    controller->OnAttitude(t, link::AttitudeNedFrdToEnuFlu(q_ned_frd),
+                           link::FrdToFlu(Vec3(attitude->rollspeed, attitude->pitchspeed, attitude->yawspeed)));
+    return true;
+  }
+  if (const auto* array = std::get_if<link::DebugFloatArray>(&message)) {
+    if (array->name != kJointsArrayName || array->data.size() % 2 != 0 || array->data.empty()) return false;
+    const int n = static_cast<int>(array->data.size() / 2);
+    VecX q(n), qd(n);
+    for (int k = 0; k < n; ++k) {
+      q[k] = array->data[static_cast<size_t>(k)];
+      qd[k] = array->data[static_cast<size_t>(n + k)];
+    }
+    controller->OnJoints(t, q, qd);  // the controller ignores a wrong joint count
+    return true;
+  }
+  if (const auto* ack = std::get_if<link::CommandAck>(&message)) {
+    Command command;
+    if (ack->command == link::mav::kCmdDoSetMode) command = Command::kSetOffboardMode;
+    else if (ack->command == link::mav::kCmdComponentArmDisarm) command = Command::kArm;
+    else return false;
+    AckResult result = AckResult::kRejected;
+    if (ack->result == link::mav::kResultAccepted) result = AckResult::kAccepted;
+    else if (ack->result == link::mav::kResultTemporarilyRejected || ack->result == kResultInProgress) {
+      result = AckResult::kTemporarilyRejected;
+    }
+    controller->OnCommandAck(t, command, result);
+    return true;
+  }
+  return false;
+}
+
+link::SetPositionTargetLocalNed ToPositionTarget(const Setpoint& setpoint, double t, const LinkTargets& targets) {
+  link::SetPositionTargetLocalNed m;
+  m.time_boot_ms = TimeBootMs(t);
+  const Vec3 p = link::EnuToNed(setpoint.position), v = link::EnuToNed(setpoint.velocity),
+             a = link::EnuToNed(setpoint.acceleration);
+  m.x = static_cast<float>(p.x());
+  m.y = static_cast<float>(p.y());
+  m.z = static_cast<float>(p.z());
+  m.vx = static_cast<float>(v.x());
+  m.vy = static_cast<float>(v.y());
+  m.vz = static_cast<float>(v.z());
+  m.afx = static_cast<float>(a.x());
+  m.afy = static_cast<float>(a.y());
+  m.afz = static_cast<float>(a.z());
+  m.yaw = static_cast<float>(link::YawEnuToNed(setpoint.yaw));
+  m.yaw_rate = static_cast<float>(-setpoint.yaw_rate);  // about up -> about down
+  m.type_mask = 0;
+  m.target_system = targets.vehicle_system;
+  m.target_component = targets.vehicle_component;
+  m.coordinate_frame = link::mav::kFrameLocalNed;
+  return m;
+}
+
+link::DebugFloatArray ToJointSetpoint(const Setpoint& setpoint, double t) {
+  link::DebugFloatArray m;
+  m.time_usec = static_cast<uint64_t>(std::llround(std::max(0.0, t) * 1e6));
+  m.array_id = kJointSetpointArrayId;
+  m.name = kJointSetpointArrayName;
+  for (int k = 0; k < setpoint.joints.size(); ++k) m.data.push_back(static_cast<float>(setpoint.joints[k]));
+  for (int k = 0; k < setpoint.joint_rates.size(); ++k) m.data.push_back(static_cast<float>(setpoint.joint_rates[k]));
+  return m;
+}
+
+link::CommandLong ToCommandLong(const CommandRequest& request, const LinkTargets& targets) {
+  link::CommandLong m;
+  m.target_system = targets.vehicle_system;
+  m.target_component = targets.vehicle_component;
+  m.confirmation = static_cast<uint8_t>(std::min(request.attempt, 255));
+  if (request.command == Command::kSetOffboardMode) {
+    m.command = link::mav::kCmdDoSetMode;
+    m.param1 = link::mav::kModeFlagCustomModeEnabled;
+    m.param2 = static_cast<float>(link::mav::kPx4MainModeOffboard);
+  } else {
+    m.command = link::mav::kCmdComponentArmDisarm;
+    m.param1 = 1.0f;
+  }
+  return m;
+}
+
+std::vector<link::Message> MessagesFor(const ControllerOutput& output, double t, const LinkTargets& targets) {
+  std::vector<link::Message> messages;
+  if (output.send_heartbeat) {
+    link::Heartbeat heartbeat;
+    heartbeat.type = link::mav::kTypeOnboardController;
+    heartbeat.autopilot = link::mav::kAutopilotInvalid;
+    heartbeat.system_status = link::mav::kStateActive;
+    messages.push_back(heartbeat);
+  }
+  if (output.setpoint) {
+    messages.push_back(ToPositionTarget(*output.setpoint, t, targets));
+    messages.push_back(ToJointSetpoint(*output.setpoint, t));
+  }
+  for (const CommandRequest& request : output.commands) messages.push_back(ToCommandLong(request, targets));
+  return messages;
+}
+
+}  // namespace quadhand::online

@@ -1,0 +1,185 @@
+// quadhand-replan-latency: latency of warm-started replanning (planner/replan.h)
+// on a task. Plans once (cold), then replans --trials times from states taken
+// on the plan at random times (before the insertion piece) and moved by a
+// random offset of --min-offset..--max-offset metres in a random direction,
+// as an online controller would after a disturbance. Prints the success rate
+// and the wall time of each replan (median, p95, max: solve plus post-check),
+// and the same figures for cold plans (front end and all) from the same states.
+// docs/online.md reports its output.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/planning_context.h"
+#include "quadhand/planner/replan.h"
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/solvers/builtin_solvers.h"
+
+namespace quadhand {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::time_point since) { return std::chrono::duration<double, std::milli>(Clock::now() - since).count(); }
+
+double Quantile(std::vector<double> v, double p) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const double x = p * (v.size() - 1);
+  const size_t i = static_cast<size_t>(std::floor(x));
+  const size_t j = std::min(i + 1, v.size() - 1);
+  return v[i] + (x - i) * (v[j] - v[i]);
+}
+
+void PrintStats(const char* name, const std::vector<double>& ms, int successes, int trials) {
+  std::printf("%-28s success %3d/%-3d  median %7.2f ms  p95 %7.2f ms  max %7.2f ms\n", name, successes, trials,
+              Quantile(ms, 0.5), Quantile(ms, 0.95), ms.empty() ? 0.0 : *std::max_element(ms.begin(), ms.end()));
+}
+
+}  // namespace
+}  // namespace quadhand
+
+int main(int argc, char** argv) {
+  using namespace quadhand;
+  CLI::App app{"quadhand-replan-latency: latency of warm-started replanning from perturbed states"};
+  std::string task_path = std::string(QUADHAND_SOURCE_DIR) + "/data/tasks/window_cup.yaml";
+  int trials = 50, max_iterations = -1, cold_trials = 5;
+  unsigned seed = 1;
+  double min_offset = 0.05, max_offset = 0.20, velocity_noise = 0.1;
+  double relative_tolerance = -1.0;
+  bool profile_post_check = false;
+  app.add_option("--task", task_path, "Task file")->capture_default_str();
+  app.add_option("--trials", trials, "Replans to time")->capture_default_str();
+  app.add_option("--cold-trials", cold_trials, "Cold plans from the same states, for comparison")->capture_default_str();
+  app.add_option("--seed", seed, "Seed of the random times and offsets")->capture_default_str();
+  app.add_option("--min-offset", min_offset, "Smallest position offset from the plan, m")->capture_default_str();
+  app.add_option("--max-offset", max_offset, "Largest position offset from the plan, m")->capture_default_str();
+  app.add_option("--velocity-noise", velocity_noise, "Largest velocity offset, m/s")->capture_default_str();
+  app.add_option("--max-iterations", max_iterations, "Override the replan solver's max_iterations");
+  app.add_option("--relative-tolerance", relative_tolerance, "Override the replan solver's relative cost tolerance");
+  app.add_flag("--profile-post-check", profile_post_check, "Also time the parts of the post-check over the initial plan");
+  CLI11_PARSE(app, argc, argv);
+
+  if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) {
+    std::fprintf(stderr, "%s\n", s.message().c_str());
+    return 2;
+  }
+  auto solver = opt::CreateSolver("lbfgs");
+  auto context = planner::PlanningContext::Load(task_path, {});
+  if (!context.ok()) {
+    std::fprintf(stderr, "quadhand-replan-latency: error: %s\n", context.status().message().c_str());
+    return 2;
+  }
+  const planner::PlanningScene scene = (*context)->Scene();
+  const planner::Task& task = (*context)->task();
+  const planner::PlannerOptions options = planner::DefaultPlannerOptions();
+  planner::ReplanOptions replan = planner::DefaultReplanOptions();
+  if (max_iterations >= 0) replan.solver.max_iterations = max_iterations;
+  if (relative_tolerance >= 0) replan.solver.relative_cost_tolerance = relative_tolerance;
+
+  const auto plan_start = Clock::now();
+  auto plan = planner::Plan(scene, task, options, **solver);
+  if (!plan.ok() || !plan->success) {
+    std::fprintf(stderr, "the initial plan failed: %s\n", plan.ok() ? plan->message.c_str() : plan.status().message().c_str());
+    return 1;
+  }
+  std::printf("initial plan: %.1f ms, duration %.2f s, %d pieces\n", Ms(plan_start), plan->trajectory->duration(),
+              plan->trajectory->num_pieces());
+
+  const planner::WholeBodyTrajectory& trajectory = *plan->trajectory;
+  if (profile_post_check) {
+    robot::KinematicsState kin;
+    double exact_ms = 0, model_ms = 0, fk_ms = 0;
+    for (double t = 0; t <= trajectory.duration(); t += 0.01) {
+      const planner::WholeBodySample s = trajectory.Sample(t);
+      auto a = Clock::now();
+      robot::ComputeKinematics(scene.robot, s.BasePose(), s.joints, &kin);
+      fk_ms += Ms(a);
+      a = Clock::now();
+      int link;
+      volatile double d = scene.exact.WholeBody(kin, 0.08, &link);
+      exact_ms += Ms(a);
+      a = Clock::now();
+      volatile double e = env::WholeBodyClearance(kin, scene.collision, 0.08, env::QueryContext{0, 0.0});
+      model_ms += Ms(a);
+      (void)d; (void)e;
+    }
+    std::printf("post-check parts over the initial plan (every 10 ms): kinematics %.1f ms, exact clearance %.1f ms, "
+                "model clearance %.1f ms\n", fk_ms, exact_ms, model_ms);
+  }
+  const VecX& durations = trajectory.position().durations();
+  const double insertion_start = trajectory.duration() - (plan->insertion.enabled ? durations[durations.size() - 1] : 0.0);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  auto random_unit = [&]() {
+    Vec3 d(normal(rng), normal(rng), normal(rng));
+    return Vec3(d.normalized());
+  };
+
+  std::vector<double> replan_ms, solve_ms, post_check_ms, iterations;
+  std::vector<planner::BoundaryState> starts;
+  std::vector<double> times;
+  int successes = 0, refused = 0;
+  for (int trial = 0; trial < trials; ++trial) {
+    const double t = uniform(rng) * (insertion_start - 0.3);
+    const planner::WholeBodySample s = trajectory.Sample(t);
+    planner::BoundaryState start;
+    start.position = s.position + (min_offset + uniform(rng) * (max_offset - min_offset)) * random_unit();
+    start.velocity = s.velocity + velocity_noise * uniform(rng) * random_unit();
+    start.acceleration = s.acceleration;
+    start.jerk = s.jerk;
+    start.yaw = s.yaw;
+    start.yaw_rate = s.yaw_rate;
+    start.joints = s.joints;
+    start.joint_rates = s.joint_rates;
+    const auto begin = Clock::now();
+    auto result = planner::Replan(scene, task, options, replan, **solver, *plan, t, start);
+    const double ms = Ms(begin);
+    if (!result.ok()) {
+      std::fprintf(stderr, "replan error: %s\n", result.status().message().c_str());
+      return 1;
+    }
+    if (result->status == "start_in_collision" || result->status == "insertion_in_progress") {
+      ++refused;
+      continue;
+    }
+    starts.push_back(start);
+    times.push_back(t);
+    replan_ms.push_back(ms);
+    solve_ms.push_back(result->solve_ms);
+    post_check_ms.push_back(ms - result->solve_ms);
+    iterations.push_back(result->iterations);
+    successes += result->success;
+    if (!result->success) std::printf("  t = %.2f s: %s\n", t, result->message.c_str());
+  }
+  std::printf("replan options: max_iterations %d, relative cost tolerance %g (window %d), memory %d, attempts %d\n",
+              replan.solver.max_iterations, replan.solver.relative_cost_tolerance, replan.solver.relative_cost_window,
+              replan.solver.memory_size, replan.max_attempts);
+  std::printf("offsets %.2f-%.2f m, velocity offsets up to %.2f m/s; %d states refused (in collision or insertion)\n",
+              min_offset, max_offset, velocity_noise, refused);
+  PrintStats("warm replan (total)", replan_ms, successes, static_cast<int>(replan_ms.size()));
+  PrintStats("  of which solve", solve_ms, successes, static_cast<int>(replan_ms.size()));
+  PrintStats("  of which post-check etc.", post_check_ms, successes, static_cast<int>(replan_ms.size()));
+  std::printf("iterations: median %.0f, max %.0f\n", Quantile(iterations, 0.5), Quantile(iterations, 1.0));
+
+  std::vector<double> cold_ms;
+  int cold_successes = 0;
+  for (int i = 0; i < std::min<int>(cold_trials, static_cast<int>(starts.size())); ++i) {
+    planner::Task cold_task = task;
+    cold_task.start = starts[i];
+    const auto begin = Clock::now();
+    auto result = planner::Plan(scene, cold_task, options, **solver);
+    cold_ms.push_back(Ms(begin));
+    cold_successes += result.ok() && result->success;
+  }
+  PrintStats("cold plan (same states)", cold_ms, cold_successes, static_cast<int>(cold_ms.size()));
+  return 0;
+}

@@ -1,0 +1,291 @@
+// The online controller flying the simulated vehicle in-process: the default
+// task to the cup (through the MAVLink messages and the simulator's PX4-like
+// autopilot), a push that triggers a replan spliced in smoothly, a replan
+// that fails and leaves the vehicle holding, a silent vehicle, and the
+// offboard handshake's retries and refusals.
+#include <gtest/gtest.h>
+
+#include "online/online_test_util.h"
+
+namespace quadhand::online {
+namespace {
+
+using testing::DirectFlight;
+using testing::MakeController;
+using testing::WindowCup;
+
+const Vec3& CupPosition() { return WindowCup().task.tool->position; }
+
+FlightMetrics Metrics(const FlightLog& log, const OnlineController& controller) {
+  return EvaluateFlight(log.samples(), WindowCup().robot(), *WindowCup().exact, WindowCup().task,
+                        controller.current_plan()->terminal.position);
+}
+
+// The whole message path: controller -> MAVLink messages -> autopilot ->
+// simulator -> telemetry messages -> controller.
+TEST(OnlineControllerTest, FliesTheDefaultTaskToTheCupThroughTheAutopilot) {
+  const planner::Task& task = WindowCup().task;
+  sim::StartPose start;
+  start.position = task.start.position;
+  start.yaw = task.start.yaw;
+  start.joints = task.start.joints;
+  auto autopilot = sim::Autopilot::Create(sim::Simulator(testing::VehicleModel(), 3), start, sim::AutopilotOptions{});
+  ASSERT_TRUE(autopilot.ok()) << autopilot.status().message();
+  auto controller = MakeController();
+  const LinkTargets targets;
+  FlightLog log;
+  std::vector<link::Message> from_vehicle, replies;
+  double first_setpoint = -1.0, first_mode_request = -1.0;
+  bool saw_offboard_ack = false, saw_arm_ack = false;
+  double t = 0.0;
+  for (; t < 40.0 && !controller->finished(); t += 0.02) {
+    from_vehicle.clear();
+    ASSERT_TRUE(autopilot->AdvanceTo(t, &from_vehicle).ok());
+    for (const link::Message& m : from_vehicle) {
+      DeliverToController(m, 1, t, targets, controller.get());
+      if (const auto* ack = std::get_if<link::CommandAck>(&m)) {
+        saw_offboard_ack |= ack->command == link::mav::kCmdDoSetMode && ack->result == link::mav::kResultAccepted;
+        saw_arm_ack |= ack->command == link::mav::kCmdComponentArmDisarm && ack->result == link::mav::kResultAccepted;
+      }
+    }
+    const ControllerOutput out = controller->Tick(t);
+    controller->WaitUntilIdle();
+    if (out.setpoint && first_setpoint < 0) first_setpoint = t;
+    if (!out.commands.empty() && first_mode_request < 0) first_mode_request = t;
+    replies.clear();
+    for (const link::Message& m : MessagesFor(out, t, targets)) autopilot->Handle(m, 255, 190, &replies);
+    for (const link::Message& m : replies) {
+      DeliverToController(m, 1, t, targets, controller.get());
+      if (const auto* ack = std::get_if<link::CommandAck>(&m)) {
+        saw_offboard_ack |= ack->command == link::mav::kCmdDoSetMode && ack->result == link::mav::kResultAccepted;
+        saw_arm_ack |= ack->command == link::mav::kCmdComponentArmDisarm && ack->result == link::mav::kResultAccepted;
+      }
+    }
+    log.Record(controller->measured(), out.setpoint, out.phase);
+  }
+  ASSERT_TRUE(controller->finished()) << PhaseName(controller->phase()) << " at t = " << t;
+  EXPECT_EQ(controller->phase(), Phase::kArrived);
+  EXPECT_TRUE(saw_offboard_ack);
+  EXPECT_TRUE(saw_arm_ack);
+  EXPECT_EQ(autopilot->mode(), sim::FlightMode::kOffboard);
+  EXPECT_TRUE(autopilot->armed());
+  // PX4's rule: setpoints streamed for at least a second before OFFBOARD is asked for.
+  ASSERT_GE(first_setpoint, 0.0);
+  EXPECT_GE(first_mode_request - first_setpoint, 1.0);
+  EXPECT_EQ(autopilot->setpoints_rejected(), 0u);
+
+  const FlightMetrics metrics = Metrics(log, *controller);
+  EXPECT_LT(metrics.final_tool_error, 0.02) << "tool " << metrics.final_tool_error << " m from the cup";
+  EXPECT_LT(metrics.tracking_max, 0.10);
+  EXPECT_GT(metrics.min_clearance, 0.0) << "closest link " << metrics.closest_link;
+  // The tool at the end, computed independently from the simulator's state.
+  const sim::VehicleState& s = autopilot->state();
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(WindowCup().robot(), MakePose(s.position, s.attitude.toRotationMatrix()), s.joints,
+                           &kinematics);
+  EXPECT_LT((kinematics.link_poses[WindowCup().robot().LinkIndex("tool")].translation() - CupPosition()).norm(), 0.02);
+}
+
+TEST(OnlineControllerTest, APushTriggersAReplanThatIsSplicedWithoutAJump) {
+  OnlineOptions options;
+  auto controller = MakeController(options);
+  DirectFlight flight(controller.get());
+  double push_time = -1.0;
+  flight.Run(40.0, [&](double t, sim::Simulator* sim) {
+    // A gust: 1.2 m/s sideways, 1.5 s into the flight (before the windows).
+    if (push_time < 0.0 && controller->phase() == Phase::kFlying && t - controller->current_plan_start() > 1.0) {
+      push_time = t;
+      sim::VehicleState s = sim->state();
+      s.velocity += Vec3(0.0, 0.0, 0.8);
+      sim->Reset(s, sim->time());
+    }
+  });
+  ASSERT_GE(push_time, 0.0);
+  const OnlineStats& stats = controller->stats();
+  ASSERT_GE(stats.replans_triggered, 1);
+  std::string plans;
+  for (const PlanRecord& r : stats.plans) plans += r.status + ": " + r.message + "\n";
+  ASSERT_GE(stats.splices, 1) << plans;
+  EXPECT_EQ(controller->phase(), Phase::kArrived);
+  EXPECT_TRUE(controller->finished());
+  // Every replan passed the post-check (or the controller would be holding).
+  for (const PlanRecord& record : stats.plans) EXPECT_TRUE(record.success) << record.status << ": " << record.message;
+  // No jump: between two 20 ms setpoints the position moves by no more than
+  // the plans' speed allows plus the blend's share of the gap between them.
+  const double v_max = WindowCup().task.limits.v_max;
+  const double bound = BlendStepBound(v_max, options.replan_threshold + 0.3, options.blend_window, 0.02);
+  EXPECT_GT(stats.max_splice_step, 0.0);
+  EXPECT_LE(stats.max_splice_step, bound);
+  EXPECT_LE(stats.max_setpoint_step, bound);
+  // Still reaches the cup.
+  const FlightMetrics metrics = Metrics(flight.log(), *controller);
+  EXPECT_LT(metrics.final_tool_error, 0.02);
+  EXPECT_GT(metrics.min_clearance, 0.0);
+}
+
+TEST(OnlineControllerTest, AFailedReplanHoldsAtTheLastSafeSetpoint) {
+  const OnlineOptions options;
+  auto controller = MakeController(options);
+  DirectFlight flight(controller.get());
+  bool moved = false;
+  std::optional<Setpoint> before;
+  flight.Run(20.0, [&](double t, sim::Simulator* sim) {
+    if (!moved && controller->phase() == Phase::kFlying && t - controller->current_plan_start() > 1.0) {
+      // Move the vehicle so that the replan's start (the measured state
+      // predicted over the lead time) lies 3 cm from a scene point: in collision.
+      const Vec3 delta = controller->Reference(t + options.replan_lead)->position - controller->Reference(t)->position;
+      sim::VehicleState s = sim->state();
+      const Vec3 predicted = s.position + delta;
+      const std::vector<Vec3>& points = WindowCup().points;
+      const Vec3 nearest = *std::min_element(points.begin(), points.end(), [&](const Vec3& a, const Vec3& b) {
+        return (a - predicted).squaredNorm() < (b - predicted).squaredNorm();
+      });
+      s.position = nearest + 0.03 * (predicted - nearest).normalized() - delta;
+      s.velocity.setZero();
+      sim->Reset(s, sim->time());
+      moved = true;
+      before = controller->last_setpoint();
+    }
+  });
+  ASSERT_TRUE(moved);
+  EXPECT_EQ(controller->phase(), Phase::kHoldingAfterFailure);
+  EXPECT_FALSE(controller->finished());
+  ASSERT_FALSE(controller->stats().plans.empty());
+  const PlanRecord& last = controller->stats().plans.back();
+  EXPECT_TRUE(last.replan);
+  EXPECT_FALSE(last.success);
+  EXPECT_EQ(last.status, "start_in_collision") << last.message;
+  // The hold: the plan's setpoint of the moment the replan failed, at rest.
+  const ControllerOutput out = controller->Tick(flight.time());
+  ASSERT_TRUE(out.setpoint.has_value());
+  EXPECT_EQ(out.setpoint->velocity.norm(), 0.0);
+  EXPECT_EQ(out.setpoint->acceleration.norm(), 0.0);
+  ASSERT_TRUE(before.has_value());
+  // It is no further from the setpoint streamed when the vehicle was moved than
+  // the plan travels in the lead time before the failure was known.
+  EXPECT_LT((out.setpoint->position - before->position).norm(), WindowCup().task.limits.v_max * 0.1);
+  // The vehicle flew back to it.
+  EXPECT_LT((flight.simulator().state().position - out.setpoint->position).norm(), 0.05);
+}
+
+TEST(OnlineControllerTest, ASilentVehicleStopsTheStream) {
+  OnlineOptions options;
+  options.vehicle_timeout = 0.5;
+  auto controller = MakeController(options);
+  DirectFlight flight(controller.get());
+  double silent_from = -1.0;
+  flight.Run(20.0, [&](double t, sim::Simulator*) {
+    if (silent_from < 0.0 && controller->phase() == Phase::kFlying && t - controller->current_plan_start() > 1.0) {
+      silent_from = t;
+      flight.set_silent(true);
+    }
+  });
+  ASSERT_GE(silent_from, 0.0);
+  EXPECT_EQ(controller->phase(), Phase::kVehicleLost);
+  EXPECT_TRUE(controller->finished());
+  // Declared lost within one 20 ms period after the time-out.
+  EXPECT_LE(flight.time() - silent_from, options.vehicle_timeout + 0.02 + 0.02 + 1e-9);
+  EXPECT_GE(flight.time() - silent_from, options.vehicle_timeout);
+  const ControllerOutput out = controller->Tick(flight.time() + 0.02);
+  EXPECT_FALSE(out.setpoint.has_value());
+  EXPECT_TRUE(out.commands.empty());
+}
+
+// --------------------------------------------------------------- handshake
+
+// A vehicle at rest at the task's start that never moves; the test answers.
+class HandshakeTest : public ::testing::Test {
+ protected:
+  void SetUp() override { controller_ = MakeController(options_); }
+
+  ControllerOutput TickAt(double t) {
+    const planner::Task& task = WindowCup().task;
+    controller_->OnPosition(t, task.start.position, Vec3::Zero());
+    controller_->OnAttitude(t, Quat(Eigen::AngleAxisd(task.start.yaw, Vec3::UnitZ())), Vec3::Zero());
+    controller_->OnJoints(t, task.start.joints, VecX::Zero(task.start.joints.size()));
+    return controller_->Tick(t);
+  }
+
+  // Ticks at 50 Hz from `from` to `to`; returns the commands sent with their times.
+  std::vector<std::pair<double, CommandRequest>> Run(double from, double to,
+                                                     const std::function<void(double, const CommandRequest&)>& answer) {
+    std::vector<std::pair<double, CommandRequest>> sent;
+    for (double t = from; t < to - 1e-9; t += 0.02) {
+      const ControllerOutput out = TickAt(t);
+      for (const CommandRequest& c : out.commands) {
+        sent.emplace_back(t, c);
+        if (answer) answer(t, c);
+      }
+    }
+    return sent;
+  }
+
+  OnlineOptions options_;
+  std::unique_ptr<OnlineController> controller_;
+};
+
+TEST_F(HandshakeTest, RetriesATemporarilyRejectedModeChangeThenArms) {
+  int rejections = 0;
+  const auto sent = Run(0.0, 5.0, [&](double t, const CommandRequest& c) {
+    if (c.command == Command::kSetOffboardMode && rejections < 2) {
+      ++rejections;
+      controller_->OnCommandAck(t, c.command, AckResult::kTemporarilyRejected);
+    } else {
+      controller_->OnCommandAck(t, c.command, AckResult::kAccepted);
+    }
+  });
+  ASSERT_EQ(sent.size(), 4u);
+  EXPECT_GE(sent[0].first, options_.hold_time);  // the hold streamed first
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(sent[i].second.command, Command::kSetOffboardMode);
+    EXPECT_EQ(sent[i].second.attempt, i);
+  }
+  EXPECT_NEAR(sent[1].first - sent[0].first, options_.ack_timeout, 0.021);
+  EXPECT_EQ(sent[3].second.command, Command::kArm);
+  EXPECT_EQ(sent[3].second.attempt, 0);
+  controller_->WaitUntilIdle();
+  TickAt(5.0);
+  EXPECT_TRUE(controller_->phase() == Phase::kFlying || controller_->phase() == Phase::kArrived)
+      << PhaseName(controller_->phase());
+}
+
+TEST_F(HandshakeTest, GivesUpWithoutAcknowledgements) {
+  const auto sent = Run(0.0, 6.0, nullptr);
+  ASSERT_EQ(static_cast<int>(sent.size()), options_.max_command_attempts);
+  for (int i = 0; i < options_.max_command_attempts; ++i) EXPECT_EQ(sent[i].second.attempt, i);
+  EXPECT_EQ(controller_->phase(), Phase::kHandshakeFailed);
+  EXPECT_TRUE(controller_->finished());
+  EXPECT_FALSE(TickAt(6.0).setpoint.has_value());
+}
+
+TEST_F(HandshakeTest, ARefusedArmingEndsTheFlight) {
+  Run(0.0, 3.0, [&](double t, const CommandRequest& c) {
+    controller_->OnCommandAck(t, c.command,
+                              c.command == Command::kArm ? AckResult::kRejected : AckResult::kAccepted);
+  });
+  EXPECT_EQ(controller_->phase(), Phase::kHandshakeFailed);
+}
+
+TEST_F(HandshakeTest, AHeartbeatShowingTheModeCountsAsConfirmation) {
+  const auto sent = Run(0.0, 3.0, [&](double t, const CommandRequest&) {
+    controller_->OnHeartbeat(t, /*armed=*/true, /*offboard=*/true);  // acknowledgements lost
+  });
+  EXPECT_EQ(sent.size(), 1u);  // one mode request; the heartbeat then shows both
+  EXPECT_NE(controller_->phase(), Phase::kRequestingOffboard);
+  EXPECT_NE(controller_->phase(), Phase::kArming);
+  EXPECT_NE(controller_->phase(), Phase::kHandshakeFailed);
+}
+
+TEST_F(HandshakeTest, NoVehicleMeansNoStream) {
+  for (double t = 0.0; t < 1.0; t += 0.02) {
+    const ControllerOutput out = controller_->Tick(t);
+    EXPECT_FALSE(out.setpoint.has_value());
+    EXPECT_TRUE(out.commands.empty());
+  }
+  EXPECT_EQ(controller_->phase(), Phase::kWaitingForVehicle);
+  controller_->Tick(options_.connect_timeout + 0.1);
+  EXPECT_EQ(controller_->phase(), Phase::kVehicleLost);
+}
+
+}  // namespace
+}  // namespace quadhand::online

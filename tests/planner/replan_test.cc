@@ -1,0 +1,180 @@
+// Warm-started replanning (planner/replan.h) on the default window-and-cup task.
+#include "quadhand/planner/replan.h"
+
+#include <gtest/gtest.h>
+
+#include "quadhand/solvers/lbfgs_solver.h"
+#include "support/window_cup_scene.h"
+
+namespace quadhand::planner {
+namespace {
+
+using testing::WindowCup;
+
+// One cold plan of the default task, shared by the tests.
+const PlanResult& DefaultPlan() {
+  static const PlanResult plan = [] {
+    solvers::LbfgsSolver solver;
+    auto result = Plan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), solver);
+    EXPECT_TRUE(result.ok()) << result.status().message();
+    EXPECT_TRUE(result->success) << result->message;
+    return *result;
+  }();
+  return plan;
+}
+
+// The plan's state at t (a measured state with no error).
+BoundaryState StateOnPlan(const WholeBodyTrajectory& trajectory, double t) {
+  const WholeBodySample s = trajectory.Sample(t);
+  BoundaryState state;
+  state.position = s.position;
+  state.velocity = s.velocity;
+  state.acceleration = s.acceleration;
+  state.jerk = s.jerk;
+  state.yaw = s.yaw;
+  state.yaw_rate = s.yaw_rate;
+  state.joints = s.joints;
+  state.joint_rates = s.joint_rates;
+  return state;
+}
+
+double InsertionStart(const PlanResult& plan) {
+  const VecX& T = plan.trajectory->position().durations();
+  return plan.trajectory->duration() - T[T.size() - 1];
+}
+
+TEST(RemainderGuessTest, KeepsTheRemainingPiecesAndTheirJunctions) {
+  const WholeBodyTrajectory& trajectory = *DefaultPlan().trajectory;
+  const VecX& T = trajectory.position().durations();
+  ASSERT_GE(T.size(), 4);
+  // Halfway through piece 1: pieces 1..N-1 remain, the first one halved.
+  const double t_from = T[0] + 0.5 * T[1];
+  MatX position, aux;
+  VecX durations;
+  int first = -1;
+  ASSERT_TRUE(RemainderGuess(trajectory, t_from, 0.01, &position, &aux, &durations, &first).ok());
+  EXPECT_EQ(first, 1);
+  ASSERT_EQ(durations.size(), T.size() - 1);
+  EXPECT_NEAR(durations[0], 0.5 * T[1], 1e-12);
+  EXPECT_NEAR(durations.sum(), trajectory.duration() - t_from, 1e-9);
+  ASSERT_EQ(position.cols(), durations.size() - 1);
+  ASSERT_EQ(aux.rows(), 1 + WindowCup().robot().num_actuated());
+  // Waypoint i is the plan's state at the end of the remaining piece i.
+  double t = t_from;
+  for (int i = 0; i + 1 < durations.size(); ++i) {
+    t += durations[i];
+    const WholeBodySample s = trajectory.Sample(t);
+    EXPECT_LT((position.col(i) - s.position).norm(), 1e-9) << i;
+    EXPECT_NEAR(aux(0, i), s.yaw, 1e-9);
+    EXPECT_LT((aux.col(i).tail(aux.rows() - 1) - s.joints).norm(), 1e-9);
+  }
+}
+
+TEST(RemainderGuessTest, MergesAShortFirstPieceIntoTheNext) {
+  const WholeBodyTrajectory& trajectory = *DefaultPlan().trajectory;
+  const VecX& T = trajectory.position().durations();
+  const double t_from = T[0] + T[1] - 0.05;  // 50 ms before the end of piece 1
+  MatX position, aux;
+  VecX durations;
+  int first = -1;
+  ASSERT_TRUE(RemainderGuess(trajectory, t_from, 0.15, &position, &aux, &durations, &first).ok());
+  EXPECT_EQ(first, 1);
+  ASSERT_EQ(durations.size(), T.size() - 2);  // piece 1's rest folded into piece 2
+  EXPECT_NEAR(durations[0], 0.05 + T[2], 1e-9);
+  EXPECT_NEAR(durations.sum(), trajectory.duration() - t_from, 1e-9);
+  EXPECT_LT((position.col(0) - trajectory.Sample(T[0] + T[1] + T[2]).position).norm(), 1e-9);
+  // Outside the plan: an error, not a guess.
+  EXPECT_FALSE(RemainderGuess(trajectory, trajectory.duration(), 0.15, &position, &aux, &durations, &first).ok());
+  EXPECT_FALSE(RemainderGuess(trajectory, -0.1, 0.15, &position, &aux, &durations, &first).ok());
+}
+
+TEST(ReplanTest, FromAStateOnThePlanKeepsThePlan) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& old = *plan.trajectory;
+  const double t_from = 0.3 * InsertionStart(plan);
+  solvers::LbfgsSolver solver;
+  auto result = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(), solver,
+                       plan, t_from, StateOnPlan(old, t_from));
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  ASSERT_TRUE(result->success) << result->message;
+  // Already near a minimum: the remainder barely changes.
+  const WholeBodyTrajectory& fresh = *result->trajectory;
+  EXPECT_NEAR(fresh.duration(), old.duration() - t_from, 0.1 * old.duration());
+  double worst = 0.0;
+  for (int k = 0; k <= 50; ++k) {
+    const double f = k / 50.0;
+    worst = std::max(worst, (fresh.Sample(f * fresh.duration()).position -
+                             old.Sample(t_from + f * (old.duration() - t_from)).position).norm());
+  }
+  EXPECT_LT(worst, 0.15);
+}
+
+TEST(ReplanTest, FromAnOffsetStateStartsThereAndReachesTheGoal) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& old = *plan.trajectory;
+  solvers::LbfgsSolver solver;
+  int successes = 0;
+  const Vec3 offsets[] = {Vec3(0.1, 0.0, 0.0), Vec3(0.0, -0.08, 0.05), Vec3(-0.05, 0.05, -0.1)};
+  const double fractions[] = {0.2, 0.45, 0.7};
+  for (int i = 0; i < 3; ++i) {
+    const double t_from = fractions[i] * InsertionStart(plan);
+    BoundaryState start = StateOnPlan(old, t_from);
+    start.position += offsets[i];
+    auto result = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(),
+                         solver, plan, t_from, start);
+    ASSERT_TRUE(result.ok()) << result.status().message();
+    if (result->status == "start_in_collision") continue;  // the offset pushed a link into the scene
+    ASSERT_TRUE(result->trajectory.has_value()) << result->message;
+    if (!result->success) {
+      ADD_FAILURE() << "t = " << t_from << ": " << result->message;
+      continue;
+    }
+    ++successes;
+    const WholeBodySample first = result->trajectory->Sample(0.0), last = result->trajectory->Sample(1e9);
+    EXPECT_LT((first.position - start.position).norm(), 1e-6);
+    EXPECT_LT((first.velocity - start.velocity).norm(), 1e-6);
+    EXPECT_LT((last.position - plan.terminal.position).norm(), 0.01);
+    EXPECT_TRUE(result->post_check.passed);
+    EXPECT_GE(result->post_check.min_clearance_exact, WindowCup().task.safety_distance - 0.002);
+  }
+  EXPECT_GE(successes, 2);
+}
+
+TEST(ReplanTest, RefusesInsideTheInsertionAndFromACollidingState) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& old = *plan.trajectory;
+  solvers::LbfgsSolver solver;
+  const double t_insertion = 0.5 * (InsertionStart(plan) + old.duration());
+  auto inserting = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(),
+                          solver, plan, t_insertion, StateOnPlan(old, t_insertion));
+  ASSERT_TRUE(inserting.ok());
+  EXPECT_FALSE(inserting->success);
+  EXPECT_EQ(inserting->status, "insertion_in_progress");
+
+  // The base moved onto a scene point.
+  const double t_from = 0.5 * InsertionStart(plan);
+  BoundaryState start = StateOnPlan(old, t_from);
+  const Vec3 nearest = *std::min_element(WindowCup().points.begin(), WindowCup().points.end(),
+                                         [&](const Vec3& a, const Vec3& b) {
+                                           return (a - start.position).norm() < (b - start.position).norm();
+                                         });
+  start.position = nearest;
+  auto colliding = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(),
+                          solver, plan, t_from, start);
+  ASSERT_TRUE(colliding.ok());
+  EXPECT_FALSE(colliding->success);
+  EXPECT_EQ(colliding->status, "start_in_collision") << colliding->message;
+  EXPECT_FALSE(colliding->trajectory.has_value());
+
+  // Inconsistent input is an error.
+  BoundaryState wrong = StateOnPlan(old, t_from);
+  wrong.joints = VecX::Zero(1);
+  EXPECT_FALSE(Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(), solver,
+                      plan, t_from, wrong).ok());
+  PlanResult empty;
+  EXPECT_FALSE(Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(), solver,
+                      empty, t_from, StateOnPlan(old, t_from)).ok());
+}
+
+}  // namespace
+}  // namespace quadhand::planner
