@@ -37,14 +37,16 @@ bool DeliverToController(const link::Message& message, uint8_t from_system, doub
     return true;
   }
   if (const auto* array = std::get_if<link::DebugFloatArray>(&message)) {
-    if (array->name != kJointsArrayName || array->data.size() % 2 != 0 || array->data.empty()) return false;
-    const int n = static_cast<int>(array->data.size() / 2);
-    VecX q(n), qd(n);
+    // The wire always carries 58 values (zero-padded, and the padding may be
+    // truncated away): the robot's joint count says where the rates start.
+    const int n = controller->num_joints();
+    if (array->name != kJointsArrayName || n < 1 || 2 * n > link::DebugFloatArray::kMaxData) return false;
+    VecX q = VecX::Zero(n), qd = VecX::Zero(n);
     for (int k = 0; k < n; ++k) {
-      q[k] = array->data[static_cast<size_t>(k)];
-      qd[k] = array->data[static_cast<size_t>(n + k)];
+      if (static_cast<size_t>(k) < array->data.size()) q[k] = array->data[static_cast<size_t>(k)];
+      if (static_cast<size_t>(n + k) < array->data.size()) qd[k] = array->data[static_cast<size_t>(n + k)];
     }
-    controller->OnJoints(t, q, qd);  // the controller ignores a wrong joint count
+    controller->OnJoints(t, q, qd);
     return true;
   }
   if (const auto* ack = std::get_if<link::CommandAck>(&message)) {

@@ -176,6 +176,7 @@ class OnlineController {
   ControllerOutput Tick(double t);
 
   Phase phase() const { return phase_; }
+  int num_joints() const { return setup_.scene.robot.num_actuated(); }
   bool finished() const;  // arrived and held, or a phase that ends the flight
   const OnlineStats& stats() const { return stats_; }
   // The plan being flown (null before the first plan).

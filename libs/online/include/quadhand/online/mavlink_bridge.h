@@ -9,6 +9,7 @@
 //   ATTITUDE_QUATERNION (31)  attitude FRD->NED -> FLU->ENU, body rates FRD -> FLU
 //   DEBUG_FLOAT_ARRAY (350)   name "JOINTS": n joint angles (rad) then n joint
 //                             rates (rad/s), URDF order of the actuated joints
+//                             (n from the robot: the wire pads data to 58 values)
 //   COMMAND_ACK (77)          for MAV_CMD_DO_SET_MODE and MAV_CMD_COMPONENT_ARM_DISARM
 // Sent to it:
 //   SET_POSITION_TARGET_LOCAL_NED (84)  position, velocity, acceleration, yaw

@@ -1,0 +1,343 @@
+// quadhand-online: flies a task on a vehicle over MAVLink (UDP). Reads the
+// vehicle's state, plans from it to the task's goal (planner library), streams
+// position and joint setpoints at --rate after PX4's offboard handshake, and
+// replans (warm-started) when the tracking error exceeds a threshold.
+// The logic is online::OnlineController (libs/online); this file owns the
+// socket, the clock and the output. docs/online.md.
+//
+// Exit codes: 0 the plan was flown to its end; 1 planning failed (the vehicle
+// was left holding at the last safe setpoint); 2 bad input; 3 the vehicle
+// went silent (or never answered); 4 the vehicle refused or left OFFBOARD or
+// arming; 5 interrupted (SIGINT/SIGTERM, --max-duration) before the end.
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "quadhand/core/file_util.h"
+#include "quadhand/link/connection.h"
+#include "quadhand/link/frames.h"
+#include "quadhand/online/controller.h"
+#include "quadhand/online/flight_log.h"
+#include "quadhand/online/mavlink_bridge.h"
+#include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/planning_context.h"
+#include "quadhand/solvers/builtin_solvers.h"
+
+namespace {
+
+using namespace quadhand;
+using Clock = std::chrono::steady_clock;
+
+constexpr int kExitSuccess = 0;
+constexpr int kExitPlanFailed = 1;
+constexpr int kExitBadInput = 2;
+constexpr int kExitVehicleLost = 3;
+constexpr int kExitRefused = 4;
+constexpr int kExitInterrupted = 5;
+
+std::atomic<bool> g_stop{false};
+void OnSignal(int) { g_stop = true; }
+
+int Fail(const std::string& message) {
+  std::fprintf(stderr, "quadhand-online: error: %s\n", message.c_str());
+  return kExitBadInput;
+}
+
+double Quantile(std::vector<double> v, double p) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const double x = p * static_cast<double>(v.size() - 1);
+  const size_t i = static_cast<size_t>(std::floor(x));
+  const size_t j = std::min(i + 1, v.size() - 1);
+  return v[i] + (x - static_cast<double>(i)) * (v[j] - v[i]);
+}
+
+// The setpoint as it goes on the wire (NED), for --dry-run.
+void PrintWireSetpoint(double t, const online::Setpoint& s) {
+  const link::SetPositionTargetLocalNed m = online::ToPositionTarget(s, t, online::LinkTargets{});
+  std::printf("  t=%6.3f  NED p=(%7.3f %7.3f %7.3f) v=(%6.3f %6.3f %6.3f) a=(%6.3f %6.3f %6.3f) yaw=%6.3f "
+              "yaw_rate=%6.3f  JOINT_SP q=(",
+              t, m.x, m.y, m.z, m.vx, m.vy, m.vz, m.afx, m.afy, m.afz, m.yaw, m.yaw_rate);
+  for (int k = 0; k < s.joints.size(); ++k) std::printf("%s%.3f", k ? " " : "", s.joints[k]);
+  std::printf(") qd=(");
+  for (int k = 0; k < s.joint_rates.size(); ++k) std::printf("%s%.3f", k ? " " : "", s.joint_rates[k]);
+  std::printf(")\n");
+}
+
+int DryRun(const planner::PlanningContext& context, const online::PlanningSetup& setup, double rate) {
+  const auto begin = Clock::now();
+  auto result = planner::Plan(setup.scene, context.task(), setup.plan_options, *setup.solver);
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - begin).count();
+  if (!result.ok()) return Fail(result.status().message());
+  if (!result->success) {
+    std::printf("FAILED: %s (%s) after %.1f ms: nothing would be streamed\n", result->status.c_str(),
+                result->message.c_str(), ms);
+    return kExitPlanFailed;
+  }
+  const planner::WholeBodyTrajectory& trajectory = *result->trajectory;
+  const double period = 1.0 / rate;
+  const long count = static_cast<long>(std::floor(trajectory.duration() / period + 1e-9)) + 1;
+  double max_speed = 0.0;
+  for (long k = 0; k < count; ++k) max_speed = std::max(max_speed, trajectory.Sample(k * period).velocity.norm());
+  std::printf("dry run: plan from the task's start state, %.2f s long, planned in %.1f ms (min clearance %.4f m)\n",
+              trajectory.duration(), ms, result->post_check.min_clearance_exact);
+  std::printf("would stream %ld SET_POSITION_TARGET_LOCAL_NED + JOINT_SP pairs at %.1f Hz (type_mask 0, "
+              "MAV_FRAME_LOCAL_NED) after >= %.1f s of hold, OFFBOARD and arming; peak speed %.2f m/s\n",
+              count, rate, online::OnlineOptions{}.hold_time, max_speed);
+  std::printf("first setpoints (plan time):\n");
+  for (long k = 0; k < std::min<long>(count, 5); ++k) {
+    PrintWireSetpoint(k * period, online::FromSample(trajectory.Sample(k * period)));
+  }
+  std::printf("last setpoint:\n");
+  PrintWireSetpoint(trajectory.duration(), online::FromSample(trajectory.Sample(trajectory.duration())));
+  return kExitSuccess;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "quadhand-online: fly a task (YAML) on a vehicle over MAVLink 2 / UDP (docs/online.md).\n"
+      "Reads HEARTBEAT, LOCAL_POSITION_NED, ATTITUDE_QUATERNION and DEBUG_FLOAT_ARRAY 'JOINTS'; plans from the\n"
+      "measured state to the task's goal; streams a hold for --hold-time s, requests OFFBOARD and arming, then\n"
+      "streams SET_POSITION_TARGET_LOCAL_NED and DEBUG_FLOAT_ARRAY 'JOINT_SP' at --rate, replanning when the\n"
+      "tracking error exceeds --replan-threshold.\n"
+      "Exit codes: 0 flown to the end of the plan; 1 planning failed (vehicle left holding); 2 bad input;\n"
+      "3 vehicle silent for --vehicle-timeout; 4 vehicle refused or left OFFBOARD/arming; 5 interrupted."};
+  std::string task_path, vehicle_url, bind_url = "udp://0.0.0.0:0", key_path, log_path;
+  double rate = 50.0, vehicle_timeout = 1.0, replan_threshold = 0.10, hold_time = 1.2, max_duration = 0.0;
+  int target_system = 1, target_component = 1, system_id = 1, component_id = 191;
+  bool require_signing = false, dry_run = false, quiet = false, no_replan = false;
+  app.add_option("task", task_path, "Task file (YAML, docs/task_format.md)")->required();
+  app.add_option("--vehicle", vehicle_url, "The vehicle's MAVLink address, udp://HOST:PORT (required unless --dry-run)");
+  app.add_option("--bind", bind_url, "Local address to receive on, udp://ADDR:PORT (port 0: any free port)")
+      ->capture_default_str();
+  app.add_option("--rate", rate, "Setpoint rate, Hz (1 to 500)")->capture_default_str();
+  app.add_option("--signing-key", key_path, "MAVLink 2 signing key file (64 hex digits or 32 raw bytes): signs what is "
+                                            "sent, verifies what is received");
+  app.add_flag("--require-signing", require_signing,
+               "Drop unsigned, wrongly signed and replayed frames (needs --signing-key)");
+  app.add_option("--log", log_path, "Write the flight (CSV): measured states in the plan file's columns, then the "
+                                    "setpoints sent (docs/online.md)");
+  app.add_flag("--dry-run", dry_run,
+               "No vehicle: plan from the task's start state and print what would be streamed (exit 0 or 1)");
+  app.add_option("--vehicle-timeout", vehicle_timeout,
+                 "Seconds without LOCAL_POSITION_NED before streaming stops and the program exits with 3")
+      ->capture_default_str();
+  app.add_option("--replan-threshold", replan_threshold, "3-D tracking error (m) that triggers a warm-started replan")
+      ->capture_default_str();
+  app.add_flag("--no-replan", no_replan, "Never replan (fly the first plan only)");
+  app.add_option("--hold-time", hold_time, "Seconds of hold setpoints before OFFBOARD is requested (>= 1, PX4's rule)")
+      ->capture_default_str();
+  app.add_option("--max-duration", max_duration, "Stop streaming and exit after this many seconds (0: no limit)")
+      ->capture_default_str();
+  app.add_option("--target-system", target_system, "The vehicle's MAVLink system id")->capture_default_str();
+  app.add_option("--target-component", target_component, "The vehicle's MAVLink component id")->capture_default_str();
+  app.add_option("--system-id", system_id, "Our MAVLink system id")->capture_default_str();
+  app.add_option("--component-id", component_id, "Our MAVLink component id (191: MAV_COMP_ID_ONBOARD_COMPUTER)")
+      ->capture_default_str();
+  app.add_flag("-q,--quiet", quiet, "Print only the final summary (and errors)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    return Fail(e.what());
+  }
+
+  // Options first: every bad value is reported before anything is loaded.
+  if (!(std::isfinite(rate) && rate >= 1.0 && rate <= 500.0)) return Fail("--rate must be in [1, 500] Hz");
+  if (!(std::isfinite(vehicle_timeout) && vehicle_timeout > 0.0)) return Fail("--vehicle-timeout must be positive");
+  if (!(std::isfinite(replan_threshold) && replan_threshold > 0.0)) return Fail("--replan-threshold must be positive");
+  if (!(std::isfinite(hold_time) && hold_time >= 1.0)) return Fail("--hold-time must be at least 1 s");
+  if (!(std::isfinite(max_duration) && max_duration >= 0.0)) return Fail("--max-duration must be >= 0");
+  const std::pair<int, const char*> ids[] = {{target_system, "--target-system"},
+                                             {target_component, "--target-component"},
+                                             {system_id, "--system-id"},
+                                             {component_id, "--component-id"}};
+  for (const auto& [value, name] : ids) {
+    if (value < 0 || value > 255) return Fail(std::string(name) + " must be in [0, 255]");
+  }
+  if (require_signing && key_path.empty()) return Fail("--require-signing needs --signing-key FILE");
+  if (dry_run && !log_path.empty()) return Fail("--log: --dry-run streams nothing, so there is no flight to log");
+  if (!dry_run && vehicle_url.empty()) return Fail("--vehicle udp://HOST:PORT is required (or --dry-run)");
+  std::optional<link::UdpEndpoint> vehicle, bind;
+  std::optional<link::SigningKey> key;
+  if (!dry_run) {
+    auto parsed = link::ParseUdpUrl(vehicle_url);
+    if (!parsed.ok()) return Fail("--vehicle " + parsed.status().message());
+    vehicle = *parsed;
+    auto local = link::ParseUdpUrl(bind_url, /*allow_port_zero=*/true);
+    if (!local.ok()) return Fail("--bind " + local.status().message());
+    bind = *local;
+    if (!key_path.empty()) {
+      auto loaded = link::LoadSigningKey(key_path);
+      if (!loaded.ok()) return Fail("--signing-key " + loaded.status().message());
+      key = *loaded;
+    }
+    if (!log_path.empty() && access(core::DirectoryOf(log_path).c_str(), W_OK) != 0) {
+      return Fail("--log " + log_path + ": its folder does not exist or is not writable");
+    }
+  }
+
+  if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
+  auto solver = opt::CreateSolver("lbfgs");
+  if (!solver.ok()) return Fail(solver.status().message());
+  auto context = planner::PlanningContext::Load(task_path, planner::PlanningContextOptions{});
+  if (!context.ok()) return Fail(context.status().message());
+  const planner::PlanningContext& ctx = **context;
+  online::PlanningSetup setup{ctx.Scene(), &ctx.task(), planner::DefaultPlannerOptions(),
+                              planner::DefaultReplanOptions(), solver->get()};
+  if (dry_run) return DryRun(ctx, setup, rate);
+
+  online::OnlineOptions options;
+  options.hold_time = hold_time;
+  options.vehicle_timeout = vehicle_timeout;
+  options.replan_threshold = replan_threshold;
+  options.replanning = !no_replan;
+  auto controller_or = online::OnlineController::Create(setup, options);
+  if (!controller_or.ok()) return Fail(controller_or.status().message());
+  online::OnlineController& controller = **controller_or;
+
+  auto socket = link::UdpSocket::Bind(*bind);
+  if (!socket.ok()) return Fail("--bind " + bind_url + ": " + socket.status().message());
+  link::EncoderOptions encoder;
+  encoder.system_id = static_cast<uint8_t>(system_id);
+  encoder.component_id = static_cast<uint8_t>(component_id);
+  encoder.signing_key = key;
+  link::ParserOptions parser;
+  parser.signing_key = key;
+  parser.require_signing = require_signing;
+  link::Connection connection(std::move(*socket), encoder, parser, vehicle);
+  const online::LinkTargets targets{static_cast<uint8_t>(target_system), static_cast<uint8_t>(target_component)};
+
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  if (!quiet) {
+    std::printf("quadhand-online: %s -> vehicle %s (local port %u), %.0f Hz\n", task_path.c_str(),
+                vehicle->ToString().c_str(), connection.local_port(), rate);
+    std::fflush(stdout);
+  }
+
+  const auto start = Clock::now();
+  auto now = [&start] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+  const double period = 1.0 / rate;
+  double next_tick = 0.0;
+  online::FlightLog log;
+  std::vector<double> send_times;  // of each setpoint
+  long send_errors = 0;
+  std::string first_send_error;
+  bool interrupted = false;
+  for (;;) {
+    const double wait = next_tick - now();
+    if (wait > 0.0) connection.WaitReadable(std::min(wait, 0.05));
+    for (const link::ReceivedMessage& r : connection.Poll()) {
+      const double t = now();
+      const bool used = online::DeliverToController(r.message, r.frame.system_id, t, targets, &controller);
+      if (used && std::holds_alternative<link::LocalPositionNed>(r.message) && controller.has_measured_state()) {
+        log.Record(controller.measured(), controller.last_setpoint(), controller.phase());
+      }
+    }
+    const double t = now();
+    if (t < next_tick) continue;
+    if (g_stop || (max_duration > 0.0 && t >= max_duration)) {
+      interrupted = true;
+      break;
+    }
+    const online::ControllerOutput out = controller.Tick(t);
+    for (const link::Message& m : online::MessagesFor(out, t, targets)) {
+      if (core::Status s = connection.Send(m); !s.ok()) {
+        if (send_errors++ == 0) first_send_error = s.message();
+      }
+    }
+    if (out.setpoint) send_times.push_back(t);
+    if (!quiet) {
+      for (const std::string& event : out.events) std::printf("[%7.2f s] %s\n", t, event.c_str());
+      std::fflush(stdout);
+    }
+    if (controller.finished()) break;
+    next_tick += period;
+    if (next_tick < t) next_tick = t + period;  // fell behind (e.g. the machine was busy): skip, do not burst
+  }
+
+  // Summary and exit code.
+  const online::Phase phase = controller.phase();
+  int code = kExitSuccess;
+  const char* outcome = "arrived";
+  if (phase == online::Phase::kVehicleLost) {
+    code = kExitVehicleLost;
+    outcome = "VEHICLE LOST";
+  } else if (phase == online::Phase::kHandshakeFailed) {
+    code = kExitRefused;
+    outcome = "REFUSED";
+  } else if (phase == online::Phase::kHoldingAfterFailure) {
+    code = kExitPlanFailed;
+    outcome = "PLANNING FAILED (holding)";
+  } else if (interrupted && !controller.finished()) {
+    code = kExitInterrupted;
+    outcome = "INTERRUPTED";
+  }
+
+  const online::OnlineStats& stats = controller.stats();
+  std::printf("%s after %.2f s: phase %s, %ld setpoints", outcome, now(), online::PhaseName(phase), stats.setpoints);
+  if (send_times.size() >= 2) {
+    double max_gap = 0.0;
+    for (size_t i = 1; i < send_times.size(); ++i) max_gap = std::max(max_gap, send_times[i] - send_times[i - 1]);
+    std::printf(" at %.2f Hz (target %.0f Hz, longest gap %.1f ms)",
+                (send_times.size() - 1) / (send_times.back() - send_times.front()), rate, max_gap * 1e3);
+  }
+  std::printf("\n");
+  if (send_errors > 0) std::printf("  %ld sends failed (first: %s)\n", send_errors, first_send_error.c_str());
+  std::vector<double> replan_ms, warm_ms;
+  int replan_failures = 0, fallbacks = 0;
+  for (const online::PlanRecord& r : stats.plans) {
+    if (!r.replan) {
+      std::printf("  first plan: %s in %.1f ms%s%s\n", r.status.c_str(), r.latency_ms, r.success ? "" : ": ",
+                  r.success ? "" : r.message.c_str());
+      continue;
+    }
+    replan_ms.push_back(r.latency_ms);
+    warm_ms.push_back(r.warm_ms);
+    replan_failures += !r.success && r.status != "insertion_in_progress";
+    fallbacks += r.cold_fallback;
+  }
+  std::printf("  replans: %d triggered, %d spliced, %d failed, %d cold fallbacks", stats.replans_triggered,
+              stats.splices, replan_failures, fallbacks);
+  if (!replan_ms.empty()) {
+    std::printf("; latency median %.1f ms, p95 %.1f ms (warm start alone: median %.1f ms)", Quantile(replan_ms, 0.5),
+                Quantile(replan_ms, 0.95), Quantile(warm_ms, 0.5));
+  }
+  std::printf("\n  setpoint steps: max %.4f m per period (during splices %.4f m)\n", stats.max_setpoint_step,
+              stats.max_splice_step);
+  if (controller.current_plan()) {
+    const online::FlightMetrics m = online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
+                                                           controller.current_plan()->terminal.position);
+    std::printf("  tracking error (3-D, while flying, %ld samples): mean %.4f m, median %.4f m, p95 %.4f m, max %.4f m\n",
+                m.flying_samples, m.tracking_mean, m.tracking_median, m.tracking_p95, m.tracking_max);
+    std::printf("  flown path: min clearance %.4f m (exact, link %s, t = %.2f s); final tool error %.4f m, base %.4f m "
+                "from the plan's terminal state\n",
+                m.min_clearance, m.closest_link.c_str(), m.min_clearance_time, m.final_tool_error, m.final_base_error);
+  }
+  if (!log_path.empty()) {
+    core::AtomicFileSet files;
+    core::Status s = files.Stage(log_path, log.Csv(ctx.robot().ActuatedJointNames()));
+    if (s.ok()) s = files.Commit();
+    if (!s.ok()) {
+      std::fprintf(stderr, "quadhand-online: error: --log %s\n", s.message().c_str());
+      if (code == kExitSuccess) code = kExitBadInput;
+    } else {
+      std::printf("  log: %s (%zu rows)\n", log_path.c_str(), log.samples().size());
+    }
+  }
+  return code;
+}

@@ -1,0 +1,269 @@
+// quadhand-online end to end on loopback UDP against quadhand-sim --udp
+// --realtime: the default task flown to the cup; the vehicle killed in flight
+// (exit 3 within the time-out); bad input (exit 2, one line, no log); --help;
+// --dry-run.
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/robot/robot_model.h"
+#include "quadhand/sim/plan_io.h"
+#include "support/run_command.h"
+
+extern char** environ;
+
+namespace quadhand {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using testing::CountLines;
+using testing::ReadAll;
+using testing::RunCommand;
+
+const std::string kRoot = QUADHAND_SOURCE_DIR;
+const std::string kOnline = std::string(QUADHAND_BIN_DIR) + "/quadhand-online";
+const std::string kSim = std::string(QUADHAND_BIN_DIR) + "/quadhand-sim";
+const std::string kSdfgen = std::string(QUADHAND_BIN_DIR) + "/quadhand-sdfgen";
+
+double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
+
+// Coarse link SDFs, generated once for the whole test binary.
+const std::string& CoarseSdfDir() {
+  static const std::string dir = [] {
+    const std::string d = (fs::temp_directory_path() / ("quadhand_online_sdf_" + std::to_string(getpid()))).string();
+    const auto r = RunCommand(kSdfgen + " -q --urdf " + kRoot + "/meshes/quadhand/quadhand.urdf --out " + d +
+                              " --resolution 0.005 --padding 0.05");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return d;
+  }();
+  return dir;
+}
+
+// A UDP port that was free a moment ago.
+int FreeUdpPort() {
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  address.sin_port = 0;
+  bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address));
+  socklen_t length = sizeof(address);
+  getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
+  close(fd);
+  return ntohs(address.sin_port);
+}
+
+// A child process with stdout and stderr in files.
+struct Child {
+  pid_t pid = -1;
+  std::string out, err;
+};
+
+Child Spawn(const std::vector<std::string>& args, const std::string& out_base) {
+  Child child;
+  child.out = out_base + ".out";
+  child.err = out_base + ".err";
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, child.out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, 2, child.err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  std::vector<char*> argv;
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const int rc = posix_spawn(&child.pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  EXPECT_EQ(rc, 0) << args[0];
+  return child;
+}
+
+// Exit code, or -1 (and the child killed) after `timeout_s`.
+int Wait(Child* child, double timeout_s) {
+  const auto start = Clock::now();
+  int status = 0;
+  while (waitpid(child->pid, &status, WNOHANG) == 0) {
+    if (Seconds(start) > timeout_s) {
+      kill(child->pid, SIGKILL);
+      waitpid(child->pid, &status, 0);
+      child->pid = -1;
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  child->pid = -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+void Stop(Child* child) {
+  if (child->pid <= 0) return;
+  kill(child->pid, SIGTERM);
+  Wait(child, 5.0);
+}
+
+class OnlineCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("quadhand_online_" + std::to_string(getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    Stop(&sim_);
+    fs::remove_all(dir_);
+  }
+
+  // The default task with absolute paths and the coarse SDFs.
+  std::string WriteTask() {
+    std::ifstream in(kRoot + "/data/tasks/window_cup.yaml");
+    std::string text, line;
+    while (std::getline(in, line)) {
+      if (line.rfind("robot:", 0) == 0) line = "robot: " + kRoot + "/meshes/quadhand/quadhand.urdf";
+      if (line.rfind("sdf_dir:", 0) == 0) line = "sdf_dir: " + CoarseSdfDir();
+      if (line.rfind("scene:", 0) == 0) line = "scene: " + kRoot + "/data/scenes/window_cup.pcd";
+      text += line + "\n";
+    }
+    const std::string path = (dir_ / "task.yaml").string();
+    std::ofstream(path) << text;
+    return path;
+  }
+
+  // quadhand-sim as the vehicle on a free loopback port, in real time.
+  std::string StartVehicle(const std::string& task) {
+    const int port = FreeUdpPort();
+    const std::string url = "udp://127.0.0.1:" + std::to_string(port);
+    sim_ = Spawn({kSim, "--udp", url, "--realtime", "--start-task", task, "--duration", "120", "-q", "--config",
+                  kRoot + "/data/sim/quadhand_sim.yaml"},
+                 (dir_ / "sim").string());
+    return url;
+  }
+
+  fs::path dir_;
+  Child sim_;
+};
+
+TEST_F(OnlineCliTest, FliesTheDefaultTaskToTheCupOverLoopback) {
+  const std::string task = WriteTask();
+  const std::string vehicle = StartVehicle(task);
+  const std::string log = (dir_ / "flight.csv").string();
+  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--log", log, "--max-duration", "60"},
+                       (dir_ / "online").string());
+  const int code = Wait(&online, 90.0);
+  const std::string out = ReadAll(online.out);
+  ASSERT_EQ(code, 0) << out << ReadAll(online.err) << ReadAll(sim_.err);
+  EXPECT_NE(out.find("OFFBOARD accepted"), std::string::npos) << out;
+  EXPECT_NE(out.find("arming accepted"), std::string::npos) << out;
+  EXPECT_NE(out.find("arrived after"), std::string::npos) << out;
+
+  // The setpoint rate achieved (50 Hz asked for).
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("setpoints at ([0-9.]+) Hz"))) << out;
+  EXPECT_GT(std::stod(m[1]), 45.0) << out;
+  EXPECT_LT(std::stod(m[1]), 55.0) << out;
+
+  // From the log, independently of the program's own figures: the tool at
+  // the last measured state is at the cup, and the flight stayed on the plan.
+  auto robot = robot::RobotModel::LoadFromUrdfFile(kRoot + "/meshes/quadhand/quadhand.urdf");
+  ASSERT_TRUE(robot.ok());
+  auto flown = sim::LoadPlanCsv(log, robot->ActuatedJointNames());
+  ASSERT_TRUE(flown.ok()) << flown.status().message();
+  const sim::PlanRow& last = flown->rows.back();
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(*robot, MakePose(last.position, last.attitude.toRotationMatrix()), last.joints, &kinematics);
+  const Vec3 cup(-3.2, 0.0, 0.86);
+  EXPECT_LT((kinematics.link_poses[robot->LinkIndex("tool")].translation() - cup).norm(), 0.02);
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("max ([0-9.]+) m\\n")));  // tracking error while flying
+  EXPECT_LT(std::stod(m[1]), 0.10) << out;
+}
+
+TEST_F(OnlineCliTest, ExitsWithThreeSoonAfterTheVehicleFallsSilent) {
+  const std::string task = WriteTask();
+  const std::string vehicle = StartVehicle(task);
+  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--vehicle-timeout", "0.5", "--max-duration", "60"},
+                       (dir_ / "online").string());
+  // Kill the vehicle once the plan is being flown.
+  const auto start = Clock::now();
+  while (ReadAll(online.out).find("flying the plan") == std::string::npos && Seconds(start) < 30.0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_NE(ReadAll(online.out).find("flying the plan"), std::string::npos) << ReadAll(online.out);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  kill(sim_.pid, SIGKILL);
+  Wait(&sim_, 5.0);
+  const auto killed = Clock::now();
+  const int code = Wait(&online, 10.0);
+  const double after = Seconds(killed);
+  const std::string out = ReadAll(online.out);
+  EXPECT_EQ(code, 3) << out << ReadAll(online.err);
+  EXPECT_NE(out.find("VEHICLE LOST"), std::string::npos) << out;
+  EXPECT_NE(out.find("no position from the vehicle"), std::string::npos) << out;
+  // The time-out plus slack for process scheduling on a loaded machine.
+  EXPECT_LT(after, 0.5 + 1.0) << out;
+}
+
+TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
+  const std::string task = WriteTask();
+  const std::string log = (dir_ / "flight.csv").string();
+  const std::string vehicle = " --vehicle udp://127.0.0.1:14999";
+  const std::pair<std::string, std::string> cases[] = {
+      {task + vehicle + " --rate 0 --log " + log, "--rate"},
+      {task + vehicle + " --hold-time 0.5 --log " + log, "--hold-time"},
+      {task + vehicle + " --vehicle-timeout -1", "--vehicle-timeout"},
+      {task + vehicle + " --replan-threshold 0", "--replan-threshold"},
+      {task + " --vehicle localhost:14999", "udp://"},
+      {task + vehicle + " --bind udp://127.0.0.1", "--bind"},
+      {task + vehicle + " --require-signing", "--signing-key"},
+      {task + vehicle + " --signing-key " + (dir_ / "missing.key").string(), "missing.key"},
+      {task, "--vehicle"},
+      {task + " --dry-run --log " + log, "--log"},
+      {task + vehicle + " --log " + (dir_ / "no" / "such" / "flight.csv").string(), "--log"},
+      {(dir_ / "missing.yaml").string() + vehicle + " --log " + log, "missing.yaml"},
+      {task + vehicle + " --no-such-option", "--no-such-option"},
+  };
+  for (const auto& [args, fragment] : cases) {
+    const auto r = RunCommand(kOnline + " " + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.out << r.err;
+    EXPECT_EQ(CountLines(r.err), 1) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find("quadhand-online: error"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(fragment), std::string::npos) << args << "\n" << r.err;
+    EXPECT_TRUE(r.out.empty()) << args << "\n" << r.out;
+    EXPECT_FALSE(fs::exists(log)) << args;
+  }
+}
+
+TEST_F(OnlineCliTest, HelpListsEveryOption) {
+  const auto r = RunCommand(kOnline + " --help");
+  EXPECT_EQ(r.exit_code, 0);
+  for (const char* option : {"--vehicle", "--bind", "--rate", "--signing-key", "--require-signing", "--log",
+                             "--dry-run", "--vehicle-timeout", "--replan-threshold", "--hold-time", "--quiet",
+                             "--max-duration", "--no-replan", "--target-system", "--system-id", "Exit codes"}) {
+    EXPECT_NE(r.out.find(option), std::string::npos) << option;
+  }
+}
+
+TEST_F(OnlineCliTest, DryRunPrintsWhatWouldBeStreamed) {
+  const auto r = RunCommand(kOnline + " " + WriteTask() + " --dry-run --rate 25");
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("at 25.0 Hz"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("first setpoints"), std::string::npos) << r.out;
+  // The task's start in NED: north 0.2, east 0.5, down -1.2; yaw pi (west) is -pi/2 from north.
+  EXPECT_NE(r.out.find("NED p=(  0.200   0.500  -1.200)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("yaw=-1.571"), std::string::npos) << r.out;
+}
+
+}  // namespace
+}  // namespace quadhand
