@@ -120,6 +120,51 @@ TEST(SdfGridTest, OutsideTheGridReturnsALowerBoundWithoutReadingOutOfBounds) {
   EXPECT_TRUE(std::isfinite(d));
 }
 
+// EvaluateBelow gives Evaluate's numbers bit for bit whenever it evaluates,
+// and skips a point only when its distance is >= the cutoff; on a grid whose
+// dimensions are not multiples of the block size (a short last block) and
+// with points near every face, inside and outside the grid.
+TEST(SdfGridTest, EvaluateBelowSkipsOnlyPointsAtOrBeyondTheCutoff) {
+  const SdfGrid grid = SampleGrid([](const Vec3& p) { return (p - Vec3(0.02, -0.01, 0.03)).norm() - 0.05; },
+                                  Vec3(-0.13, -0.11, -0.09), 0.01, Eigen::Vector3i(27, 23, 30));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.16, 0.23);
+  int skipped = 0, evaluated = 0;
+  for (int n = 0; n < 20000; ++n) {
+    const Vec3 p(u(rng), u(rng), u(rng));
+    for (double cutoff : {-0.02, 0.0, 0.03, 0.08}) {
+      double d = 0, d_below = -1;
+      Vec3 g, g_below = Vec3::Constant(-1);
+      const bool inside = grid.Evaluate(p, &d, &g);
+      if (grid.EvaluateBelow(p, cutoff, &d_below, &g_below)) {
+        ++evaluated;
+        EXPECT_EQ(d_below, d);
+        EXPECT_EQ(g_below, g);
+      } else {
+        ++skipped;
+        EXPECT_TRUE(inside);  // outside the grid the cheap box distance is always returned
+        EXPECT_GE(d, cutoff) << "skipped a point at distance " << d << " below the cutoff " << cutoff;
+        EXPECT_EQ(d_below, -1.0);  // untouched
+      }
+    }
+  }
+  // Both branches are exercised.
+  EXPECT_GT(skipped, 10000);
+  EXPECT_GT(evaluated, 10000);
+  // A point right at a block face whose neighbouring block holds the minimum.
+  const SdfGrid ramp = SampleGrid([](const Vec3& p) { return p.x(); }, Vec3::Zero(), 0.01, Eigen::Vector3i(9, 5, 5));
+  double d = 0;
+  Vec3 g;
+  ASSERT_TRUE(ramp.EvaluateBelow(Vec3(0.0401, 0.02, 0.02), 0.0405, &d, &g));
+  EXPECT_NEAR(d, 0.0401, 1e-6);
+  EXPECT_FALSE(ramp.EvaluateBelow(Vec3(0.0401, 0.02, 0.02), 0.039, &d, &g));
+  // Decreasing: the minimum of block 0 is its upper face node (x = 0.04).
+  const SdfGrid down = SampleGrid([](const Vec3& p) { return -p.x(); }, Vec3::Zero(), 0.01, Eigen::Vector3i(9, 5, 5));
+  ASSERT_TRUE(down.EvaluateBelow(Vec3(0.0399, 0.02, 0.02), -0.0395, &d, &g));
+  EXPECT_NEAR(d, -0.0399, 1e-6);
+  EXPECT_GT(grid.MemoryBytes(), grid.values().size() * sizeof(float));
+}
+
 TEST(SdfGridTest, SerializationRoundTrips) {
   const SdfGrid grid = SphereGrid(0.02);
   auto loaded = SdfGrid::Deserialize(grid.Serialize(), "mem");

@@ -75,8 +75,9 @@ void MrcSdfModel::VisitNearbyPoints(int link, const Pose& X_WL, double reach, Vi
     if ((x_L.array() < box_lo.array()).any() || (x_L.array() > box_hi.array()).any()) return;
     double distance;
     Vec3 gradient_L;
-    grid.Evaluate(x_L, &distance, &gradient_L);
-    if (distance < reach) visit(x_W, distance, gradient_L);
+    // Most points in the box are farther than `reach`; the block minima of
+    // the grid reject them without touching the full-resolution values.
+    if (grid.EvaluateBelow(x_L, reach, &distance, &gradient_L) && distance < reach) visit(x_W, distance, gradient_L);
   });
 }
 

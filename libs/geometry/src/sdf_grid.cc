@@ -1,6 +1,7 @@
 #include "quadhand/geometry/sdf_grid.h"
 
 #include <cstdint>
+#include <algorithm>
 #include <cstring>
 #include <limits>
 
@@ -79,6 +80,39 @@ SdfGrid::SdfGrid(SdfGridInfo info, std::vector<float> values)
   inverse_resolution_ = info_.resolution > 0.0 ? 1.0 / info_.resolution : 0.0;
   stride_y_ = static_cast<size_t>(info_.dims.x());
   stride_z_ = stride_y_ * static_cast<size_t>(info_.dims.y());
+  BuildBlockMinima();
+}
+
+void SdfGrid::BuildBlockMinima() {
+  block_min_.clear();
+  bstride_y_ = bstride_z_ = 0;
+  const Eigen::Vector3i& n = info_.dims;
+  if ((n.array() < 2).any() || values_.size() != static_cast<size_t>(info_.NumNodes())) return;
+  // Blocks of kBlockCells cells per axis (the last one may be shorter).
+  Eigen::Vector3i blocks = Eigen::Vector3i::Zero();
+  for (int a = 0; a < 3; ++a) blocks[a] = (n[a] - 1 + kBlockCells - 1) / kBlockCells;
+  bstride_y_ = static_cast<size_t>(blocks.x());
+  bstride_z_ = bstride_y_ * static_cast<size_t>(blocks.y());
+  // Separable: minima over each block's x range, then y, then z. A node on
+  // a block face belongs to both blocks: block b spans nodes [b B, b B + B].
+  auto reduce = [](const std::vector<float>& in, int axis_len, int blocks_along, size_t inner, size_t outer) {
+    std::vector<float> out(inner * blocks_along * outer);
+    for (size_t o = 0; o < outer; ++o) {
+      for (int b = 0; b < blocks_along; ++b) {
+        const int first = b * kBlockCells, last = std::min(first + kBlockCells, axis_len - 1);
+        for (size_t i = 0; i < inner; ++i) {
+          float m = std::numeric_limits<float>::infinity();
+          for (int a = first; a <= last; ++a) m = std::min(m, in[i + inner * (a + static_cast<size_t>(axis_len) * o)]);
+          out[i + inner * (b + static_cast<size_t>(blocks_along) * o)] = m;
+        }
+      }
+    }
+    return out;
+  };
+  const size_t ny = n.y(), nz = n.z();
+  std::vector<float> along_x = reduce(values_, n.x(), blocks.x(), 1, ny * nz);           // bx * ny * nz
+  std::vector<float> along_y = reduce(along_x, n.y(), blocks.y(), blocks.x(), nz);        // bx * by * nz
+  block_min_ = reduce(along_y, n.z(), blocks.z(), bstride_z_, 1);                         // bx * by * bz
 }
 
 bool SdfGrid::EvaluateOutside(const Vec3& p, double* distance, Vec3* gradient) const {

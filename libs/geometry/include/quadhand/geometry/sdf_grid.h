@@ -42,7 +42,8 @@ class SdfGrid {
   float NodeValue(int i, int j, int k) const {
     return values_[static_cast<size_t>(i) + stride_y_ * j + stride_z_ * k];
   }
-  size_t MemoryBytes() const { return values_.size() * sizeof(float); }
+  // The node values and the block minima below.
+  size_t MemoryBytes() const { return (values_.size() + block_min_.size()) * sizeof(float); }
 
   // Distance at `p` (link frame) and, if `gradient` is not null, its gradient.
   // Inside the grid: trilinear interpolation and the exact gradient of that
@@ -52,6 +53,17 @@ class SdfGrid {
   // false. Never reads out of bounds.
   bool Evaluate(const Vec3& p, double* distance, Vec3* gradient) const;
 
+  // For callers that only need distances below `cutoff` (collision penalties
+  // over many points): returns false, without interpolating, when the
+  // distance at `p` is certainly >= cutoff; otherwise returns true with
+  // *distance and *gradient exactly as Evaluate() gives them. The test reads
+  // the smallest node value of the block of kBlockCells^3 cells around `p`,
+  // a lower bound of the trilinear interpolant there (which is a convex
+  // combination of its cell's nodes); the block minima are 1/64 of the node
+  // values, so they stay in cache where the full grid (megabytes) does not.
+  static constexpr int kBlockCells = 4;
+  bool EvaluateBelow(const Vec3& p, double cutoff, double* distance, Vec3* gradient) const;
+
   // Binary serialisation (docs/sdf_format.md).
   std::string Serialize() const;
   // `name` is used in error messages (usually the file path).
@@ -60,25 +72,31 @@ class SdfGrid {
 
  private:
   bool EvaluateOutside(const Vec3& p, double* distance, Vec3* gradient) const;
+  void BuildBlockMinima();
+  // True when the grid coordinates u = (p - origin) / resolution lie in a cell.
+  bool InCell(const Vec3& u) const;
+
+  // Trilinear value (and gradient) in the cell with lowest node (ix, iy, iz)
+  // at fractions (fx, fy, fz) in [0, 1).
+  void Interpolate(size_t ix, size_t iy, size_t iz, double fx, double fy, double fz, double* distance,
+                   Vec3* gradient) const;
 
   SdfGridInfo info_;
   std::vector<float> values_;
   double inverse_resolution_ = 0.0;
   size_t stride_y_ = 0;
   size_t stride_z_ = 0;
+  // block_min_[bx + bstride_y_ * by + bstride_z_ * bz]: smallest node value
+  // of the cells [b * kBlockCells, (b + 1) * kBlockCells) per axis (their
+  // nodes, both faces included).
+  std::vector<float> block_min_;
+  size_t bstride_y_ = 0;
+  size_t bstride_z_ = 0;
 };
 
-inline bool SdfGrid::Evaluate(const Vec3& p, double* distance, Vec3* gradient) const {
-  const Vec3 u = (p - info_.origin) * inverse_resolution_;
-  // Cell index, valid when 0 <= u < dims - 1 (the negated test also rejects NaN).
-  const double ux = std::floor(u.x()), uy = std::floor(u.y()), uz = std::floor(u.z());
-  if (!(ux >= 0.0 && uy >= 0.0 && uz >= 0.0 && ux < info_.dims.x() - 1 &&
-        uy < info_.dims.y() - 1 && uz < info_.dims.z() - 1)) {
-    return EvaluateOutside(p, distance, gradient);
-  }
-  const double fx = u.x() - ux, fy = u.y() - uy, fz = u.z() - uz;
-  const float* c = values_.data() + static_cast<size_t>(ux) + stride_y_ * static_cast<size_t>(uy) +
-                   stride_z_ * static_cast<size_t>(uz);
+inline void SdfGrid::Interpolate(size_t ix, size_t iy, size_t iz, double fx, double fy, double fz, double* distance,
+                                 Vec3* gradient) const {
+  const float* c = values_.data() + ix + stride_y_ * iy + stride_z_ * iz;
   const double v000 = c[0], v100 = c[1];
   const double v010 = c[stride_y_], v110 = c[stride_y_ + 1];
   const double v001 = c[stride_z_], v101 = c[stride_z_ + 1];
@@ -96,6 +114,34 @@ inline bool SdfGrid::Evaluate(const Vec3& p, double* distance, Vec3* gradient) c
     gradient->y() = (dy0 + fz * (dy1 - dy0)) * inverse_resolution_;
     gradient->z() = (v1 - v0) * inverse_resolution_;
   }
+}
+
+inline bool SdfGrid::InCell(const Vec3& u) const {
+  // 0 <= u < dims - 1 on every axis (the negated form also rejects NaN).
+  return u.x() >= 0.0 && u.y() >= 0.0 && u.z() >= 0.0 && u.x() < info_.dims.x() - 1 && u.y() < info_.dims.y() - 1 &&
+         u.z() < info_.dims.z() - 1;
+}
+
+inline bool SdfGrid::Evaluate(const Vec3& p, double* distance, Vec3* gradient) const {
+  const Vec3 u = (p - info_.origin) * inverse_resolution_;
+  if (!InCell(u)) return EvaluateOutside(p, distance, gradient);
+  // u >= 0 here, so truncation is floor (and cheaper than std::floor).
+  const size_t ix = static_cast<size_t>(u.x()), iy = static_cast<size_t>(u.y()), iz = static_cast<size_t>(u.z());
+  Interpolate(ix, iy, iz, u.x() - ix, u.y() - iy, u.z() - iz, distance, gradient);
+  return true;
+}
+
+inline bool SdfGrid::EvaluateBelow(const Vec3& p, double cutoff, double* distance, Vec3* gradient) const {
+  const Vec3 u = (p - info_.origin) * inverse_resolution_;
+  if (!InCell(u)) {
+    EvaluateOutside(p, distance, gradient);  // cheap: the bounding-box distance
+    return true;
+  }
+  const size_t ix = static_cast<size_t>(u.x()), iy = static_cast<size_t>(u.y()), iz = static_cast<size_t>(u.z());
+  if (block_min_[ix / kBlockCells + bstride_y_ * (iy / kBlockCells) + bstride_z_ * (iz / kBlockCells)] >= cutoff) {
+    return false;
+  }
+  Interpolate(ix, iy, iz, u.x() - ix, u.y() - iy, u.z() - iz, distance, gradient);
   return true;
 }
 
