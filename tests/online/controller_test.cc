@@ -276,6 +276,29 @@ TEST_F(HandshakeTest, AHeartbeatShowingTheModeCountsAsConfirmation) {
   EXPECT_NE(controller_->phase(), Phase::kHandshakeFailed);
 }
 
+TEST_F(HandshakeTest, TheFlightStartsOnceTheVehicleHasSettledAtTheHold) {
+  // Handshake done at once, plan ready.
+  Run(0.0, 1.5, [&](double t, const CommandRequest& c) { controller_->OnCommandAck(t, c.command, AckResult::kAccepted); });
+  controller_->WaitUntilIdle();
+  ASSERT_EQ(controller_->phase(), Phase::kWaitingForPlan);
+  const planner::Task& task = WindowCup().task;
+  const Quat attitude(Eigen::AngleAxisd(task.start.yaw, Vec3::UnitZ()));
+  // 5 cm away from the hold (still following its own hold, say): no start...
+  double t = 1.5;
+  // (Arming was confirmed at about 1.24 s; the settle time-out is 3 s.)
+  for (; t < 1.2 + options_.settle_timeout - 0.1; t += 0.02) {
+    controller_->OnPosition(t, task.start.position + Vec3(0.05, 0.0, 0.0), Vec3::Zero());
+    controller_->OnAttitude(t, attitude, Vec3::Zero());
+    controller_->OnJoints(t, task.start.joints, VecX::Zero(3));
+    const ControllerOutput out = controller_->Tick(t);
+    ASSERT_EQ(out.phase, Phase::kWaitingForPlan) << t;
+    ASSERT_TRUE(out.setpoint.has_value());
+    EXPECT_LT((out.setpoint->position - task.start.position).norm(), 1e-9);  // the hold
+  }
+  // ...until it comes within start_tolerance.
+  EXPECT_EQ(TickAt(t).phase, Phase::kFlying);
+}
+
 TEST_F(HandshakeTest, NoVehicleMeansNoStream) {
   for (double t = 0.0; t < 1.0; t += 0.02) {
     const ControllerOutput out = controller_->Tick(t);

@@ -72,6 +72,8 @@ bool OnlineOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(min_replan_interval) && min_replan_interval >= 0.0)) return fail("min_replan_interval must be >= 0");
   if (!(std::isfinite(replan_lead) && replan_lead >= 0.0)) return fail("replan_lead must be >= 0");
   if (!positive(blend_window)) return fail("blend_window must be positive");
+  if (!positive(start_tolerance)) return fail("start_tolerance must be positive");
+  if (!(std::isfinite(settle_timeout) && settle_timeout >= 0.0)) return fail("settle_timeout must be >= 0");
   if (!(std::isfinite(arrival_hold) && arrival_hold >= 0.0)) return fail("arrival_hold must be >= 0");
   if (!positive(heartbeat_period)) return fail("heartbeat_period must be positive");
   return true;
@@ -396,11 +398,6 @@ void OnlineController::CollectPlan(double t) {
     first_plan_ = done->plan;
     Event(Format("plan ready: %.2f s long, ", first_plan_->trajectory->duration()) +
           Format("planned in %.1f ms", record.latency_ms));
-    if (phase_ == Phase::kWaitingForPlan) {
-      to_ = {first_plan_, t};
-      phase_ = Phase::kFlying;
-      Event("flying the plan");
-    }
     return;
   }
   replan_pending_ = false;
@@ -458,14 +455,8 @@ void OnlineController::RunHandshake(double t, ControllerOutput* out) {
     if (vehicle_armed_ && seen_heartbeat_) armed_confirmed_ = true;
     if (!step(Command::kArm, armed_confirmed_, "arming")) return;
     confirmed_time_ = t;
-    if (first_plan_) {
-      to_ = {first_plan_, t};
-      phase_ = Phase::kFlying;
-      Event("offboard and armed: flying the plan");
-    } else {
-      phase_ = Phase::kWaitingForPlan;
-      Event("offboard and armed: waiting for the plan");
-    }
+    phase_ = Phase::kWaitingForPlan;
+    Event(first_plan_ ? "offboard and armed" : "offboard and armed: waiting for the plan");
   }
 }
 
@@ -519,6 +510,16 @@ ControllerOutput OnlineController::Tick(double t) {
   }
   if (phase_ == Phase::kRequestingOffboard || phase_ == Phase::kArming) RunHandshake(t, &out);
 
+  if (phase_ == Phase::kWaitingForPlan && first_plan_) {
+    const double offset = (position_ - hold_.position).norm();
+    const bool settled = offset <= options_.start_tolerance;
+    if (settled || t - confirmed_time_ >= options_.settle_timeout) {
+      to_ = {first_plan_, t};
+      phase_ = Phase::kFlying;
+      Event(settled ? Format("flying the plan (%.3f m from the start)", offset)
+                    : Format("flying the plan although the vehicle is still %.3f m from the start", offset));
+    }
+  }
   if (phase_ == Phase::kFlying) {
     if (blending_ && t >= blend_start_ + options_.blend_window) {
       blending_ = false;

@@ -9,7 +9,10 @@
 //                        while the first plan is computed from that pose
 //   requesting_offboard  MAV_CMD_DO_SET_MODE (OFFBOARD) until acknowledged
 //   arming               MAV_CMD_COMPONENT_ARM_DISARM (arm) until acknowledged
-//   waiting_for_plan     offboard and armed, the first plan not ready yet
+//   waiting_for_plan     offboard and armed, holding until the first plan is
+//                        ready and the vehicle has settled at the hold (within
+//                        start_tolerance, or after settle_timeout s): a vehicle
+//                        that followed its own hold until now starts on the plan
 //   flying               streaming the plan (replanning when off track)
 //   arrived              the plan has ended: a hold at its last setpoint for
 //                        arrival_hold s, then finished() is true
@@ -72,6 +75,8 @@ struct OnlineOptions {
   // (hundreds of ms; the blend then starts when it arrives) but it escapes
   // the old plan's homotopy, e.g. after a push towards a window frame.
   bool cold_fallback = true;
+  double start_tolerance = 0.02;     // m from the hold at which the flight may start
+  double settle_timeout = 3.0;       // s after arming after which it starts anyway
   double arrival_hold = 1.0;         // s of holding at the goal before finished()
   double heartbeat_period = 1.0;     // s between our own heartbeats
 
