@@ -116,6 +116,7 @@ int main(int argc, char** argv) {
       "3 vehicle silent for --vehicle-timeout; 4 vehicle refused or left OFFBOARD/arming; 5 interrupted."};
   std::string task_path, vehicle_url, bind_url = "udp://0.0.0.0:0", key_path, log_path;
   double rate = 50.0, vehicle_timeout = 1.0, replan_threshold = 0.10, hold_time = 1.2, max_duration = 0.0;
+  double arrival_hold = online::OnlineOptions{}.arrival_hold;
   int target_system = 1, target_component = 1, system_id = 1, component_id = 191;
   bool require_signing = false, dry_run = false, quiet = false, no_replan = false;
   app.add_option("task", task_path, "Task file (YAML, docs/task_format.md)")->required();
@@ -139,6 +140,8 @@ int main(int argc, char** argv) {
   app.add_flag("--no-replan", no_replan, "Never replan (fly the first plan only)");
   app.add_option("--hold-time", hold_time, "Seconds of hold setpoints before OFFBOARD is requested (>= 1, PX4's rule)")
       ->capture_default_str();
+  app.add_option("--arrival-hold", arrival_hold, "Seconds of holding at the goal after the plan ends, before exiting")
+      ->capture_default_str();
   app.add_option("--max-duration", max_duration, "Stop streaming and exit after this many seconds (0: no limit)")
       ->capture_default_str();
   app.add_option("--target-system", target_system, "The vehicle's MAVLink system id")->capture_default_str();
@@ -161,6 +164,7 @@ int main(int argc, char** argv) {
   if (!(std::isfinite(replan_threshold) && replan_threshold > 0.0)) return Fail("--replan-threshold must be positive");
   if (!(std::isfinite(hold_time) && hold_time >= 1.0)) return Fail("--hold-time must be at least 1 s");
   if (!(std::isfinite(max_duration) && max_duration >= 0.0)) return Fail("--max-duration must be >= 0");
+  if (!(std::isfinite(arrival_hold) && arrival_hold >= 0.0)) return Fail("--arrival-hold must be >= 0");
   const std::pair<int, const char*> ids[] = {{target_system, "--target-system"},
                                              {target_component, "--target-component"},
                                              {system_id, "--system-id"},
@@ -205,6 +209,7 @@ int main(int argc, char** argv) {
   options.vehicle_timeout = vehicle_timeout;
   options.replan_threshold = replan_threshold;
   options.replanning = !no_replan;
+  options.arrival_hold = arrival_hold;
   auto controller_or = online::OnlineController::Create(setup, options);
   if (!controller_or.ok()) return Fail(controller_or.status().message());
   online::OnlineController& controller = **controller_or;

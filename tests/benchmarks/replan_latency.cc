@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
   using namespace quadhand;
   CLI::App app{"quadhand-replan-latency: latency of warm-started replanning from perturbed states"};
   std::string task_path = std::string(QUADHAND_SOURCE_DIR) + "/data/tasks/window_cup.yaml";
-  int trials = 50, max_iterations = -1, cold_trials = 5;
+  int trials = 50, max_iterations = -1, cold_trials = 5, attempts = -1;
   unsigned seed = 1;
   double min_offset = 0.05, max_offset = 0.20, velocity_noise = 0.1;
   double relative_tolerance = -1.0;
@@ -64,6 +64,7 @@ int main(int argc, char** argv) {
   app.add_option("--velocity-noise", velocity_noise, "Largest velocity offset, m/s")->capture_default_str();
   app.add_option("--max-iterations", max_iterations, "Override the replan solver's max_iterations");
   app.add_option("--relative-tolerance", relative_tolerance, "Override the replan solver's relative cost tolerance");
+  app.add_option("--attempts", attempts, "Override the replan's max_attempts (solves with post-checks)");
   app.add_flag("--profile-post-check", profile_post_check, "Also time the parts of the post-check over the initial plan");
   CLI11_PARSE(app, argc, argv);
 
@@ -83,6 +84,7 @@ int main(int argc, char** argv) {
   planner::ReplanOptions replan = planner::DefaultReplanOptions();
   if (max_iterations >= 0) replan.solver.max_iterations = max_iterations;
   if (relative_tolerance >= 0) replan.solver.relative_cost_tolerance = relative_tolerance;
+  if (attempts >= 1) replan.max_attempts = attempts;
 
   const auto plan_start = Clock::now();
   auto plan = planner::Plan(scene, task, options, **solver);

@@ -250,7 +250,7 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
   EXPECT_EQ(r.exit_code, 0);
   for (const char* option : {"--vehicle", "--bind", "--rate", "--signing-key", "--require-signing", "--log",
                              "--dry-run", "--vehicle-timeout", "--replan-threshold", "--hold-time", "--quiet",
-                             "--max-duration", "--no-replan", "--target-system", "--system-id", "Exit codes"}) {
+                             "--max-duration", "--arrival-hold", "--no-replan", "--target-system", "--system-id", "Exit codes"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }

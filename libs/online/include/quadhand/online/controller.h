@@ -77,7 +77,11 @@ struct OnlineOptions {
   bool cold_fallback = true;
   double start_tolerance = 0.02;     // m from the hold at which the flight may start
   double settle_timeout = 3.0;       // s after arming after which it starts anyway
-  double arrival_hold = 1.0;         // s of holding at the goal before finished()
+  // s of holding at the goal before finished(): the arm's last motion leaves
+  // the base a few cm off (the autopilot does not know the arm), which the
+  // simulated vehicle's position loop removes in about a second (and then
+  // overshoots by about a centimetre with its slow integral term).
+  double arrival_hold = 1.0;
   double heartbeat_period = 1.0;     // s between our own heartbeats
 
   bool IsValid(std::string* why) const;
