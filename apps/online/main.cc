@@ -322,8 +322,9 @@ int main(int argc, char** argv) {
     std::printf("; latency median %.1f ms, p95 %.1f ms (warm start alone: median %.1f ms)", Quantile(replan_ms, 0.5),
                 Quantile(replan_ms, 0.95), Quantile(warm_ms, 0.5));
   }
-  std::printf("\n  setpoint steps: max %.4f m per period (during splices %.4f m)\n", stats.max_setpoint_step,
-              stats.max_splice_step);
+  std::printf("\n  setpoint motion: max step %.4f m between ticks, max speed %.3f m/s (during splices: %.4f m, "
+              "%.3f m/s)\n",
+              stats.max_setpoint_step, stats.max_setpoint_speed, stats.max_splice_step, stats.max_splice_speed);
   if (controller.current_plan()) {
     const online::FlightMetrics m = online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
                                                            controller.current_plan()->terminal.position);

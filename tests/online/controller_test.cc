@@ -117,6 +117,7 @@ TEST(OnlineControllerTest, APushTriggersAReplanThatIsSplicedWithoutAJump) {
   EXPECT_GT(stats.max_splice_step, 0.0);
   EXPECT_LE(stats.max_splice_step, bound);
   EXPECT_LE(stats.max_setpoint_step, bound);
+  EXPECT_LE(stats.max_splice_speed, bound / 0.02);
   // Still reaches the cup.
   const FlightMetrics metrics = Metrics(flight.log(), *controller);
   EXPECT_LT(metrics.final_tool_error, 0.02);

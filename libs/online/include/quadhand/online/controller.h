@@ -155,6 +155,10 @@ struct OnlineStats {
   long tracking_samples = 0;
   double max_setpoint_step = 0.0;      // m between consecutive streamed setpoints
   double max_splice_step = 0.0;        // m, the same during blend windows
+  // The same steps divided by the time between the ticks (m/s): unlike the
+  // steps, not inflated when a tick comes late on a busy machine.
+  double max_setpoint_speed = 0.0;
+  double max_splice_speed = 0.0;
 };
 
 struct ControllerOutput {
@@ -259,6 +263,7 @@ class OnlineController {
   std::shared_ptr<const planner::PlanResult> pending_base_;  // the plan the pending replan started from
   double arrival_time_ = 0.0;
   std::optional<Setpoint> last_setpoint_;
+  double last_setpoint_time_ = 0.0;
   bool last_setpoint_in_blend_ = false;
 
   OnlineStats stats_;
