@@ -8,6 +8,7 @@
 
 #include "quadhand/link/frames.h"
 #include "quadhand/sim/autopilot.h"
+#include "quadhand/traj/flatness.h"
 #include "sim/sim_test_util.h"
 
 namespace quadhand::sim {
@@ -201,7 +202,7 @@ TEST_F(AutopilotTest, FlysToATargetOneMetreAway) {
   EXPECT_EQ(autopilot_->mode(), FlightMode::kOffboard);
   EXPECT_LT((autopilot_->state().position - Vec3(0, 1, 1)).norm(), 0.03);
   EXPECT_LT(autopilot_->state().velocity.norm(), 0.05);
-  EXPECT_NEAR(HopfYaw(autopilot_->state().attitude), M_PI_2, 0.03);
+  EXPECT_NEAR(traj::HopfYawOf(autopilot_->state().attitude), M_PI_2, 0.03);
   // The telemetry says so in NED.
   const auto positions = All<link::LocalPositionNed>(sent_);
   EXPECT_NEAR(positions.back().x, 1.0, 0.03);

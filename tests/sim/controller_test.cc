@@ -50,8 +50,8 @@ TEST(HopfYawTest, InvertsTheFlatnessMap) {
   for (const Vec3& acc : {Vec3(0, 0, 0), Vec3(2, -1, 0.5), Vec3(-3, 2, -4), Vec3(0.1, 4, 1)}) {
     for (double yaw : {0.0, 1.0, -2.5, 3.0}) {
       const traj::FlatState st = traj::FlatForward(Vec3::Zero(), acc, Vec3(1, -2, 0.5), yaw, 0.7);
-      EXPECT_NEAR(HopfYaw(st.attitude()), yaw, 1e-12) << acc.transpose();
-      EXPECT_NEAR(HopfYawRate(st.attitude(), st.body_rate), 0.7, 1e-12);
+      EXPECT_NEAR(traj::HopfYawOf(st.attitude()), yaw, 1e-12) << acc.transpose();
+      EXPECT_NEAR(traj::HopfYawRateOf(st.attitude(), st.body_rate), 0.7, 1e-12);
     }
   }
 }
@@ -85,7 +85,7 @@ TEST(ControllerTest, ConvergesFromAnOffset) {
     max_error = std::max(max_error, (sim.state().position - sp.position).norm());
   }
   EXPECT_LT((sim.state().position - sp.position).norm(), 0.01);
-  EXPECT_NEAR(HopfYaw(sim.state().attitude), 0.5, 0.01);
+  EXPECT_NEAR(traj::HopfYawOf(sim.state().attitude), 0.5, 0.01);
   EXPECT_LT(max_error, 1.0);  // no wild excursion on the way
 }
 

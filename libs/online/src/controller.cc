@@ -1,4 +1,5 @@
 #include "quadhand/online/controller.h"
+#include "quadhand/traj/flatness.h"
 
 #include <algorithm>
 #include <chrono>
@@ -23,29 +24,7 @@ std::string Format(const char* format, double a, double b = 0.0) {
   return buffer;
 }
 
-// Minimal-tilt quaternion taking e3 to z (the Hopf chart of traj/flatness.h).
-Quat TiltOf(const Vec3& z) {
-  const double one_c = std::max(1.0 + z.z(), 1e-9);
-  Quat q(one_c, -z.y(), z.x(), 0.0);
-  q.normalize();
-  return q;
-}
-
 }  // namespace
-
-double HopfYaw(const Quat& attitude) {
-  const Quat q = attitude.normalized();
-  const Quat q_yaw = TiltOf(q * Vec3::UnitZ()).conjugate() * q;
-  return std::remainder(2.0 * std::atan2(q_yaw.z(), q_yaw.w()), 2.0 * M_PI);
-}
-
-double HopfYawRate(const Quat& attitude, const Vec3& body_rate) {
-  const Mat3 R = attitude.normalized().toRotationMatrix();
-  const Vec3 z = R.col(2);
-  const Vec3 z_dot = R * body_rate.cross(Vec3::UnitZ());
-  const double one_c = std::max(1.0 + z.z(), 1e-9);
-  return body_rate.z() - (z.y() * z_dot.x() - z.x() * z_dot.y()) / one_c;
-}
 
 const char* PhaseName(Phase phase) {
   switch (phase) {
@@ -352,8 +331,8 @@ planner::BoundaryState OnlineController::MeasuredBoundaryState() const {
   planner::BoundaryState s;
   s.position = position_;
   s.velocity = velocity_;
-  s.yaw = HopfYaw(attitude_);
-  s.yaw_rate = HopfYawRate(attitude_, body_rate_);
+  s.yaw = traj::HopfYawOf(attitude_);
+  s.yaw_rate = traj::HopfYawRateOf(attitude_, body_rate_);
   s.joints = joints_;
   s.joint_rates = joint_rates_;
   return s;
@@ -496,7 +475,7 @@ ControllerOutput OnlineController::Tick(double t) {
       if (HaveState()) {
         hold_ = Setpoint{};
         hold_.position = position_;
-        hold_.yaw = HopfYaw(attitude_);
+        hold_.yaw = traj::HopfYawOf(attitude_);
         hold_.joints = joints_;
         hold_.joint_rates = VecX::Zero(joints_.size());
         hold_start_ = t;

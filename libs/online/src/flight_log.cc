@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "quadhand/robot/kinematics.h"
+#include "quadhand/traj/flatness.h"
 
 namespace quadhand::online {
 namespace {
@@ -62,8 +63,8 @@ std::string FlightLog::Csv(const std::vector<std::string>& joint_names) const {
     Put(&out, m.attitude.x());
     Put(&out, m.attitude.y());
     Put(&out, m.attitude.z());
-    Put(&out, HopfYaw(m.attitude));
-    Put(&out, HopfYawRate(m.attitude, m.body_rate));
+    Put(&out, traj::HopfYawOf(m.attitude));
+    Put(&out, traj::HopfYawRateOf(m.attitude, m.body_rate));
     for (size_t k = 0; k < n; ++k) Put(&out, k < static_cast<size_t>(m.joints.size()) ? m.joints[k] : 0.0);
     for (size_t k = 0; k < n; ++k) Put(&out, k < static_cast<size_t>(m.joint_rates.size()) ? m.joint_rates[k] : 0.0);
     if (s.setpoint) {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "quadhand/link/frames.h"
+#include "quadhand/traj/flatness.h"
 
 namespace quadhand::sim {
 namespace {
@@ -141,7 +142,7 @@ void Autopilot::EnterHold() {
   const VehicleState& s = simulator_.state();
   hold_ = Setpoint{};
   hold_.position = s.position;
-  hold_.yaw = HopfYaw(s.attitude);
+  hold_.yaw = traj::HopfYawOf(s.attitude);
   hold_.joints = s.joints;
   hold_.joint_rates = VecX::Zero(s.joints.size());
   mode_ = FlightMode::kPosition;
@@ -161,7 +162,7 @@ Setpoint Autopilot::CurrentSetpoint() const {
     sp.velocity[i] = (m & (typemask::kVxIgnore << i)) ? 0.0 : offboard_.velocity[i];
     sp.acceleration[i] = (m & (typemask::kAxIgnore << i)) ? 0.0 : offboard_.acceleration[i];
   }
-  sp.yaw = (m & typemask::kYawIgnore) ? HopfYaw(s.attitude) : offboard_.yaw;
+  sp.yaw = (m & typemask::kYawIgnore) ? traj::HopfYawOf(s.attitude) : offboard_.yaw;
   sp.yaw_rate = (m & typemask::kYawRateIgnore) ? 0.0 : offboard_.yaw_rate;
   sp.joints = joint_target_;
   sp.joint_rates = joint_rate_target_;
@@ -367,8 +368,8 @@ void Autopilot::RecordFlown() {
   row.velocity = s.velocity;
   row.acceleration = simulator_.CurrentDynamics().acceleration;
   row.attitude = s.attitude;
-  row.yaw = HopfYaw(s.attitude);
-  row.yaw_rate = HopfYawRate(s.attitude, s.body_rate);
+  row.yaw = traj::HopfYawOf(s.attitude);
+  row.yaw_rate = traj::HopfYawRateOf(s.attitude, s.body_rate);
   row.joints = s.joints;
   row.joint_rates = s.joint_rates;
   flown_.push_back(std::move(row));

@@ -1,4 +1,5 @@
 #include "quadhand/sim/simulator.h"
+#include "quadhand/traj/flatness.h"
 
 #include <algorithm>
 #include <cmath>
@@ -30,14 +31,6 @@ Mat3 ControllerInertia(const VehicleModel& model) {
   return model.MassPropertiesAt(NominalJoints(model)).inertia;
 }
 
-// Minimal-tilt quaternion taking e3 to z (the Hopf chart of traj/flatness.h).
-Quat TiltOf(const Vec3& z) {
-  const double one_c = std::max(1.0 + z.z(), 1e-9);
-  Quat q(one_c, -z.y(), z.x(), 0.0);
-  q.normalize();
-  return q;
-}
-
 void PutNumber(std::string* out, double v) {
   char buffer[40];
   std::snprintf(buffer, sizeof(buffer), ",%.10g", v);
@@ -45,20 +38,6 @@ void PutNumber(std::string* out, double v) {
 }
 
 }  // namespace
-
-double HopfYaw(const Quat& attitude) {
-  const Quat q = attitude.normalized();
-  const Quat q_yaw = TiltOf(q * Vec3::UnitZ()).conjugate() * q;
-  return std::remainder(2.0 * std::atan2(q_yaw.z(), q_yaw.w()), 2.0 * M_PI);
-}
-
-double HopfYawRate(const Quat& attitude, const Vec3& body_rate) {
-  const Mat3 R = attitude.normalized().toRotationMatrix();
-  const Vec3 z = R.col(2);
-  const Vec3 z_dot = R * body_rate.cross(Vec3::UnitZ());
-  const double one_c = std::max(1.0 + z.z(), 1e-9);
-  return body_rate.z() - (z.y() * z_dot.x() - z.x() * z_dot.y()) / one_c;
-}
 
 Simulator::Simulator(VehicleModel model, uint64_t seed)
     : model_(std::move(model)),
@@ -188,8 +167,8 @@ core::Result<TrackResult> TrackPlan(Simulator* sim, const Plan& plan, const Trac
     f.flown.velocity = s.velocity;
     f.flown.acceleration = info.acceleration;
     f.flown.attitude = s.attitude;
-    f.flown.yaw = HopfYaw(s.attitude);
-    f.flown.yaw_rate = HopfYawRate(s.attitude, s.body_rate);
+    f.flown.yaw = traj::HopfYawOf(s.attitude);
+    f.flown.yaw_rate = traj::HopfYawRateOf(s.attitude, s.body_rate);
     f.flown.joints = s.joints;
     f.flown.joint_rates = s.joint_rates;
     f.position_error = s.position - row.position;

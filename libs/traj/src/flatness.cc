@@ -132,4 +132,22 @@ FlatInputGrad FlatBackward(const Vector3d& /*vel*/, const Vector3d& acc, const V
   return out;
 }
 
+double HopfYawOf(const Eigen::Quaterniond& attitude) {
+  const Eigen::Quaterniond q = attitude.normalized();
+  const Eigen::Vector3d z = q * Eigen::Vector3d::UnitZ();
+  // The minimal tilt taking e3 to z (the Hopf chart); what is left is the yaw.
+  Eigen::Quaterniond tilt(std::max(1.0 + z.z(), 1e-9), -z.y(), z.x(), 0.0);
+  tilt.normalize();
+  const Eigen::Quaterniond q_yaw = tilt.conjugate() * q;
+  return std::remainder(2.0 * std::atan2(q_yaw.z(), q_yaw.w()), 2.0 * M_PI);
+}
+
+double HopfYawRateOf(const Eigen::Quaterniond& attitude, const Eigen::Vector3d& body_rate) {
+  const Eigen::Matrix3d R = attitude.normalized().toRotationMatrix();
+  const Eigen::Vector3d z = R.col(2);
+  const Eigen::Vector3d z_dot = R * body_rate.cross(Eigen::Vector3d::UnitZ());
+  const double one_c = std::max(1.0 + z.z(), 1e-9);
+  return body_rate.z() - (z.y() * z_dot.x() - z.x() * z_dot.y()) / one_c;
+}
+
 }  // namespace quadhand::traj

@@ -269,9 +269,5 @@ class OnlineController {
   OnlineStats stats_;
 };
 
-// The Hopf yaw (traj/flatness.h) of an attitude, in (-pi, pi], and the yaw
-// rate that goes with a body rate (FLU).
-double HopfYaw(const Quat& attitude);
-double HopfYawRate(const Quat& attitude, const Vec3& body_rate);
 
 }  // namespace quadhand::online

@@ -58,10 +58,6 @@ class Simulator {
   ControllerOutput output_;
 };
 
-// The Hopf yaw (traj/flatness.h) of an attitude, in (-pi, pi], and the yaw
-// rate that goes with a body rate (inverse of the flatness map's omega_z).
-double HopfYaw(const Quat& attitude);
-double HopfYawRate(const Quat& attitude, const Vec3& body_rate);
 
 // One recorded sample of a flight: the flown state in the plan's columns and diagnostics.
 struct FlownSample {

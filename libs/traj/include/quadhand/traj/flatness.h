@@ -95,4 +95,11 @@ FlatInputGrad FlatBackward(const Eigen::Vector3d& vel, const Eigen::Vector3d& ac
                            const FlatState& state, const FlatStateGrad& grad,
                            const FlatnessOptions& options = {});
 
+// Inverses for measured attitudes (simulators, online state estimates): the
+// Hopf yaw of an attitude (body FLU -> world ENU), in (-pi, pi], and the yaw
+// rate that goes with a body rate (rad/s, body frame), so that FlatForward of
+// a trajectory with that yaw reproduces the attitude's heading.
+double HopfYawOf(const Eigen::Quaterniond& attitude);
+double HopfYawRateOf(const Eigen::Quaterniond& attitude, const Eigen::Vector3d& body_rate);
+
 }  // namespace quadhand::traj
