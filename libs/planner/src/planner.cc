@@ -57,6 +57,7 @@ bool PlannerOptions::IsValid(std::string* why) const {
   if (!(piece_length > 0.0 && std::isfinite(piece_length))) return fail("piece_length must be positive");
   if (min_pieces < 2) return fail("min_pieces must be at least 2");
   if (!(cruise_speed > 0.0 && cruise_acceleration > 0.0)) return fail("cruise speed and acceleration must be positive");
+  if (!(stow_margin >= 0.0 && stow_lead >= 0.0 && std::isfinite(stow_lead))) return fail("stow_margin and stow_lead must be >= 0");
   if (max_attempts < 1) return fail("max_attempts must be at least 1");
   if (!(weight_raise_factor >= 1.0)) return fail("weight_raise_factor must be at least 1");
   return true;
@@ -181,15 +182,23 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
       stowed[q] = lo <= hi ? std::clamp(0.0, lo, hi) : 0.5 * (task.limits.joint_lower[q] + task.limits.joint_upper[q]);
     }
     const double length = PathLength(legs);
-    stow_begin = aux_time * (legs[1] - legs[0]).norm() / length;
+    // Settled `stow_lead` before the first corner (the first corner is
+    // usually at the first obstacle the path squeezes past), or halfway
+    // along a first leg shorter than twice that.
+    const double first_leg = (legs[1] - legs[0]).norm();
+    stow_begin = aux_time * std::max(0.5 * first_leg, first_leg - options.stow_lead) / length;
     stow_end = aux_time * (1.0 - (legs[legs.size() - 1] - legs[legs.size() - 2]).norm() / length);
   }
   double elapsed = 0.0;
   for (int i = 0; i < pieces - 1; ++i) {
     elapsed += durations[i];
     const double f = std::min(1.0, elapsed / aux_time);
-    aux_waypoints.col(i) = (1.0 - f) * aux_start + f * aux_end;  // yaw: linear in time throughout
+    aux_waypoints.col(i) = (1.0 - f) * aux_start + f * aux_end;  // yaw and joints linear in time, as the paper
     if (!stow) continue;
+    if (options.settle_yaw_in_transit) {  // yaw at its goal value from where the arm is stowed
+      const double g = std::min(1.0, elapsed / stow_begin);
+      aux_waypoints(0, i) = (1.0 - g) * task.start.yaw + g * result.terminal.yaw;
+    }
     VecX joints;
     if (elapsed <= stow_begin) {
       const double g = elapsed / stow_begin;

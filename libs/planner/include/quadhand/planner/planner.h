@@ -49,6 +49,16 @@ struct PlannerOptions {
   // when the path has at least three legs.
   bool stow_joints_in_transit = true;
   double stow_margin = 0.05;
+  // With the joints stowed in transit, the initial yaw also reaches its goal
+  // value along the first leg and keeps it through the corners (instead of
+  // turning linearly in time over the whole trajectory), so that the arm
+  // crosses narrow passages at a steady heading rather than while sweeping.
+  bool settle_yaw_in_transit = true;
+  // The stowing (and the yaw) is complete this many metres before the end
+  // of the first leg (at half the leg if it is shorter than twice that):
+  // the first corner is usually where the path squeezes past the first
+  // obstacle, too late to still be folding the arm.
+  double stow_lead = 0.5;
   int max_attempts = 4;         // solves per plan (the first plus re-solves with raised weights)
   double weight_raise_factor = 5.0;
 

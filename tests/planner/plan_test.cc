@@ -1,0 +1,98 @@
+// The planning pipeline (planner.h) on the default window-and-cup task with
+// the coarse link SDFs: the initial guess it optimises from.
+#include "quadhand/planner/planner.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "quadhand/solvers/lbfgs_solver.h"
+#include "support/window_cup_scene.h"
+
+namespace quadhand::planner {
+namespace {
+
+using testing::WindowCup;
+
+// Plan() with no iterations: the decoded trajectory is the initial guess.
+PlanResult InitialGuess(PlannerOptions options) {
+  options.solver.max_iterations = 0;
+  options.max_attempts = 1;
+  solvers::LbfgsSolver solver;
+  Task task = WindowCup().task;
+  task.start.yaw = -2.0;  // far from the goal yaw (pi), the other way round
+  auto result = Plan(WindowCup().Scene(), task, options, solver);
+  EXPECT_TRUE(result.ok()) << result.status().message();
+  EXPECT_TRUE(result->trajectory.has_value());
+  return *result;
+}
+
+// Times of the piece boundaries (the waypoints) of the initial guess.
+std::vector<double> WaypointTimes(const WholeBodyTrajectory& trajectory) {
+  std::vector<double> times;
+  double t = 0.0;
+  for (int i = 0; i + 1 < trajectory.num_pieces(); ++i) {
+    t += trajectory.position().durations()[i];
+    times.push_back(t);
+  }
+  return times;
+}
+
+// When the stowing (and with it the settled yaw) is complete: `lead` metres
+// before the end of the first leg of the shortcut path, in the time of the
+// guess without the insertion piece.
+double SettleTime(const PlanResult& plan, double lead) {
+  const std::vector<Vec3>& legs = plan.path.shortcut;
+  double length = 0.0;
+  for (size_t i = 1; i < legs.size(); ++i) length += (legs[i] - legs[i - 1]).norm();
+  const double first = (legs[1] - legs[0]).norm();
+  const WholeBodyTrajectory& trajectory = *plan.trajectory;
+  const double transit = trajectory.duration() - trajectory.position().durations()[trajectory.num_pieces() - 1];
+  return transit * std::max(0.5 * first, first - lead) / length;
+}
+
+TEST(PlanTest, InitialYawSettlesWithTheStowedArmBeforeTheFirstCorner) {
+  PlannerOptions options = DefaultPlannerOptions();
+  ASSERT_TRUE(options.stow_joints_in_transit && options.settle_yaw_in_transit);
+  const PlanResult plan = InitialGuess(options);
+  ASSERT_GE(plan.path.shortcut.size(), 4u);  // the stowing needs three legs
+  const double goal_yaw = plan.terminal.yaw;
+  const double settle = SettleTime(plan, options.stow_lead);
+  int settled = 0, turning = 0;
+  for (double t : WaypointTimes(*plan.trajectory)) {
+    const WholeBodySample s = plan.trajectory->Sample(t);
+    if (t >= settle - 1e-9 && t < plan.trajectory->duration() - plan.trajectory->position().durations().tail(1)[0]) {
+      EXPECT_NEAR(s.yaw, goal_yaw, 1e-9) << "waypoint at t = " << t;
+      ++settled;
+    } else if (t < settle) {
+      EXPECT_GT(std::abs(s.yaw - goal_yaw), 1e-3) << "waypoint at t = " << t;
+      ++turning;
+    }
+  }
+  EXPECT_GE(settled, 3);
+  EXPECT_GE(turning, 1);
+}
+
+TEST(PlanTest, WithoutSettlingTheInitialYawTurnsLinearlyInTime) {
+  PlannerOptions options = DefaultPlannerOptions();
+  options.settle_yaw_in_transit = false;
+  const PlanResult plan = InitialGuess(options);
+  const WholeBodyTrajectory& trajectory = *plan.trajectory;
+  const double transit = trajectory.duration() - trajectory.position().durations().tail(1)[0];
+  const double start_yaw = -2.0, goal_yaw = plan.terminal.yaw;
+  for (double t : WaypointTimes(trajectory)) {
+    const double f = std::min(1.0, t / transit);
+    EXPECT_NEAR(trajectory.Sample(t).yaw, (1.0 - f) * start_yaw + f * goal_yaw, 1e-9) << "waypoint at t = " << t;
+  }
+}
+
+TEST(PlanTest, RejectsANegativeStowLead) {
+  PlannerOptions options = DefaultPlannerOptions();
+  options.stow_lead = -0.1;
+  std::string why;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("stow_lead"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace quadhand::planner
