@@ -241,6 +241,36 @@ TEST(WholeBodyProblemTest, GradientWithAnInsertionCollisionThreshold) {
   EXPECT_LE(skipped, 3);
 }
 
+TEST(WholeBodyProblemTest, InsertionPieceHasItsOwnSampleCount) {
+  auto breakdown_with = [](int samples, int insertion_samples) {
+    WholeBodyCostOptions o = AllTerms();
+    o.samples_per_piece = samples;
+    o.insertion_samples = insertion_samples;
+    ProblemSetup setup = MakeSetup(o, /*insertion=*/true, RingAroundGoalTool(0.05));
+    auto breakdown = setup.problem->Breakdown(setup.x0);
+    EXPECT_TRUE(breakdown.ok());
+    return *breakdown;
+  };
+  // 0 means samples_per_piece.
+  EXPECT_EQ(breakdown_with(16, 0).total, breakdown_with(16, 16).total);
+  // Only the last piece's quadrature changes: the insertion term (on that
+  // piece alone) moves, the energy and time do not.
+  const CostBreakdown coarse = breakdown_with(16, 4), fine = breakdown_with(16, 16);
+  EXPECT_NE(coarse.insertion, fine.insertion);
+  EXPECT_EQ(coarse.energy, fine.energy);
+  EXPECT_EQ(coarse.time, fine.time);
+  // The defaults' gradient tests above run with insertion_samples = 8 against
+  // 16 per piece; here also a count that does not divide the other.
+  WholeBodyCostOptions o = AllTerms();
+  o.insertion_samples = 5;
+  ProblemSetup setup = MakeSetup(o, /*insertion=*/true, RingAroundGoalTool(0.05));
+  int skipped = 0;
+  ExpectGradientMatches(*setup.problem, setup.x0, 1e-5, &skipped);
+  EXPECT_LE(skipped, 3);
+  o.insertion_samples = -1;
+  EXPECT_FALSE(o.IsValid(nullptr));
+}
+
 TEST(WholeBodyProblemTest, PackUnpackAndTrajectoryMeetTheBoundaryStates) {
   ProblemSetup setup = MakeSetup(WholeBodyCostOptions{}, false);
   MatX position, aux;

@@ -40,6 +40,7 @@ bool WholeBodyCostOptions::IsValid(std::string* why) const {
     return false;
   };
   if (samples_per_piece < 1 || samples_per_piece > 1000) return fail("samples_per_piece must be in [1, 1000]");
+  if (insertion_samples < 0 || insertion_samples > 1000) return fail("insertion_samples must be in [0, 1000]");
   for (double w : {time_weight, energy_weight_position, energy_weight_aux, weight_collision, weight_insertion,
                    weight_velocity, weight_acceleration, weight_yaw_rate, weight_joint_rate, weight_body_rate,
                    weight_joint_limits, insertion_position_weight, insertion_rotation_weight,
@@ -99,6 +100,7 @@ struct WholeBodyProblem::Workspace {
   robot::KinematicsState kinematics;
   env::StateGradient collision_gradient, insertion_gradient, point_gradient;
   VecX aux_value, aux_rate, aux_value_grad, aux_rate_grad;
+  VecX joints;  // the joint part of aux_value (ComputeKinematics takes a VecX: no temporary per sample)
 };
 
 WholeBodyProblem::WholeBodyProblem(const robot::RobotModel& robot, const env::CollisionModel& collision)
@@ -172,6 +174,7 @@ core::Result<std::unique_ptr<WholeBodyProblem>> WholeBodyProblem::Create(
   w.aux_value.resize(1 + n);
   w.aux_rate.resize(1 + n);
   w.aux_value_grad.resize(1 + n);
+  w.joints.resize(n);
   w.aux_rate_grad.resize(1 + n);
   return problem;
 }
@@ -216,7 +219,6 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
   Workspace& w = *work_;
   const WholeBodyCostOptions& o = options_;
   const int n = num_joints_;
-  const int K = o.samples_per_piece;
   CostBreakdown terms;
   if (with_gradient) {
     w.grad_position_coeffs.setZero();
@@ -244,6 +246,7 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
     const double duration = w.durations[piece];
     const bool insertion_piece = insertion_.enabled && piece == num_pieces_ - 1;
     const env::PenaltyParameters& collision_parameters = insertion_piece ? insertion_collision : transit_collision;
+    const int K = insertion_piece && o.insertion_samples > 0 ? o.insertion_samples : o.samples_per_piece;
     for (int k = 0; k <= K; ++k) {
       const double fraction = static_cast<double>(k) / K;
       const double t = fraction * duration;
@@ -304,7 +307,8 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
 
       // Collision (and insertion) need the whole-body kinematics.
       const Pose base = MakePose(p, flat.rotation());
-      robot::ComputeKinematics(robot_, base, w.aux_value.tail(n), &w.kinematics);
+      w.joints = w.aux_value.tail(n);
+      robot::ComputeKinematics(robot_, base, w.joints, &w.kinematics);
       w.collision_gradient.SetZero(n);
       c = env::WholeBodyPenalty(robot_, w.kinematics, collision_, collision_parameters,
                                 env::QueryContext{piece, t}, with_gradient ? &w.collision_gradient : nullptr);

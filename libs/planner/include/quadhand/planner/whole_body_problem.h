@@ -10,8 +10,9 @@
 //   --flatness (Hopf)--> attitude, thrust, body rate --forward kinematics-->
 //   link poses --CollisionModel / insertion / limit penalties--> cost.
 // Samples sit at fixed fractions k/K of each piece with trapezoidal weights
-// w_k = T_i / K (halved at both ends); both parts of the duration gradient
-// (moving sample times and the quadrature step) are included.
+// w_k = T_i / K (halved at both ends; K may differ on the insertion piece);
+// both parts of the duration gradient (moving sample times and the
+// quadrature step) are included.
 //
 // Variables x = [tau (N); position waypoints (3 x (N-1), column-major);
 //                yaw + joint waypoints ((1 + n) x (N-1), column-major)].
@@ -64,6 +65,12 @@ struct InsertionGoal {
 
 struct WholeBodyCostOptions {
   int samples_per_piece = 16;  // K: samples at k/K, k = 0..K
+  // K of the insertion piece (when the insertion is enabled); 0: samples_per_piece.
+  // The robot moves slowly there (0.12 m in about a second), so 8 intervals
+  // still sample it every 1.5 cm, and that piece is the costly one: the
+  // gripper's collision queries see the whole target object (half of the
+  // collision time of an evaluation on the benchmark with 16).
+  int insertion_samples = 8;
   double time_weight = 20.0;   // rho, per second of total duration
   double energy_weight_position = 1.0;  // on integral ||snap||^2
   double energy_weight_aux = 1.0;       // on integral ||(yaw, joints) accel||^2
@@ -103,7 +110,11 @@ struct WholeBodyCostOptions {
   double insertion_rotation_tolerance = 0.0;  // r_e,th
   double insertion_position_weight = 1.0;     // rho_P
   double insertion_rotation_weight = 1.0;     // rho_R
-  double insertion_mu = 0.002;
+  // Smoothing of the insertion penalty. 1 cm: the post-check's tolerance
+  // (1 cm off the line) is still met with room, and a sharper kink (it was
+  // 2 mm) made this the stiffest term of the problem, which slowed L-BFGS
+  // down by about a third (docs/benchmark.md).
+  double insertion_mu = 0.01;
   double insertion_backoff_margin = 0.02;  // metres beyond the insertion length
   traj::FlatnessOptions flatness;
 
