@@ -86,6 +86,19 @@ TEST(PlanTest, WithoutSettlingTheInitialYawTurnsLinearlyInTime) {
   }
 }
 
+// The default stopping rule (relative decrease over a window) ends the first
+// solve before the iteration cap on the default task, and the plan passes.
+TEST(PlanTest, DefaultSolveStopsOnTheRelativeDecreaseBeforeTheCap) {
+  const PlannerOptions options = DefaultPlannerOptions();
+  solvers::LbfgsSolver solver;
+  auto result = Plan(WindowCup().Scene(), WindowCup().task, options, solver);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  EXPECT_TRUE(result->success) << result->message;
+  ASSERT_FALSE(result->attempts.empty());
+  EXPECT_EQ(result->attempts[0].solver_status, "converged");
+  EXPECT_LT(result->attempts[0].iterations, options.solver.max_iterations);
+}
+
 TEST(PlanTest, RejectsANegativeStowLead) {
   PlannerOptions options = DefaultPlannerOptions();
   options.stow_lead = -0.1;
