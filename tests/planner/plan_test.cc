@@ -99,6 +99,29 @@ TEST(PlanTest, DefaultSolveStopsOnTheRelativeDecreaseBeforeTheCap) {
   EXPECT_LT(result->attempts[0].iterations, options.solver.max_iterations);
 }
 
+// With 4 samples per piece the first solve lets a link slip past a window
+// edge between samples; raising the collision weight alone cannot see that,
+// the re-solve with twice the samples does.
+TEST(PlanTest, ClearanceFailureResolvesWithMoreSamples) {
+  PlannerOptions options = DefaultPlannerOptions();
+  options.cost.samples_per_piece = 4;
+  options.cost.insertion_samples = 4;
+  options.max_attempts = 3;  // up to 16 samples per piece
+  solvers::LbfgsSolver solver;
+  auto doubled = Plan(WindowCup().Scene(), WindowCup().task, options, solver);
+  ASSERT_TRUE(doubled.ok()) << doubled.status().message();
+  ASSERT_GE(doubled->attempts.size(), 2u);
+  EXPECT_EQ(doubled->attempts[0].post_check_failure.rfind("clearance", 0), 0u)
+      << doubled->attempts[0].post_check_failure;
+  EXPECT_TRUE(doubled->success) << doubled->message;
+
+  options.resolve_sample_factor = 1;  // weights only
+  auto weights_only = Plan(WindowCup().Scene(), WindowCup().task, options, solver);
+  ASSERT_TRUE(weights_only.ok());
+  EXPECT_FALSE(weights_only->success);
+  EXPECT_EQ(weights_only->message.rfind("clearance", 0), 0u) << weights_only->message;
+}
+
 TEST(PlanTest, RejectsANegativeStowLead) {
   PlannerOptions options = DefaultPlannerOptions();
   options.stow_lead = -0.1;

@@ -14,14 +14,22 @@ double MillisecondsSince(std::chrono::steady_clock::time_point start) {
 }
 
 // Raises the weight of every term whose check failed; false if no failed
-// check has a weight to raise (then re-solving cannot help).
-bool RaiseViolatedWeights(const PostCheckReport& report, double factor, WholeBodyCostOptions* cost) {
+// check has a weight to raise (then re-solving cannot help). A failed
+// clearance also multiplies the samples per piece by `sample_factor` (up to
+// `max_samples`): a link that slips past an obstacle between two samples is
+// invisible to the sampled penalty, whatever its weight.
+bool RaiseViolatedWeights(const PostCheckReport& report, double factor, int sample_factor, int max_samples,
+                          WholeBodyCostOptions* cost) {
   bool raised = false;
   for (const CheckResult& check : report.checks) {
     if (check.passed) continue;
     double* weight = nullptr;
-    if (check.name == "clearance") weight = &cost->weight_collision;
-    else if (check.name == "velocity") weight = &cost->weight_velocity;
+    if (check.name == "clearance") {
+      weight = &cost->weight_collision;
+      for (int* samples : {&cost->samples_per_piece, &cost->insertion_samples}) {
+        *samples = std::max(*samples, std::min(*samples * sample_factor, max_samples));
+      }
+    } else if (check.name == "velocity") weight = &cost->weight_velocity;
     else if (check.name == "acceleration") weight = &cost->weight_acceleration;
     else if (check.name == "yaw_rate") weight = &cost->weight_yaw_rate;
     else if (check.name == "body_rate_xy") weight = &cost->weight_body_rate;
@@ -60,6 +68,10 @@ bool PlannerOptions::IsValid(std::string* why) const {
   if (!(stow_margin >= 0.0 && stow_lead >= 0.0 && std::isfinite(stow_lead))) return fail("stow_margin and stow_lead must be >= 0");
   if (max_attempts < 1) return fail("max_attempts must be at least 1");
   if (!(weight_raise_factor >= 1.0)) return fail("weight_raise_factor must be at least 1");
+  if (resolve_sample_factor < 1) return fail("resolve_sample_factor must be at least 1");
+  if (max_samples_per_piece < 1 || max_samples_per_piece > 1000) {
+    return fail("max_samples_per_piece must be in [1, 1000]");
+  }
   return true;
 }
 
@@ -269,7 +281,10 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
     record.post_check_failure = result.post_check.FirstFailure();
     result.attempts.push_back(record);
     if (result.post_check.passed) break;
-    if (!RaiseViolatedWeights(result.post_check, options.weight_raise_factor, &cost)) break;
+    if (!RaiseViolatedWeights(result.post_check, options.weight_raise_factor, options.resolve_sample_factor,
+                              options.max_samples_per_piece, &cost)) {
+      break;
+    }
     QUADHAND_RETURN_IF_ERROR((*problem)->SetOptions(cost));
   }
   result.success = result.post_check.passed;

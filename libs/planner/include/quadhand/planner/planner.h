@@ -66,6 +66,12 @@ struct PlannerOptions {
   double stow_lead = 0.5;
   int max_attempts = 4;         // solves per plan (the first plus re-solves with raised weights)
   double weight_raise_factor = 5.0;
+  // A failed clearance check also multiplies the samples per piece of the
+  // re-solve (and those of the insertion piece) by this, up to
+  // max_samples_per_piece: a thin link can pass an obstacle edge between two
+  // samples of a long piece, where no weight on the sampled penalty sees it.
+  int resolve_sample_factor = 2;
+  int max_samples_per_piece = 64;
 
   bool IsValid(std::string* why) const;
 };
