@@ -166,7 +166,10 @@ class OnlineController::Worker {
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
       const bool warm_failed =
           result.ok() && !result->success && (result->status == "post_check_failed" || result->status == "solver_failed");
-      if (warm_failed && cold_fallback_) {
+      // Plan() refuses a start inside the safety margin (it has no recovery
+      // rule), so after a failed recovery a cold plan would only hide why.
+      const bool recovering = result.ok() && result->post_check.recovery;
+      if (warm_failed && cold_fallback_ && !recovering) {
         done.record.cold_fallback = true;
         result = cold_plan();
       }

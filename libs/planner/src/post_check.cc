@@ -35,7 +35,7 @@ double WrapAngle(double a) { return std::remainder(a, 2.0 * M_PI); }
 
 bool PostCheckOptions::IsValid(std::string* why) const {
   for (double v : {dt, clearance_tolerance, limit_tolerance, position_tolerance, angle_tolerance, rate_tolerance,
-                   insertion_tolerance}) {
+                   insertion_tolerance, recovery_time}) {
     if (!(std::isfinite(v) && v >= 0.0)) {
       if (why != nullptr) *why = "post-check tolerances must be finite and non-negative";
       return false;
@@ -149,6 +149,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   robot::KinematicsState kinematics;
   std::vector<std::pair<double, double>> tool_track;  // (along line, off line) per sample
   std::vector<double> times;
+  std::vector<std::pair<double, double>> exact_track;  // (t, exact clearance) per sample
   for (int step = 0; step <= steps; ++step) {
     const double t = std::min(duration, step * duration / steps);
     const WholeBodySample s = trajectory.Sample(t);
@@ -160,6 +161,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       closest = link;
     }
     clearance_deficit.Update(-d_exact, t);
+    exact_track.emplace_back(t, d_exact);
     int piece = 0;
     double local = 0;
     trajectory.position().LocatePiece(t, &piece, &local);
@@ -189,10 +191,38 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     report.checks.push_back({std::move(name), passed, value, bound, time, std::move(detail)});
   };
   const double clearance_bound = task.safety_distance - options.clearance_tolerance;
-  add("clearance", min_exact >= clearance_bound, min_exact, task.safety_distance, clearance_deficit.time,
-      Format("exact clearance %.4f m (safety distance %.4f m) at t = %.2f s", min_exact, task.safety_distance,
-             clearance_deficit.time) +
-          (closest >= 0 ? ", link " + robot.link(closest).name : ""));
+  report.start_clearance_exact = exact_track.front().second;
+  report.recovery = options.recovery_time > 0.0 && report.start_clearance_exact < clearance_bound;
+  if (!report.recovery) {
+    add("clearance", min_exact >= clearance_bound, min_exact, task.safety_distance, clearance_deficit.time,
+        Format("exact clearance %.4f m (safety distance %.4f m) at t = %.2f s", min_exact, task.safety_distance,
+               clearance_deficit.time) +
+            (closest >= 0 ? ", link " + robot.link(closest).name : ""));
+  } else {
+    // The recovery rule (PostCheckOptions::recovery_time): each sample has
+    // its own bound, the start's clearance during the stretch and the safety
+    // distance after it; the check reports the sample with the least slack.
+    const double start = report.start_clearance_exact;
+    const double stretch_bound = start - options.clearance_tolerance;
+    double worst_slack = 1e300, worst_value = 0.0, worst_bound = 0.0, worst_time = 0.0;
+    for (size_t i = 0; i < exact_track.size(); ++i) {
+      const auto& [t, d] = exact_track[i];
+      const bool in_stretch = t < options.recovery_time && i + 1 < exact_track.size();
+      const double bound = in_stretch ? stretch_bound : clearance_bound;
+      if (d - bound < worst_slack) {
+        worst_slack = d - bound;
+        worst_value = d;
+        worst_bound = bound;
+        worst_time = t;
+      }
+    }
+    add("clearance", worst_slack >= 0.0, worst_value, worst_bound + options.clearance_tolerance, worst_time,
+        Format("recovery from %.4f m at the start (within %.2f s: ", start, options.recovery_time, 0) +
+            Format("no lower than %.4f m, then the safety distance %.4f m): ", stretch_bound + options.clearance_tolerance,
+                   task.safety_distance, 0) +
+            Format("exact clearance %.4f m at t = %.2f s, accepted down to %.4f m", worst_value, worst_time,
+                   worst_bound));
+  }
   const double ratio_bound = 1.0 + options.limit_tolerance;
   auto add_limit = [&](const std::string& name, const Worst& w) {
     report.violations.emplace_back(name, w.value);

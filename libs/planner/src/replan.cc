@@ -22,6 +22,14 @@ bool ReplanOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "replan min_piece_duration must be positive";
     return false;
   }
+  if (!(std::isfinite(max_start_penetration) && max_start_penetration >= 0.0)) {
+    if (why != nullptr) *why = "replan max_start_penetration must be non-negative";
+    return false;
+  }
+  if (!(std::isfinite(recovery_time) && recovery_time > 0.0)) {
+    if (why != nullptr) *why = "replan recovery_time must be positive";
+    return false;
+  }
   return true;
 }
 
@@ -198,7 +206,9 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   const double plan_yaw = trajectory.Sample(t_from).yaw;
   replan_task.start.yaw = plan_yaw + std::remainder(start.yaw - plan_yaw, 2.0 * M_PI);
 
-  // A start closer than the safety distance cannot pass the post-check.
+  // A start inside the safety margin is replanned under the recovery rule
+  // (replan.h); only a start deeper in the scene than max_start_penetration
+  // is refused: no plan from there can be trusted.
   {
     robot::KinematicsState kinematics;
     const Pose base = MakePose(replan_task.start.position,
@@ -206,11 +216,11 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
     robot::ComputeKinematics(robot, base, replan_task.start.joints, &kinematics);
     int link = -1;
     const double clearance = scene.exact.WholeBody(kinematics, task.safety_distance + 0.05, &link);
-    if (clearance < task.safety_distance - options.post_check.clearance_tolerance) {
+    if (clearance < -replan.max_start_penetration) {
       result.status = "start_in_collision";
       result.message = "the start state is " + std::to_string(clearance) + " m from the scene (link " +
-                       (link >= 0 ? robot.link(link).name : std::string("?")) + ", safety distance " +
-                       std::to_string(task.safety_distance) + " m)";
+                       (link >= 0 ? robot.link(link).name : std::string("?")) + ", at most " +
+                       std::to_string(replan.max_start_penetration) + " m inside it is recovered from)";
       return result;
     }
   }
@@ -243,7 +253,11 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
                                           result.insertion, cost, pieces);
   if (!problem.ok()) return problem.status();
   const VecX x0 = (*problem)->Pack(position_waypoints, aux_waypoints, durations);
-  QUADHAND_RETURN_IF_ERROR(SolveAndPostCheck(problem->get(), x0, scene, *collision, replan_task, options,
+  // The post-check of Plan() plus the recovery rule, which changes nothing
+  // for a start outside the safety margin.
+  PlannerOptions checked = options;
+  checked.post_check.recovery_time = replan.recovery_time;
+  QUADHAND_RETURN_IF_ERROR(SolveAndPostCheck(problem->get(), x0, scene, *collision, replan_task, checked,
                                              replan.solver, options.solver, replan.max_attempts, solver, &result));
   return result;
 }

@@ -25,6 +25,16 @@ struct PostCheckOptions {
   double angle_tolerance = 0.02;           // start/end yaw and joints, radians
   double rate_tolerance = 0.05;            // end velocity (m/s) and rates (rad/s): "at rest"
   double insertion_tolerance = 0.01;       // tool distance from the insertion line, metres
+  // Recovery stretch, seconds (0 = off; Plan() leaves it off, replans from a
+  // measured state set it: ReplanOptions::recovery_time). When it is on and
+  // the trajectory STARTS closer than the safety distance (minus
+  // clearance_tolerance), the clearance check becomes: over [0,
+  // recovery_time) the clearance never falls below the start's own clearance
+  // minus clearance_tolerance (never worse than where it starts), and from
+  // recovery_time on (the last sample always) it is back at the safety
+  // distance minus clearance_tolerance. A start outside the margin is checked
+  // exactly as without it.
+  double recovery_time = 0.0;
 
   bool IsValid(std::string* why) const;
 };
@@ -46,6 +56,8 @@ struct PostCheckReport {
   double min_clearance_exact = 0.0;   // link meshes vs raw points
   double min_clearance_model = 0.0;   // as the planner's collision model measures it
   int closest_link = -1;
+  double start_clearance_exact = 0.0; // at t = 0
+  bool recovery = false;              // the recovery rule judged the clearance (see recovery_time)
   // Worst ratio of each limit (1.0 = at the bound): v, a, yaw_rate, body_rate_xy, joint rates.
   std::vector<std::pair<std::string, double>> violations;
   std::string FirstFailure() const;   // "clearance: 0.021 m < 0.028 m at t = 3.2 s", or empty

@@ -10,6 +10,17 @@
 //   solve with warm-start settings (few iterations, loose stopping rule)
 //   -> the same post-check as Plan() -> raise violated weights and resume
 //
+// Recovery: a measured start may lie inside the safety margin (a gust pushed
+// the vehicle towards a window edge). Refusing it would leave the vehicle
+// holding right there, in the margin, for good; so a start whose exact
+// clearance is below the safety distance but at least -max_start_penetration
+// is still replanned, and its post-check uses the recovery rule
+// (PostCheckOptions::recovery_time): within the first recovery_time seconds
+// the clearance may never fall below the start's own clearance (minus the
+// post-check's clearance tolerance), and from then on it must keep the full
+// safety distance. A start deeper than that is refused (start_in_collision).
+// A start outside the margin is checked exactly as Plan() checks.
+//
 // The result's time 0 is the start state's time (t_from on the old clock).
 // World ENU, metres, radians, seconds.
 #pragma once
@@ -35,6 +46,16 @@ struct ReplanOptions {
   // one: a very short piece cannot absorb the start-state offset without
   // extreme accelerations.
   double min_piece_duration = 0.15;
+  // Recovery from a start inside the safety margin (see the header comment).
+  // The deepest start (m inside the scene's points, exact link meshes) still
+  // replanned: a few millimetres is within the measurement and prediction
+  // error of the start; deeper, the vehicle touches the obstacle and the
+  // planner's free-flight model no longer holds.
+  double max_start_penetration = 0.005;
+  // s in which a recovering plan must be back at the safety distance. 1 s
+  // stops a 1 m/s drift towards the obstacle at a quarter of a_max (4 m/s^2)
+  // and leaves room to back off the margin's 3 cm.
+  double recovery_time = 1.0;
 
   bool IsValid(std::string* why) const;
 };
@@ -73,8 +94,10 @@ core::Status RemainderGuess(const WholeBodyTrajectory& trajectory, double t_from
 // replaced by `start`. Ordinary outcomes are PlanResults with success false:
 // status "insertion_in_progress" (t_from lies in the insertion piece: a plan
 // starting partway down the insertion line cannot pass the insertion check),
-// "start_in_collision" (the measured state is closer than the safety
-// distance), "representation_failed", or the statuses of SolveAndPostCheck.
+// "start_in_collision" (the measured state is more than
+// max_start_penetration inside the scene), "representation_failed", or the
+// statuses of SolveAndPostCheck. A start inside the safety margin is judged
+// by the recovery rule (result.post_check.recovery is then true).
 // InvalidArgument for inconsistent input (no current trajectory, joint
 // counts, invalid options).
 core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
