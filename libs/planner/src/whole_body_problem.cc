@@ -270,6 +270,7 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
       // Gradient of point (not integrated) costs of this sample.
       env::StateGradient& point_gradient = w.point_gradient;
       point_gradient.SetZero(n);
+      bool point_active = false;  // a point cost's gradient was added to point_gradient
 
       c = SquaredRatePenalty(v.squaredNorm(), o.limit_fraction * limits_.v_max, o.feasibility_mu, &slope);
       terms.velocity += weight * c;
@@ -348,6 +349,7 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
           terms.insertion += c_backoff;
           total += scale * c_backoff;
           if (with_gradient && c_backoff > 0.0) {
+            point_active = true;
             env::LinkWrench wrench;
             wrench.force = scale * slope_backoff * insertion_.direction;
             env::AccumulateLinkWrench(robot_, w.kinematics, insertion_.tool_link, wrench, &point_gradient);
@@ -371,6 +373,10 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
 
       total += weight * sample;
       if (!with_gradient) continue;
+      // Every penalty here is zero with a zero slope below its threshold, so
+      // a sample that costs nothing has no gradient either: most samples of
+      // a feasible trajectory. Skipping them leaves the sums unchanged.
+      if (sample == 0.0 && !point_active) continue;
 
       // Backward: the quadrature step moves with the duration...
       w.grad_durations_position[piece] += sample * end_weight / K;
