@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "online/online_test_util.h"
+#include "quadhand/traj/flatness.h"
 
 namespace quadhand::online {
 namespace {
@@ -124,6 +125,74 @@ TEST(OnlineControllerTest, APushTriggersAReplanThatIsSplicedWithoutAJump) {
   EXPECT_GT(metrics.min_clearance, 0.0);
 }
 
+// Exact clearance of the robot at a planning start state (as Replan measures it).
+double StateClearance(const Vec3& position, double yaw, const VecX& joints, double reach) {
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(WindowCup().robot(), MakePose(position, Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix()),
+                           joints, &kinematics);
+  return WindowCup().exact->WholeBody(kinematics, reach, nullptr);
+}
+
+// A gust puts the vehicle 1 cm from a window edge (inside the 3 cm safety
+// distance) as it approaches the window: the replan from there is attempted
+// under the recovery rule, gets out, and the flight still reaches the cup.
+TEST(OnlineControllerTest, AReplanFromInsideTheSafetyMarginGetsOutAndReachesTheCup) {
+  const OnlineOptions options;
+  auto controller = MakeController(options);
+  DirectFlight flight(controller.get());
+  bool moved = false;
+  double moved_by = 0.0, start_clearance = 1.0;
+  flight.Run(40.0, [&](double t, sim::Simulator* sim) {
+    if (moved || controller->phase() != Phase::kFlying || t - controller->current_plan_start() < 0.5) return;
+    // The controller's replan start: the measured state predicted over the lead.
+    const planner::WholeBodyTrajectory& plan = *controller->current_plan()->trajectory;
+    const double now_time = t - controller->current_plan_start();
+    const planner::WholeBodySample now = plan.Sample(now_time), then = plan.Sample(now_time + options.replan_lead);
+    sim::VehicleState s = sim->state();
+    const Vec3 delta = then.position - now.position;
+    const double yaw = traj::HopfYawOf(s.attitude) + (then.yaw - now.yaw);
+    const VecX joints = s.joints + (then.joints - now.joints);
+    const Vec3 predicted = s.position + delta;
+    // Wait until the vehicle approaches a window (within 15 cm)...
+    if (StateClearance(predicted, yaw, joints, 0.3) > 0.15) return;
+    // ...then move it towards the nearest edge until the start is 1 cm from it.
+    Vec3 gradient;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 step = 1e-3 * Vec3::Unit(k);
+      gradient[k] = (StateClearance(predicted + step, yaw, joints, 0.3) -
+                     StateClearance(predicted - step, yaw, joints, 0.3)) / 2e-3;
+    }
+    const Vec3 towards = -gradient.normalized();
+    double lo = 0.0, hi = 0.3;
+    for (int i = 0; i < 40; ++i) {
+      (StateClearance(predicted + 0.5 * (lo + hi) * towards, yaw, joints, 0.3) > 0.01 ? lo : hi) = 0.5 * (lo + hi);
+    }
+    start_clearance = StateClearance(predicted + lo * towards, yaw, joints, 0.3);
+    moved_by = lo;
+    s.position += lo * towards;
+    sim->Reset(s, sim->time());
+    moved = true;
+  });
+  ASSERT_TRUE(moved);
+  EXPECT_NEAR(start_clearance, 0.01, 1e-3);
+  EXPECT_GT(moved_by, options.replan_threshold);  // enough to trigger a replan
+  const OnlineStats& stats = controller->stats();
+  std::string plans;
+  for (const PlanRecord& r : stats.plans) plans += r.status + ": " + r.message + "\n";
+  ASSERT_GE(stats.replans_triggered, 1);
+  ASSERT_GE(stats.splices, 1) << plans;
+  EXPECT_EQ(controller->phase(), Phase::kArrived) << plans;
+  for (const PlanRecord& record : stats.plans) EXPECT_TRUE(record.success) << plans;
+  EXPECT_FALSE(stats.plans[1].cold_fallback);
+  // The first replan (plans[0] is the first plan) was a recovery.
+  EXPECT_TRUE(stats.plans[1].replan);
+  EXPECT_TRUE(stats.plans[1].recovery) << plans;
+  EXPECT_NEAR(stats.plans[1].start_clearance, start_clearance, 2e-3);
+  const FlightMetrics metrics = Metrics(flight.log(), *controller);
+  EXPECT_LT(metrics.final_tool_error, 0.02);
+  EXPECT_GT(metrics.min_clearance, 0.0) << "closest link " << metrics.closest_link;
+}
+
 TEST(OnlineControllerTest, AFailedReplanHoldsAtTheLastSafeSetpoint) {
   const OnlineOptions options;
   auto controller = MakeController(options);
@@ -133,7 +202,9 @@ TEST(OnlineControllerTest, AFailedReplanHoldsAtTheLastSafeSetpoint) {
   flight.Run(20.0, [&](double t, sim::Simulator* sim) {
     if (!moved && controller->phase() == Phase::kFlying && t - controller->current_plan_start() > 1.0) {
       // Move the vehicle so that the replan's start (the measured state
-      // predicted over the lead time) lies 3 cm from a scene point: in collision.
+      // predicted over the lead time) lies 1.5 cm from a scene point: a link
+      // more than max_start_penetration (5 mm) inside the scene, in
+      // collision. (At 3 cm a link is 3 mm inside: recovery is attempted.)
       const Vec3 delta = controller->Reference(t + options.replan_lead)->position - controller->Reference(t)->position;
       sim::VehicleState s = sim->state();
       const Vec3 predicted = s.position + delta;
@@ -141,7 +212,7 @@ TEST(OnlineControllerTest, AFailedReplanHoldsAtTheLastSafeSetpoint) {
       const Vec3 nearest = *std::min_element(points.begin(), points.end(), [&](const Vec3& a, const Vec3& b) {
         return (a - predicted).squaredNorm() < (b - predicted).squaredNorm();
       });
-      s.position = nearest + 0.03 * (predicted - nearest).normalized() - delta;
+      s.position = nearest + 0.015 * (predicted - nearest).normalized() - delta;
       s.velocity.setZero();
       sim->Reset(s, sim->time());
       moved = true;

@@ -169,6 +169,10 @@ class OnlineController::Worker {
       // Plan() refuses a start inside the safety margin (it has no recovery
       // rule), so after a failed recovery a cold plan would only hide why.
       const bool recovering = result.ok() && result->post_check.recovery;
+      if (recovering) {
+        done.record.recovery = true;
+        done.record.start_clearance = result->post_check.start_clearance_exact;
+      }
       if (warm_failed && cold_fallback_ && !recovering) {
         done.record.cold_fallback = true;
         result = cold_plan();
@@ -406,7 +410,10 @@ void OnlineController::CollectPlan(double t) {
     Event(Format(record.cold_fallback ? "replanned in %.1f ms (the warm start failed the post-check: planned cold); "
                                         "blending the new plan in from t = %.2f s"
                                       : "replanned in %.1f ms; blending the new plan in from t = %.2f s",
-                 record.latency_ms, blend_start_));
+                 record.latency_ms, blend_start_) +
+          (record.recovery ? Format(" (recovering from %.4f m inside the safety distance)",
+                                    setup_.task->safety_distance - record.start_clearance)
+                           : std::string()));
   } else if (record.status == "insertion_in_progress") {
     Event("not replanned: the insertion has begun");
   } else {

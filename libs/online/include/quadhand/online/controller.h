@@ -36,7 +36,11 @@
 // t_splice). The new plan's time 0 is t_splice; it is blended in over
 // blend_window s from t_splice (or from its arrival, when it comes late) as
 // setpoint.h describes. A replan that fails, or fails the post-check, is
-// never streamed: the controller holds at the last setpoint streamed.
+// never streamed: the controller holds at the last setpoint streamed. A start
+// pushed inside the safety margin (up to ReplanOptions::max_start_penetration
+// into the scene) is still replanned, under the recovery rule of replan.h;
+// after a failed recovery there is no cold fallback (Plan() refuses such a
+// start), so the controller holds.
 //
 // Threads: planning runs in one worker thread owned by the controller; every
 // other method must be called from one thread.
@@ -139,6 +143,11 @@ struct PlanRecord {
   double latency_ms = 0.0;    // wall time of Plan()/Replan() (both, with a cold fallback)
   double warm_ms = 0.0;       // replans: the warm-started Replan() alone
   bool cold_fallback = false; // replans: the warm start failed and a cold plan was made
+  // Replans: the start was inside the safety margin and the plan was judged
+  // by the recovery rule (planner/replan.h); start_clearance is its exact
+  // clearance (m, negative inside the scene).
+  bool recovery = false;
+  double start_clearance = 0.0;
   double solve_ms = 0.0;
   int iterations = 0;
 };
