@@ -169,6 +169,73 @@ TEST(MrcSdfModelTest, ClearanceMatchesExactDistanceToAnOffsetPoint) {
   EXPECT_EQ(WholeBodyPenalty(fx.robot, kinematics, **far, {0.03, 0.01}, {}, nullptr), 0.0);
 }
 
+// Reference penalty and wrench of one link: every point, no spatial index,
+// no block minima, no far-cell test.
+double BruteForcePenalty(const geometry::SdfGrid& grid, const std::vector<Vec3>& points, const Pose& X,
+                         const PenaltyParameters& parameters, LinkWrench* wrench) {
+  const double reach = parameters.threshold;
+  const Vec3 lo = grid.info().geometry_min - Vec3::Constant(reach), hi = grid.info().geometry_max + Vec3::Constant(reach);
+  double cost = 0.0;
+  for (const Vec3& x : points) {
+    const Vec3 local = X.linear().transpose() * (x - X.translation());
+    if ((local.array() < lo.array()).any() || (local.array() > hi.array()).any()) continue;
+    double d;
+    Vec3 g;
+    grid.Evaluate(local, &d, &g);
+    if (!(d < reach)) continue;
+    double slope;
+    cost += opt::SmoothedL1(reach - d, parameters.mu, &slope);
+    const Vec3 g_world = X.linear() * g;
+    wrench->force += slope * g_world;
+    wrench->torque -= slope * g_world.cross(x - X.translation());
+  }
+  return cost;
+}
+
+// The shortcuts of LinkPenalty (spatial index, block minima, the coarse
+// distance grid that skips links far from every point) change no result: link
+// poses near a wall of points, at a few centimetres to a metre from it, and
+// outside the coarse grid, with a fine and a very coarse far grid.
+TEST(MrcSdfModelTest, PenaltyEqualsBruteForceNearAndFarFromThePoints) {
+  const Fixture& fx = QuadHand();
+  std::vector<Vec3> wall;
+  for (double y = -0.5; y <= 0.5; y += 0.02)
+    for (double z = 0.5; z <= 1.5; z += 0.02) wall.emplace_back(0.0, y, z);
+  MrcSdfOptions coarse;
+  coarse.far_cell_size = 0.4;
+  coarse.far_padding = 0.0;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const PenaltyParameters parameters{0.04, 0.01};
+  for (const MrcSdfOptions& options : {MrcSdfOptions{}, coarse}) {
+    auto model = MrcSdfModel::Create(fx.links, fx.grids, wall, options);
+    ASSERT_TRUE(model.ok());
+    int touching = 0, free = 0;
+    for (int n = 0; n < 400; ++n) {
+      // Distances from the wall spread from 0 to about 2.5 m (beyond the padding).
+      const double x = 0.1 * std::pow(25.0, 0.5 * (u(rng) + 1.0)) - 0.05;
+      const Pose X = MakePose(Vec3(x, 0.6 * u(rng), 1.0 + 0.6 * u(rng)), ExpSO3(Vec3(u(rng), u(rng), u(rng))));
+      for (size_t i = 0; i < fx.links.size(); ++i) {
+        LinkWrench got, want;
+        const double cost = (*model)->LinkPenalty(fx.links[i], X, parameters, {}, &got);
+        const double reference = BruteForcePenalty(fx.grids[i], wall, X, parameters, &want);
+        EXPECT_NEAR(cost, reference, 1e-12 * std::max(1.0, reference));
+        EXPECT_LT((got.force - want.force).norm(), 1e-9 * std::max(1.0, want.force.norm()));
+        EXPECT_LT((got.torque - want.torque).norm(), 1e-9 * std::max(1.0, want.torque.norm()));
+        (reference > 0.0 ? touching : free) += 1;
+      }
+    }
+    EXPECT_GT(touching, 100);
+    EXPECT_GT(free, 1000);
+  }
+  MrcSdfOptions bad;
+  bad.far_cell_size = 0.0;
+  EXPECT_FALSE(bad.IsValid(nullptr));
+  bad = MrcSdfOptions{};
+  bad.far_padding = -1.0;
+  EXPECT_FALSE(bad.IsValid(nullptr));
+}
+
 TEST(MrcSdfModelTest, CreateRejectsBadInput) {
   const Fixture& fx = QuadHand();
   EXPECT_FALSE(MrcSdfModel::Create(fx.links, {}, {Vec3::Zero()}).ok());

@@ -1,5 +1,6 @@
 #include "quadhand/env/mrc_sdf_model.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "quadhand/opt/penalty.h"
@@ -7,8 +8,12 @@
 namespace quadhand::env {
 
 bool MrcSdfOptions::IsValid(std::string* why) const {
-  if (!(std::isfinite(cell_size) && cell_size > 0.0)) {
-    if (why != nullptr) *why = "mrc_sdf cell_size must be a positive number of metres";
+  if (!(std::isfinite(cell_size) && cell_size > 0.0 && std::isfinite(far_cell_size) && far_cell_size > 0.0)) {
+    if (why != nullptr) *why = "mrc_sdf cell_size and far_cell_size must be positive numbers of metres";
+    return false;
+  }
+  if (!(std::isfinite(far_padding) && far_padding >= 0.0)) {
+    if (why != nullptr) *why = "mrc_sdf far_padding must be >= 0";
     return false;
   }
   return true;
@@ -16,6 +21,87 @@ bool MrcSdfOptions::IsValid(std::string* why) const {
 
 MrcSdfModel::MrcSdfModel(std::vector<int> links, std::vector<geometry::SdfGrid> grids, scene::PointGrid points)
     : links_(std::move(links)), slot_of_link_(SlotsOfLinks(links_)), grids_(std::move(grids)), points_(std::move(points)) {}
+
+void MrcSdfModel::BuildFarGrid(const std::vector<Vec3>& points, const MrcSdfOptions& options) {
+  far_cells_.clear();
+  if (points.empty()) return;
+  points_min_ = points_max_ = points.front();
+  for (const Vec3& p : points) {
+    points_min_ = points_min_.cwiseMin(p);
+    points_max_ = points_max_.cwiseMax(p);
+  }
+  // A cloud with far outliers must not make the grid explode: coarsen.
+  far_cell_ = options.far_cell_size;
+  const Vec3 extent = (points_max_ - points_min_).array() + 2.0 * options.far_padding;
+  auto cells = [&](int axis) { return std::floor(extent[axis] / far_cell_) + 1; };
+  while (cells(0) * cells(1) * cells(2) > double(1 << 24)) far_cell_ *= 2.0;
+  far_origin_ = points_min_ - Vec3::Constant(options.far_padding);
+  for (int axis = 0; axis < 3; ++axis) far_dims_[axis] = static_cast<int>(cells(axis));
+  // The grid is stored with a one-cell border on every side, so that the
+  // search below needs no bounds checks; the border is never expanded.
+  const long nx = far_dims_.x() + 2, ny = far_dims_.y() + 2, nz = far_dims_.z() + 2;
+  constexpr unsigned char kUnvisited = 255, kBorder = 254;
+  far_cells_.assign(nx * ny * nz, kUnvisited);
+  for (long z = 0; z < nz; ++z)
+    for (long y = 0; y < ny; ++y)
+      for (long x = 0; x < nx; ++x) {
+        if (x == 0 || y == 0 || z == 0 || x == nx - 1 || y == ny - 1 || z == nz - 1) {
+          far_cells_[x + nx * (y + ny * z)] = kBorder;
+        }
+      }
+  // Multi-source breadth-first search over the 26 neighbours: the number of
+  // steps is the Chebyshev distance in cells.
+  std::vector<long> frontier, next;
+  for (const Vec3& p : points) {
+    const Eigen::Vector3i c = ((p - far_origin_) / far_cell_).array().floor().cast<int>().max(0).min(
+        far_dims_.array() - 1).matrix();
+    const long index = (c.x() + 1) + nx * ((c.y() + 1) + ny * static_cast<long>(c.z() + 1));
+    if (far_cells_[index] != 0) {
+      far_cells_[index] = 0;
+      frontier.push_back(index);
+    }
+  }
+  std::vector<long> offsets;
+  for (long dz = -1; dz <= 1; ++dz)
+    for (long dy = -1; dy <= 1; ++dy)
+      for (long dx = -1; dx <= 1; ++dx)
+        if (dx != 0 || dy != 0 || dz != 0) offsets.push_back(dx + nx * (dy + ny * dz));
+  for (int step = 1; step < kBorder && !frontier.empty(); ++step) {
+    next.clear();
+    for (long index : frontier) {
+      for (long offset : offsets) {
+        unsigned char& neighbour = far_cells_[index + offset];
+        if (neighbour == kUnvisited) {
+          neighbour = static_cast<unsigned char>(step);
+          next.push_back(index + offset);
+        }
+      }
+    }
+    frontier.swap(next);
+  }
+  // Cells never reached are at least kBorder - 1 cells away (saturated).
+  for (unsigned char& c : far_cells_) {
+    if (c == kUnvisited) c = kBorder - 1;
+  }
+}
+
+bool MrcSdfModel::FarFromEveryPoint(const geometry::SdfGrid& grid, const Pose& X_WL, double reach) const {
+  if (far_cells_.empty()) return points_.num_points() == 0;
+  // The query box (geometry box +- reach, link frame) lies in this sphere.
+  const Vec3 half = 0.5 * (grid.info().geometry_max - grid.info().geometry_min) + Vec3::Constant(reach);
+  const double radius = half.norm();
+  const Vec3 center = X_WL * (0.5 * (grid.info().geometry_min + grid.info().geometry_max));
+  const Vec3 u = (center - far_origin_) / far_cell_;
+  if (!(u.array() >= 0.0).all() || !(u.array() < far_dims_.cast<double>().array()).all()) {
+    // Outside the grid (or not finite): the distance to the points' bounding box.
+    const Vec3 outside = (points_min_ - center).cwiseMax(center - points_max_).cwiseMax(0.0);
+    return outside.norm() > radius;  // false for NaN
+  }
+  const long nx = far_dims_.x() + 2, ny = far_dims_.y() + 2;  // with the border
+  const long index = (static_cast<long>(u.x()) + 1) +
+                     nx * ((static_cast<long>(u.y()) + 1) + ny * (static_cast<long>(u.z()) + 1));
+  return (far_cells_[index] - 1.0) * far_cell_ > radius;
+}
 
 core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> links,
                                                                std::vector<geometry::SdfGrid> grids,
@@ -31,8 +117,10 @@ core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> 
   for (const Vec3& p : points) {
     if (!p.allFinite()) return core::Status::InvalidArgument("mrc_sdf: obstacle points must be finite");
   }
-  return std::unique_ptr<MrcSdfModel>(
+  std::unique_ptr<MrcSdfModel> model(
       new MrcSdfModel(std::move(links), std::move(grids), scene::PointGrid(points, options.cell_size)));
+  model->BuildFarGrid(points, options);
+  return model;
 }
 
 core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(const robot::RobotModel& robot,
@@ -63,6 +151,7 @@ core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(const robot::Robo
 template <typename Visitor>
 void MrcSdfModel::VisitNearbyPoints(int link, const Pose& X_WL, double reach, Visitor&& visit) const {
   const geometry::SdfGrid& grid = grids_[slot_of_link_[link]];
+  if (FarFromEveryPoint(grid, X_WL, reach)) return;
   const Vec3 box_lo = grid.info().geometry_min - Vec3::Constant(reach);
   const Vec3 box_hi = grid.info().geometry_max + Vec3::Constant(reach);
   // World-frame bounding box of the link-frame box, for the spatial index.

@@ -18,6 +18,12 @@ namespace quadhand::env {
 
 struct MrcSdfOptions {
   double cell_size = 0.05;  // spatial index cell, metres
+  // Cell of the coarse distance grid that lets a link far from every point
+  // skip the spatial index (see MrcSdfModel::FarFromEveryPoint), metres.
+  double far_cell_size = 0.05;
+  // How far beyond the points' bounding box that grid extends, metres;
+  // beyond it the distance to the bounding box is the bound.
+  double far_padding = 0.5;
 
   bool IsValid(std::string* why) const;
 };
@@ -56,10 +62,27 @@ class MrcSdfModel final : public CollisionModel {
   template <typename Visitor>
   void VisitNearbyPoints(int link, const Pose& X_WL, double reach, Visitor&& visit) const;
 
+  // True when no obstacle point can lie in the link's query box (its
+  // geometry box grown by `reach`, placed at X_WL), so the box query would
+  // visit nothing: a sphere around the box is tested against a lower bound
+  // of the distance to the nearest point. Most samples of a trajectory are
+  // in free space, where this replaces five spatial-index queries.
+  bool FarFromEveryPoint(const geometry::SdfGrid& grid, const Pose& X_WL, double reach) const;
+  void BuildFarGrid(const std::vector<Vec3>& points, const MrcSdfOptions& options);
+
   std::vector<int> links_;
   std::vector<int> slot_of_link_;  // robot link index -> index into grids_ (-1 if none)
   std::vector<geometry::SdfGrid> grids_;
   scene::PointGrid points_;
+  // Chebyshev distance, in cells (saturating at 253), from each cell of a
+  // grid over the points' bounding box (plus padding; stored with a one-cell
+  // border) to the nearest cell holding a point: a point in a cell k cells
+  // away is at least (k - 1) cells far.
+  std::vector<unsigned char> far_cells_;
+  Eigen::Vector3i far_dims_ = Eigen::Vector3i::Zero();
+  Vec3 far_origin_ = Vec3::Zero();
+  double far_cell_ = 0.0;
+  Vec3 points_min_ = Vec3::Zero(), points_max_ = Vec3::Zero();
 };
 
 }  // namespace quadhand::env
