@@ -192,8 +192,9 @@ double BruteForcePenalty(const geometry::SdfGrid& grid, const std::vector<Vec3>&
   return cost;
 }
 
-// The shortcuts of LinkPenalty (spatial index, block minima, the coarse
-// distance grid that skips links far from every point) change no result: link
+// The shortcuts of LinkPenalty and LinkClearance (spatial index, block
+// minima, the coarse distance grid that skips links far from every point)
+// change no result: link
 // poses near a wall of points, at a few centimetres to a metre from it, and
 // outside the coarse grid, with a fine and a very coarse far grid.
 TEST(MrcSdfModelTest, PenaltyEqualsBruteForceNearAndFarFromThePoints) {
@@ -223,6 +224,19 @@ TEST(MrcSdfModelTest, PenaltyEqualsBruteForceNearAndFarFromThePoints) {
         EXPECT_LT((got.force - want.force).norm(), 1e-9 * std::max(1.0, want.force.norm()));
         EXPECT_LT((got.torque - want.torque).norm(), 1e-9 * std::max(1.0, want.torque.norm()));
         (reference > 0.0 ? touching : free) += 1;
+        // Clearance within a search radius: the smallest distance of the points in the grown box.
+        const double radius = 0.08;
+        const Vec3 lo = fx.grids[i].info().geometry_min - Vec3::Constant(radius);
+        const Vec3 hi = fx.grids[i].info().geometry_max + Vec3::Constant(radius);
+        double nearest = radius;
+        for (const Vec3& p : wall) {
+          const Vec3 local = X.linear().transpose() * (p - X.translation());
+          if ((local.array() < lo.array()).any() || (local.array() > hi.array()).any()) continue;
+          double d;
+          fx.grids[i].Evaluate(local, &d, nullptr);
+          nearest = std::min(nearest, d);
+        }
+        EXPECT_EQ((*model)->LinkClearance(fx.links[i], X, radius, {}), nearest);
       }
     }
     EXPECT_GT(touching, 100);
