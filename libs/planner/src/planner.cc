@@ -13,39 +13,6 @@ double MillisecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
-// Raises the weight of every term whose check failed; false if no failed
-// check has a weight to raise (then re-solving cannot help). A failed
-// clearance also multiplies the samples per piece by `sample_factor` (up to
-// `max_samples`): a link that slips past an obstacle between two samples is
-// invisible to the sampled penalty, whatever its weight.
-bool RaiseViolatedWeights(const PostCheckReport& report, double factor, int sample_factor, int max_samples,
-                          WholeBodyCostOptions* cost) {
-  bool raised = false;
-  for (const CheckResult& check : report.checks) {
-    if (check.passed) continue;
-    double* weight = nullptr;
-    if (check.name == "clearance") {
-      weight = &cost->weight_collision;
-      for (int* samples : {&cost->samples_per_piece, &cost->insertion_samples}) {
-        *samples = std::max(*samples, std::min(*samples * sample_factor, max_samples));
-      }
-    } else if (check.name == "velocity") weight = &cost->weight_velocity;
-    else if (check.name == "acceleration") weight = &cost->weight_acceleration;
-    else if (check.name == "yaw_rate") weight = &cost->weight_yaw_rate;
-    else if (check.name == "body_rate_xy") weight = &cost->weight_body_rate;
-    else if (check.name == "joint_limits") weight = &cost->weight_joint_limits;
-    else if (check.name == "insertion") weight = &cost->weight_insertion;
-    else if (check.name.size() > 5 && check.name.compare(check.name.size() - 5, 5, "_rate") == 0) {
-      weight = &cost->weight_joint_rate;
-    }
-    if (weight != nullptr) {
-      *weight *= factor;
-      raised = true;
-    }
-  }
-  return raised;
-}
-
 }  // namespace
 
 bool PlannerOptions::IsValid(std::string* why) const {
@@ -89,6 +56,92 @@ PlannerOptions DefaultPlannerOptions() {
   options.solver.max_time_seconds = 10.0;
   options.solver.memory_size = 48;
   return options;
+}
+
+WholeBodyCostOptions CostForTask(const PlannerOptions& options, const Task& task) {
+  WholeBodyCostOptions cost = options.cost;
+  cost.collision_threshold = task.safety_distance + options.collision_margin;
+  cost.insertion_collision_threshold = task.safety_distance + options.insertion_collision_margin;
+  return cost;
+}
+
+bool RaiseWeightsOfFailedChecks(const PostCheckReport& report, double factor, int sample_factor, int max_samples,
+                                WholeBodyCostOptions* cost) {
+  bool raised = false;
+  for (const CheckResult& check : report.checks) {
+    if (check.passed) continue;
+    double* weight = nullptr;
+    if (check.name == "clearance") {
+      weight = &cost->weight_collision;
+      for (int* samples : {&cost->samples_per_piece, &cost->insertion_samples}) {
+        *samples = std::max(*samples, std::min(*samples * sample_factor, max_samples));
+      }
+    } else if (check.name == "velocity") weight = &cost->weight_velocity;
+    else if (check.name == "acceleration") weight = &cost->weight_acceleration;
+    else if (check.name == "yaw_rate") weight = &cost->weight_yaw_rate;
+    else if (check.name == "body_rate_xy") weight = &cost->weight_body_rate;
+    else if (check.name == "joint_limits") weight = &cost->weight_joint_limits;
+    else if (check.name == "insertion") weight = &cost->weight_insertion;
+    else if (check.name.size() > 5 && check.name.compare(check.name.size() - 5, 5, "_rate") == 0) {
+      weight = &cost->weight_joint_rate;  // "<joint>_rate"
+    }
+    if (weight != nullptr) {
+      *weight *= factor;
+      raised = true;
+    }
+  }
+  return raised;
+}
+
+core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const PlanningScene& scene,
+                               const env::CollisionModel& collision, const Task& task,
+                               const PlannerOptions& options, const opt::SolverOptions& first_options,
+                               const opt::SolverOptions& retry_options, int max_attempts, const opt::Solver& solver,
+                               PlanResult* result) {
+  if (problem == nullptr || result == nullptr) return core::Status::InvalidArgument("no problem or result");
+  if (x0.size() != problem->num_variables()) return core::Status::InvalidArgument("initial guess has the wrong size");
+  for (const opt::SolverOptions* o : {&first_options, &retry_options}) {
+    if (std::string why; !o->IsValid(&why)) return core::Status::InvalidArgument("solver options: " + why);
+  }
+  WholeBodyCostOptions cost = problem->options();
+  VecX x = x0;
+  result->success = false;
+  for (int attempt = 0; attempt < max_attempts; ++attempt) {
+    const opt::SolveResult solved = solver.Solve(*problem, x, attempt == 0 ? first_options : retry_options);
+    PlanAttempt record;
+    record.solve_ms = solved.wall_time_seconds * 1e3;
+    record.iterations = solved.iterations;
+    record.evaluations = solved.evaluations;
+    record.solver_status = solved.StatusName();
+    result->solve_ms += record.solve_ms;
+    result->iterations += solved.iterations;
+    result->evaluations += solved.evaluations;
+    auto trajectory = problem->Trajectory(solved.x);
+    if (!std::isfinite(solved.cost) || !trajectory.ok()) {
+      record.post_check_failure = "solver returned no usable trajectory (" + solved.message + ")";
+      result->attempts.push_back(record);
+      result->status = "solver_failed";
+      result->message = record.post_check_failure;
+      return core::Status::Ok();
+    }
+    x = solved.x;
+    result->post_check = PostCheck(*trajectory, scene.robot, task, result->terminal, result->insertion, collision,
+                                   scene.exact, options.post_check);
+    result->trajectory = std::move(*trajectory);
+    if (auto breakdown = problem->Breakdown(x); breakdown.ok()) result->final_cost = *breakdown;
+    record.post_check_failure = result->post_check.FirstFailure();
+    result->attempts.push_back(record);
+    if (result->post_check.passed) break;
+    if (!RaiseWeightsOfFailedChecks(result->post_check, options.weight_raise_factor, options.resolve_sample_factor,
+                                    options.max_samples_per_piece, &cost)) {
+      break;
+    }
+    QUADHAND_RETURN_IF_ERROR(problem->SetOptions(cost));
+  }
+  result->success = result->post_check.passed;
+  result->status = result->success ? "success" : "post_check_failed";
+  result->message = result->success ? "plan passed the post-check" : result->post_check.FirstFailure();
+  return core::Status::Ok();
 }
 
 core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
@@ -247,49 +300,12 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
     collision = per_plan.get();
   }
 
-  WholeBodyCostOptions cost = options.cost;
-  cost.collision_threshold = task.safety_distance + options.collision_margin;
-  cost.insertion_collision_threshold = task.safety_distance + options.insertion_collision_margin;
   auto problem = WholeBodyProblem::Create(robot, *collision, task.start, result.terminal, task.limits, insertion,
-                                          cost, pieces);
+                                          CostForTask(options, task), pieces);
   if (!problem.ok()) return problem.status().WithPrefix(task.file);
-  VecX x = (*problem)->Pack(position_waypoints, aux_waypoints, durations);
-
-  for (int attempt = 0; attempt < options.max_attempts; ++attempt) {
-    const opt::SolveResult solved = solver.Solve(**problem, x, options.solver);
-    PlanAttempt record;
-    record.solve_ms = solved.wall_time_seconds * 1e3;
-    record.iterations = solved.iterations;
-    record.evaluations = solved.evaluations;
-    record.solver_status = solved.StatusName();
-    result.solve_ms += record.solve_ms;
-    result.iterations += solved.iterations;
-    result.evaluations += solved.evaluations;
-    auto trajectory = (*problem)->Trajectory(solved.x);
-    if (!std::isfinite(solved.cost) || !trajectory.ok()) {
-      record.post_check_failure = "solver returned no usable trajectory (" + solved.message + ")";
-      result.attempts.push_back(record);
-      result.status = "solver_failed";
-      result.message = record.post_check_failure;
-      return result;
-    }
-    x = solved.x;
-    result.post_check = PostCheck(*trajectory, robot, task, result.terminal, insertion, *collision, scene.exact,
-                                  options.post_check);
-    result.trajectory = std::move(*trajectory);
-    result.final_cost = *(*problem)->Breakdown(x);
-    record.post_check_failure = result.post_check.FirstFailure();
-    result.attempts.push_back(record);
-    if (result.post_check.passed) break;
-    if (!RaiseViolatedWeights(result.post_check, options.weight_raise_factor, options.resolve_sample_factor,
-                              options.max_samples_per_piece, &cost)) {
-      break;
-    }
-    QUADHAND_RETURN_IF_ERROR((*problem)->SetOptions(cost));
-  }
-  result.success = result.post_check.passed;
-  result.status = result.success ? "success" : "post_check_failed";
-  result.message = result.success ? "plan passed the post-check" : result.post_check.FirstFailure();
+  const VecX x0 = (*problem)->Pack(position_waypoints, aux_waypoints, durations);
+  QUADHAND_RETURN_IF_ERROR(SolveAndPostCheck(problem->get(), x0, scene, *collision, task, options, options.solver,
+                                             options.solver, options.max_attempts, solver, &result));
   return result;
 }
 

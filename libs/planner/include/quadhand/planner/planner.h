@@ -126,6 +126,36 @@ struct PlanningScene {
   PerPlanCollisionBuilder per_plan_collision = nullptr;
 };
 
+// The cost options a plan for `task` is optimised with: options.cost with the
+// collision thresholds set from the task's safety distance plus
+// options.collision_margin (transit) and options.insertion_collision_margin
+// (insertion piece). Plan() and Replan() both use it.
+WholeBodyCostOptions CostForTask(const PlannerOptions& options, const Task& task);
+
+// Runs solves of `problem` from `x0` (at most `max_attempts`), each followed by
+// the post-check against `task` (whose start is the problem's start state),
+// raising the weights of the violated terms between solves (and, after a
+// failed clearance check, the samples per piece by
+// options.resolve_sample_factor up to options.max_samples_per_piece). The
+// first solve uses `first_options`, the re-solves `retry_options`. Fills the
+// trajectory, post_check, final_cost, attempts, solve_ms, iterations,
+// evaluations, success, status ("success", "post_check_failed",
+// "solver_failed") and message of *result; reads result->terminal and
+// result->insertion. Errors only for inconsistent input (sizes, options).
+core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const PlanningScene& scene,
+                               const env::CollisionModel& collision, const Task& task,
+                               const PlannerOptions& options, const opt::SolverOptions& first_options,
+                               const opt::SolverOptions& retry_options, int max_attempts, const opt::Solver& solver,
+                               PlanResult* result);
+
+// Raises (by `factor`) the weight of each term whose post-check failed; a
+// failed clearance also multiplies the samples per piece by `sample_factor`
+// (up to `max_samples`): a link that slips past an obstacle between two
+// samples is invisible to the sampled penalty, whatever its weight. False when
+// no failed check has a weight to raise (re-solving cannot help).
+bool RaiseWeightsOfFailedChecks(const PostCheckReport& report, double factor, int sample_factor, int max_samples,
+                                WholeBodyCostOptions* cost);
+
 // InvalidArgument for inconsistent input (e.g. a start in collision, or a
 // goal the front end cannot reach from inside the scene box); otherwise a
 // PlanResult whose `success` says whether the post-check passed.

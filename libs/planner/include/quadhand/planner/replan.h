@@ -62,24 +62,6 @@ struct ReplanOptions {
 
 ReplanOptions DefaultReplanOptions();
 
-// Runs solves of `problem` from `x0` (at most `max_attempts`), each followed by
-// the post-check against `task` (whose start is the problem's start state),
-// raising the weights of the violated terms between solves. The first solve
-// uses `first_options`, the re-solves `retry_options`. Fills the
-// trajectory, post_check, final_cost, attempts, solve_ms, iterations,
-// evaluations, success, status ("success", "post_check_failed",
-// "solver_failed") and message of *result; reads result->terminal and
-// result->insertion. Errors only for inconsistent input (sizes, options).
-core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const PlanningScene& scene,
-                               const env::CollisionModel& collision, const Task& task,
-                               const PlannerOptions& options, const opt::SolverOptions& first_options,
-                               const opt::SolverOptions& retry_options, int max_attempts, const opt::Solver& solver,
-                               PlanResult* result);
-
-// Raises (by `factor`) the weight of each term whose post-check failed; false
-// when no failed check has a weight to raise (re-solving cannot help).
-bool RaiseWeightsOfFailedChecks(const PostCheckReport& report, double factor, WholeBodyCostOptions* cost);
-
 // The remainder of `trajectory` from t_from as an initial guess for a
 // problem of `*num_pieces` pieces (see the header comment): waypoints
 // 3 x (N-1) and (1 + n) x (N-1), durations N. InvalidArgument when t_from is
@@ -96,7 +78,7 @@ core::Status RemainderGuess(const WholeBodyTrajectory& trajectory, double t_from
 // starting partway down the insertion line cannot pass the insertion check),
 // "start_in_collision" (the measured state is more than
 // max_start_penetration inside the scene), "representation_failed", or the
-// statuses of SolveAndPostCheck. A start inside the safety margin is judged
+// statuses of SolveAndPostCheck (planner.h). A start inside the safety margin is judged
 // by the recovery rule (result.post_check.recovery is then true).
 // InvalidArgument for inconsistent input (no current trajectory, joint
 // counts, invalid options).
