@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "support/run_command.h"
+#include "support/window_cup_task.h"
 
 namespace quadhand {
 namespace {
@@ -22,7 +23,6 @@ using testing::ReadAll;
 using testing::RunCommand;
 
 const std::string kBench = std::string(QUADHAND_BIN_DIR) + "/quadhand-bench";
-const std::string kSdfgen = std::string(QUADHAND_BIN_DIR) + "/quadhand-sdfgen";
 const std::string kRoot = QUADHAND_SOURCE_DIR;
 
 class BenchCliTest : public ::testing::Test {
@@ -32,18 +32,8 @@ class BenchCliTest : public ::testing::Test {
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     // Coarse link SDFs keep the test quick; the trials are what they are with them.
-    const auto r = RunCommand(kSdfgen + " -q --urdf " + kRoot + "/meshes/quadhand/quadhand.urdf --out " +
-                              (dir_ / "sdf").string() + " --resolution 0.005 --padding 0.05");
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    std::ifstream in(kRoot + "/data/tasks/window_cup.yaml");
-    std::ofstream task(dir_ / "task.yaml");
+    std::ofstream(dir_ / "task.yaml") << testing::WindowCupTaskText();
     std::string line;
-    while (std::getline(in, line)) {
-      if (line.rfind("robot:", 0) == 0) line = "robot: " + kRoot + "/meshes/quadhand/quadhand.urdf";
-      if (line.rfind("sdf_dir:", 0) == 0) line = "sdf_dir: " + (dir_ / "sdf").string();
-      if (line.rfind("scene:", 0) == 0) line = "scene: " + kRoot + "/data/scenes/window_cup.pcd";
-      task << line << "\n";
-    }
     std::ifstream bench_in(kRoot + "/data/bench/window_cup.yaml");
     std::ofstream bench(Config());
     while (std::getline(bench_in, line)) {

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "support/run_command.h"
+#include "support/window_cup_task.h"
 
 namespace quadhand {
 namespace {
@@ -16,20 +17,6 @@ using testing::CountLines;
 using testing::RunCommand;
 
 const std::string kPlan = std::string(QUADHAND_BIN_DIR) + "/quadhand-plan";
-const std::string kSdfgen = std::string(QUADHAND_BIN_DIR) + "/quadhand-sdfgen";
-const std::string kRoot = QUADHAND_SOURCE_DIR;
-
-// Coarse link SDFs, generated once for the whole test binary.
-const std::string& CoarseSdfDir() {
-  static const std::string dir = [] {
-    const std::string d = (fs::temp_directory_path() / ("quadhand_plan_sdf_" + std::to_string(getpid()))).string();
-    const auto r = RunCommand(kSdfgen + " -q --urdf " + kRoot + "/meshes/quadhand/quadhand.urdf --out " + d +
-                              " --resolution 0.005 --padding 0.05");
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return d;
-  }();
-  return dir;
-}
 
 class PlanCliTest : public ::testing::Test {
  protected:
@@ -44,19 +31,8 @@ class PlanCliTest : public ::testing::Test {
   // The default task with absolute paths and `replace` applied line by line
   // (a line starting with the key is replaced; "" removes it).
   std::string WriteTask(const std::vector<std::pair<std::string, std::string>>& replace) {
-    std::ifstream in(kRoot + "/data/tasks/window_cup.yaml");
-    std::string text, line;
-    while (std::getline(in, line)) {
-      if (line.rfind("robot:", 0) == 0) line = "robot: " + kRoot + "/meshes/quadhand/quadhand.urdf";
-      if (line.rfind("sdf_dir:", 0) == 0) line = "sdf_dir: " + CoarseSdfDir();
-      if (line.rfind("scene:", 0) == 0) line = "scene: " + kRoot + "/data/scenes/window_cup.pcd";
-      for (const auto& [key, value] : replace) {
-        if (line.rfind(key, 0) == 0) line = value;
-      }
-      if (!line.empty()) text += line + "\n";
-    }
     const std::string path = (dir_ / "task.yaml").string();
-    std::ofstream(path) << text;
+    std::ofstream(path) << testing::WindowCupTaskText(replace);
     return path;
   }
 

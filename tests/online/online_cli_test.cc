@@ -23,6 +23,7 @@
 #include "quadhand/robot/robot_model.h"
 #include "quadhand/sim/plan_io.h"
 #include "support/run_command.h"
+#include "support/window_cup_task.h"
 
 extern char** environ;
 
@@ -38,21 +39,8 @@ using testing::RunCommand;
 const std::string kRoot = QUADHAND_SOURCE_DIR;
 const std::string kOnline = std::string(QUADHAND_BIN_DIR) + "/quadhand-online";
 const std::string kSim = std::string(QUADHAND_BIN_DIR) + "/quadhand-sim";
-const std::string kSdfgen = std::string(QUADHAND_BIN_DIR) + "/quadhand-sdfgen";
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
-
-// Coarse link SDFs, generated once for the whole test binary.
-const std::string& CoarseSdfDir() {
-  static const std::string dir = [] {
-    const std::string d = (fs::temp_directory_path() / ("quadhand_online_sdf_" + std::to_string(getpid()))).string();
-    const auto r = RunCommand(kSdfgen + " -q --urdf " + kRoot + "/meshes/quadhand/quadhand.urdf --out " + d +
-                              " --resolution 0.005 --padding 0.05");
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return d;
-  }();
-  return dir;
-}
 
 // A UDP port that was free a moment ago.
 int FreeUdpPort() {
@@ -129,16 +117,8 @@ class OnlineCliTest : public ::testing::Test {
 
   // The default task with absolute paths and the coarse SDFs.
   std::string WriteTask() {
-    std::ifstream in(kRoot + "/data/tasks/window_cup.yaml");
-    std::string text, line;
-    while (std::getline(in, line)) {
-      if (line.rfind("robot:", 0) == 0) line = "robot: " + kRoot + "/meshes/quadhand/quadhand.urdf";
-      if (line.rfind("sdf_dir:", 0) == 0) line = "sdf_dir: " + CoarseSdfDir();
-      if (line.rfind("scene:", 0) == 0) line = "scene: " + kRoot + "/data/scenes/window_cup.pcd";
-      text += line + "\n";
-    }
     const std::string path = (dir_ / "task.yaml").string();
-    std::ofstream(path) << text;
+    std::ofstream(path) << testing::WindowCupTaskText();
     return path;
   }
 
