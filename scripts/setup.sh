@@ -1,27 +1,29 @@
 #!/usr/bin/env bash
-# Installs the Debian packages QuadHand builds and tests with. Idempotent:
-# when everything is already installed it does nothing (and needs no root)
-# beyond `npm ci` for libs/viz/web and tests/link/peer if their node_modules are missing.
+# Installs the Debian packages QuadHand builds and tests with, as listed in
+# scripts/debian-packages.txt (the one list; tests/setup checks it against the
+# CMake files). Idempotent: when everything is already installed it does
+# nothing (and needs no root) beyond `npm ci` for libs/viz/web and
+# tests/link/peer if their node_modules are missing.
 # Usage: bash scripts/setup.sh
 set -euo pipefail
 
-# Only what the code uses (docs/dependencies.md says which part uses what).
-packages=(
-  build-essential cmake pkg-config
-  libeigen3-dev          # linear algebra everywhere
-  libcgal-dev            # mesh IO, union, exact distances (libs/geometry)
-  liburdfdom-dev         # URDF parsing (libs/robot)
-  libcli11-dev           # command-line parsing (apps)
-  libgtest-dev libgmock-dev  # unit tests
-  libbenchmark-dev       # micro-benchmarks
-  libyaml-cpp-dev        # YAML files (primitive lists, tasks)
-  libpcl-dev             # PCD point clouds (libs/scene; only pcl_io and pcl_common are linked)
-  liboctomap-dev libdynamicedt3d-dev  # ESDF baseline: occupancy octree and distance transform (libs/env)
-  libceres-dev coinor-libipopt-dev libnlopt-cxx-dev  # optional solver back-ends (solvers/ceres, ipopt, nlopt)
-  chromium               # headless browser that loads the HTML view in tests/viz
-  python3-matplotlib     # plots of scripts/figure8.py (the simulator's figure-eight experiment)
-  libssl-dev             # libcrypto's SHA-256 for MAVLink message signing (libs/link)
-)
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+package_list="$here/debian-packages.txt"
+
+# The one list (scripts/debian-packages.txt): the first word of each line is a
+# package; `when-missing:CMD` makes it conditional on CMD not being on the PATH.
+packages=()
+while read -r package rest; do
+  case "$package" in ''|'#'*) continue ;; esac
+  rest="${rest%%#*}"
+  skip=0
+  for word in $rest; do
+    case "$word" in
+      when-missing:*) command -v "${word#when-missing:}" >/dev/null 2>&1 && skip=1 ;;
+    esac
+  done
+  [ "$skip" -eq 1 ] || packages+=("$package")
+done < "$package_list"
 
 missing=()
 for package in "${packages[@]}"; do
@@ -29,17 +31,12 @@ for package in "${packages[@]}"; do
     missing+=("$package")
   fi
 done
-# Node.js and npm install the pinned three.js of the HTML view (libs/viz/web).
-# Any npm will do: NodeSource's nodejs bundles one and conflicts with Debian's npm.
-if ! command -v npm >/dev/null; then
-  missing+=(nodejs npm)
-fi
 
 # three.js as pinned in libs/viz/web/package-lock.json (CMake runs the same
 # `npm ci` when node_modules is missing; the built pages never fetch it).
 install_viz_web() {
   local web
-  web="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/libs/viz/web"
+  web="$here/../libs/viz/web"
   if [ ! -f "$web/node_modules/three/package.json" ]; then
     echo "setup: npm ci in $web"
     (cd "$web" && npm ci --no-audit --no-fund)
@@ -50,7 +47,7 @@ install_viz_web() {
 # MAVLink peer the link tests talk to (tests/link/peer_test.cc fails without it).
 install_link_peer() {
   local peer
-  peer="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/tests/link/peer"
+  peer="$here/../tests/link/peer"
   if [ ! -f "$peer/node_modules/node-mavlink/package.json" ]; then
     echo "setup: npm ci in $peer"
     (cd "$peer" && npm ci --no-audit --no-fund)
