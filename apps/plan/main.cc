@@ -11,10 +11,10 @@
 #include <string>
 
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
-
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
+#include "quadhand/io/plan_report.h"
+#include "quadhand/io/plan_table.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planning_context.h"
@@ -37,107 +37,6 @@ int Fail(const std::string& message) {
 }
 
 double Ms(Clock::time_point since) { return std::chrono::duration<double, std::milli>(Clock::now() - since).count(); }
-
-// The plan file of contracts.md: uniform samples from 0 to T inclusive.
-std::string PlanCsv(const planner::WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, double dt) {
-  std::ostringstream out;
-  out << "t,px,py,pz,vx,vy,vz,ax,ay,az,qw,qx,qy,qz,yaw,yaw_rate";
-  const std::vector<std::string> names = robot.ActuatedJointNames();
-  for (const auto& name : names) out << ',' << name;
-  for (const auto& name : names) out << ',' << name << "_rate";
-  out << '\n';
-  const double duration = trajectory.duration();
-  const long steps = std::max(1L, static_cast<long>(std::ceil(duration / dt - 1e-9)));
-  char buffer[64];
-  auto put = [&](double v) {
-    std::snprintf(buffer, sizeof(buffer), ",%.10g", v);
-    out << buffer;
-  };
-  for (long k = 0; k <= steps; ++k) {
-    const double t = k == steps ? duration : k * dt;
-    const planner::WholeBodySample s = trajectory.Sample(t);
-    std::snprintf(buffer, sizeof(buffer), "%.10g", t);
-    out << buffer;
-    for (int i = 0; i < 3; ++i) put(s.position[i]);
-    for (int i = 0; i < 3; ++i) put(s.velocity[i]);
-    for (int i = 0; i < 3; ++i) put(s.acceleration[i]);
-    put(s.attitude.w());
-    put(s.attitude.x());
-    put(s.attitude.y());
-    put(s.attitude.z());
-    put(s.yaw);
-    put(s.yaw_rate);
-    for (int i = 0; i < s.joints.size(); ++i) put(s.joints[i]);
-    for (int i = 0; i < s.joint_rates.size(); ++i) put(s.joint_rates[i]);
-    out << '\n';
-  }
-  return out.str();
-}
-
-nlohmann::json Report(const planner::PlanResult& result, const robot::RobotModel& robot, const std::string& solver,
-                      const std::string& representation, double representation_ms, double total_ms,
-                      const std::string& task_file, unsigned seed) {
-  nlohmann::json report;
-  report["success"] = result.success;
-  report["status"] = result.status;
-  report["message"] = result.message;
-  report["task"] = task_file;
-  report["solver"] = solver;
-  report["representation"] = representation;
-  report["seed"] = seed;
-  report["solve_ms"] = result.solve_ms;
-  report["front_end_ms"] = result.front_end_ms;
-  report["representation_build_ms"] = representation_ms + result.per_plan_collision_ms;
-  report["total_ms"] = total_ms;
-  report["iterations"] = result.iterations;
-  report["cost_evaluations"] = result.evaluations;
-  report["num_pieces"] = result.num_pieces;
-  report["terminal_state"] = {{"position", {result.terminal.position.x(), result.terminal.position.y(),
-                                            result.terminal.position.z()}},
-                              {"yaw", result.terminal.yaw},
-                              {"joints", std::vector<double>(result.terminal.joints.data(),
-                                                             result.terminal.joints.data() + result.terminal.joints.size())},
-                              {"searched", result.terminal_searched}};
-  if (result.terminal_searched) {
-    report["terminal_state"]["search"] = {{"tool_position_error_m", result.terminal_search.position_error},
-                                          {"tool_angle_error_rad", result.terminal_search.angle_error},
-                                          {"clearance_m", result.terminal_search.clearance},
-                                          {"restarts", result.terminal_search.restarts_used},
-                                          {"seconds", result.terminal_search.seconds}};
-  }
-  if (result.trajectory) {
-    const VecX& durations = result.trajectory->position().durations();
-    report["piece_durations_s"] = std::vector<double>(durations.data(), durations.data() + durations.size());
-  }
-  report["duration_s"] = result.trajectory ? result.trajectory->duration() : 0.0;
-  report["min_clearance_m"] = result.post_check.min_clearance_model;
-  report["min_clearance_exact_m"] = result.post_check.min_clearance_exact;
-  report["closest_link"] = result.post_check.closest_link >= 0 ? robot.link(result.post_check.closest_link).name : "";
-  nlohmann::json violations = nlohmann::json::object();
-  for (const auto& [name, ratio] : result.post_check.violations) violations[name] = ratio;
-  report["violations"] = violations;
-  nlohmann::json checks = nlohmann::json::array();
-  for (const auto& c : result.post_check.checks) {
-    checks.push_back({{"name", c.name}, {"passed", c.passed}, {"value", c.value}, {"bound", c.bound},
-                      {"time_s", c.time}, {"detail", c.detail}});
-  }
-  report["checks"] = checks;
-  nlohmann::json attempts = nlohmann::json::array();
-  for (const auto& a : result.attempts) {
-    attempts.push_back({{"solve_ms", a.solve_ms}, {"iterations", a.iterations}, {"cost_evaluations", a.evaluations},
-                        {"solver_status", a.solver_status}, {"post_check_failure", a.post_check_failure}});
-  }
-  report["attempts"] = attempts;
-  const auto& c = result.final_cost;
-  report["final_cost"] = {{"total", c.total},       {"energy", c.energy},         {"time_s", c.time},
-                          {"collision", c.collision}, {"insertion", c.insertion}, {"velocity", c.velocity},
-                          {"acceleration", c.acceleration}, {"yaw_rate", c.yaw_rate}, {"joint_rate", c.joint_rate},
-                          {"body_rate", c.body_rate}, {"joint_limits", c.joint_limits}};
-  nlohmann::json path = nlohmann::json::array();
-  for (const Vec3& p : result.path.shortcut) path.push_back({p.x(), p.y(), p.z()});
-  report["front_end_path"] = path;
-  return report;
-}
 
 // The 3-D page: the cloud, the base and tool paths, the link meshes along the plan.
 core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robot::RobotModel& robot,
@@ -242,11 +141,12 @@ int main(int argc, char** argv) {
 
   const double total_ms = Ms(start_time);
   core::AtomicFileSet outputs;
-  const nlohmann::json report =
-      Report(*result, robot, solver_name, representation, representation_ms, total_ms, task_path, seed);
-  if (core::Status s = outputs.Stage(report_path, report.dump(2) + "\n"); !s.ok()) return Fail(s.message());
+  const io::PlanReportInfo info{task_path, solver_name, representation, seed, representation_ms, total_ms};
+  if (core::Status s = outputs.Stage(report_path, io::PlanReportJson(*result, robot, info)); !s.ok()) {
+    return Fail(s.message());
+  }
   if (result->trajectory && (result->success || keep_failed_plan)) {
-    if (core::Status s = outputs.Stage(out_path, PlanCsv(*result->trajectory, robot, dt)); !s.ok()) {
+    if (core::Status s = outputs.Stage(out_path, io::PlanTableCsv(io::SamplePlanTable(*result->trajectory, robot, dt))); !s.ok()) {
       return Fail(s.message());
     }
   }

@@ -10,7 +10,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -25,7 +24,7 @@
 #include "quadhand/geometry/mesh_io.h"
 #include "quadhand/geometry/mesh_to_sdf.h"
 #include "quadhand/geometry/sdf_grid.h"
-#include "quadhand/robot/link_meshes.h"
+#include "quadhand/robot/link_sdfs.h"
 #include "quadhand/robot/robot_model.h"
 
 namespace {
@@ -36,79 +35,37 @@ namespace geometry = quadhand::geometry;
 namespace robot = quadhand::robot;
 
 constexpr int kExitBadInput = 2;
-constexpr const char* kExtension = ".qhsdf";
 
 int Fail(const std::string& message) {
   std::fprintf(stderr, "quadhand-sdfgen: error: %s\n", message.c_str());
   return kExitBadInput;
 }
 
-struct LinkJob {
-  std::string link_name;
-  std::string source;  // informative: where the geometry came from
-  geometry::TriangleMesh mesh;
-};
-
 // Generates every job's grid, then writes all files together (or none).
-int Generate(const std::vector<LinkJob>& jobs, const std::string& out_dir,
+int Generate(const std::vector<robot::LinkSdfJob>& jobs, const std::string& out_dir,
              const geometry::SdfGenerationOptions& options) {
-  std::error_code error;
-  std::filesystem::create_directories(out_dir, error);
-  if (!std::filesystem::is_directory(out_dir)) {
-    return Fail(out_dir + ": cannot create output directory" + (error ? ": " + error.message() : ""));
-  }
-  core::AtomicFileSet outputs;
-  std::vector<std::string> written;
   const auto start = std::chrono::steady_clock::now();
-  for (const LinkJob& job : jobs) {
-    std::optional<core::ProgressBar> progress;
-    auto grid = geometry::GenerateSdf(job.mesh, job.link_name, job.source, options,
-                                      [&](long done, long total) {
-                                        if (!progress) progress.emplace("  " + job.link_name, total);
-                                        progress->Update(done);
-                                      });
-    if (progress) progress->Finish();
-    if (!grid.ok()) return Fail(grid.status().message());
-    const geometry::SdfGridInfo& info = grid->info();
-    core::LogInfo("  %s: %d x %d x %d nodes, %.1f MB, %d triangles", job.link_name.c_str(),
-                  info.dims.x(), info.dims.y(), info.dims.z(), grid->MemoryBytes() / 1e6,
-                  job.mesh.num_triangles());
-    const std::string path = out_dir + "/" + job.link_name + kExtension;
-    if (core::Status s = outputs.Stage(path, grid->Serialize()); !s.ok()) return Fail(s.message());
-    written.push_back(path);
+  std::optional<core::ProgressBar> progress;
+  std::string progress_link;
+  auto written = robot::WriteLinkSdfs(jobs, out_dir, options, [&](const std::string& link, long done, long total) {
+    if (link != progress_link) {
+      if (progress) progress->Finish();
+      progress.emplace("  " + link, total);
+      progress_link = link;
+    }
+    progress->Update(done);
+  });
+  if (progress) progress->Finish();
+  if (!written.ok()) return Fail(written.status().message());
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (const robot::WrittenLinkSdf& file : *written) {
+    const geometry::SdfGridInfo& info = file.info;
+    core::LogInfo("  %s: %d x %d x %d nodes, %.1f MB, %d triangles", info.link_name.c_str(), info.dims.x(),
+                  info.dims.y(), info.dims.z(), file.memory_bytes / 1e6, file.num_triangles);
   }
-  if (core::Status s = outputs.Commit(); !s.ok()) return Fail(s.message());
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  for (const std::string& path : written) std::printf("%s\n", path.c_str());
-  core::LogInfo("wrote %zu SDF file(s) in %.1f s", written.size(), seconds);
+  for (const robot::WrittenLinkSdf& file : *written) std::printf("%s\n", file.path.c_str());
+  core::LogInfo("wrote %zu SDF file(s) in %.1f s", written->size(), seconds);
   return 0;
-}
-
-core::Result<std::vector<LinkJob>> JobsFromUrdf(const std::string& urdf_path,
-                                                const std::vector<std::string>& only_links) {
-  auto model = robot::RobotModel::LoadFromUrdfFile(urdf_path);
-  if (!model.ok()) return model.status();
-  std::vector<LinkJob> jobs;
-  for (const std::string& name : only_links) {
-    const int index = model->LinkIndex(name);
-    if (index < 0) return core::Status::InvalidArgument(urdf_path + ": no link named '" + name + "'");
-    if (model->link(index).collisions.empty()) {
-      return core::Status::InvalidArgument(urdf_path + ": link '" + name + "' has no collision geometry");
-    }
-  }
-  for (int link : model->CollisionLinks()) {
-    const std::string& name = model->link(link).name;
-    if (!only_links.empty() &&
-        std::find(only_links.begin(), only_links.end(), name) == only_links.end()) {
-      continue;
-    }
-    auto mesh = robot::LinkCollisionMesh(*model, link);
-    if (!mesh.ok()) return mesh.status();
-    jobs.push_back({name, urdf_path + "#" + name, std::move(*mesh)});
-  }
-  if (jobs.empty()) return core::Status::InvalidArgument(urdf_path + ": no link has collision geometry");
-  return jobs;
 }
 
 // "distance gx gy gz" for one point, in the link frame.
@@ -232,9 +189,9 @@ int main(int argc, char** argv) {
   if (!mesh_path.empty() && !only_links.empty()) return Fail("--links goes with --urdf");
   if (std::string why; !options.IsValid(&why)) return Fail("invalid option: " + why);
 
-  std::vector<LinkJob> jobs;
+  std::vector<robot::LinkSdfJob> jobs;
   if (!urdf_path.empty()) {
-    auto from_urdf = JobsFromUrdf(urdf_path, only_links);
+    auto from_urdf = robot::LinkSdfJobsFromUrdf(urdf_path, only_links);
     if (!from_urdf.ok()) return Fail(from_urdf.status().message());
     jobs = std::move(*from_urdf);
   } else {
@@ -244,15 +201,7 @@ int main(int argc, char** argv) {
   }
   // Check every mesh before generating anything, so a bad last link fails in
   // seconds rather than after the others were computed.
-  if (!options.allow_unsigned) {
-    for (const LinkJob& job : jobs) {
-      const geometry::MeshCheck check = geometry::CheckMesh(job.mesh);
-      if (!check.bounds_volume) {
-        return Fail(job.source + ": mesh of link '" + job.link_name + "' does not bound a volume (" +
-                    check.problem + "); pass --unsigned to accept it with unsigned distances");
-      }
-    }
-  }
+  if (core::Status s = robot::CheckLinkSdfJobs(jobs, options); !s.ok()) return Fail(s.message());
   core::LogInfo("quadhand-sdfgen: %zu link(s), resolution %.4g m, padding %.4g m", jobs.size(),
                 options.resolution, options.padding);
   return Generate(jobs, out_dir, options);

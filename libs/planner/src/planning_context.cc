@@ -5,26 +5,45 @@
 #include "quadhand/scene/point_cloud.h"
 
 namespace quadhand::planner {
+namespace {
 
-core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Load(const std::string& task_path,
-                                                                     const PlanningContextOptions& options) {
+core::Status CheckRepresentationNames(const PlanningContextOptions& options) {
   const std::vector<std::string> known = RepresentationNames();
   for (const std::string& name : options.representations) {
     if (std::find(known.begin(), known.end(), name) == known.end()) {
       return core::Status::InvalidArgument("unknown representation '" + name + "' (known: mrc_sdf, esdf, sfc)");
     }
   }
+  return core::Status::Ok();
+}
+
+}  // namespace
+
+core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Load(const std::string& task_path,
+                                                                     const PlanningContextOptions& options) {
+  QUADHAND_RETURN_IF_ERROR(CheckRepresentationNames(options));
   auto task = LoadTask(task_path);
   if (!task.ok()) return task.status();
   auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
   if (!robot.ok()) return robot.status();
-  QUADHAND_RETURN_IF_ERROR(ApplyRobot(*robot, &*task));
   auto cloud = scene::LoadPcd(task->scene_path);
   if (!cloud.ok()) return cloud.status();
+  return Create(std::move(*task), std::move(*robot), std::move(cloud->points), cloud->dropped_non_finite, options);
+}
 
-  std::unique_ptr<PlanningContext> context(new PlanningContext(std::move(*task), std::move(*robot)));
-  context->points_ = std::move(cloud->points);
-  context->dropped_non_finite_ = cloud->dropped_non_finite;
+core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(Task task, robot::RobotModel robot,
+                                                                       std::vector<Vec3> points,
+                                                                       long dropped_non_finite,
+                                                                       const PlanningContextOptions& options) {
+  QUADHAND_RETURN_IF_ERROR(CheckRepresentationNames(options));
+  if (points.empty()) return core::Status::InvalidArgument("the scene has no points");
+  for (const Vec3& p : points) {
+    if (!p.allFinite()) return core::Status::InvalidArgument("the scene has a non-finite point");
+  }
+  QUADHAND_RETURN_IF_ERROR(ApplyRobot(robot, &task));
+  std::unique_ptr<PlanningContext> context(new PlanningContext(std::move(task), std::move(robot)));
+  context->points_ = std::move(points);
+  context->dropped_non_finite_ = dropped_non_finite;
   const Task& t = context->task_;
 
   auto exact = ExactClearance::Create(context->robot_, context->points_);

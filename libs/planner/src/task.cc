@@ -13,7 +13,8 @@ namespace {
 // Errors carry "<file>: <key>: <problem>".
 class Reader {
  public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
+  // Messages name `file`; relative paths resolve against `base_dir`.
+  Reader(std::string file, std::string base_dir) : file_(std::move(file)), base_dir_(std::move(base_dir)) {}
 
   core::Status Error(const std::string& key, const std::string& problem) const {
     return core::Status::InvalidArgument(file_ + ": " + (key.empty() ? "" : key + ": ") + problem);
@@ -64,12 +65,13 @@ class Reader {
 
   core::Status Path(const YAML::Node& node, const std::string& key, std::string* out) const {
     if (!node || !node.IsScalar() || node.Scalar().empty()) return Error(key, "expected a file or folder path");
-    *out = core::ResolvePath(core::DirectoryOf(file_), node.Scalar());
+    *out = core::ResolvePath(base_dir_, node.Scalar());
     return core::Status::Ok();
   }
 
  private:
   std::string file_;
+  std::string base_dir_;
 };
 
 core::Status ReadState(const Reader& r, const YAML::Node& node, const std::string& where, bool with_rates,
@@ -105,14 +107,21 @@ core::Status ReadTool(const Reader& r, const YAML::Node& node, ToolGoal* tool) {
   return core::Status::Ok();
 }
 
-core::Result<Task> ParseTask(const std::string& path, const YAML::Node& root) {
-  const Reader r(path);
+// A path key of the task, optional where the caller supplies it instead.
+core::Status ReadSource(const Reader& r, const YAML::Node& root, const char* key, bool supplied, std::string* out) {
+  if (supplied && !root[key]) return core::Status::Ok();
+  return r.Path(root[key], key, out);
+}
+
+core::Result<Task> ParseTask(const std::string& name, const std::string& base_dir, const YAML::Node& root,
+                             const TaskSources& sources) {
+  const Reader r(name, base_dir);
   Task task;
-  task.file = path;
+  task.file = name;
   QUADHAND_RETURN_IF_ERROR(r.CheckKeys(root, "", {"robot", "sdf_dir", "scene", "start", "goal", "limits", "safety_distance"}));
-  QUADHAND_RETURN_IF_ERROR(r.Path(root["robot"], "robot", &task.robot_path));
-  QUADHAND_RETURN_IF_ERROR(r.Path(root["sdf_dir"], "sdf_dir", &task.sdf_dir));
-  QUADHAND_RETURN_IF_ERROR(r.Path(root["scene"], "scene", &task.scene_path));
+  QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "robot", sources.robot_given, &task.robot_path));
+  QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "sdf_dir", sources.robot_given, &task.sdf_dir));
+  QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "scene", sources.scene_given, &task.scene_path));
 
   const YAML::Node start = root["start"];
   if (!start) return r.Error("start", "missing");
@@ -159,17 +168,22 @@ core::Result<Task> ParseTask(const std::string& path, const YAML::Node& root) {
 core::Result<Task> LoadTask(const std::string& path) {
   auto text = core::ReadFileToString(path);
   if (!text.ok()) return text.status();
+  return ParseTaskText(*text, path, core::DirectoryOf(path), TaskSources{});
+}
+
+core::Result<Task> ParseTaskText(const std::string& text, const std::string& name, const std::string& base_dir,
+                                 const TaskSources& sources) {
   YAML::Node root;
   try {
-    root = YAML::Load(*text);
+    root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
-    return core::Status::InvalidArgument(path + ": not valid YAML: line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
+    return core::Status::InvalidArgument(name + ": not valid YAML: line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
-  if (!root.IsMap()) return core::Status::InvalidArgument(path + ": expected a YAML mapping of task keys");
+  if (!root.IsMap()) return core::Status::InvalidArgument(name + ": expected a YAML mapping of task keys");
   try {
-    return ParseTask(path, root);
+    return ParseTask(name, base_dir, root, sources);
   } catch (const YAML::Exception& e) {  // e.g. a key that is not a scalar
-    return core::Status::InvalidArgument(path + ": malformed task: " + e.msg);
+    return core::Status::InvalidArgument(name + ": malformed task: " + e.msg);
   }
 }
 

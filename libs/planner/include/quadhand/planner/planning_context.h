@@ -38,6 +38,14 @@ class PlanningContext {
   static core::Result<std::unique_ptr<PlanningContext>> Load(const std::string& task_path,
                                                              const PlanningContextOptions& options);
 
+  // The same from a task, robot and cloud already in memory (the Python
+  // module's way in): checks the task against the robot, then builds as
+  // Load() does. `points` must be finite; `dropped_non_finite` is what the
+  // caller removed, for the record.
+  static core::Result<std::unique_ptr<PlanningContext>> Create(Task task, robot::RobotModel robot,
+                                                               std::vector<Vec3> points, long dropped_non_finite,
+                                                               const PlanningContextOptions& options);
+
   const Task& task() const { return task_; }
   const robot::RobotModel& robot() const { return robot_; }
   const std::vector<Vec3>& points() const { return points_; }

@@ -36,6 +36,18 @@ struct Task {
 // the key ("task.yaml: start.joints: expected a list of numbers").
 core::Result<Task> LoadTask(const std::string& path);
 
+// What the caller gives itself instead of the task's keys: with robot_given
+// the keys robot and sdf_dir may be left out, with scene_given the key scene.
+struct TaskSources {
+  bool robot_given = false;
+  bool scene_given = false;
+};
+
+// The same from YAML (or JSON) text: errors name `name`, and relative paths
+// in the task resolve against `base_dir`.
+core::Result<Task> ParseTaskText(const std::string& text, const std::string& name, const std::string& base_dir,
+                                 const TaskSources& sources);
+
 // Checks the task against the robot (joint counts, start and terminal joints
 // within limits) and fills the joint limits from the URDF.
 core::Status ApplyRobot(const robot::RobotModel& robot, Task* task);

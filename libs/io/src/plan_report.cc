@@ -1,0 +1,73 @@
+#include "quadhand/io/plan_report.h"
+
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace quadhand::io {
+
+std::string PlanReportJson(const planner::PlanResult& result, const robot::RobotModel& robot,
+                           const PlanReportInfo& info) {
+  nlohmann::json report;
+  report["success"] = result.success;
+  report["status"] = result.status;
+  report["message"] = result.message;
+  report["task"] = info.task;
+  report["solver"] = info.solver;
+  report["representation"] = info.representation;
+  report["seed"] = info.seed;
+  report["solve_ms"] = result.solve_ms;
+  report["front_end_ms"] = result.front_end_ms;
+  report["representation_build_ms"] = info.representation_build_ms + result.per_plan_collision_ms;
+  report["total_ms"] = info.total_ms;
+  report["iterations"] = result.iterations;
+  report["cost_evaluations"] = result.evaluations;
+  report["num_pieces"] = result.num_pieces;
+  report["terminal_state"] = {{"position", {result.terminal.position.x(), result.terminal.position.y(),
+                                            result.terminal.position.z()}},
+                              {"yaw", result.terminal.yaw},
+                              {"joints", std::vector<double>(result.terminal.joints.data(),
+                                                             result.terminal.joints.data() + result.terminal.joints.size())},
+                              {"searched", result.terminal_searched}};
+  if (result.terminal_searched) {
+    report["terminal_state"]["search"] = {{"tool_position_error_m", result.terminal_search.position_error},
+                                          {"tool_angle_error_rad", result.terminal_search.angle_error},
+                                          {"clearance_m", result.terminal_search.clearance},
+                                          {"restarts", result.terminal_search.restarts_used},
+                                          {"seconds", result.terminal_search.seconds}};
+  }
+  if (result.trajectory) {
+    const VecX& durations = result.trajectory->position().durations();
+    report["piece_durations_s"] = std::vector<double>(durations.data(), durations.data() + durations.size());
+  }
+  report["duration_s"] = result.trajectory ? result.trajectory->duration() : 0.0;
+  report["min_clearance_m"] = result.post_check.min_clearance_model;
+  report["min_clearance_exact_m"] = result.post_check.min_clearance_exact;
+  report["closest_link"] = result.post_check.closest_link >= 0 ? robot.link(result.post_check.closest_link).name : "";
+  nlohmann::json violations = nlohmann::json::object();
+  for (const auto& [name, ratio] : result.post_check.violations) violations[name] = ratio;
+  report["violations"] = violations;
+  nlohmann::json checks = nlohmann::json::array();
+  for (const auto& c : result.post_check.checks) {
+    checks.push_back({{"name", c.name}, {"passed", c.passed}, {"value", c.value}, {"bound", c.bound},
+                      {"time_s", c.time}, {"detail", c.detail}});
+  }
+  report["checks"] = checks;
+  nlohmann::json attempts = nlohmann::json::array();
+  for (const auto& a : result.attempts) {
+    attempts.push_back({{"solve_ms", a.solve_ms}, {"iterations", a.iterations}, {"cost_evaluations", a.evaluations},
+                        {"solver_status", a.solver_status}, {"post_check_failure", a.post_check_failure}});
+  }
+  report["attempts"] = attempts;
+  const auto& c = result.final_cost;
+  report["final_cost"] = {{"total", c.total},       {"energy", c.energy},         {"time_s", c.time},
+                          {"collision", c.collision}, {"insertion", c.insertion}, {"velocity", c.velocity},
+                          {"acceleration", c.acceleration}, {"yaw_rate", c.yaw_rate}, {"joint_rate", c.joint_rate},
+                          {"body_rate", c.body_rate}, {"joint_limits", c.joint_limits}};
+  nlohmann::json path = nlohmann::json::array();
+  for (const Vec3& p : result.path.shortcut) path.push_back({p.x(), p.y(), p.z()});
+  report["front_end_path"] = path;
+  return report.dump(2) + "\n";
+}
+
+}  // namespace quadhand::io
