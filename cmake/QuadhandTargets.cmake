@@ -1,5 +1,9 @@
 # Per-target settings shared by every QuadHand target. Nothing here touches
-# global flags: each target opts in by calling these functions.
+# global flags: each target opts in by calling these functions. Libraries and
+# programs are also installed (cmake --install), the libraries as the
+# exported targets quadhand::<name> of the CMake package `quadhand`
+# (cmake/quadhandConfig.cmake.in).
+include(GNUInstallDirs)
 
 # Standard, warnings and optimisation for one target.
 function(quadhand_target_settings target)
@@ -15,9 +19,21 @@ function(quadhand_library name)
   add_library(quadhand_${name} ${ARG_SOURCES})
   add_library(quadhand::${name} ALIAS quadhand_${name})
   target_include_directories(quadhand_${name} PUBLIC
-    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>)
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   target_link_libraries(quadhand_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   quadhand_target_settings(quadhand_${name})
+  # Position-independent so that the Python module (a shared object) can link
+  # the static libraries; without semantic interposition, as the programs'
+  # default PIE code, so calls inside a library still inline.
+  set_target_properties(quadhand_${name} PROPERTIES EXPORT_NAME ${name} POSITION_INDEPENDENT_CODE ON)
+  target_compile_options(quadhand_${name} PRIVATE $<$<CXX_COMPILER_ID:GNU,Clang>:-fno-semantic-interposition>)
+  install(TARGETS quadhand_${name} EXPORT quadhandTargets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development)
+  if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/include)
+    install(DIRECTORY include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT development)
+  endif()
 endfunction()
 
 # A command-line program, installed into build/bin as quadhand-<name>.
@@ -26,4 +42,13 @@ function(quadhand_app name)
   add_executable(quadhand-${name} ${ARG_SOURCES})
   target_link_libraries(quadhand-${name} PRIVATE ${ARG_DEPS})
   quadhand_target_settings(quadhand-${name})
+  install(TARGETS quadhand-${name} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT programs)
+endfunction()
+
+# A line of CMake code for the installed package's config file, to find a
+# dependency that an installed library links (static libraries pass their
+# private dependencies on to whoever links them), e.g.
+# quadhand_export_dependency("find_dependency(CGAL)").
+function(quadhand_export_dependency line)
+  set_property(GLOBAL APPEND PROPERTY QUADHAND_EXPORT_DEPENDENCIES "${line}")
 endfunction()

@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-bash scripts/build.sh quadhand-sdfgen quadhand-plan quadhand-bench
+bash scripts/build.sh quadhand-sdfgen quadhand-plan quadhand-bench quadhand_python_core
 echo
 echo "== Generating the link SDFs of the reference robot (about half a minute)"
 ./build/bin/quadhand-sdfgen --urdf meshes/quadhand/quadhand.urdf --out data/sdf/quadhand
@@ -18,3 +18,4 @@ echo
 echo "Plan (CSV):   out/window_cup.csv"
 echo "Report:       out/window_cup.json"
 echo "3-D page:     out/window_cup.html (open it in a browser; it works offline)"
+echo "From Python:  PYTHONPATH=build/python python3 examples/python/plan_window_cup.py (docs/python.md)"

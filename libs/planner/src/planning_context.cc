@@ -28,16 +28,17 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Load(const std::
   if (!robot.ok()) return robot.status();
   auto cloud = scene::LoadPcd(task->scene_path);
   if (!cloud.ok()) return cloud.status();
-  return Create(std::move(*task), std::move(*robot), std::move(cloud->points), cloud->dropped_non_finite, options);
+  return Create(std::move(*task), std::move(*robot),
+                std::make_shared<const std::vector<Vec3>>(std::move(cloud->points)), cloud->dropped_non_finite, options);
 }
 
 core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(Task task, robot::RobotModel robot,
-                                                                       std::vector<Vec3> points,
+                                                                       std::shared_ptr<const std::vector<Vec3>> points,
                                                                        long dropped_non_finite,
                                                                        const PlanningContextOptions& options) {
   QUADHAND_RETURN_IF_ERROR(CheckRepresentationNames(options));
-  if (points.empty()) return core::Status::InvalidArgument("the scene has no points");
-  for (const Vec3& p : points) {
+  if (!points || points->empty()) return core::Status::InvalidArgument("the scene has no points");
+  for (const Vec3& p : *points) {
     if (!p.allFinite()) return core::Status::InvalidArgument("the scene has a non-finite point");
   }
   QUADHAND_RETURN_IF_ERROR(ApplyRobot(robot, &task));
@@ -46,7 +47,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(Task task
   context->dropped_non_finite_ = dropped_non_finite;
   const Task& t = context->task_;
 
-  auto exact = ExactClearance::Create(context->robot_, context->points_);
+  auto exact = ExactClearance::Create(context->robot_, context->points());
   if (!exact.ok()) return exact.status();
   context->exact_ = std::move(*exact);
 
@@ -57,12 +58,12 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(Task task
     contain.push_back(t.tool->position - Vec3::Constant(1.0));
     contain.push_back(t.tool->position + Vec3::Constant(1.0));
   }
-  auto front_end = FrontEndMap::Build(context->points_, options.front_end, contain);
+  auto front_end = FrontEndMap::Build(context->points(), options.front_end, contain);
   if (!front_end.ok()) return front_end.status().WithPrefix(t.scene_path);
   context->front_end_ = std::make_unique<FrontEndMap>(std::move(*front_end));
 
   for (const std::string& name : options.representations) {
-    auto model = MakeRepresentation(name, context->robot_, t.sdf_dir, context->points_);
+    auto model = MakeRepresentation(name, context->robot_, t.sdf_dir, context->points());
     if (!model.ok()) return model.status();
     context->representations_.push_back(std::move(*model));
   }

@@ -40,15 +40,16 @@ class PlanningContext {
 
   // The same from a task, robot and cloud already in memory (the Python
   // module's way in): checks the task against the robot, then builds as
-  // Load() does. `points` must be finite; `dropped_non_finite` is what the
-  // caller removed, for the record.
+  // Load() does. The cloud is shared, not copied; it must be non-empty and
+  // finite. `dropped_non_finite` is what the caller removed, for the record.
   static core::Result<std::unique_ptr<PlanningContext>> Create(Task task, robot::RobotModel robot,
-                                                               std::vector<Vec3> points, long dropped_non_finite,
+                                                               std::shared_ptr<const std::vector<Vec3>> points,
+                                                               long dropped_non_finite,
                                                                const PlanningContextOptions& options);
 
   const Task& task() const { return task_; }
   const robot::RobotModel& robot() const { return robot_; }
-  const std::vector<Vec3>& points() const { return points_; }
+  const std::vector<Vec3>& points() const { return *points_; }
   long dropped_non_finite_points() const { return dropped_non_finite_; }
   const ExactClearance& exact() const { return *exact_; }
   const FrontEndMap& front_end() const { return *front_end_; }
@@ -62,7 +63,7 @@ class PlanningContext {
 
   Task task_;
   robot::RobotModel robot_;
-  std::vector<Vec3> points_;
+  std::shared_ptr<const std::vector<Vec3>> points_;
   long dropped_non_finite_ = 0;
   std::unique_ptr<ExactClearance> exact_;
   std::unique_ptr<FrontEndMap> front_end_;
