@@ -5,9 +5,10 @@ the task given as objects rather than files, then looks at the result.
 Run after `bash scripts/quickstart.sh` (it builds the module and the link
 SDFs), from the repository root:
 
-    PYTHONPATH=build/python python3 examples/python/plan_window_cup.py
+    PYTHONPATH=build/python python3 examples/python/plan_window_cup.py [SDF_DIR]
 
-or, with QuadHand installed (cmake --install build --prefix P), with
+(SDF_DIR: the reference robot's link SDFs, data/sdf/quadhand by default) or,
+with QuadHand installed (cmake --install build --prefix P), with
 PYTHONPATH=P/lib/python3/dist-packages.
 """
 
@@ -19,7 +20,8 @@ import numpy as np
 import quadhand
 
 root = Path(__file__).resolve().parents[2]
-robot = quadhand.Robot(root / "meshes/quadhand/quadhand.urdf", sdf_dir=root / "data/sdf/quadhand")
+sdf_dir = sys.argv[1] if len(sys.argv) > 1 else root / "data/sdf/quadhand"
+robot = quadhand.Robot(root / "meshes/quadhand/quadhand.urdf", sdf_dir=sdf_dir)
 
 # Any N x 3 array in metres works as a scene; here the bundled PCD's points.
 cloud = quadhand.Scene.from_pcd(root / "data/scenes/window_cup.pcd").points

@@ -3,13 +3,15 @@ and plan file), whichever way the task, robot and scene are given."""
 
 import json
 import math
+import os
 import subprocess
+import sys
 
 import numpy as np
 import pytest
 
 import quadhand
-from conftest import BIN_DIR, SCENE, URDF
+from conftest import BIN_DIR, PYTHON_DIR, ROOT, SCENE, URDF
 
 # Wall times differ between runs; every other number of the report must not.
 TIMING_KEYS = {"solve_ms", "front_end_ms", "representation_build_ms", "total_ms", "seconds"}
@@ -152,3 +154,12 @@ def test_exact_clearance_against_single_points(sdf_dir):
     # Upside down (attitude: half turn about x) the point above faces the arm side; still a real distance.
     d_flipped = clearance(robot, np.array([[0.0, 0.0, 1.3]])).query(position, joints, attitude=[0, 1, 0, 0])[0]
     assert 0 < d_flipped < 0.3
+
+
+def test_the_python_example_runs(sdf_dir):
+    env = dict(os.environ, PYTHONPATH=PYTHON_DIR)
+    run = subprocess.run([sys.executable, str(ROOT / "examples" / "python" / "plan_window_cup.py"), str(sdf_dir)],
+                         capture_output=True, text=True, env=env)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert run.stdout.startswith("success: plan passed the post-check")
+    assert "final state:" in run.stdout
