@@ -153,6 +153,9 @@ int main(int argc, char** argv) {
     if (!(*solver)->available()) return Fail("--solvers: '" + name + "' was built without its library");
     solver_list.push_back(std::move(*solver));
   }
+  for (const std::string& name : representations) {
+    if (core::Status s = planner::CheckRepresentationName(name); !s.ok()) return Fail("--representations: " + s.message());
+  }
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status().message());
   planner::PlanningContextOptions context_options;
@@ -161,10 +164,7 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "loading %s and building %zu representation(s)...\n", config->task_path.c_str(),
                representations.size());
   auto context = planner::PlanningContext::Load(config->task_path, context_options);
-  if (!context.ok()) {
-    const bool bad_name = context.status().message().rfind("unknown representation", 0) == 0;
-    return Fail((bad_name ? "--representations: " : "") + context.status().message());
-  }
+  if (!context.ok()) return Fail(context.status().message());
   const planner::Task* task = &(*context)->task();
   const robot::RobotModel* robot = &(*context)->robot();
   const planner::ExactClearance* exact = &(*context)->exact();
@@ -203,7 +203,7 @@ int main(int argc, char** argv) {
           line["failure"] = result.status().message();
         } else {
           line["success"] = result->success;
-          line["status"] = result->status;
+          line["status"] = planner::PlanStatusName(result->status);
           line["failure"] = result->success ? "" : result->message;
           line["solve_ms"] = result->solve_ms;
           line["front_end_ms"] = result->front_end_ms;

@@ -80,7 +80,7 @@ int DryRun(const planner::PlanningContext& context, const online::PlanningSetup&
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - begin).count();
   if (!result.ok()) return Fail(result.status().message());
   if (!result->success) {
-    std::printf("FAILED: %s (%s) after %.1f ms: nothing would be streamed\n", result->status.c_str(),
+    std::printf("FAILED: %s (%s) after %.1f ms: nothing would be streamed\n", planner::PlanStatusName(result->status),
                 result->message.c_str(), ms);
     return kExitPlanFailed;
   }
@@ -307,13 +307,13 @@ int main(int argc, char** argv) {
   int replan_failures = 0, fallbacks = 0;
   for (const online::PlanRecord& r : stats.plans) {
     if (!r.replan) {
-      std::printf("  first plan: %s in %.1f ms%s%s\n", r.status.c_str(), r.latency_ms, r.success ? "" : ": ",
+      std::printf("  first plan: %s in %.1f ms%s%s\n", planner::PlanStatusName(r.status), r.latency_ms, r.success ? "" : ": ",
                   r.success ? "" : r.message.c_str());
       continue;
     }
     replan_ms.push_back(r.latency_ms);
     warm_ms.push_back(r.warm_ms);
-    replan_failures += !r.success && r.status != "insertion_in_progress";
+    replan_failures += !r.success && r.status != planner::PlanStatus::kInsertionInProgress;
     fallbacks += r.cold_fallback;
   }
   std::printf("  replans: %d triggered, %d spliced, %d failed, %d cold fallbacks", stats.replans_triggered,

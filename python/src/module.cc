@@ -186,7 +186,7 @@ PlanOutput RunPlan(const PlanArguments& args) {
 
   PlanOutput output;
   output.success = result.success;
-  output.status = result.status;
+  output.status = planner::PlanStatusName(result.status);
   output.message = result.message;
   const double total_ms = std::chrono::duration<double, std::milli>(Clock::now() - start_time).count();
   const io::PlanReportInfo info{args.task_name, args.solver, args.representation, args.seed, representation_ms,

@@ -149,7 +149,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "replan error: %s\n", result.status().message().c_str());
       return 1;
     }
-    if (result->status == "start_in_collision" || result->status == "insertion_in_progress") {
+    if (result->status == planner::PlanStatus::kStartInCollision ||
+        result->status == planner::PlanStatus::kInsertionInProgress) {
       ++refused;
       continue;
     }

@@ -105,12 +105,12 @@ TEST(OnlineControllerTest, APushTriggersAReplanThatIsSplicedWithoutAJump) {
   const OnlineStats& stats = controller->stats();
   ASSERT_GE(stats.replans_triggered, 1);
   std::string plans;
-  for (const PlanRecord& r : stats.plans) plans += r.status + ": " + r.message + "\n";
+  for (const PlanRecord& r : stats.plans) plans += std::string(planner::PlanStatusName(r.status)) + ": " + r.message + "\n";
   ASSERT_GE(stats.splices, 1) << plans;
   EXPECT_EQ(controller->phase(), Phase::kArrived);
   EXPECT_TRUE(controller->finished());
   // Every replan passed the post-check (or the controller would be holding).
-  for (const PlanRecord& record : stats.plans) EXPECT_TRUE(record.success) << record.status << ": " << record.message;
+  for (const PlanRecord& record : stats.plans) EXPECT_TRUE(record.success) << planner::PlanStatusName(record.status) << ": " << record.message;
   // No jump: between two 20 ms setpoints the position moves by no more than
   // the plans' speed allows plus the blend's share of the gap between them.
   const double v_max = WindowCup().task.limits.v_max;
@@ -178,7 +178,7 @@ TEST(OnlineControllerTest, AReplanFromInsideTheSafetyMarginGetsOutAndReachesTheC
   EXPECT_GT(moved_by, options.replan_threshold);  // enough to trigger a replan
   const OnlineStats& stats = controller->stats();
   std::string plans;
-  for (const PlanRecord& r : stats.plans) plans += r.status + ": " + r.message + "\n";
+  for (const PlanRecord& r : stats.plans) plans += std::string(planner::PlanStatusName(r.status)) + ": " + r.message + "\n";
   ASSERT_GE(stats.replans_triggered, 1);
   ASSERT_GE(stats.splices, 1) << plans;
   EXPECT_EQ(controller->phase(), Phase::kArrived) << plans;
@@ -226,7 +226,7 @@ TEST(OnlineControllerTest, AFailedReplanHoldsAtTheLastSafeSetpoint) {
   const PlanRecord& last = controller->stats().plans.back();
   EXPECT_TRUE(last.replan);
   EXPECT_FALSE(last.success);
-  EXPECT_EQ(last.status, "start_in_collision") << last.message;
+  EXPECT_EQ(last.status, planner::PlanStatus::kStartInCollision) << last.message;
   // The hold: the plan's setpoint of the moment the replan failed, at rest.
   const ControllerOutput out = controller->Tick(flight.time());
   ASSERT_TRUE(out.setpoint.has_value());

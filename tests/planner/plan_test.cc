@@ -95,7 +95,7 @@ TEST(PlanTest, DefaultSolveStopsOnTheRelativeDecreaseBeforeTheCap) {
   ASSERT_TRUE(result.ok()) << result.status().message();
   EXPECT_TRUE(result->success) << result->message;
   ASSERT_FALSE(result->attempts.empty());
-  EXPECT_EQ(result->attempts[0].solver_status, "converged");
+  EXPECT_EQ(result->attempts[0].solver_status, opt::SolveStatus::kConverged);
   EXPECT_LT(result->attempts[0].iterations, options.solver.max_iterations);
 }
 

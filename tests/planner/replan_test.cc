@@ -154,7 +154,7 @@ TEST(ReplanTest, FromAnOffsetStateStartsThereAndReachesTheGoal) {
     auto result = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(),
                          solver, plan, t_from, start);
     ASSERT_TRUE(result.ok()) << result.status().message();
-    if (result->status == "start_in_collision") continue;  // the offset pushed a link into the scene
+    if (result->status == PlanStatus::kStartInCollision) continue;  // the offset pushed a link into the scene
     ASSERT_TRUE(result->trajectory.has_value()) << result->message;
     if (!result->success) {
       ADD_FAILURE() << "t = " << t_from << ": " << result->message;
@@ -184,7 +184,7 @@ TEST(ReplanTest, RefusesInsideTheInsertionAndFromACollidingState) {
                           solver, plan, t_insertion, StateOnPlan(old, t_insertion));
   ASSERT_TRUE(inserting.ok());
   EXPECT_FALSE(inserting->success);
-  EXPECT_EQ(inserting->status, "insertion_in_progress");
+  EXPECT_EQ(inserting->status, PlanStatus::kInsertionInProgress);
 
   // The base moved onto a scene point.
   const double t_from = 0.5 * InsertionStart(plan);
@@ -198,7 +198,7 @@ TEST(ReplanTest, RefusesInsideTheInsertionAndFromACollidingState) {
                           solver, plan, t_from, start);
   ASSERT_TRUE(colliding.ok());
   EXPECT_FALSE(colliding->success);
-  EXPECT_EQ(colliding->status, "start_in_collision") << colliding->message;
+  EXPECT_EQ(colliding->status, PlanStatus::kStartInCollision) << colliding->message;
   EXPECT_LT(StartClearance(start), -DefaultReplanOptions().max_start_penetration);
   EXPECT_FALSE(colliding->trajectory.has_value());
 
@@ -235,7 +235,7 @@ TEST(ReplanTest, FromAStartInsideTheSafetyMarginRecoversAndReachesTheGoal) {
   const ReplanOptions replan = DefaultReplanOptions();
   auto result = Replan(WindowCup().Scene(), task, DefaultPlannerOptions(), replan, solver, plan, t_from, start);
   ASSERT_TRUE(result.ok()) << result.status().message();
-  ASSERT_TRUE(result->success) << result->status << ": " << result->message;
+  ASSERT_TRUE(result->success) << PlanStatusName(result->status) << ": " << result->message;
   EXPECT_TRUE(result->post_check.recovery);
   // (The trajectory's first sample tilts the body with its acceleration.)
   EXPECT_NEAR(result->post_check.start_clearance_exact, start_clearance, 1e-3);

@@ -10,7 +10,7 @@ std::string PlanReportJson(const planner::PlanResult& result, const robot::Robot
                            const PlanReportInfo& info) {
   nlohmann::json report;
   report["success"] = result.success;
-  report["status"] = result.status;
+  report["status"] = planner::PlanStatusName(result.status);
   report["message"] = result.message;
   report["task"] = info.task;
   report["solver"] = info.solver;
@@ -56,7 +56,7 @@ std::string PlanReportJson(const planner::PlanResult& result, const robot::Robot
   nlohmann::json attempts = nlohmann::json::array();
   for (const auto& a : result.attempts) {
     attempts.push_back({{"solve_ms", a.solve_ms}, {"iterations", a.iterations}, {"cost_evaluations", a.evaluations},
-                        {"solver_status", a.solver_status}, {"post_check_failure", a.post_check_failure}});
+                        {"solver_status", opt::SolveStatusName(a.solver_status)}, {"post_check_failure", a.post_check_failure}});
   }
   report["attempts"] = attempts;
   const auto& c = result.final_cost;

@@ -165,7 +165,7 @@ class OnlineController::Worker {
       done.record.warm_ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
       const bool warm_failed =
-          result.ok() && !result->success && (result->status == "post_check_failed" || result->status == "solver_failed");
+          result.ok() && !result->success && (result->status == planner::PlanStatus::kPostCheckFailed || result->status == planner::PlanStatus::kSolverFailed);
       // Plan() refuses a start inside the safety margin (it has no recovery
       // rule), so after a failed recovery a cold plan would only hide why.
       const bool recovering = result.ok() && result->post_check.recovery;
@@ -183,7 +183,7 @@ class OnlineController::Worker {
     done.record.latency_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
     if (!result.ok()) {
-      done.record.status = "error";
+      done.record.status = planner::PlanStatus::kInvalidInput;
       done.record.message = result.status().message();
       return done;
     }
@@ -391,7 +391,8 @@ void OnlineController::CollectPlan(double t) {
   const PlanRecord& record = done->record;
   if (!record.replan) {
     if (!done->plan) {
-      Fail(Phase::kHoldingAfterFailure, "the plan failed (" + record.status + ": " + record.message + ")");
+      Fail(Phase::kHoldingAfterFailure,
+           std::string("the plan failed (") + planner::PlanStatusName(record.status) + ": " + record.message + ")");
       return;
     }
     first_plan_ = done->plan;
@@ -414,10 +415,11 @@ void OnlineController::CollectPlan(double t) {
           (record.recovery ? Format(" (recovering from %.4f m inside the safety distance)",
                                     setup_.task->safety_distance - record.start_clearance)
                            : std::string()));
-  } else if (record.status == "insertion_in_progress") {
+  } else if (record.status == planner::PlanStatus::kInsertionInProgress) {
     Event("not replanned: the insertion has begun");
   } else {
-    Fail(Phase::kHoldingAfterFailure, "the replan failed (" + record.status + ": " + record.message + ")");
+    Fail(Phase::kHoldingAfterFailure,
+         std::string("the replan failed (") + planner::PlanStatusName(record.status) + ": " + record.message + ")");
   }
 }
 

@@ -71,19 +71,22 @@ bool RaiseWeightsOfFailedChecks(const PostCheckReport& report, double factor, in
   for (const CheckResult& check : report.checks) {
     if (check.passed) continue;
     double* weight = nullptr;
-    if (check.name == "clearance") {
-      weight = &cost->weight_collision;
-      for (int* samples : {&cost->samples_per_piece, &cost->insertion_samples}) {
-        *samples = std::max(*samples, std::min(*samples * sample_factor, max_samples));
-      }
-    } else if (check.name == "velocity") weight = &cost->weight_velocity;
-    else if (check.name == "acceleration") weight = &cost->weight_acceleration;
-    else if (check.name == "yaw_rate") weight = &cost->weight_yaw_rate;
-    else if (check.name == "body_rate_xy") weight = &cost->weight_body_rate;
-    else if (check.name == "joint_limits") weight = &cost->weight_joint_limits;
-    else if (check.name == "insertion") weight = &cost->weight_insertion;
-    else if (check.name.size() > 5 && check.name.compare(check.name.size() - 5, 5, "_rate") == 0) {
-      weight = &cost->weight_joint_rate;  // "<joint>_rate"
+    switch (check.kind) {
+      case CheckKind::kClearance:
+        weight = &cost->weight_collision;
+        for (int* samples : {&cost->samples_per_piece, &cost->insertion_samples}) {
+          *samples = std::max(*samples, std::min(*samples * sample_factor, max_samples));
+        }
+        break;
+      case CheckKind::kVelocity: weight = &cost->weight_velocity; break;
+      case CheckKind::kAcceleration: weight = &cost->weight_acceleration; break;
+      case CheckKind::kYawRate: weight = &cost->weight_yaw_rate; break;
+      case CheckKind::kBodyRateXY: weight = &cost->weight_body_rate; break;
+      case CheckKind::kJointRate: weight = &cost->weight_joint_rate; break;
+      case CheckKind::kJointLimits: weight = &cost->weight_joint_limits; break;
+      case CheckKind::kInsertion: weight = &cost->weight_insertion; break;
+      case CheckKind::kStartState:
+      case CheckKind::kEndState: break;  // boundary conditions are exact in MINCO: no weight to raise
     }
     if (weight != nullptr) {
       *weight *= factor;
@@ -112,7 +115,7 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
     record.solve_ms = solved.wall_time_seconds * 1e3;
     record.iterations = solved.iterations;
     record.evaluations = solved.evaluations;
-    record.solver_status = solved.StatusName();
+    record.solver_status = solved.status;
     result->solve_ms += record.solve_ms;
     result->iterations += solved.iterations;
     result->evaluations += solved.evaluations;
@@ -120,7 +123,7 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
     if (!std::isfinite(solved.cost) || !trajectory.ok()) {
       record.post_check_failure = "solver returned no usable trajectory (" + solved.message + ")";
       result->attempts.push_back(record);
-      result->status = "solver_failed";
+      result->status = PlanStatus::kSolverFailed;
       result->message = record.post_check_failure;
       return core::Status::Ok();
     }
@@ -139,7 +142,7 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
     QUADHAND_RETURN_IF_ERROR(problem->SetOptions(cost));
   }
   result->success = result->post_check.passed;
-  result->status = result->success ? "success" : "post_check_failed";
+  result->status = result->success ? PlanStatus::kSuccess : PlanStatus::kPostCheckFailed;
   result->message = result->success ? "plan passed the post-check" : result->post_check.FirstFailure();
   return core::Status::Ok();
 }
@@ -159,7 +162,7 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
                                    options.terminal_state, solver);
     if (!found.ok()) {
       if (found.status().code() != core::StatusCode::kInfeasible) return found.status();
-      result.status = "terminal_state_failed";
+      result.status = PlanStatus::kTerminalStateFailed;
       result.message = found.status().message();
       return result;
     }
@@ -216,7 +219,7 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
   result.front_end_ms = MillisecondsSince(front_start);
   if (!path.ok()) {
     if (path.status().code() == core::StatusCode::kInfeasible) {
-      result.status = "front_end_failed";
+      result.status = PlanStatus::kFrontEndFailed;
       result.message = path.status().message();
       return result;
     }
@@ -292,7 +295,7 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
     auto built = scene.per_plan_collision(corners, boundaries, &result.per_plan_collision_ms);
     if (!built.ok()) {
       if (built.status().code() != core::StatusCode::kInfeasible) return built.status();
-      result.status = "representation_failed";
+      result.status = PlanStatus::kRepresentationFailed;
       result.message = built.status().message();
       return result;
     }

@@ -8,12 +8,7 @@ namespace quadhand::planner {
 namespace {
 
 core::Status CheckRepresentationNames(const PlanningContextOptions& options) {
-  const std::vector<std::string> known = RepresentationNames();
-  for (const std::string& name : options.representations) {
-    if (std::find(known.begin(), known.end(), name) == known.end()) {
-      return core::Status::InvalidArgument("unknown representation '" + name + "' (known: mrc_sdf, esdf, sfc)");
-    }
-  }
+  for (const std::string& name : options.representations) QUADHAND_RETURN_IF_ERROR(CheckRepresentationName(name));
   return core::Status::Ok();
 }
 

@@ -187,14 +187,15 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   report.min_clearance_model = min_model;
   report.closest_link = closest;
 
-  auto add = [&report](std::string name, bool passed, double value, double bound, double time, std::string detail) {
-    report.checks.push_back({std::move(name), passed, value, bound, time, std::move(detail)});
+  auto add = [&report](CheckKind kind, int joint, std::string name, bool passed, double value, double bound,
+                        double time, std::string detail) {
+    report.checks.push_back({kind, joint, std::move(name), passed, value, bound, time, std::move(detail)});
   };
   const double clearance_bound = task.safety_distance - options.clearance_tolerance;
   report.start_clearance_exact = exact_track.front().second;
   report.recovery = options.recovery_time > 0.0 && report.start_clearance_exact < clearance_bound;
   if (!report.recovery) {
-    add("clearance", min_exact >= clearance_bound, min_exact, task.safety_distance, clearance_deficit.time,
+    add(CheckKind::kClearance, -1, "clearance", min_exact >= clearance_bound, min_exact, task.safety_distance, clearance_deficit.time,
         Format("exact clearance %.4f m (safety distance %.4f m) at t = %.2f s", min_exact, task.safety_distance,
                clearance_deficit.time) +
             (closest >= 0 ? ", link " + robot.link(closest).name : ""));
@@ -216,7 +217,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
         worst_time = t;
       }
     }
-    add("clearance", worst_slack >= 0.0, worst_value, worst_bound + options.clearance_tolerance, worst_time,
+    add(CheckKind::kClearance, -1, "clearance", worst_slack >= 0.0, worst_value, worst_bound + options.clearance_tolerance, worst_time,
         Format("recovery from %.4f m at the start (within %.2f s: ", start, options.recovery_time, 0) +
             Format("no lower than %.4f m, then the safety distance %.4f m): ", stretch_bound + options.clearance_tolerance,
                    task.safety_distance, 0) +
@@ -224,17 +225,17 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
                    worst_bound));
   }
   const double ratio_bound = 1.0 + options.limit_tolerance;
-  auto add_limit = [&](const std::string& name, const Worst& w) {
+  auto add_limit = [&](CheckKind kind, int joint, const std::string& name, const Worst& w) {
     report.violations.emplace_back(name, w.value);
-    add(name, w.value <= ratio_bound, w.value, 1.0, w.time,
+    add(kind, joint, name, w.value <= ratio_bound, w.value, 1.0, w.time,
         Format("peak %.3f of the limit (accepted up to %.3f) at t = %.2f s", w.value, ratio_bound, w.time));
   };
-  add_limit("velocity", speed);
-  add_limit("acceleration", acceleration);
-  add_limit("yaw_rate", yaw_rate);
-  add_limit("body_rate_xy", body_rate);
-  for (int q = 0; q < n; ++q) add_limit(joint_names[q] + "_rate", joint_rate[q]);
-  add("joint_limits", joint_excess.value <= 1e-3, joint_excess.value, 0.0, joint_excess.time,
+  add_limit(CheckKind::kVelocity, -1, "velocity", speed);
+  add_limit(CheckKind::kAcceleration, -1, "acceleration", acceleration);
+  add_limit(CheckKind::kYawRate, -1, "yaw_rate", yaw_rate);
+  add_limit(CheckKind::kBodyRateXY, -1, "body_rate_xy", body_rate);
+  for (int q = 0; q < n; ++q) add_limit(CheckKind::kJointRate, q, joint_names[q] + "_rate", joint_rate[q]);
+  add(CheckKind::kJointLimits, -1, "joint_limits", joint_excess.value <= 1e-3, joint_excess.value, 0.0, joint_excess.time,
       Format("worst excess %.4f rad beyond a joint limit (accepted up to %.4f) at t = %.2f s", joint_excess.value,
              1e-3, joint_excess.time));
 
@@ -247,9 +248,9 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   end_angle = std::max(end_angle, (last.joints - terminal.joints).cwiseAbs().maxCoeff());
   const double end_error = (last.position - terminal.position).norm();
   const double end_rate = std::max({last.velocity.norm(), std::abs(last.yaw_rate), last.joint_rates.cwiseAbs().maxCoeff()});
-  add("start_state", start_error <= options.position_tolerance && start_angle <= options.angle_tolerance, start_error,
+  add(CheckKind::kStartState, -1, "start_state", start_error <= options.position_tolerance && start_angle <= options.angle_tolerance, start_error,
       options.position_tolerance, 0.0, Format("position error %.4f m, angle error %.4f rad", start_error, start_angle, 0));
-  add("end_state",
+  add(CheckKind::kEndState, -1, "end_state",
       end_error <= options.position_tolerance && end_angle <= options.angle_tolerance && end_rate <= options.rate_tolerance,
       end_error, options.position_tolerance, duration,
       Format("position error %.4f m, angle error %.4f rad, residual rate %.4f", end_error, end_angle, end_rate));
@@ -265,14 +266,14 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       }
     }
     if (approach_start < 0) {
-      add("insertion", false, 0.0, insertion.length, 0.0,
+      add(CheckKind::kInsertion, -1, "insertion", false, 0.0, insertion.length, 0.0,
           Format("the tool never backs off %.3f m along the insertion line (closest approach start %.3f m)",
                  insertion.length, -tool_track.front().first, 0));
     } else {
       Worst off_line;
       for (size_t i = approach_start; i < tool_track.size(); ++i) off_line.Update(tool_track[i].second, times[i]);
       const double tool_end_error = std::hypot(tool_track.back().first, tool_track.back().second);
-      add("insertion", off_line.value <= options.insertion_tolerance && tool_end_error <= options.position_tolerance,
+      add(CheckKind::kInsertion, -1, "insertion", off_line.value <= options.insertion_tolerance && tool_end_error <= options.position_tolerance,
           off_line.value, options.insertion_tolerance, off_line.time,
           Format("tool up to %.4f m off the insertion line (accepted %.4f m), ends %.4f m from the goal",
                  off_line.value, options.insertion_tolerance, tool_end_error) +

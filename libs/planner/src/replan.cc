@@ -121,7 +121,7 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
     const bool inside = first_piece == old_pieces - 1;
     const bool merged_into_insertion = durations.size() == 1;
     if (inside || merged_into_insertion) {
-      result.status = "insertion_in_progress";
+      result.status = PlanStatus::kInsertionInProgress;
       result.message = "the current plan is in (or about to start) its insertion piece: not replanned";
       return result;
     }
@@ -146,7 +146,7 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
     int link = -1;
     const double clearance = scene.exact.WholeBody(kinematics, task.safety_distance + 0.05, &link);
     if (clearance < -replan.max_start_penetration) {
-      result.status = "start_in_collision";
+      result.status = PlanStatus::kStartInCollision;
       result.message = "the start state is " + std::to_string(clearance) + " m from the scene (link " +
                        (link >= 0 ? robot.link(link).name : std::string("?")) + ", at most " +
                        std::to_string(replan.max_start_penetration) + " m inside it is recovered from)";
@@ -166,7 +166,7 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
     auto built = scene.per_plan_collision(boundaries, boundaries, &result.per_plan_collision_ms);
     if (!built.ok()) {
       if (built.status().code() != core::StatusCode::kInfeasible) return built.status();
-      result.status = "representation_failed";
+      result.status = PlanStatus::kRepresentationFailed;
       result.message = built.status().message();
       return result;
     }

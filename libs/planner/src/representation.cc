@@ -1,5 +1,6 @@
 #include "quadhand/planner/representation.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include "quadhand/env/esdf_model.h"
@@ -18,8 +19,17 @@ double MillisecondsSince(std::chrono::steady_clock::time_point start) {
 
 std::vector<std::string> RepresentationNames() { return {"mrc_sdf", "esdf", "sfc"}; }
 
+core::Status CheckRepresentationName(const std::string& name) {
+  const std::vector<std::string> known = RepresentationNames();
+  if (std::find(known.begin(), known.end(), name) != known.end()) return core::Status::Ok();
+  std::string list;
+  for (const auto& n : known) list += (list.empty() ? "" : ", ") + n;
+  return core::Status::InvalidArgument("unknown representation '" + name + "' (known: " + list + ")");
+}
+
 core::Result<Representation> MakeRepresentation(const std::string& name, const robot::RobotModel& robot,
                                                 const std::string& sdf_dir, const std::vector<Vec3>& points) {
+  QUADHAND_RETURN_IF_ERROR(CheckRepresentationName(name));
   Representation representation;
   representation.name = name;
   const auto start = std::chrono::steady_clock::now();
@@ -33,10 +43,6 @@ core::Result<Representation> MakeRepresentation(const std::string& name, const r
     if (!model.ok()) return model.status();
     representation.build_ms = (*model)->build_seconds() * 1e3;
     representation.scene_model = std::move(*model);
-  } else {
-    std::string known;
-    for (const auto& n : RepresentationNames()) known += (known.empty() ? "" : ", ") + n;
-    return core::Status::InvalidArgument("unknown representation '" + name + "' (known: " + known + ")");
   }
   if (name == "sfc") {
     // The MRC-SDF model above only serves the terminal-state search; what sfc

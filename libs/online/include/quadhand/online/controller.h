@@ -138,7 +138,7 @@ struct PlanRecord {
   double requested_at = 0.0;  // controller time
   bool replan = false;
   bool success = false;
-  std::string status;         // PlanResult status, or "error"
+  planner::PlanStatus status = planner::PlanStatus::kInvalidInput;  // kInvalidInput: Plan()/Replan() refused the request
   std::string message;
   double latency_ms = 0.0;    // wall time of Plan()/Replan() (both, with a cold fallback)
   double warm_ms = 0.0;       // replans: the warm-started Replan() alone

@@ -15,6 +15,7 @@
 #include "quadhand/env/collision_model.h"
 #include "quadhand/opt/solver.h"
 #include "quadhand/planner/front_end.h"
+#include "quadhand/planner/plan_status.h"
 #include "quadhand/planner/post_check.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/planner/terminal_state.h"
@@ -82,14 +83,13 @@ struct PlanAttempt {
   double solve_ms = 0;
   int iterations = 0;
   int evaluations = 0;
-  std::string solver_status;
-  std::string post_check_failure;  // empty when it passed
+  opt::SolveStatus solver_status = opt::SolveStatus::kInvalidInput;
+  std::string post_check_failure;  // what failed, for people; empty when it passed
 };
 
 struct PlanResult {
   bool success = false;
-  // "success", "post_check_failed", "solver_failed" (no usable result).
-  std::string status;
+  PlanStatus status = PlanStatus::kSolverFailed;
   std::string message;
   std::optional<WholeBodyTrajectory> trajectory;
   PostCheckReport post_check;
@@ -139,8 +139,8 @@ WholeBodyCostOptions CostForTask(const PlannerOptions& options, const Task& task
 // options.resolve_sample_factor up to options.max_samples_per_piece). The
 // first solve uses `first_options`, the re-solves `retry_options`. Fills the
 // trajectory, post_check, final_cost, attempts, solve_ms, iterations,
-// evaluations, success, status ("success", "post_check_failed",
-// "solver_failed") and message of *result; reads result->terminal and
+// evaluations, success, status (kSuccess, kPostCheckFailed,
+// kSolverFailed) and message of *result; reads result->terminal and
 // result->insertion. Errors only for inconsistent input (sizes, options).
 core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const PlanningScene& scene,
                                const env::CollisionModel& collision, const Task& task,

@@ -11,6 +11,7 @@
 #include "quadhand/core/status.h"
 #include "quadhand/env/collision_model.h"
 #include "quadhand/geometry/mesh_distance.h"
+#include "quadhand/planner/plan_status.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/planner/whole_body_problem.h"
 #include "quadhand/scene/point_grid.h"
@@ -42,7 +43,9 @@ struct PostCheckOptions {
 // One check: `value` measured against `bound`; `ratio` = value / bound for
 // limits (1.0 = at the bound), or the worst excess for tolerances.
 struct CheckResult {
-  std::string name;
+  CheckKind kind = CheckKind::kClearance;
+  int joint = -1;    // the actuated joint of a kJointRate check
+  std::string name;  // for people: CheckKindName(kind), or "<joint>_rate"
   bool passed = true;
   double value = 0.0;
   double bound = 0.0;

@@ -27,6 +27,10 @@ struct Representation {
 
 std::vector<std::string> RepresentationNames();
 
+// InvalidArgument "unknown representation 'NAME' (known: ...)" unless `name`
+// is one of RepresentationNames().
+core::Status CheckRepresentationName(const std::string& name);
+
 // InvalidArgument naming the known names for an unknown one; the model's own
 // errors (missing SDF files, ...) otherwise.
 core::Result<Representation> MakeRepresentation(const std::string& name, const robot::RobotModel& robot,

@@ -1,0 +1,41 @@
+// Typed outcomes of planning: how a plan ended, and which post-check a
+// trajectory failed. Code branches on these values; their names (the strings
+// of reports, logs and the Python module) are for people and files only.
+#pragma once
+
+namespace quadhand::planner {
+
+// How Plan() or Replan() ended. Only kSuccess hands out a trajectory to fly.
+enum class PlanStatus {
+  kSuccess,               // the trajectory passed the post-check
+  kPostCheckFailed,       // optimised, but a post-check failed after every attempt
+  kSolverFailed,          // the solver returned no usable trajectory
+  kTerminalStateFailed,   // no terminal state reaches the tool goal
+  kFrontEndFailed,        // no collision-free path from the start to the goal
+  kRepresentationFailed,  // the per-plan collision representation could not be built
+  kInsertionInProgress,   // replan refused: the straight insertion has begun
+  kStartInCollision,      // replan refused: the measured start is too deep inside the scene
+  kInvalidInput,          // the request itself was rejected (recorded by callers, never set by Plan())
+};
+
+// "success", "post_check_failed", ... (as in reports).
+const char* PlanStatusName(PlanStatus status);
+
+// The kinds of check of the post-check (post_check.h).
+enum class CheckKind {
+  kClearance,     // exact link meshes vs the scene's points
+  kVelocity,
+  kAcceleration,
+  kYawRate,
+  kBodyRateXY,
+  kJointRate,     // one check per actuated joint (CheckResult::joint)
+  kJointLimits,
+  kStartState,
+  kEndState,
+  kInsertion,
+};
+
+// "clearance", "velocity", ..., "joint_rate".
+const char* CheckKindName(CheckKind kind);
+
+}  // namespace quadhand::planner
