@@ -21,6 +21,7 @@
 #include "quadhand/core/log.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/planner.h"
+#include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/solvers/builtin_solvers.h"
@@ -125,7 +126,11 @@ int main(int argc, char** argv) {
   std::string config_path = "data/bench/window_cup.yaml", out_path, shard_text = "0/1";
   std::vector<std::string> representations = {"mrc_sdf"}, solver_names = {"lbfgs"};
   int trials = 100, first = 0;
-  app.add_option("--config", config_path, "Benchmark config (YAML)")->capture_default_str();
+  app.add_option("--config", config_path, "Benchmark config (YAML): the task and how trials draw their starts")
+      ->capture_default_str();
+  std::string planner_config_path;
+  app.add_option("--planner-config", planner_config_path,
+                 "Planner configuration (YAML, docs/configuration.md); keys left out keep their defaults");
   app.add_option("--trials", trials, "Number of trials")->capture_default_str()->check(CLI::Range(1, 1000000));
   app.add_option("--first", first, "Index (= seed) of the first trial")->capture_default_str()->check(CLI::NonNegativeNumber);
   app.add_option("--solvers,--solver", solver_names,
@@ -158,8 +163,13 @@ int main(int argc, char** argv) {
   }
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status().message());
-  planner::PlanningContextOptions context_options;
-  context_options.representations = representations;
+  planner::PlannerConfig planner_config = planner::DefaultPlannerConfig();
+  if (!planner_config_path.empty()) {
+    auto loaded = planner::LoadPlannerConfig(planner_config_path);
+    if (!loaded.ok()) return Fail(loaded.status().message());
+    planner_config = std::move(*loaded);
+  }
+  planner::PlanningContextOptions context_options = planner::ContextOptions(planner_config, representations);
   context_options.front_end_also_contain = {config->box_min, config->box_max};
   std::fprintf(stderr, "loading %s and building %zu representation(s)...\n", config->task_path.c_str(),
                representations.size());
@@ -168,7 +178,7 @@ int main(int argc, char** argv) {
   const planner::Task* task = &(*context)->task();
   const robot::RobotModel* robot = &(*context)->robot();
   const planner::ExactClearance* exact = &(*context)->exact();
-  const planner::PlannerOptions options = planner::DefaultPlannerOptions();
+  const planner::PlannerOptions options = planner_config.planner;
 
   std::ostringstream lines;
   std::map<std::string, Tally> tallies;

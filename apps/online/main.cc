@@ -30,6 +30,7 @@
 #include "quadhand/online/flight_log.h"
 #include "quadhand/online/mavlink_bridge.h"
 #include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/solvers/builtin_solvers.h"
 
@@ -124,6 +125,10 @@ int main(int argc, char** argv) {
   app.add_option("--bind", bind_url, "Local address to receive on, udp://ADDR:PORT (port 0: any free port)")
       ->capture_default_str();
   app.add_option("--rate", rate, "Setpoint rate, Hz (1 to 500)")->capture_default_str();
+  std::string planner_config_path;
+  app.add_option("--planner-config", planner_config_path,
+                 "Planner configuration (YAML, docs/configuration.md): the planner, replanner, front end and\n"
+                 "representation options; keys left out keep their defaults");
   app.add_option("--signing-key", key_path, "MAVLink 2 signing key file (64 hex digits or 32 raw bytes): signs what is "
                                             "sent, verifies what is received");
   app.add_flag("--require-signing", require_signing,
@@ -197,11 +202,16 @@ int main(int argc, char** argv) {
   if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
   auto solver = opt::CreateSolver("lbfgs");
   if (!solver.ok()) return Fail(solver.status().message());
-  auto context = planner::PlanningContext::Load(task_path, planner::PlanningContextOptions{});
+  planner::PlannerConfig config = planner::DefaultPlannerConfig();
+  if (!planner_config_path.empty()) {
+    auto loaded = planner::LoadPlannerConfig(planner_config_path);
+    if (!loaded.ok()) return Fail(loaded.status().message());
+    config = std::move(*loaded);
+  }
+  auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;
-  online::PlanningSetup setup{ctx.Scene(), &ctx.task(), planner::DefaultPlannerOptions(),
-                              planner::DefaultReplanOptions(), solver->get()};
+  online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config.planner, config.replan, solver->get()};
   if (dry_run) return DryRun(ctx, setup, rate);
 
   online::OnlineOptions options;

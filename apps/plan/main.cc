@@ -11,12 +11,14 @@
 #include <string>
 
 #include <CLI/CLI.hpp>
+
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/io/plan_report.h"
 #include "quadhand/io/plan_table.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/planner.h"
+#include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/solvers/builtin_solvers.h"
@@ -92,15 +94,25 @@ int main(int argc, char** argv) {
   double dt = 0.01;
   unsigned seed = 0;
   bool verbose = false, keep_failed_plan = false;
-  app.add_option("task", task_path, "Task file (YAML, docs/task_format.md)")->required();
-  app.add_option("--out", out_path, "Plan file to write (CSV), written only when the plan passed the post-check")
-      ->required();
-  app.add_option("--report", report_path, "Report file to write (JSON), always written when planning ran")->required();
+  CLI::Option* task_option = app.add_option("task", task_path, "Task file (YAML, docs/task_format.md)");
+  CLI::Option* out_option =
+      app.add_option("--out", out_path, "Plan file to write (CSV), written only when the plan passed the post-check");
+  CLI::Option* report_option =
+      app.add_option("--report", report_path, "Report file to write (JSON), always written when planning ran");
   app.add_option("--html", html_path, "Also write a self-contained 3-D page of the plan");
   app.add_option("--solver", solver_name, "Optimiser back-end: lbfgs, ceres, ceres:BFGS, ipopt, nlopt, nlopt:ALGORITHM (docs/solvers.md)")->capture_default_str();
   app.add_option("--representation", representation, "Collision representation: mrc_sdf, esdf or sfc")->capture_default_str();
   app.add_option("--dt", dt, "Time step of the plan file and of the post-check, seconds")->capture_default_str();
   app.add_option("--seed", seed, "Seed of every random choice (recorded in the report)")->capture_default_str();
+  std::string config_path;
+  app.add_option("--planner-config", config_path,
+                 "Planner configuration (YAML): every tunable of the planner, cost, solver, post-check, front end\n"
+                 "and representations; keys left out keep their defaults (docs/configuration.md,\n"
+                 "data/config/default.yaml). Recorded in the report");
+  bool print_config = false;
+  app.add_flag("--print-config", print_config,
+               "Print the configuration planning would use (the defaults, or --planner-config's with the\n"
+               "defaults filled in) as YAML, and exit");
   app.add_flag("-v,--verbose", verbose, "Print solver progress");
   app.add_flag("--keep-failed-plan", keep_failed_plan,
                "Write the plan file even when the plan failed the post-check (for inspection only)");
@@ -111,6 +123,19 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return Fail(e.what());
   }
+  planner::PlannerConfig config = planner::DefaultPlannerConfig();
+  if (!config_path.empty()) {
+    auto loaded = planner::LoadPlannerConfig(config_path);
+    if (!loaded.ok()) return Fail(loaded.status().message());
+    config = std::move(*loaded);
+  }
+  if (print_config) {
+    std::printf("%s", planner::PlannerConfigYaml(config).c_str());
+    return 0;
+  }
+  for (const CLI::Option* option : {task_option, out_option, report_option}) {
+    if (option->count() == 0) return Fail(option->get_name() + " is required");
+  }
   core::SetLogLevel(verbose ? core::LogLevel::kVerbose : core::LogLevel::kInfo);
   if (!(std::isfinite(dt) && dt > 0.0 && dt <= 1.0)) return Fail("--dt must be in (0, 1] seconds");
   if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
@@ -118,9 +143,7 @@ int main(int argc, char** argv) {
   if (!solver.ok()) return Fail("--solver: " + solver.status().message());
   if (!(*solver)->available()) return Fail("--solver '" + solver_name + "' was built without its library");
 
-  planner::PlanningContextOptions context_options;
-  context_options.representations = {representation};
-  auto context = planner::PlanningContext::Load(task_path, context_options);
+  auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(config, {representation}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::Task& task = (*context)->task();
   const robot::RobotModel& robot = (*context)->robot();
@@ -132,16 +155,15 @@ int main(int argc, char** argv) {
                 robot.name().c_str());
   const double representation_ms = (*context)->representations().front().build_ms;
 
-  planner::PlannerOptions options = planner::DefaultPlannerOptions();
-  options.post_check.dt = std::min(options.post_check.dt, dt);
-  options.solver.verbosity = verbose ? 1 : 0;
-  options.terminal_state.seed = seed;
+  const planner::PlannerOptions options = planner::RunPlannerOptions(config, dt, seed, verbose);
   auto result = planner::Plan((*context)->Scene(), task, options, **solver);
   if (!result.ok()) return Fail(result.status().message());
 
   const double total_ms = Ms(start_time);
   core::AtomicFileSet outputs;
-  const io::PlanReportInfo info{task_path, solver_name, representation, seed, representation_ms, total_ms};
+  const io::PlanReportInfo info{task_path,         solver_name, representation,
+                                seed,              representation_ms, total_ms,
+                                &config, config_path.empty() ? "defaults" : config_path};
   if (core::Status s = outputs.Stage(report_path, io::PlanReportJson(*result, robot, info)); !s.ok()) {
     return Fail(s.message());
   }

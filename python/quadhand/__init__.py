@@ -181,10 +181,10 @@ class PlanResult:
         return f"<quadhand.PlanResult {self.status}: {self.message}>"
 
 
-def _task_text(task, base_dir):
-    """(text, name, base directory) of a task given as a path or a mapping."""
-    if isinstance(task, (str, os.PathLike)):
-        path = _path("task", task)
+def _yaml_text(arg, value, base_dir=None):
+    """(text, name, base directory) of a YAML file given as a path or a mapping."""
+    if isinstance(value, (str, os.PathLike)):
+        path = _path(arg, value)
         try:
             with open(path, "rb") as f:
                 data = f.read()
@@ -195,25 +195,25 @@ def _task_text(task, base_dir):
         except UnicodeDecodeError:
             raise Error(f"{path}: not valid YAML: not UTF-8 text") from None
         return text, path, os.path.dirname(path) or "."
-    if isinstance(task, Mapping):
+    if isinstance(value, Mapping):
 
-        def plain(value):
-            if isinstance(value, np.ndarray):
-                return value.tolist()
-            if isinstance(value, np.generic):
-                return value.item()
-            if isinstance(value, os.PathLike):
-                return os.fspath(value)
-            raise Error(f"task: a value of type {type(value).__name__} is not a number, list, mapping or string")
+        def plain(item):
+            if isinstance(item, np.ndarray):
+                return item.tolist()
+            if isinstance(item, np.generic):
+                return item.item()
+            if isinstance(item, os.PathLike):
+                return os.fspath(item)
+            raise Error(f"{arg}: a value of type {type(item).__name__} is not a number, list, mapping or string")
 
         # JSON is YAML: the same reader checks it. NaN and infinity come out as
         # words the reader rejects by key ("task: start.yaw: expected a number").
-        return json.dumps(task, default=plain), "task", os.fspath(base_dir) if base_dir is not None else os.getcwd()
-    raise Error(f"task: expected a dict or a path to a task YAML file, got {type(task).__name__}")
+        return json.dumps(value, default=plain), arg, os.fspath(base_dir) if base_dir is not None else os.getcwd()
+    raise Error(f"{arg}: expected a dict or a path to a YAML file, got {type(value).__name__}")
 
 
 def plan(task, robot=None, scene=None, *, solver="lbfgs", representation="mrc_sdf", dt=0.01, seed=0,
-         base_dir=None, verbose=False, keep_failed_plan=False):
+         config=None, base_dir=None, verbose=False, keep_failed_plan=False):
     """Plans a whole-body trajectory, as ``quadhand-plan`` does.
 
     task: a task YAML path, or a dict with the same keys (docs/task_format.md).
@@ -227,11 +227,18 @@ def plan(task, robot=None, scene=None, *, solver="lbfgs", representation="mrc_sd
         (docs/solvers.md). representation: ``mrc_sdf``, ``esdf`` or ``sfc``.
     dt: sampling step of the returned table and bound on the post-check's
         step, seconds. seed: seed of every random choice.
+    config: the planner configuration, a YAML path or a dict with the same
+        keys (docs/configuration.md); keys left out keep their defaults.
     keep_failed_plan: also return the trajectory of a plan that failed the
         post-check (for inspection only).
     Returns a :class:`PlanResult`; raises :class:`Error` for bad input.
     """
-    text, name, folder = _task_text(task, base_dir)
+    text, name, folder = _yaml_text("task", task, base_dir)
+    config_text, config_name = "", ""
+    if config is not None:
+        config_text, config_name, _ = _yaml_text("config", config)
+        if not config_text.strip():
+            config_text = "{}"
     if robot is not None and not isinstance(robot, Robot):
         raise Error(f"robot: expected a quadhand.Robot, got {type(robot).__name__}")
     if scene is not None and not isinstance(scene, Scene):
@@ -244,7 +251,7 @@ def plan(task, robot=None, scene=None, *, solver="lbfgs", representation="mrc_sd
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) < 2**32:
         raise Error(f"seed: expected an integer in [0, 2^32), got {seed!r}")
     output = _core._plan(text, name, folder, robot, None if scene is None else scene._core, solver, representation,
-                         float(dt), int(seed), bool(verbose), bool(keep_failed_plan))
+                         float(dt), int(seed), bool(verbose), bool(keep_failed_plan), config_text, config_name)
     return PlanResult(output)
 
 

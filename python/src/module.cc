@@ -22,6 +22,7 @@
 #include "quadhand/io/plan_table.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/planner.h"
+#include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/planner/post_check.h"
 #include "quadhand/planner/representation.h"
@@ -136,6 +137,8 @@ struct PlanArguments {
   unsigned seed = 0;
   bool verbose = false;
   bool keep_failed_plan = false;
+  std::string config_text;  // YAML or JSON; empty: the defaults
+  std::string config_name;  // a path, or "config" for a dict
 };
 
 PlanOutput RunPlan(const PlanArguments& args) {
@@ -170,18 +173,15 @@ PlanOutput RunPlan(const PlanArguments& args) {
     dropped = loaded.dropped_non_finite;
   }
 
+  planner::PlannerConfig config = planner::DefaultPlannerConfig();
+  if (!args.config_text.empty()) config = Take(planner::ParsePlannerConfig(args.config_text, args.config_name));
+
   core::SetLogLevel(args.verbose ? core::LogLevel::kVerbose : core::LogLevel::kQuiet);
-  planner::PlanningContextOptions context_options;
-  context_options.representations = {args.representation};
   auto context = Take(planner::PlanningContext::Create(std::move(task), std::move(model), std::move(points), dropped,
-                                                       context_options));
+                                                       planner::ContextOptions(config, {args.representation})));
   const double representation_ms = context->representations().front().build_ms;
 
-  // The options quadhand-plan uses for the same flags.
-  planner::PlannerOptions options = planner::DefaultPlannerOptions();
-  options.post_check.dt = std::min(options.post_check.dt, args.dt);
-  options.solver.verbosity = args.verbose ? 1 : 0;
-  options.terminal_state.seed = args.seed;
+  const planner::PlannerOptions options = planner::RunPlannerOptions(config, args.dt, args.seed, args.verbose);
   planner::PlanResult result = Take(planner::Plan(context->Scene(), context->task(), options, *solver));
 
   PlanOutput output;
@@ -189,8 +189,9 @@ PlanOutput RunPlan(const PlanArguments& args) {
   output.status = planner::PlanStatusName(result.status);
   output.message = result.message;
   const double total_ms = std::chrono::duration<double, std::milli>(Clock::now() - start_time).count();
-  const io::PlanReportInfo info{args.task_name, args.solver, args.representation, args.seed, representation_ms,
-                                total_ms};
+  const io::PlanReportInfo info{args.task_name, args.solver,        args.representation,
+                                args.seed,      representation_ms, total_ms,
+                                &config,        args.config_text.empty() ? "defaults" : args.config_name};
   output.report_json = io::PlanReportJson(result, context->robot(), info);
   if (result.trajectory && (result.success || args.keep_failed_plan)) {
     io::PlanTable table = io::SamplePlanTable(*result.trajectory, context->robot(), args.dt);
@@ -303,15 +304,15 @@ PYBIND11_MODULE(_core, m) {
       "_plan",
       [](const std::string& task_text, const std::string& task_name, const std::string& base_dir, const Robot* robot,
          const Scene* scene, const std::string& solver, const std::string& representation, double dt, unsigned seed,
-         bool verbose, bool keep_failed_plan) {
-        PlanArguments args{task_text, task_name, base_dir, robot, scene, solver, representation,
-                           dt,        seed,      verbose,  keep_failed_plan};
+         bool verbose, bool keep_failed_plan, const std::string& config_text, const std::string& config_name) {
+        PlanArguments args{task_text, task_name, base_dir,         robot,       scene,      solver, representation,
+                           dt,        seed,      verbose,          keep_failed_plan, config_text, config_name};
         py::gil_scoped_release release;
         return RunPlan(args);
       },
       py::arg("task_text"), py::arg("task_name"), py::arg("base_dir"), py::arg("robot").none(true),
       py::arg("scene").none(true), py::arg("solver"), py::arg("representation"), py::arg("dt"), py::arg("seed"),
-      py::arg("verbose"), py::arg("keep_failed_plan"));
+      py::arg("verbose"), py::arg("keep_failed_plan"), py::arg("config_text"), py::arg("config_name"));
 
   py::class_<Clearance>(m, "_Clearance")
       .def(py::init<const Robot&, const Scene&>(), py::arg("robot"), py::arg("scene"),

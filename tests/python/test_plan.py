@@ -163,3 +163,32 @@ def test_the_python_example_runs(sdf_dir):
     assert run.returncode == 0, run.stdout + run.stderr
     assert run.stdout.startswith("success: plan passed the post-check")
     assert "final state:" in run.stdout
+
+
+def test_a_configuration_changes_the_plan_and_is_recorded(task_file, python_plan, cli_plan, tmp_path):
+    assert python_plan.report["planner_config"]["source"] == "defaults"
+    assert cli_plan[1]["planner_config"] == python_plan.report["planner_config"]
+    values = python_plan.report["planner_config"]["values"]
+    assert values["cost"]["samples_per_piece"] == 16 and values["plan"]["stow_joints_in_transit"] is True
+
+    config = {"cost": {"samples_per_piece": 12}, "solver": {"max_iterations": 60}}
+    result = quadhand.plan(str(task_file), config=config)
+    recorded = result.report["planner_config"]
+    assert recorded["source"] == "config"
+    assert recorded["values"]["cost"]["samples_per_piece"] == 12
+    assert recorded["values"]["solver"]["max_iterations"] == 60
+    assert result.report["iterations"] <= 60 * len(result.report["attempts"])
+
+    path = tmp_path / "planner.yaml"
+    path.write_text("cost:\n  samples_per_piece: 12\nsolver:\n  max_iterations: 60\n")
+    csv, report = tmp_path / "p.csv", tmp_path / "r.json"
+    run = subprocess.run([str(BIN_DIR / "quadhand-plan"), str(task_file), "--planner-config", str(path), "--out",
+                          str(csv), "--report", str(report)], capture_output=True, text=True)
+    assert run.returncode in (0, 1), run.stderr
+    cli_report = json.loads(report.read_text())
+    assert cli_report["planner_config"]["source"] == str(path)
+    cli_report["planner_config"]["source"] = "config"
+    assert without_timings(cli_report) == without_timings(dict(result.report, task=str(task_file)))
+
+    with pytest.raises(quadhand.Error, match=r"^config: cost.samples: unknown key"):
+        quadhand.plan(str(task_file), config={"cost": {"samples": 12}})

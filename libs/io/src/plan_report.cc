@@ -1,5 +1,6 @@
 #include "quadhand/io/plan_report.h"
 
+#include <variant>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -67,6 +68,18 @@ std::string PlanReportJson(const planner::PlanResult& result, const robot::Robot
   nlohmann::json path = nlohmann::json::array();
   for (const Vec3& p : result.path.shortcut) path.push_back({p.x(), p.y(), p.z()});
   report["front_end_path"] = path;
+  if (info.config != nullptr) {
+    nlohmann::json values = nlohmann::json::object();
+    for (const auto& [key, value] : planner::PlannerConfigEntries(*info.config)) {
+      nlohmann::json* section = &values;  // "cost.flatness.gravity" -> values["cost"]["flatness"]["gravity"]
+      size_t begin = 0;
+      for (size_t dot = key.find('.'); dot != std::string::npos; begin = dot + 1, dot = key.find('.', begin)) {
+        section = &(*section)[key.substr(begin, dot - begin)];
+      }
+      std::visit([&](const auto& v) { (*section)[key.substr(begin)] = v; }, value);
+    }
+    report["planner_config"] = {{"source", info.config_source}, {"values", values}};
+  }
   return report.dump(2) + "\n";
 }
 

@@ -58,7 +58,8 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(Task task
   context->front_end_ = std::make_unique<FrontEndMap>(std::move(*front_end));
 
   for (const std::string& name : options.representations) {
-    auto model = MakeRepresentation(name, context->robot_, t.sdf_dir, context->points());
+    auto model =
+        MakeRepresentation(name, context->robot_, t.sdf_dir, context->points(), options.representation_options);
     if (!model.ok()) return model.status();
     context->representations_.push_back(std::move(*model));
   }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "quadhand/planner/planner.h"
+#include "quadhand/planner/planner_config.h"
 #include "quadhand/robot/robot_model.h"
 
 namespace quadhand::io {
@@ -18,6 +19,10 @@ struct PlanReportInfo {
   unsigned seed = 0;
   double representation_build_ms = 0;  // building the scene's representation (once per scene)
   double total_ms = 0;                 // wall time of the whole run that made the plan
+  // The configuration planned with (every key), and where it came from (a
+  // file, or "defaults"); none recorded when null.
+  const planner::PlannerConfig* config = nullptr;
+  std::string config_source = "defaults";
 };
 
 // The report as pretty-printed JSON text (two-space indent, newline at the end).

@@ -24,6 +24,7 @@ struct PlanningContextOptions {
   // Built in this order; names from RepresentationNames().
   std::vector<std::string> representations = {"mrc_sdf"};
   FrontEndOptions front_end;
+  RepresentationOptions representation_options;
   // Points the front-end map must cover besides the cloud, the task's start,
   // its terminal state and (for a tool-pose goal) the arm's reach around the
   // tool: e.g. the corners of a benchmark's start box.

@@ -12,6 +12,9 @@
 
 #include "quadhand/core/status.h"
 #include "quadhand/env/collision_model.h"
+#include "quadhand/env/esdf_model.h"
+#include "quadhand/env/mrc_sdf_model.h"
+#include "quadhand/env/sfc_model.h"
 #include "quadhand/planner/planner.h"
 
 namespace quadhand::planner {
@@ -25,6 +28,16 @@ struct Representation {
   double build_ms = 0;               // SDF loading + indexing, or the ESDF build (0 for sfc: per plan)
 };
 
+// Options of each representation (the representations section of the
+// configuration file, planner_config.h).
+struct RepresentationOptions {
+  env::MrcSdfOptions mrc_sdf;
+  env::EsdfOptions esdf;
+  env::SfcOptions sfc;
+
+  bool IsValid(std::string* why) const;
+};
+
 std::vector<std::string> RepresentationNames();
 
 // InvalidArgument "unknown representation 'NAME' (known: ...)" unless `name`
@@ -34,6 +47,7 @@ core::Status CheckRepresentationName(const std::string& name);
 // InvalidArgument naming the known names for an unknown one; the model's own
 // errors (missing SDF files, ...) otherwise.
 core::Result<Representation> MakeRepresentation(const std::string& name, const robot::RobotModel& robot,
-                                                const std::string& sdf_dir, const std::vector<Vec3>& points);
+                                                const std::string& sdf_dir, const std::vector<Vec3>& points,
+                                                const RepresentationOptions& options = {});
 
 }  // namespace quadhand::planner
