@@ -14,9 +14,8 @@
 
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
-#include "quadhand/io/plan_report.h"
-#include "quadhand/io/plan_table.h"
 #include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/plan_output.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
@@ -161,14 +160,14 @@ int main(int argc, char** argv) {
 
   const double total_ms = Ms(start_time);
   core::AtomicFileSet outputs;
-  const io::PlanReportInfo info{task_path,         solver_name, representation,
+  const planner::PlanReportInfo info{task_path,         solver_name, representation,
                                 seed,              representation_ms, total_ms,
                                 &config, config_path.empty() ? "defaults" : config_path};
-  if (core::Status s = outputs.Stage(report_path, io::PlanReportJson(*result, robot, info)); !s.ok()) {
+  if (core::Status s = outputs.Stage(report_path, planner::PlanReportJson(*result, robot, info)); !s.ok()) {
     return Fail(s.message());
   }
   if (result->trajectory && (result->success || keep_failed_plan)) {
-    if (core::Status s = outputs.Stage(out_path, io::PlanTableCsv(io::SamplePlanTable(*result->trajectory, robot, dt))); !s.ok()) {
+    if (core::Status s = outputs.Stage(out_path, io::PlanTableCsv(planner::SamplePlanTable(*result->trajectory, robot, dt))); !s.ok()) {
       return Fail(s.message());
     }
   }

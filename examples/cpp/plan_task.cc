@@ -3,8 +3,8 @@
 // passed the post-check, 1 when it did not, 2 for bad input.
 #include <cstdio>
 
-#include "quadhand/io/plan_report.h"
 #include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/plan_output.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/solvers/builtin_solvers.h"
@@ -27,6 +27,6 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "error: %s\n", result.status().message().c_str());
     return 2;
   }
-  std::printf("%s", io::PlanReportJson(*result, (*context)->robot(), {argv[1], "lbfgs", "mrc_sdf"}).c_str());
+  std::printf("%s", planner::PlanReportJson(*result, (*context)->robot(), {argv[1], "lbfgs", "mrc_sdf"}).c_str());
   return result->success ? 0 : 1;
 }

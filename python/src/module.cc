@@ -18,9 +18,8 @@
 #include <vector>
 
 #include "quadhand/core/log.h"
-#include "quadhand/io/plan_report.h"
-#include "quadhand/io/plan_table.h"
 #include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/plan_output.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
@@ -189,12 +188,12 @@ PlanOutput RunPlan(const PlanArguments& args) {
   output.status = planner::PlanStatusName(result.status);
   output.message = result.message;
   const double total_ms = std::chrono::duration<double, std::milli>(Clock::now() - start_time).count();
-  const io::PlanReportInfo info{args.task_name, args.solver,        args.representation,
+  const planner::PlanReportInfo info{args.task_name, args.solver,        args.representation,
                                 args.seed,      representation_ms, total_ms,
                                 &config,        args.config_text.empty() ? "defaults" : args.config_name};
-  output.report_json = io::PlanReportJson(result, context->robot(), info);
+  output.report_json = planner::PlanReportJson(result, context->robot(), info);
   if (result.trajectory && (result.success || args.keep_failed_plan)) {
-    io::PlanTable table = io::SamplePlanTable(*result.trajectory, context->robot(), args.dt);
+    io::PlanTable table = planner::SamplePlanTable(*result.trajectory, context->robot(), args.dt);
     output.csv = io::PlanTableCsv(table);
     output.columns = std::move(table.columns);
     output.table = std::move(table.values);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "quadhand/io/plan_file.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/traj/flatness.h"
 
@@ -43,9 +44,8 @@ void FlightLog::Record(const MeasuredState& measured, const std::optional<Setpoi
 }
 
 std::string FlightLog::Csv(const std::vector<std::string>& joint_names) const {
-  std::string out = "t,px,py,pz,vx,vy,vz,ax,ay,az,qw,qx,qy,qz,yaw,yaw_rate";
-  for (const auto& name : joint_names) out += "," + name;
-  for (const auto& name : joint_names) out += "," + name + "_rate";
+  std::string out;
+  for (const std::string& column : io::PlanColumns(joint_names)) out += (out.empty() ? "" : ",") + column;
   out += ",sp_px,sp_py,sp_pz,sp_vx,sp_vy,sp_vz,sp_ax,sp_ay,sp_az,sp_yaw,sp_yaw_rate";
   for (const auto& name : joint_names) out += ",sp_" + name;
   for (const auto& name : joint_names) out += ",sp_" + name + "_rate";

@@ -1,81 +1,38 @@
 #include "quadhand/sim/plan_io.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
-#include <map>
-#include <sstream>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/io/plan_file.h"
 
 namespace quadhand::sim {
 namespace {
 
-using core::Status;
-
-const char* const kBaseColumns[] = {"t",  "px", "py", "pz", "vx", "vy", "vz",  "ax",
-                                    "ay", "az", "qw", "qx", "qy", "qz", "yaw", "yaw_rate"};
-
-std::vector<std::string> SplitCommas(const std::string& line) {
-  std::vector<std::string> fields;
-  std::string field;
-  std::istringstream in(line);
-  while (std::getline(in, field, ',')) fields.push_back(field);
-  if (!line.empty() && line.back() == ',') fields.emplace_back();
-  return fields;
-}
-
-std::string Trim(const std::string& s) {
-  const size_t a = s.find_first_not_of(" \t\r");
-  if (a == std::string::npos) return "";
-  const size_t b = s.find_last_not_of(" \t\r");
-  return s.substr(a, b - a + 1);
-}
-
-bool ParseNumber(const std::string& text, double* value) {
-  const std::string s = Trim(text);
-  if (s.empty()) return false;
-  char* end = nullptr;
-  errno = 0;
-  *value = std::strtod(s.c_str(), &end);
-  return end == s.c_str() + s.size() && errno != ERANGE && std::isfinite(*value);
-}
-
 double WrapAngle(double a) { return std::remainder(a, 2.0 * M_PI); }
-
-void Put(std::string* out, double v) {
-  char buffer[40];
-  std::snprintf(buffer, sizeof(buffer), "%.10g", v);
-  if (!out->empty()) out->push_back(',');
-  *out += buffer;
-}
 
 }  // namespace
 
 std::string PlanCsvHeader(const std::vector<std::string>& joint_names) {
   std::string header;
-  for (const char* c : kBaseColumns) header += (header.empty() ? "" : ",") + std::string(c);
-  for (const auto& name : joint_names) header += "," + name;
-  for (const auto& name : joint_names) header += "," + name + "_rate";
+  for (const std::string& column : io::PlanColumns(joint_names)) header += (header.empty() ? "" : ",") + column;
   return header;
 }
 
 std::string PlanCsvRow(const PlanRow& r) {
   std::string out;
-  Put(&out, r.t);
-  for (int i = 0; i < 3; ++i) Put(&out, r.position[i]);
-  for (int i = 0; i < 3; ++i) Put(&out, r.velocity[i]);
-  for (int i = 0; i < 3; ++i) Put(&out, r.acceleration[i]);
-  Put(&out, r.attitude.w());
-  Put(&out, r.attitude.x());
-  Put(&out, r.attitude.y());
-  Put(&out, r.attitude.z());
-  Put(&out, r.yaw);
-  Put(&out, r.yaw_rate);
-  for (int i = 0; i < r.joints.size(); ++i) Put(&out, r.joints[i]);
-  for (int i = 0; i < r.joint_rates.size(); ++i) Put(&out, r.joint_rates[i]);
+  io::AppendCsvNumber(&out, r.t);
+  for (int i = 0; i < 3; ++i) io::AppendCsvNumber(&out, r.position[i]);
+  for (int i = 0; i < 3; ++i) io::AppendCsvNumber(&out, r.velocity[i]);
+  for (int i = 0; i < 3; ++i) io::AppendCsvNumber(&out, r.acceleration[i]);
+  io::AppendCsvNumber(&out, r.attitude.w());
+  io::AppendCsvNumber(&out, r.attitude.x());
+  io::AppendCsvNumber(&out, r.attitude.y());
+  io::AppendCsvNumber(&out, r.attitude.z());
+  io::AppendCsvNumber(&out, r.yaw);
+  io::AppendCsvNumber(&out, r.yaw_rate);
+  for (int i = 0; i < r.joints.size(); ++i) io::AppendCsvNumber(&out, r.joints[i]);
+  for (int i = 0; i < r.joint_rates.size(); ++i) io::AppendCsvNumber(&out, r.joint_rates[i]);
   return out;
 }
 
@@ -87,67 +44,25 @@ std::string WritePlanCsv(const Plan& plan) {
 
 core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::string>& joint_names,
                                 const std::string& source) {
-  auto bad = [&](const std::string& what) { return Status::InvalidArgument(source + ": " + what); };
-  std::istringstream in(text);
-  std::string line;
-  if (!std::getline(in, line) || Trim(line).empty()) return bad("empty file (expected a plan CSV header)");
-  const std::vector<std::string> header = SplitCommas(line);
-  std::map<std::string, int> column;
-  for (size_t i = 0; i < header.size(); ++i) column.emplace(Trim(header[i]), static_cast<int>(i));
-  std::vector<std::string> wanted(std::begin(kBaseColumns), std::end(kBaseColumns));
-  for (const auto& name : joint_names) wanted.push_back(name);
-  for (const auto& name : joint_names) wanted.push_back(name + "_rate");
-  std::vector<int> index;
-  for (const auto& name : wanted) {
-    const auto it = column.find(name);
-    if (it == column.end()) return bad("missing column '" + name + "' (see contracts.md: plan file)");
-    index.push_back(it->second);
-  }
-
+  auto table = io::ParsePlanFile(text, joint_names, source);
+  if (!table.ok()) return table.status();
   Plan plan;
   plan.joint_names = joint_names;
   const int n = static_cast<int>(joint_names.size());
-  std::vector<double> v(wanted.size());
-  int line_number = 1;
-  while (std::getline(in, line)) {
-    ++line_number;
-    if (Trim(line).empty()) continue;
-    const std::vector<std::string> fields = SplitCommas(line);
-    if (fields.size() != header.size()) {
-      return bad("line " + std::to_string(line_number) + ": " + std::to_string(fields.size()) + " fields, the header has " +
-                 std::to_string(header.size()));
-    }
-    for (size_t k = 0; k < wanted.size(); ++k) {
-      if (!ParseNumber(fields[index[k]], &v[k])) {
-        return bad("line " + std::to_string(line_number) + ": column '" + wanted[k] + "': not a finite number: '" +
-                   Trim(fields[index[k]]) + "'");
-      }
-    }
+  for (Eigen::Index i = 0; i < table->values.rows(); ++i) {
+    const auto v = table->values.row(i);
     PlanRow r;
     r.t = v[0];
     r.position = Vec3(v[1], v[2], v[3]);
     r.velocity = Vec3(v[4], v[5], v[6]);
     r.acceleration = Vec3(v[7], v[8], v[9]);
-    r.attitude = Quat(v[10], v[11], v[12], v[13]);
-    if (std::abs(r.attitude.norm() - 1.0) > 1e-3) {
-      return bad("line " + std::to_string(line_number) + ": the quaternion (qw, qx, qy, qz) is not of unit length");
-    }
-    r.attitude.normalize();
+    r.attitude = Quat(v[10], v[11], v[12], v[13]).normalized();
     r.yaw = v[14];
     r.yaw_rate = v[15];
-    r.joints = VecX(n);
-    r.joint_rates = VecX(n);
-    for (int k = 0; k < n; ++k) {
-      r.joints[k] = v[16 + k];
-      r.joint_rates[k] = v[16 + n + k];
-    }
-    if (!plan.rows.empty() && !(r.t > plan.rows.back().t)) {
-      return bad("line " + std::to_string(line_number) + ": time " + Trim(fields[index[0]]) +
-                 " does not increase");
-    }
+    r.joints = v.segment(16, n).transpose();
+    r.joint_rates = v.segment(16 + n, n).transpose();
     plan.rows.push_back(std::move(r));
   }
-  if (plan.rows.size() < 2) return bad("a plan needs at least 2 rows, found " + std::to_string(plan.rows.size()));
   return plan;
 }
 

@@ -1,17 +1,45 @@
-#include "quadhand/io/plan_report.h"
+#include "quadhand/planner/plan_output.h"
 
+#include <algorithm>
+#include <cmath>
 #include <variant>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
-namespace quadhand::io {
+namespace quadhand::planner {
 
-std::string PlanReportJson(const planner::PlanResult& result, const robot::RobotModel& robot,
-                           const PlanReportInfo& info) {
+io::PlanTable SamplePlanTable(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, double dt) {
+  io::PlanTable table;
+  table.columns = io::PlanColumns(robot.ActuatedJointNames());
+  const double duration = trajectory.duration();
+  const long steps = std::max(1L, static_cast<long>(std::ceil(duration / dt - 1e-9)));
+  const int n = robot.num_actuated();
+  table.values.resize(steps + 1, static_cast<Eigen::Index>(table.columns.size()));
+  for (long k = 0; k <= steps; ++k) {
+    const double t = k == steps ? duration : k * dt;
+    const WholeBodySample s = trajectory.Sample(t);
+    auto row = table.values.row(k);
+    row[0] = t;
+    row.segment<3>(1) = s.position.transpose();
+    row.segment<3>(4) = s.velocity.transpose();
+    row.segment<3>(7) = s.acceleration.transpose();
+    row[10] = s.attitude.w();
+    row[11] = s.attitude.x();
+    row[12] = s.attitude.y();
+    row[13] = s.attitude.z();
+    row[14] = s.yaw;
+    row[15] = s.yaw_rate;
+    row.segment(16, n) = s.joints.transpose();
+    row.segment(16 + n, n) = s.joint_rates.transpose();
+  }
+  return table;
+}
+
+std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& robot, const PlanReportInfo& info) {
   nlohmann::json report;
   report["success"] = result.success;
-  report["status"] = planner::PlanStatusName(result.status);
+  report["status"] = PlanStatusName(result.status);
   report["message"] = result.message;
   report["task"] = info.task;
   report["solver"] = info.solver;
@@ -70,7 +98,7 @@ std::string PlanReportJson(const planner::PlanResult& result, const robot::Robot
   report["front_end_path"] = path;
   if (info.config != nullptr) {
     nlohmann::json values = nlohmann::json::object();
-    for (const auto& [key, value] : planner::PlannerConfigEntries(*info.config)) {
+    for (const auto& [key, value] : PlannerConfigEntries(*info.config)) {
       nlohmann::json* section = &values;  // "cost.flatness.gravity" -> values["cost"]["flatness"]["gravity"]
       size_t begin = 0;
       for (size_t dot = key.find('.'); dot != std::string::npos; begin = dot + 1, dot = key.find('.', begin)) {
@@ -83,4 +111,4 @@ std::string PlanReportJson(const planner::PlanResult& result, const robot::Robot
   return report.dump(2) + "\n";
 }
 
-}  // namespace quadhand::io
+}  // namespace quadhand::planner

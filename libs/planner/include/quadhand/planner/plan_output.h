@@ -1,15 +1,22 @@
-// The report of one plan (docs/plan.md "Report"): outcome, timings, the
-// terminal state, the post-check with every check, the attempts, the final
-// cost terms and the front-end path, as JSON text.
+// What a plan writes: the plan file's table (io/plan_file.h) sampled from the
+// trajectory, and the report (docs/plan.md "Report fields"): outcome,
+// timings, the terminal state, the post-check with every check, the
+// attempts, the final cost terms, the front-end path and the configuration,
+// as JSON text. quadhand-plan and the Python module write both with these.
 #pragma once
 
 #include <string>
 
+#include "quadhand/io/plan_file.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/robot/robot_model.h"
 
-namespace quadhand::io {
+namespace quadhand::planner {
+
+// Samples `trajectory` every `dt` seconds (dt > 0), the last row exactly at
+// the duration, into the plan file's columns for the robot's joints.
+io::PlanTable SamplePlanTable(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, double dt);
 
 // What the report records besides the result itself.
 struct PlanReportInfo {
@@ -21,12 +28,11 @@ struct PlanReportInfo {
   double total_ms = 0;                 // wall time of the whole run that made the plan
   // The configuration planned with (every key), and where it came from (a
   // file, or "defaults"); none recorded when null.
-  const planner::PlannerConfig* config = nullptr;
+  const PlannerConfig* config = nullptr;
   std::string config_source = "defaults";
 };
 
 // The report as pretty-printed JSON text (two-space indent, newline at the end).
-std::string PlanReportJson(const planner::PlanResult& result, const robot::RobotModel& robot,
-                           const PlanReportInfo& info);
+std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& robot, const PlanReportInfo& info);
 
-}  // namespace quadhand::io
+}  // namespace quadhand::planner

@@ -1,0 +1,127 @@
+#include "quadhand/io/plan_file.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <sstream>
+
+#include "quadhand/core/file_util.h"
+
+namespace quadhand::io {
+namespace {
+
+std::vector<std::string> SplitCommas(const std::string& line) {
+  std::vector<std::string> fields;
+  std::string field;
+  std::istringstream in(line);
+  while (std::getline(in, field, ',')) fields.push_back(field);
+  if (!line.empty() && line.back() == ',') fields.emplace_back();
+  return fields;
+}
+
+std::string Trim(const std::string& s) {
+  const size_t a = s.find_first_not_of(" \t\r");
+  if (a == std::string::npos) return "";
+  const size_t b = s.find_last_not_of(" \t\r");
+  return s.substr(a, b - a + 1);
+}
+
+bool ParseNumber(const std::string& text, double* value) {
+  const std::string s = Trim(text);
+  if (s.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  *value = std::strtod(s.c_str(), &end);
+  return end == s.c_str() + s.size() && errno != ERANGE && std::isfinite(*value);
+}
+
+}  // namespace
+
+std::vector<std::string> PlanColumns(const std::vector<std::string>& joint_names) {
+  std::vector<std::string> columns = {"t",  "px", "py", "pz", "vx", "vy", "vz",  "ax",
+                                      "ay", "az", "qw", "qx", "qy", "qz", "yaw", "yaw_rate"};
+  for (const auto& name : joint_names) columns.push_back(name);
+  for (const auto& name : joint_names) columns.push_back(name + "_rate");
+  return columns;
+}
+
+void AppendCsvNumber(std::string* line, double value) {
+  char buffer[40];
+  std::snprintf(buffer, sizeof(buffer), "%.10g", value);
+  if (!line->empty()) line->push_back(',');
+  *line += buffer;
+}
+
+std::string PlanTableCsv(const PlanTable& table) {
+  std::string out;
+  for (size_t c = 0; c < table.columns.size(); ++c) out += (c == 0 ? "" : ",") + table.columns[c];
+  out += '\n';
+  std::string line;
+  for (Eigen::Index r = 0; r < table.values.rows(); ++r) {
+    line.clear();
+    for (Eigen::Index c = 0; c < table.values.cols(); ++c) AppendCsvNumber(&line, table.values(r, c));
+    out += line;
+    out += '\n';
+  }
+  return out;
+}
+
+core::Result<PlanTable> ParsePlanFile(const std::string& text, const std::vector<std::string>& joint_names,
+                                      const std::string& source) {
+  auto bad = [&](const std::string& what) { return core::Status::InvalidArgument(source + ": " + what); };
+  std::istringstream in(text);
+  std::string line;
+  if (!std::getline(in, line) || Trim(line).empty()) return bad("empty file (expected a plan CSV header)");
+  const std::vector<std::string> header = SplitCommas(line);
+  std::map<std::string, int> column;
+  for (size_t i = 0; i < header.size(); ++i) column.emplace(Trim(header[i]), static_cast<int>(i));
+  PlanTable table;
+  table.columns = PlanColumns(joint_names);
+  std::vector<int> index;
+  for (const auto& name : table.columns) {
+    const auto it = column.find(name);
+    if (it == column.end()) return bad("missing column '" + name + "' (see contracts.md: plan file)");
+    index.push_back(it->second);
+  }
+
+  const size_t width = table.columns.size();
+  std::vector<double> values;
+  std::vector<double> row(width);
+  int line_number = 1;
+  size_t rows = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (Trim(line).empty()) continue;
+    const std::vector<std::string> fields = SplitCommas(line);
+    const std::string where = "line " + std::to_string(line_number) + ": ";
+    if (fields.size() != header.size()) {
+      return bad(where + std::to_string(fields.size()) + " fields, the header has " + std::to_string(header.size()));
+    }
+    for (size_t k = 0; k < width; ++k) {
+      if (!ParseNumber(fields[index[k]], &row[k])) {
+        return bad(where + "column '" + table.columns[k] + "': not a finite number: '" + Trim(fields[index[k]]) + "'");
+      }
+    }
+    const double quaternion_norm = std::sqrt(row[10] * row[10] + row[11] * row[11] + row[12] * row[12] + row[13] * row[13]);
+    if (std::abs(quaternion_norm - 1.0) > 1e-3) return bad(where + "the quaternion (qw, qx, qy, qz) is not of unit length");
+    if (rows > 0 && !(row[0] > values[(rows - 1) * width])) {
+      return bad(where + "time " + Trim(fields[index[0]]) + " does not increase");
+    }
+    values.insert(values.end(), row.begin(), row.end());
+    ++rows;
+  }
+  if (rows < 2) return bad("a plan needs at least 2 rows, found " + std::to_string(rows));
+  table.values = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      values.data(), static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(width));
+  return table;
+}
+
+core::Result<PlanTable> LoadPlanFile(const std::string& path, const std::vector<std::string>& joint_names) {
+  auto text = core::ReadFileToString(path);
+  if (!text.ok()) return text.status();
+  return ParsePlanFile(*text, joint_names, path);
+}
+
+}  // namespace quadhand::io
