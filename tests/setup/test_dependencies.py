@@ -44,11 +44,14 @@ def read_package_list(path=None):
 
 
 def cmake_files():
-    out = subprocess.run(["git", "-C", str(ROOT), "ls-files", "--cached", "--others", "--exclude-standard",
-                          "*CMakeLists.txt", "*.cmake", "*.cmake.in"],
-                         capture_output=True, text=True)
-    if out.returncode == 0 and out.stdout.strip():
-        return [ROOT / f for f in out.stdout.split()]
+    try:  # a checkout: the files git knows (tracked, or new and not ignored)
+        out = subprocess.run(["git", "-C", str(ROOT), "ls-files", "--cached", "--others", "--exclude-standard",
+                              "*CMakeLists.txt", "*.cmake", "*.cmake.in"],
+                             capture_output=True, text=True)
+        if out.returncode == 0 and out.stdout.strip():
+            return [ROOT / f for f in out.stdout.split()]
+    except OSError:
+        pass  # no git (a source archive, a fresh machine): walk the tree
     skip = {"build", "node_modules", ".git"}
     return [p for p in ROOT.rglob("*") if p.is_file() and not skip.intersection(p.relative_to(ROOT).parts)
             and (p.name == "CMakeLists.txt" or p.name.endswith((".cmake", ".cmake.in")))]

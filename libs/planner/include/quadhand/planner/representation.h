@@ -1,11 +1,14 @@
-// Geometric representations by name, for the apps: every one implements
-// env::CollisionModel and is planned with the same optimiser, front end and
-// post-check, so success means the same thing for all of them.
+// Geometric representations by name, in a registry like the solvers': every
+// one implements env::CollisionModel and is planned with the same optimiser,
+// front end and post-check, so success means the same thing for all of them.
+// Built in:
 //   mrc_sdf  per-link SDFs queried with the raw points (the paper's MRC-SDF)
 //   esdf     OctoMap + DynamicEDT3D distance field, robot as surface points
 //   sfc      safe-flight corridors along each plan's front-end path
+// docs/extending.md shows how to add one.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -38,14 +41,36 @@ struct RepresentationOptions {
   bool IsValid(std::string* why) const;
 };
 
+// What a representation is built from: the robot, the scene's points (finite,
+// non-empty; they must outlive the representation, which may keep a
+// reference to them, as PlanningContext's do), the folder of the robot's
+// link SDFs and the options.
+struct RepresentationInputs {
+  const robot::RobotModel& robot;
+  const std::vector<Vec3>& points;
+  const std::string& sdf_dir;
+  const RepresentationOptions& options;
+};
+
+// Builds one representation; errors name the file or option at fault, and
+// kInfeasible is kept for "this scene cannot be represented".
+using RepresentationFactory = std::function<core::Result<Representation>(const RepresentationInputs& inputs)>;
+
+// Adds a representation by name (non-empty, unique): after this,
+// --representation NAME, the benchmark and the Python module can use it.
+// mrc_sdf, esdf and sfc are registered before the first use of the registry.
+// Thread-safe.
+core::Status RegisterRepresentation(const std::string& name, RepresentationFactory factory);
+
+// The registered names, in registration order (mrc_sdf, esdf, sfc first).
 std::vector<std::string> RepresentationNames();
 
 // InvalidArgument "unknown representation 'NAME' (known: ...)" unless `name`
-// is one of RepresentationNames().
+// is registered.
 core::Status CheckRepresentationName(const std::string& name);
 
-// InvalidArgument naming the known names for an unknown one; the model's own
-// errors (missing SDF files, ...) otherwise.
+// Builds the representation registered as `name` (InvalidArgument for an
+// unknown name or invalid options).
 core::Result<Representation> MakeRepresentation(const std::string& name, const robot::RobotModel& robot,
                                                 const std::string& sdf_dir, const std::vector<Vec3>& points,
                                                 const RepresentationOptions& options = {});
