@@ -59,7 +59,11 @@ cleanup() {
   for ((i = ${#mounted[@]} - 1; i >= 0; i--)); do
     umount -l "${mounted[$i]}" 2>/dev/null || true
   done
-  if [ "$keep" -eq 0 ]; then
+  # Never delete through a mount still in place: that would reach this
+  # machine's own /dev, /proc or /sys.
+  if grep -qF " $root/" /proc/mounts; then
+    echo "fresh_machine_check: mounts remain under $root; not deleting $workdir" >&2
+  elif [ "$keep" -eq 0 ]; then
     rm -rf "$workdir"
   else
     echo "fresh_machine_check: root and logs kept in $workdir"
