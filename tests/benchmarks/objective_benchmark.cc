@@ -121,7 +121,7 @@ void BM_ObjectiveWithGradient(benchmark::State& state) {
     benchmark::DoNotOptimize(grad.data());
   }
   const auto terms = *p.problem->Breakdown(p.x);
-  state.counters["collision_term"] = terms.collision;
+  state.counters["collision_term"] = terms.Term("collision");
   state.counters["samples"] = state.range(0) * (p.problem->options().samples_per_piece + 1);
 }
 BENCHMARK(BM_ObjectiveWithGradient)->Arg(5)->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMicrosecond);
@@ -230,8 +230,8 @@ void BM_SolveFromHandMadePath(benchmark::State& state) {
   const auto terms = *p.problem->Breakdown(result.x);
   state.counters["iterations"] = result.iterations;
   state.counters["evaluations"] = result.evaluations;
-  state.counters["collision_term"] = terms.collision;
-  state.counters["insertion_term"] = terms.insertion;
+  state.counters["collision_term"] = terms.Term("collision");
+  state.counters["insertion_term"] = terms.Term("insertion");
   state.counters["duration_s"] = terms.time;
   state.SetLabel(result.StatusName());
 }

@@ -149,11 +149,16 @@ TEST_P(TermGradientTest, MatchesFiniteDifferences) {
   ASSERT_TRUE(breakdown.ok());
   // The term under test must be active at x0, or the check proves nothing.
   const std::map<std::string, double> values = {
-      {"time", breakdown->time},           {"energy", breakdown->energy},
-      {"collision", breakdown->collision}, {"insertion", breakdown->insertion},
-      {"velocity", breakdown->velocity},   {"acceleration", breakdown->acceleration},
-      {"yaw_rate", breakdown->yaw_rate},   {"joint_rate", breakdown->joint_rate},
-      {"body_rate", breakdown->body_rate}, {"joint_limits", breakdown->joint_limits}};
+      {"time", breakdown->time},
+      {"energy", breakdown->energy},
+      {"collision", breakdown->Term("collision")},
+      {"insertion", breakdown->Term("insertion")},
+      {"velocity", breakdown->Term("velocity")},
+      {"acceleration", breakdown->Term("acceleration")},
+      {"yaw_rate", breakdown->Term("yaw_rate")},
+      {"joint_rate", breakdown->Term("joint_rate")},
+      {"body_rate", breakdown->Term("body_rate")},
+      {"joint_limits", breakdown->Term("joint_limits")}};
   EXPECT_GT(values.at(GetParam()), 0.0) << GetParam() << " is not active at the test point";
   int skipped = 0;
   ExpectGradientMatches(*setup.problem, setup.x0, 1e-5, &skipped);
@@ -211,7 +216,7 @@ TEST(WholeBodyProblemTest, InsertionCollisionThresholdActsOnTheInsertionPieceOnl
     ProblemSetup setup = MakeSetup(o, insertion, extra);
     auto breakdown = setup.problem->Breakdown(setup.x0);
     EXPECT_TRUE(breakdown.ok());
-    return breakdown.ok() ? breakdown->collision : -1.0;
+    return breakdown.ok() ? breakdown->Term("collision") : -1.0;
   };
   // The wall is passed in the middle pieces: the insertion threshold does not touch it.
   const double wall = collision_with(0.0, true, {});
@@ -235,7 +240,8 @@ TEST(WholeBodyProblemTest, GradientWithAnInsertionCollisionThreshold) {
   ProblemSetup setup = MakeSetup(o, /*insertion=*/true, RingAroundGoalTool(0.045));
   // The ring must be within the insertion threshold on the last piece.
   ProblemSetup without_ring = MakeSetup(o, /*insertion=*/true);
-  ASSERT_GT(setup.problem->Breakdown(setup.x0)->collision, without_ring.problem->Breakdown(without_ring.x0)->collision);
+  ASSERT_GT(setup.problem->Breakdown(setup.x0)->Term("collision"),
+            without_ring.problem->Breakdown(without_ring.x0)->Term("collision"));
   int skipped = 0;
   ExpectGradientMatches(*setup.problem, setup.x0, 1e-5, &skipped);
   EXPECT_LE(skipped, 3);
@@ -256,7 +262,7 @@ TEST(WholeBodyProblemTest, InsertionPieceHasItsOwnSampleCount) {
   // Only the last piece's quadrature changes: the insertion term (on that
   // piece alone) moves, the energy and time do not.
   const CostBreakdown coarse = breakdown_with(16, 4), fine = breakdown_with(16, 16);
-  EXPECT_NE(coarse.insertion, fine.insertion);
+  EXPECT_NE(coarse.Term("insertion"), fine.Term("insertion"));
   EXPECT_EQ(coarse.energy, fine.energy);
   EXPECT_EQ(coarse.time, fine.time);
   // The defaults' gradient tests above run with insertion_samples = 8 against

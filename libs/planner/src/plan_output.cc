@@ -89,10 +89,8 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   }
   report["attempts"] = attempts;
   const auto& c = result.final_cost;
-  report["final_cost"] = {{"total", c.total},       {"energy", c.energy},         {"time_s", c.time},
-                          {"collision", c.collision}, {"insertion", c.insertion}, {"velocity", c.velocity},
-                          {"acceleration", c.acceleration}, {"yaw_rate", c.yaw_rate}, {"joint_rate", c.joint_rate},
-                          {"body_rate", c.body_rate}, {"joint_limits", c.joint_limits}};
+  report["final_cost"] = {{"total", c.total}, {"energy", c.energy}, {"time_s", c.time}};
+  for (const auto& [name, value] : c.terms) report["final_cost"][name] = value;
   nlohmann::json path = nlohmann::json::array();
   for (const Vec3& p : result.path.shortcut) path.push_back({p.x(), p.y(), p.z()});
   report["front_end_path"] = path;

@@ -1,9 +1,10 @@
 #include "quadhand/planner/planner.h"
 
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
+#include "quadhand/planner/cost_term.h"
 #include "quadhand/robot/kinematics.h"
 
 namespace quadhand::planner {
@@ -70,26 +71,19 @@ bool RaiseWeightsOfFailedChecks(const PostCheckReport& report, double factor, in
   bool raised = false;
   for (const CheckResult& check : report.checks) {
     if (check.passed) continue;
-    double* weight = nullptr;
-    switch (check.kind) {
-      case CheckKind::kClearance:
-        weight = &cost->weight_collision;
-        for (int* samples : {&cost->samples_per_piece, &cost->insertion_samples}) {
-          *samples = std::max(*samples, std::min(*samples * sample_factor, max_samples));
-        }
-        break;
-      case CheckKind::kVelocity: weight = &cost->weight_velocity; break;
-      case CheckKind::kAcceleration: weight = &cost->weight_acceleration; break;
-      case CheckKind::kYawRate: weight = &cost->weight_yaw_rate; break;
-      case CheckKind::kBodyRateXY: weight = &cost->weight_body_rate; break;
-      case CheckKind::kJointRate: weight = &cost->weight_joint_rate; break;
-      case CheckKind::kJointLimits: weight = &cost->weight_joint_limits; break;
-      case CheckKind::kInsertion: weight = &cost->weight_insertion; break;
-      case CheckKind::kStartState:
-      case CheckKind::kEndState: break;  // boundary conditions are exact in MINCO: no weight to raise
+    // A thin link can pass an obstacle edge between two samples of a long
+    // piece, where no weight on the sampled penalty sees it.
+    if (check.kind == CheckKind::kClearance) {
+      for (int* samples : {&cost->samples_per_piece, &cost->insertion_samples}) {
+        *samples = std::max(*samples, std::min(*samples * sample_factor, max_samples));
+      }
     }
-    if (weight != nullptr) {
-      *weight *= factor;
+    // Each term declares the checks that raise its weight; start and end
+    // states raise none (MINCO meets the boundary conditions exactly).
+    for (const CostTermDescriptor& term : CostTermDescriptors()) {
+      const auto& kinds = term.raised_by;
+      if (std::find(kinds.begin(), kinds.end(), check.kind) == kinds.end()) continue;
+      cost->*(term.weight) *= factor;
       raised = true;
     }
   }

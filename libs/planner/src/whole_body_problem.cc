@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "quadhand/opt/penalty.h"
+#include "quadhand/planner/cost_term.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/traj/time_map.h"
 
@@ -25,11 +25,6 @@ Eigen::Matrix<double, 3, 4> RotationVectorPerQuaternion(const Eigen::Vector4d& q
     M.col(k) = 2.0 * (unit * conjugate).vec();
   }
   return M;
-}
-
-// Penalty on a squared rate beyond its bound: SmoothedL1(|x|^2 - max^2).
-double SquaredRatePenalty(double squared, double max, double mu, double* slope) {
-  return opt::SmoothedL1(squared - max * max, mu, slope);
 }
 
 }  // namespace
@@ -98,9 +93,10 @@ struct WholeBodyProblem::Workspace {
   MatX total_position_waypoints, total_aux_waypoints;
   VecX total_durations_position, total_durations_aux, grad_taus;
   robot::KinematicsState kinematics;
-  env::StateGradient collision_gradient, insertion_gradient, point_gradient;
-  VecX aux_value, aux_rate, aux_value_grad, aux_rate_grad;
+  VecX aux_value, aux_rate;
   VecX joints;  // the joint part of aux_value (ComputeKinematics takes a VecX: no temporary per sample)
+  SampleGradient gradient;          // what the terms leave at one sample
+  std::vector<double> term_values;  // each term's running value (CostBreakdown)
 };
 
 WholeBodyProblem::WholeBodyProblem(const robot::RobotModel& robot, const env::CollisionModel& collision)
@@ -173,16 +169,33 @@ core::Result<std::unique_ptr<WholeBodyProblem>> WholeBodyProblem::Create(
   w.grad_durations_aux.resize(num_pieces);
   w.aux_value.resize(1 + n);
   w.aux_rate.resize(1 + n);
-  w.aux_value_grad.resize(1 + n);
   w.joints.resize(n);
-  w.aux_rate_grad.resize(1 + n);
+  w.gradient.aux_value.resize(1 + n);
+  w.gradient.aux_rate.resize(1 + n);
+  w.gradient.point.SetZero(n);
+  w.gradient.scratch.SetZero(n);
   return problem;
 }
 
 core::Status WholeBodyProblem::SetOptions(const WholeBodyCostOptions& options) {
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("cost options: " + why);
   options_ = options;
+  terms_.clear();
+  needs_kinematics_ = false;
+  const CostTermInputs inputs{robot_, collision_, limits_, insertion_, options_};
+  for (const CostTermDescriptor& term : CostTermDescriptors()) {
+    terms_.push_back(term.make(inputs, options_.*(term.weight)));
+    needs_kinematics_ = needs_kinematics_ || terms_.back()->NeedsKinematics();
+  }
+  work_->term_values.assign(terms_.size(), 0.0);
   return core::Status::Ok();
+}
+
+double CostBreakdown::Term(const std::string& name) const {
+  for (const auto& [term, value] : terms) {
+    if (term == name) return value;
+  }
+  return 0.0;
 }
 
 int WholeBodyProblem::num_variables() const { return num_pieces_ + (3 + 1 + num_joints_) * (num_pieces_ - 1); }
@@ -219,7 +232,6 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
   Workspace& w = *work_;
   const WholeBodyCostOptions& o = options_;
   const int n = num_joints_;
-  CostBreakdown terms;
   if (with_gradient) {
     w.grad_position_coeffs.setZero();
     w.grad_aux_coeffs.setZero();
@@ -233,177 +245,103 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
     w.grad_durations_aux *= o.energy_weight_aux;
     w.grad_durations_position.array() += o.time_weight;
   }
-  terms.energy = o.energy_weight_position * w.position.Energy() + o.energy_weight_aux * w.aux.Energy();
-  terms.time = w.durations.sum();
-  double total = terms.energy + o.time_weight * terms.time;
+  const double energy = o.energy_weight_position * w.position.Energy() + o.energy_weight_aux * w.aux.Energy();
+  const double time = w.durations.sum();
+  double total = energy + o.time_weight * time;
+  std::fill(w.term_values.begin(), w.term_values.end(), 0.0);
 
-  const env::PenaltyParameters transit_collision{o.collision_threshold, o.collision_mu};
-  const env::PenaltyParameters insertion_collision{
-      o.insertion_collision_threshold > 0.0 ? o.insertion_collision_threshold : o.collision_threshold, o.collision_mu};
-  const Mat3 goal_rotation = insertion_.tool_orientation.toRotationMatrix();
-  Vec3 p, v, a, j;
+  SampleGradient& g = w.gradient;
+  SampleState s;
+  s.aux_value = &w.aux_value;
+  s.aux_rate = &w.aux_rate;
   for (int piece = 0; piece < num_pieces_; ++piece) {
     const double duration = w.durations[piece];
-    const bool insertion_piece = insertion_.enabled && piece == num_pieces_ - 1;
-    const env::PenaltyParameters& collision_parameters = insertion_piece ? insertion_collision : transit_collision;
-    const int K = insertion_piece && o.insertion_samples > 0 ? o.insertion_samples : o.samples_per_piece;
+    s.piece = piece;
+    s.insertion_piece = insertion_.enabled && piece == num_pieces_ - 1;
+    const int K = s.insertion_piece && o.insertion_samples > 0 ? o.insertion_samples : o.samples_per_piece;
+    s.K = K;
     for (int k = 0; k <= K; ++k) {
       const double fraction = static_cast<double>(k) / K;
       const double t = fraction * duration;
       const double end_weight = (k == 0 || k == K) ? 0.5 : 1.0;
       const double weight = end_weight * duration / K;  // trapezoidal quadrature
-      w.position.Evaluate(piece, t, 0, p);
-      w.position.Evaluate(piece, t, 1, v);
-      w.position.Evaluate(piece, t, 2, a);
-      w.position.Evaluate(piece, t, 3, j);
+      s.k = k;
+      s.t = t;
+      s.weight = weight;
+      w.position.Evaluate(piece, t, 0, s.position);
+      w.position.Evaluate(piece, t, 1, s.velocity);
+      w.position.Evaluate(piece, t, 2, s.acceleration);
+      w.position.Evaluate(piece, t, 3, s.jerk);
       w.aux.Evaluate(piece, t, 0, w.aux_value);
       w.aux.Evaluate(piece, t, 1, w.aux_rate);
-      const double yaw = w.aux_value[0], yaw_rate = w.aux_rate[0];
-      const traj::FlatState flat = traj::FlatForward(v, a, j, yaw, yaw_rate, o.flatness);
-
-      // Local gradients of this sample's (unweighted by `weight`) cost.
-      Vec3 grad_p = Vec3::Zero(), grad_v = Vec3::Zero(), grad_a = Vec3::Zero(), grad_rotation = Vec3::Zero();
-      w.aux_value_grad.setZero();
-      w.aux_rate_grad.setZero();
-      traj::FlatStateGrad flat_grad;
-      double sample = 0.0, slope = 0.0, c = 0.0;
-      // Gradient of point (not integrated) costs of this sample.
-      env::StateGradient& point_gradient = w.point_gradient;
-      point_gradient.SetZero(n);
-      bool point_active = false;  // a point cost's gradient was added to point_gradient
-
-      c = SquaredRatePenalty(v.squaredNorm(), o.limit_fraction * limits_.v_max, o.feasibility_mu, &slope);
-      terms.velocity += weight * c;
-      sample += o.weight_velocity * c;
-      grad_v += o.weight_velocity * slope * 2.0 * v;
-
-      c = SquaredRatePenalty(a.squaredNorm(), o.limit_fraction * limits_.a_max, o.feasibility_mu, &slope);
-      terms.acceleration += weight * c;
-      sample += o.weight_acceleration * c;
-      grad_a += o.weight_acceleration * slope * 2.0 * a;
-
-      c = SquaredRatePenalty(yaw_rate * yaw_rate, o.limit_fraction * limits_.yaw_rate_max, o.feasibility_mu, &slope);
-      terms.yaw_rate += weight * c;
-      sample += o.weight_yaw_rate * c;
-      w.aux_rate_grad[0] += o.weight_yaw_rate * slope * 2.0 * yaw_rate;
-
-      for (int q = 0; q < n; ++q) {
-        const double rate = w.aux_rate[1 + q], angle = w.aux_value[1 + q];
-        c = SquaredRatePenalty(rate * rate, o.limit_fraction * limits_.joint_rate_max[q], o.feasibility_mu, &slope);
-        terms.joint_rate += weight * c;
-        sample += o.weight_joint_rate * c;
-        w.aux_rate_grad[1 + q] += o.weight_joint_rate * slope * 2.0 * rate;
-        double slope_low = 0, slope_high = 0;
-        c = opt::SmoothedL1(angle - (limits_.joint_upper[q] - o.joint_limit_margin), o.joint_limit_mu, &slope_high) +
-            opt::SmoothedL1(limits_.joint_lower[q] + o.joint_limit_margin - angle, o.joint_limit_mu, &slope_low);
-        terms.joint_limits += weight * c;
-        sample += o.weight_joint_limits * c;
-        w.aux_value_grad[1 + q] += o.weight_joint_limits * (slope_high - slope_low);
+      s.yaw = w.aux_value[0];
+      s.yaw_rate = w.aux_rate[0];
+      const traj::FlatState flat =
+          traj::FlatForward(s.velocity, s.acceleration, s.jerk, s.yaw, s.yaw_rate, o.flatness);
+      s.flat = &flat;
+      if (needs_kinematics_) {
+        w.joints = w.aux_value.tail(n);
+        robot::ComputeKinematics(robot_, MakePose(s.position, flat.rotation()), w.joints, &w.kinematics);
+        s.kinematics = &w.kinematics;
       }
 
-      c = SquaredRatePenalty(flat.body_rate_xy_sq, o.limit_fraction * limits_.body_rate_xy_max, o.feasibility_mu, &slope);
-      terms.body_rate += weight * c;
-      sample += o.weight_body_rate * c;
-      flat_grad.body_rate_xy_sq += o.weight_body_rate * slope;
-
-      // Collision (and insertion) need the whole-body kinematics.
-      const Pose base = MakePose(p, flat.rotation());
-      w.joints = w.aux_value.tail(n);
-      robot::ComputeKinematics(robot_, base, w.joints, &w.kinematics);
-      w.collision_gradient.SetZero(n);
-      c = env::WholeBodyPenalty(robot_, w.kinematics, collision_, collision_parameters,
-                                env::QueryContext{piece, t}, with_gradient ? &w.collision_gradient : nullptr);
-      terms.collision += weight * c;
-      sample += o.weight_collision * c;
-      if (with_gradient && c > 0.0) {
-        grad_p += o.weight_collision * w.collision_gradient.position;
-        grad_rotation += o.weight_collision * w.collision_gradient.rotation;
-        w.aux_value_grad.tail(n) += o.weight_collision * w.collision_gradient.joints;
+      // Every term adds its value and its gradient w.r.t. this sample's state.
+      if (with_gradient) {
+        g.position.setZero();
+        g.velocity.setZero();
+        g.acceleration.setZero();
+        g.rotation.setZero();
+        g.aux_value.setZero();
+        g.aux_rate.setZero();
+        g.flat = traj::FlatStateGrad{};
+        g.point.SetZero(n);
+        g.point_active = false;
       }
-
-      if (insertion_piece) {
-        const Pose& tool = w.kinematics.link_poses[insertion_.tool_link];
-        const Vec3 offset = tool.translation() - insertion_.tool_position;
-        const Vec3 across = offset - insertion_.direction * insertion_.direction.dot(offset);
-        const double off_line = across.norm();
-        double slope_position = 0, slope_rotation = 0;
-        const double c_position =
-            opt::SmoothedL1(off_line - o.insertion_position_tolerance, o.insertion_mu, &slope_position);
-        const Mat3 M = tool.linear() * goal_rotation.transpose();
-        const double rotation_distance = 0.5 * (3.0 - M.trace());
-        const double c_rotation =
-            opt::SmoothedL1(rotation_distance - o.insertion_rotation_tolerance, o.insertion_mu, &slope_rotation);
-        c = o.insertion_position_weight * c_position + o.insertion_rotation_weight * c_rotation;
-        terms.insertion += weight * c;
-        sample += o.weight_insertion * c;
-        // The insertion piece must start with the tool backed off by the full
-        // length (plus a margin) along the line, or part of the approach would
-        // escape the penalty. A point cost at the piece's first sample, not
-        // integrated: a quadrature weight there would make it negligible.
-        if (k == 0) {
-          double slope_backoff = 0.0;
-          const double along = insertion_.direction.dot(offset);
-          const double c_backoff = opt::SmoothedL1(along + insertion_.length + o.insertion_backoff_margin,
-                                                   o.insertion_mu, &slope_backoff);
-          const double scale = o.weight_insertion * o.insertion_position_weight;
-          terms.insertion += c_backoff;
-          total += scale * c_backoff;
-          if (with_gradient && c_backoff > 0.0) {
-            point_active = true;
-            env::LinkWrench wrench;
-            wrench.force = scale * slope_backoff * insertion_.direction;
-            env::AccumulateLinkWrench(robot_, w.kinematics, insertion_.tool_link, wrench, &point_gradient);
-          }
-        }
-        if (with_gradient && c > 0.0) {
-          env::LinkWrench wrench;
-          if (off_line > 0.0) {
-            wrench.force = o.weight_insertion * o.insertion_position_weight * slope_position * across / off_line;
-          }
-          // d tr(exp([phi]x) M) / d phi = (M23 - M32, M31 - M13, M12 - M21).
-          const Vec3 trace_gradient(M(1, 2) - M(2, 1), M(2, 0) - M(0, 2), M(0, 1) - M(1, 0));
-          wrench.torque = o.weight_insertion * o.insertion_rotation_weight * slope_rotation * (-0.5) * trace_gradient;
-          w.insertion_gradient.SetZero(n);
-          env::AccumulateLinkWrench(robot_, w.kinematics, insertion_.tool_link, wrench, &w.insertion_gradient);
-          grad_p += w.insertion_gradient.position;
-          grad_rotation += w.insertion_gradient.rotation;
-          w.aux_value_grad.tail(n) += w.insertion_gradient.joints;
-        }
+      double sample = 0.0;  // lambda-weighted integrand at this sample
+      for (size_t i = 0; i < terms_.size(); ++i) {
+        SampleSums sums{w.term_values[i], sample, total};
+        terms_[i]->AddSample(s, &sums, with_gradient ? &g : nullptr);
       }
-
       total += weight * sample;
       if (!with_gradient) continue;
       // Every penalty here is zero with a zero slope below its threshold, so
       // a sample that costs nothing has no gradient either: most samples of
       // a feasible trajectory. Skipping them leaves the sums unchanged.
-      if (sample == 0.0 && !point_active) continue;
+      if (sample == 0.0 && !g.point_active) continue;
 
       // Backward: the quadrature step moves with the duration...
       w.grad_durations_position[piece] += sample * end_weight / K;
       // ...and so does the sample time (dt/dT = fraction), through AddSampleGradient.
-      flat_grad.quat = RotationVectorPerQuaternion(flat.quat).transpose() *
-                       (weight * grad_rotation + point_gradient.rotation);
+      traj::FlatStateGrad flat_grad = g.flat;
+      flat_grad.quat = RotationVectorPerQuaternion(flat.quat).transpose() * (weight * g.rotation + g.point.rotation);
       flat_grad.body_rate_xy_sq *= weight;
-      const traj::FlatInputGrad through_flatness = traj::FlatBackward(v, a, j, yaw, yaw_rate, flat, flat_grad, o.flatness);
-      w.position.AddSampleGradient(piece, t, 0, weight * grad_p + point_gradient.position, fraction, w.grad_position_coeffs,
-                                   w.grad_durations_position);
-      w.position.AddSampleGradient(piece, t, 1, weight * grad_v + through_flatness.vel, fraction,
+      const traj::FlatInputGrad through_flatness =
+          traj::FlatBackward(s.velocity, s.acceleration, s.jerk, s.yaw, s.yaw_rate, flat, flat_grad, o.flatness);
+      w.position.AddSampleGradient(piece, t, 0, weight * g.position + g.point.position, fraction,
                                    w.grad_position_coeffs, w.grad_durations_position);
-      w.position.AddSampleGradient(piece, t, 2, weight * grad_a + through_flatness.acc, fraction,
+      w.position.AddSampleGradient(piece, t, 1, weight * g.velocity + through_flatness.vel, fraction,
+                                   w.grad_position_coeffs, w.grad_durations_position);
+      w.position.AddSampleGradient(piece, t, 2, weight * g.acceleration + through_flatness.acc, fraction,
                                    w.grad_position_coeffs, w.grad_durations_position);
       w.position.AddSampleGradient(piece, t, 3, through_flatness.jerk, fraction, w.grad_position_coeffs,
                                    w.grad_durations_position);
-      w.aux_value_grad *= weight;
-      w.aux_value_grad.tail(n) += point_gradient.joints;
-      w.aux_value_grad[0] += through_flatness.yaw;
-      w.aux_rate_grad *= weight;
-      w.aux_rate_grad[0] += through_flatness.yaw_rate;
-      w.aux.AddSampleGradient(piece, t, 0, w.aux_value_grad, fraction, w.grad_aux_coeffs, w.grad_durations_aux);
-      w.aux.AddSampleGradient(piece, t, 1, w.aux_rate_grad, fraction, w.grad_aux_coeffs, w.grad_durations_aux);
+      g.aux_value *= weight;
+      g.aux_value.tail(n) += g.point.joints;
+      g.aux_value[0] += through_flatness.yaw;
+      g.aux_rate *= weight;
+      g.aux_rate[0] += through_flatness.yaw_rate;
+      w.aux.AddSampleGradient(piece, t, 0, g.aux_value, fraction, w.grad_aux_coeffs, w.grad_durations_aux);
+      w.aux.AddSampleGradient(piece, t, 1, g.aux_rate, fraction, w.grad_aux_coeffs, w.grad_durations_aux);
     }
   }
-  terms.total = total;
-  if (breakdown != nullptr) *breakdown = terms;
+  if (breakdown != nullptr) {
+    breakdown->energy = energy;
+    breakdown->time = time;
+    breakdown->total = total;
+    breakdown->terms.clear();
+    const std::vector<CostTermDescriptor>& descriptors = CostTermDescriptors();
+    for (size_t i = 0; i < terms_.size(); ++i) breakdown->terms.emplace_back(descriptors[i].name, w.term_values[i]);
+  }
   return total;
 }
 

@@ -32,6 +32,8 @@
 
 namespace quadhand::planner {
 
+class CostTerm;
+
 // A whole-body boundary state: flat outputs and their derivatives.
 struct BoundaryState {
   Vec3 position = Vec3::Zero();
@@ -121,10 +123,15 @@ struct WholeBodyCostOptions {
   bool IsValid(std::string* why) const;
 };
 
-// Value of each term at one x (for reports and benchmarks); the weighted sum is `total`.
+// Value of each term at one x (for reports and benchmarks), unweighted:
+// energy (already with its energy weights), total duration, and every sampled
+// term by name (cost_term.h) integrated over the trajectory; the weighted sum
+// is `total`.
 struct CostBreakdown {
-  double energy = 0, time = 0, collision = 0, insertion = 0, velocity = 0, acceleration = 0,
-         yaw_rate = 0, joint_rate = 0, body_rate = 0, joint_limits = 0, total = 0;
+  double energy = 0, time = 0, total = 0;
+  std::vector<std::pair<std::string, double>> terms;  // in evaluation order
+  // The value of the term called `name` (0 when there is none).
+  double Term(const std::string& name) const;
 };
 
 // One instant of a whole-body trajectory.
@@ -195,6 +202,8 @@ class WholeBodyProblem final : public opt::Objective {
   Limits limits_;
   InsertionGoal insertion_;
   WholeBodyCostOptions options_;
+  std::vector<std::unique_ptr<CostTerm>> terms_;  // built from options_ (cost_term.h)
+  bool needs_kinematics_ = false;
   int num_pieces_ = 0;
   int num_joints_ = 0;
 

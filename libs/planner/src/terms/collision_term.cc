@@ -1,0 +1,56 @@
+// Collision (the paper's J_c): the collision model's whole-body penalty of
+// the link poses, with the transit threshold, or on the insertion piece its
+// own (WholeBodyCostOptions::insertion_collision_threshold).
+#include "terms/builtin_terms.h"
+
+namespace quadhand::planner {
+namespace {
+
+class CollisionPenalty final : public CostTerm {
+ public:
+  CollisionPenalty(const robot::RobotModel& robot, const env::CollisionModel& collision,
+                   env::PenaltyParameters transit, env::PenaltyParameters insertion, double weight)
+      : robot_(robot), collision_(collision), transit_(transit), insertion_(insertion), weight_(weight) {}
+
+  bool NeedsKinematics() const override { return true; }
+
+  void AddSample(const SampleState& s, SampleSums* sums, SampleGradient* gradient) const override {
+    const int n = robot_.num_actuated();
+    env::StateGradient* link_gradient = nullptr;
+    if (gradient != nullptr) {
+      gradient->scratch.SetZero(n);
+      link_gradient = &gradient->scratch;
+    }
+    const double c = env::WholeBodyPenalty(robot_, *s.kinematics, collision_, s.insertion_piece ? insertion_ : transit_,
+                                           env::QueryContext{s.piece, s.t}, link_gradient);
+    sums->breakdown += s.weight * c;
+    sums->sample += weight_ * c;
+    if (gradient != nullptr && c > 0.0) {
+      gradient->position += weight_ * link_gradient->position;
+      gradient->rotation += weight_ * link_gradient->rotation;
+      gradient->aux_value.tail(n) += weight_ * link_gradient->joints;
+    }
+  }
+
+ private:
+  const robot::RobotModel& robot_;
+  const env::CollisionModel& collision_;
+  env::PenaltyParameters transit_, insertion_;
+  double weight_;
+};
+
+}  // namespace
+
+CostTermDescriptor CollisionTerm() {
+  return {"collision", &WholeBodyCostOptions::weight_collision, {CheckKind::kClearance},
+          [](const CostTermInputs& in, double weight) -> std::unique_ptr<CostTerm> {
+            const WholeBodyCostOptions& o = in.options;
+            const env::PenaltyParameters transit{o.collision_threshold, o.collision_mu};
+            const env::PenaltyParameters insertion{
+                o.insertion_collision_threshold > 0.0 ? o.insertion_collision_threshold : o.collision_threshold,
+                o.collision_mu};
+            return std::make_unique<CollisionPenalty>(in.robot, in.collision, transit, insertion, weight);
+          }};
+}
+
+}  // namespace quadhand::planner

@@ -1,0 +1,100 @@
+// Insertion (the paper's J_e), on the samples of the insertion piece: the
+// tool's distance to the insertion line and its rotation distance
+// d_R = (3 - tr(R_e R_g^T)) / 2 to the goal orientation, beyond tolerances;
+// plus a point cost at the piece's first sample: how far the tool is short
+// of backing off the full insertion length (and a margin) along the line.
+#include "quadhand/opt/penalty.h"
+#include "terms/builtin_terms.h"
+
+namespace quadhand::planner {
+namespace {
+
+class InsertionPenalty final : public CostTerm {
+ public:
+  InsertionPenalty(const robot::RobotModel& robot, const InsertionGoal& goal, const WholeBodyCostOptions& o,
+                   double weight)
+      : robot_(robot),
+        goal_(goal),
+        goal_rotation_(goal.tool_orientation.toRotationMatrix()),
+        position_tolerance_(o.insertion_position_tolerance),
+        rotation_tolerance_(o.insertion_rotation_tolerance),
+        position_weight_(o.insertion_position_weight),
+        rotation_weight_(o.insertion_rotation_weight),
+        mu_(o.insertion_mu),
+        backoff_margin_(o.insertion_backoff_margin),
+        weight_(weight) {}
+
+  bool NeedsKinematics() const override { return true; }
+
+  void AddSample(const SampleState& s, SampleSums* sums, SampleGradient* gradient) const override {
+    if (!s.insertion_piece) return;
+    const int n = robot_.num_actuated();
+    const Pose& tool = s.kinematics->link_poses[goal_.tool_link];
+    const Vec3 offset = tool.translation() - goal_.tool_position;
+    const Vec3 across = offset - goal_.direction * goal_.direction.dot(offset);
+    const double off_line = across.norm();
+    double slope_position = 0, slope_rotation = 0;
+    const double c_position = opt::SmoothedL1(off_line - position_tolerance_, mu_, &slope_position);
+    const Mat3 M = tool.linear() * goal_rotation_.transpose();
+    const double rotation_distance = 0.5 * (3.0 - M.trace());
+    const double c_rotation = opt::SmoothedL1(rotation_distance - rotation_tolerance_, mu_, &slope_rotation);
+    const double c = position_weight_ * c_position + rotation_weight_ * c_rotation;
+    sums->breakdown += s.weight * c;
+    sums->sample += weight_ * c;
+    // The insertion piece must start with the tool backed off by the full
+    // length (plus a margin) along the line, or part of the approach would
+    // escape the penalty. A point cost at the piece's first sample, not
+    // integrated: a quadrature weight there would make it negligible.
+    if (s.k == 0) {
+      double slope_backoff = 0.0;
+      const double along = goal_.direction.dot(offset);
+      const double c_backoff = opt::SmoothedL1(along + goal_.length + backoff_margin_, mu_, &slope_backoff);
+      const double scale = weight_ * position_weight_;
+      sums->breakdown += c_backoff;
+      sums->total += scale * c_backoff;
+      if (gradient != nullptr && c_backoff > 0.0) {
+        gradient->point_active = true;
+        env::LinkWrench wrench;
+        wrench.force = scale * slope_backoff * goal_.direction;
+        env::AccumulateLinkWrench(robot_, *s.kinematics, goal_.tool_link, wrench, &gradient->point);
+      }
+    }
+    if (gradient != nullptr && c > 0.0) {
+      env::LinkWrench wrench;
+      if (off_line > 0.0) wrench.force = weight_ * position_weight_ * slope_position * across / off_line;
+      // d tr(exp([phi]x) M) / d phi = (M23 - M32, M31 - M13, M12 - M21).
+      const Vec3 trace_gradient(M(1, 2) - M(2, 1), M(2, 0) - M(0, 2), M(0, 1) - M(1, 0));
+      wrench.torque = weight_ * rotation_weight_ * slope_rotation * (-0.5) * trace_gradient;
+      gradient->scratch.SetZero(n);
+      env::AccumulateLinkWrench(robot_, *s.kinematics, goal_.tool_link, wrench, &gradient->scratch);
+      gradient->position += gradient->scratch.position;
+      gradient->rotation += gradient->scratch.rotation;
+      gradient->aux_value.tail(n) += gradient->scratch.joints;
+    }
+  }
+
+ private:
+  const robot::RobotModel& robot_;
+  InsertionGoal goal_;
+  Mat3 goal_rotation_;
+  double position_tolerance_, rotation_tolerance_, position_weight_, rotation_weight_, mu_, backoff_margin_;
+  double weight_;
+};
+
+// A plan without an insertion: the term costs nothing.
+class NoInsertion final : public CostTerm {
+ public:
+  void AddSample(const SampleState&, SampleSums*, SampleGradient*) const override {}
+};
+
+}  // namespace
+
+CostTermDescriptor InsertionTerm() {
+  return {"insertion", &WholeBodyCostOptions::weight_insertion, {CheckKind::kInsertion},
+          [](const CostTermInputs& in, double weight) -> std::unique_ptr<CostTerm> {
+            if (!in.insertion.enabled) return std::make_unique<NoInsertion>();
+            return std::make_unique<InsertionPenalty>(in.robot, in.insertion, in.options, weight);
+          }};
+}
+
+}  // namespace quadhand::planner
