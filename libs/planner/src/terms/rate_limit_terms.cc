@@ -11,23 +11,24 @@ double SquaredRatePenalty(double squared, double max, double mu, double* slope) 
   return opt::SmoothedL1(squared - max * max, mu, slope);
 }
 
-// One 3-vector (velocity or acceleration) against one limit.
+// One 3-vector, the velocity (Derivative 1) or the acceleration (2), against one limit.
+template <int Derivative>
 class VectorRateTerm final : public CostTerm {
  public:
-  VectorRateTerm(int derivative, double max, double mu, double weight)
-      : derivative_(derivative), max_(max), mu_(mu), weight_(weight) {}
+  VectorRateTerm(double max, double mu, double weight) : max_(max), mu_(mu), weight_(weight) {}
 
   void AddSample(const SampleState& s, SampleSums* sums, SampleGradient* gradient) const override {
-    const Vec3& x = derivative_ == 1 ? s.velocity : s.acceleration;
+    const Vec3& x = Derivative == 1 ? s.velocity : s.acceleration;
     double slope = 0.0;
     const double c = SquaredRatePenalty(x.squaredNorm(), max_, mu_, &slope);
     sums->breakdown += s.weight * c;
     sums->sample += weight_ * c;
-    if (gradient != nullptr) (derivative_ == 1 ? gradient->velocity : gradient->acceleration) += weight_ * slope * 2.0 * x;
+    if (gradient != nullptr) {
+      (Derivative == 1 ? gradient->velocity : gradient->acceleration) += weight_ * slope * 2.0 * x;
+    }
   }
 
  private:
-  int derivative_;
   double max_, mu_, weight_;
 };
 
@@ -89,7 +90,7 @@ CostTermDescriptor VelocityTerm() {
   return {"velocity", &WholeBodyCostOptions::weight_velocity, {CheckKind::kVelocity},
           [](const CostTermInputs& in, double weight) -> std::unique_ptr<CostTerm> {
             const WholeBodyCostOptions& o = in.options;
-            return std::make_unique<VectorRateTerm>(1, o.limit_fraction * in.limits.v_max, o.feasibility_mu, weight);
+            return std::make_unique<VectorRateTerm<1>>(o.limit_fraction * in.limits.v_max, o.feasibility_mu, weight);
           }};
 }
 
@@ -97,7 +98,7 @@ CostTermDescriptor AccelerationTerm() {
   return {"acceleration", &WholeBodyCostOptions::weight_acceleration, {CheckKind::kAcceleration},
           [](const CostTermInputs& in, double weight) -> std::unique_ptr<CostTerm> {
             const WholeBodyCostOptions& o = in.options;
-            return std::make_unique<VectorRateTerm>(2, o.limit_fraction * in.limits.a_max, o.feasibility_mu, weight);
+            return std::make_unique<VectorRateTerm<2>>(o.limit_fraction * in.limits.a_max, o.feasibility_mu, weight);
           }};
 }
 
