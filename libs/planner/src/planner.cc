@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "quadhand/planner/cost_term.h"
+#include "plan_stages.h"
 #include "quadhand/robot/kinematics.h"
 
 namespace quadhand::planner {
@@ -141,14 +142,58 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
   return core::Status::Ok();
 }
 
-core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
-                              const opt::Solver& solver) {
-  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
+double StateClearance(const PlanningScene& scene, const BoundaryState& state, double reach, int* link) {
+  robot::KinematicsState kinematics;
+  const Pose base = MakePose(state.position, Eigen::AngleAxisd(state.yaw, Vec3::UnitZ()).toRotationMatrix());
+  robot::ComputeKinematics(scene.robot, base, state.joints, &kinematics);
+  return scene.exact.WholeBody(kinematics, reach, link);
+}
+
+core::Result<bool> BuildPlanCollision(const PlanningScene& scene, const std::vector<Vec3>& path, const Vec3& start,
+                                      const InitialGuess& guess, const Vec3& end, PlanCollision* collision,
+                                      PlanResult* result) {
+  collision->model = &scene.collision;
+  collision->owned.reset();
+  if (!scene.per_plan_collision) return true;
+  std::vector<Vec3> boundaries = {start};
+  for (int i = 0; i < guess.position_waypoints.cols(); ++i) boundaries.push_back(guess.position_waypoints.col(i));
+  boundaries.push_back(end);
+  auto built = scene.per_plan_collision(path.empty() ? boundaries : path, boundaries, &result->per_plan_collision_ms);
+  if (!built.ok()) {
+    if (built.status().code() != core::StatusCode::kInfeasible) return built.status();
+    result->status = PlanStatus::kRepresentationFailed;
+    result->message = built.status().message();
+    return false;
+  }
+  collision->owned = std::move(*built);
+  collision->model = collision->owned.get();
+  return true;
+}
+
+core::Status Optimise(const PlanningScene& scene, const PlanCollision& collision, const Task& task,
+                      const InitialGuess& guess, const PlannerOptions& options, const opt::SolverOptions& first,
+                      const opt::SolverOptions& retry, int max_attempts, const opt::Solver& solver,
+                      PlanResult* result) {
+  result->num_pieces = static_cast<int>(guess.durations.size());
+  auto problem = WholeBodyProblem::Create(scene.robot, *collision.model, task.start, result->terminal, task.limits,
+                                          result->insertion, CostForTask(options, task), result->num_pieces);
+  if (!problem.ok()) return problem.status().WithPrefix(task.file);
+  const VecX x0 = (*problem)->Pack(guess.position_waypoints, guess.aux_waypoints, guess.durations);
+  return SolveAndPostCheck(problem->get(), x0, scene, *collision.model, task, options, first, retry, max_attempts,
+                           solver, result);
+}
+
+namespace {
+
+// Stage "resolve goal": the terminal state (given, or searched for a tool
+// pose), its yaw the shortest way round from the start, and the insertion.
+// False, with result->status kTerminalStateFailed, when no terminal state
+// reaches the tool pose.
+core::Result<bool> ResolveGoal(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                               const opt::Solver& solver, PlanResult* result) {
   const robot::RobotModel& robot = scene.robot;
-  if (!task.terminal && !task.tool) return core::Status::InvalidArgument(task.file + ": goal: no terminal state or tool pose");
-  PlanResult result;
   if (task.terminal) {
-    result.terminal = *task.terminal;
+    result->terminal = *task.terminal;
   } else {
     const int tool_link = robot.LinkIndex("tool");
     if (tool_link < 0) return core::Status::InvalidArgument(task.robot_path + ": no link named 'tool' for the goal pose");
@@ -156,18 +201,17 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
                                    options.terminal_state, solver);
     if (!found.ok()) {
       if (found.status().code() != core::StatusCode::kInfeasible) return found.status();
-      result.status = PlanStatus::kTerminalStateFailed;
-      result.message = found.status().message();
-      return result;
+      result->status = PlanStatus::kTerminalStateFailed;
+      result->message = found.status().message();
+      return false;
     }
-    result.terminal_searched = true;
-    result.terminal_search = *found;
-    result.terminal = found->state;
+    result->terminal_searched = true;
+    result->terminal_search = *found;
+    result->terminal = found->state;
   }
-  // The shortest way round to the goal heading.
-  result.terminal.yaw = task.start.yaw + std::remainder(result.terminal.yaw - task.start.yaw, 2.0 * M_PI);
+  result->terminal.yaw = task.start.yaw + std::remainder(result->terminal.yaw - task.start.yaw, 2.0 * M_PI);
 
-  InsertionGoal& insertion = result.insertion;
+  InsertionGoal& insertion = result->insertion;
   if (task.tool && task.tool->has_insertion) {
     insertion.enabled = true;
     insertion.tool_link = robot.LinkIndex("tool");
@@ -177,68 +221,84 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
     insertion.direction = task.tool->insertion_direction;
     insertion.length = task.tool->insertion_length;
     // The terminal state must put the tool where the task says.
-    const Pose hover = MakePose(result.terminal.position,
-                                Eigen::AngleAxisd(result.terminal.yaw, Vec3::UnitZ()).toRotationMatrix());
-    const Pose tool = robot::LinkPose(robot, hover, result.terminal.joints, insertion.tool_link);
+    const Pose hover = MakePose(result->terminal.position,
+                                Eigen::AngleAxisd(result->terminal.yaw, Vec3::UnitZ()).toRotationMatrix());
+    const Pose tool = robot::LinkPose(robot, hover, result->terminal.joints, insertion.tool_link);
     const double mismatch = (tool.translation() - insertion.tool_position).norm();
     if (mismatch > options.post_check.position_tolerance) {
       return core::Status::InvalidArgument(task.file + ": goal: the terminal state puts the tool " +
                                            std::to_string(mismatch) + " m from goal.tool.position");
     }
   }
+  return true;
+}
 
-  // Start and goal must be collision-free, or no plan can pass the post-check.
-  robot::KinematicsState kinematics;
+// Stage "check end points": start and goal must be collision-free, or no
+// plan can pass the post-check.
+core::Status CheckEndPoints(const PlanningScene& scene, const Task& task, const BoundaryState& terminal,
+                            const PlannerOptions& options) {
   const double reach = task.safety_distance + 0.05;
-  const std::pair<const char*, BoundaryState> ends[] = {{"start", task.start}, {"goal", result.terminal}};
+  const std::pair<const char*, const BoundaryState*> ends[] = {{"start", &task.start}, {"goal", &terminal}};
   for (const auto& [name, state] : ends) {
-    const Pose base = MakePose(state.position, Eigen::AngleAxisd(state.yaw, Vec3::UnitZ()).toRotationMatrix());
-    robot::ComputeKinematics(robot, base, state.joints, &kinematics);
     int link = -1;
-    const double clearance = scene.exact.WholeBody(kinematics, reach, &link);
+    const double clearance = StateClearance(scene, *state, reach, &link);
     if (clearance < task.safety_distance - options.post_check.clearance_tolerance) {
       return core::Status::InvalidArgument(task.file + ": " + name + " state is in collision: link " +
-                                           robot.link(link).name + " is " + std::to_string(clearance) +
+                                           scene.robot.link(link).name + " is " + std::to_string(clearance) +
                                            " m from the scene (safety distance " +
                                            std::to_string(task.safety_distance) + " m)");
     }
   }
+  return core::Status::Ok();
+}
 
-  // Front end: the base path to the start of the insertion, then straight down.
+// Stage "front end": the base path to the start of the insertion (then
+// straight along it). False, with result->status kFrontEndFailed, when the
+// scene leaves no way.
+core::Result<bool> FindFrontEndPath(const PlanningScene& scene, const Task& task, PlanResult* result) {
+  const InsertionGoal& insertion = result->insertion;
   const auto front_start = std::chrono::steady_clock::now();
   const Vec3 approach_start = insertion.enabled
-                                  ? Vec3(result.terminal.position - insertion.direction * insertion.length)
-                                  : result.terminal.position;
+                                  ? Vec3(result->terminal.position - insertion.direction * insertion.length)
+                                  : result->terminal.position;
   auto path = scene.front_end.FindPath(task.start.position, approach_start);
-  result.front_end_ms = MillisecondsSince(front_start);
+  result->front_end_ms = MillisecondsSince(front_start);
   if (!path.ok()) {
     if (path.status().code() == core::StatusCode::kInfeasible) {
-      result.status = PlanStatus::kFrontEndFailed;
-      result.message = path.status().message();
-      return result;
+      result->status = PlanStatus::kFrontEndFailed;
+      result->message = path.status().message();
+      return false;
     }
     return path.status().WithPrefix(task.file);
   }
-  result.path = *path;
-  std::vector<Vec3> corners = path->shortcut;
-  if (insertion.enabled) corners.push_back(result.terminal.position);
+  result->path = *path;
+  return true;
+}
 
-  // Initial guess: waypoints along the path; yaw and joints linear in time,
-  // reaching their terminal values where the insertion starts.
+// Stage "initial guess": waypoints along the path's corners with a
+// trapezoidal speed profile; yaw and joints linear in time, or (with
+// stow_joints_in_transit) folded along the first leg and unfolded along the
+// last (PlannerOptions).
+core::Result<InitialGuess> GuessFromPath(const robot::RobotModel& robot, const Task& task,
+                                         const PlannerOptions& options, const std::vector<Vec3>& corners,
+                                         const PlanResult& result) {
+  const InsertionGoal& insertion = result.insertion;
   const double cruise = std::min(options.cruise_speed, task.limits.v_max);
   const double acceleration = std::min(options.cruise_acceleration, task.limits.a_max);
   const int pieces = PieceCountForPath(corners, options.piece_length, options.min_pieces);
-  MatX position_waypoints;
-  VecX durations;
-  QUADHAND_RETURN_IF_ERROR(InitialGuessFromPath(corners, pieces, cruise, acceleration, &position_waypoints, &durations));
+  InitialGuess guess;
+  QUADHAND_RETURN_IF_ERROR(
+      InitialGuessFromPath(corners, pieces, cruise, acceleration, &guess.position_waypoints, &guess.durations));
+  const VecX& durations = guess.durations;
   const int n = robot.num_actuated();
-  MatX aux_waypoints(1 + n, pieces - 1);
+  MatX& aux_waypoints = guess.aux_waypoints;
+  aux_waypoints.resize(1 + n, pieces - 1);
   VecX aux_start(1 + n), aux_end(1 + n);
   aux_start << task.start.yaw, task.start.joints;
   aux_end << result.terminal.yaw, result.terminal.joints;
   const double aux_time = durations.sum() - (insertion.enabled ? durations[pieces - 1] : 0.0);
   // Times of the path corners (where the stowed phase begins and ends).
-  const std::vector<Vec3>& legs = path->shortcut;
+  const std::vector<Vec3>& legs = result.path.shortcut;
   const bool stow = options.stow_joints_in_transit && legs.size() >= 4;
   double stow_begin = 0.0, stow_end = aux_time;
   VecX stowed = VecX::Zero(n);
@@ -278,31 +338,35 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
     }
     aux_waypoints.block(1, i, n, 1) = joints;
   }
-  result.num_pieces = pieces;
+  return guess;
+}
 
-  const env::CollisionModel* collision = &scene.collision;
-  std::unique_ptr<env::CollisionModel> per_plan;
-  if (scene.per_plan_collision) {
-    std::vector<Vec3> boundaries = {task.start.position};
-    for (int i = 0; i < position_waypoints.cols(); ++i) boundaries.push_back(position_waypoints.col(i));
-    boundaries.push_back(result.terminal.position);
-    auto built = scene.per_plan_collision(corners, boundaries, &result.per_plan_collision_ms);
-    if (!built.ok()) {
-      if (built.status().code() != core::StatusCode::kInfeasible) return built.status();
-      result.status = PlanStatus::kRepresentationFailed;
-      result.message = built.status().message();
-      return result;
-    }
-    per_plan = std::move(*built);
-    collision = per_plan.get();
-  }
+}  // namespace
 
-  auto problem = WholeBodyProblem::Create(robot, *collision, task.start, result.terminal, task.limits, insertion,
-                                          CostForTask(options, task), pieces);
-  if (!problem.ok()) return problem.status().WithPrefix(task.file);
-  const VecX x0 = (*problem)->Pack(position_waypoints, aux_waypoints, durations);
-  QUADHAND_RETURN_IF_ERROR(SolveAndPostCheck(problem->get(), x0, scene, *collision, task, options, options.solver,
-                                             options.solver, options.max_attempts, solver, &result));
+core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                              const opt::Solver& solver) {
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
+  if (!task.terminal && !task.tool) return core::Status::InvalidArgument(task.file + ": goal: no terminal state or tool pose");
+  PlanResult result;
+  auto resolved = ResolveGoal(scene, task, options, solver, &result);
+  if (!resolved.ok()) return resolved.status();
+  if (!*resolved) return result;
+  QUADHAND_RETURN_IF_ERROR(CheckEndPoints(scene, task, result.terminal, options));
+  auto found = FindFrontEndPath(scene, task, &result);
+  if (!found.ok()) return found.status();
+  if (!*found) return result;
+  std::vector<Vec3> corners = result.path.shortcut;
+  if (result.insertion.enabled) corners.push_back(result.terminal.position);
+  auto guess = GuessFromPath(scene.robot, task, options, corners, result);
+  if (!guess.ok()) return guess.status();
+  result.num_pieces = static_cast<int>(guess->durations.size());
+  PlanCollision collision;
+  auto built = BuildPlanCollision(scene, corners, task.start.position, *guess, result.terminal.position, &collision,
+                                  &result);
+  if (!built.ok()) return built.status();
+  if (!*built) return result;
+  QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, task, *guess, options, options.solver, options.solver,
+                                    options.max_attempts, solver, &result));
   return result;
 }
 

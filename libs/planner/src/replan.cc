@@ -6,6 +6,8 @@
 
 #include "quadhand/robot/kinematics.h"
 
+#include "plan_stages.h"
+
 namespace quadhand::planner {
 
 bool ReplanOptions::IsValid(std::string* why) const {
@@ -108,18 +110,17 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   result.terminal_search = current.terminal_search;
   result.insertion = current.insertion;
 
-  MatX position_waypoints, aux_waypoints;
-  VecX durations;
+  InitialGuess guess;
   int first_piece = 0;
-  QUADHAND_RETURN_IF_ERROR(RemainderGuess(trajectory, t_from, replan.min_piece_duration, &position_waypoints,
-                                          &aux_waypoints, &durations, &first_piece));
+  QUADHAND_RETURN_IF_ERROR(RemainderGuess(trajectory, t_from, replan.min_piece_duration, &guess.position_waypoints,
+                                          &guess.aux_waypoints, &guess.durations, &first_piece));
   const int old_pieces = trajectory.num_pieces();
   if (current.insertion.enabled) {
     // The insertion piece must start backed off the full length above the
     // goal; a start inside it, or too close before it to keep a proper first
     // piece, cannot give a plan that passes the insertion check.
     const bool inside = first_piece == old_pieces - 1;
-    const bool merged_into_insertion = durations.size() == 1;
+    const bool merged_into_insertion = guess.durations.size() == 1;
     if (inside || merged_into_insertion) {
       result.status = PlanStatus::kInsertionInProgress;
       result.message = "the current plan is in (or about to start) its insertion piece: not replanned";
@@ -139,12 +140,8 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   // (replan.h); only a start deeper in the scene than max_start_penetration
   // is refused: no plan from there can be trusted.
   {
-    robot::KinematicsState kinematics;
-    const Pose base = MakePose(replan_task.start.position,
-                               Eigen::AngleAxisd(replan_task.start.yaw, Vec3::UnitZ()).toRotationMatrix());
-    robot::ComputeKinematics(robot, base, replan_task.start.joints, &kinematics);
     int link = -1;
-    const double clearance = scene.exact.WholeBody(kinematics, task.safety_distance + 0.05, &link);
+    const double clearance = StateClearance(scene, replan_task.start, task.safety_distance + 0.05, &link);
     if (clearance < -replan.max_start_penetration) {
       result.status = PlanStatus::kStartInCollision;
       result.message = "the start state is " + std::to_string(clearance) + " m from the scene (link " +
@@ -154,30 +151,13 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
     }
   }
 
-  const int pieces = static_cast<int>(durations.size());
-  result.num_pieces = pieces;
-  const env::CollisionModel* collision = &scene.collision;
-  std::unique_ptr<env::CollisionModel> per_plan;
-  if (scene.per_plan_collision) {
-    // Corridors along the remaining piece boundaries (there is no front-end path).
-    std::vector<Vec3> boundaries = {replan_task.start.position};
-    for (int i = 0; i < position_waypoints.cols(); ++i) boundaries.push_back(position_waypoints.col(i));
-    boundaries.push_back(result.terminal.position);
-    auto built = scene.per_plan_collision(boundaries, boundaries, &result.per_plan_collision_ms);
-    if (!built.ok()) {
-      if (built.status().code() != core::StatusCode::kInfeasible) return built.status();
-      result.status = PlanStatus::kRepresentationFailed;
-      result.message = built.status().message();
-      return result;
-    }
-    per_plan = std::move(*built);
-    collision = per_plan.get();
-  }
-
-  auto problem = WholeBodyProblem::Create(robot, *collision, replan_task.start, result.terminal, task.limits,
-                                          result.insertion, CostForTask(options, task), pieces);
-  if (!problem.ok()) return problem.status();
-  const VecX x0 = (*problem)->Pack(position_waypoints, aux_waypoints, durations);
+  result.num_pieces = static_cast<int>(guess.durations.size());
+  // Corridors (sfc) along the remaining piece boundaries: there is no front-end path.
+  PlanCollision collision;
+  auto built = BuildPlanCollision(scene, {}, replan_task.start.position, guess, result.terminal.position, &collision,
+                                  &result);
+  if (!built.ok()) return built.status();
+  if (!*built) return result;
   // The post-check of Plan() plus the recovery rule, which changes nothing
   // for a start outside the safety margin.
   PlannerOptions checked = options;
@@ -185,8 +165,8 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   // Re-solves of a replan raise weights only; they keep the sample count
   // (measured with that rule: docs/online.md).
   checked.resolve_sample_factor = 1;
-  QUADHAND_RETURN_IF_ERROR(SolveAndPostCheck(problem->get(), x0, scene, *collision, replan_task, checked,
-                                             replan.solver, options.solver, replan.max_attempts, solver, &result));
+  QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, replan_task, guess, checked, replan.solver, options.solver,
+                                    replan.max_attempts, solver, &result));
   return result;
 }
 
