@@ -48,10 +48,8 @@ PlannerOptions DefaultPlannerOptions() {
   PlannerOptions options;
   options.solver.max_iterations = 150;
   // Converged when the cost fell by less than 1 % over the last 10 accepted
-  // steps. The tail of this problem is long and flat (time moving between
-  // pieces changes the cost very little), so 1e-5 never triggered before the
-  // cap; what a tighter test buys is snap energy, not success
-  // (docs/benchmark.md has the figures).
+  // steps: the tail of this problem is long and flat (docs/benchmark.md,
+  // "Tuning history").
   options.solver.relative_cost_tolerance = 1e-2;
   options.solver.relative_cost_window = 10;
   options.solver.gradient_tolerance = 1e-5;

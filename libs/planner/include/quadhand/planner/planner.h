@@ -38,11 +38,9 @@ struct PlannerOptions {
   double insertion_collision_margin = 0.003;
   double piece_length = 0.4;    // metres of front-end path per MINCO piece
   int min_pieces = 4;
-  // The initial time allocation (trapezoidal speed profile along the path).
-  // 0.7 m/s and 0.7 m/s^2 start the benchmark's plans at 6.4 s on average,
-  // near their optimum (about 6.9 s when run to convergence); 1 m/s and
-  // 1.5 m/s^2 started them at 4.4 s, and the slow, flat redistribution of
-  // time then took most of the iterations (docs/benchmark.md).
+  // The initial time allocation (trapezoidal speed profile along the path):
+  // starting near the optimal duration saves the slow redistribution of time
+  // between pieces (docs/benchmark.md, "Tuning history").
   double cruise_speed = 0.7;    // m/s (capped by v_max)
   double cruise_acceleration = 0.7;  // m/s^2 (capped by a_max)
   // Initial guess of the joints. The paper interpolates them linearly in time

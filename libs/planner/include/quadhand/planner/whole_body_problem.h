@@ -112,10 +112,9 @@ struct WholeBodyCostOptions {
   double insertion_rotation_tolerance = 0.0;  // r_e,th
   double insertion_position_weight = 1.0;     // rho_P
   double insertion_rotation_weight = 1.0;     // rho_R
-  // Smoothing of the insertion penalty. 1 cm: the post-check's tolerance
-  // (1 cm off the line) is still met with room, and a sharper kink (it was
-  // 2 mm) made this the stiffest term of the problem, which slowed L-BFGS
-  // down by about a third (docs/benchmark.md).
+  // Smoothing of the insertion penalty: the post-check's tolerance (1 cm off
+  // the line) is still met with room, and a sharper kink makes this the
+  // stiffest term of the problem (docs/benchmark.md, "Tuning history").
   double insertion_mu = 0.01;
   double insertion_backoff_margin = 0.02;  // metres beyond the insertion length
   traj::FlatnessOptions flatness;
