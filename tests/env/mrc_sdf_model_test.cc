@@ -144,6 +144,33 @@ TEST(MrcSdfModelTest, WholeBodyGradientMatchesFiniteDifferences) {
   EXPECT_LE(skipped, 6);
 }
 
+TEST(MrcSdfModelTest, ASharedIndexGivesTheSamePenaltyAndGradientBitForBit) {
+  const Fixture& fx = QuadHand();
+  State state{Vec3(0.1, -0.2, 1.0), Vec3(0.1, 0.2, 0.3), VecX(3)};
+  state.joints << 0.3, -0.2, 0.1;
+  const std::vector<Vec3> points = PointsAroundRobot(fx.robot, state, 3000, 5);
+  MrcSdfOptions options;
+  auto own = MrcSdfModel::Create(fx.links, fx.grids, points, options);
+  auto index = std::make_shared<const scene::PointGrid>(points, options.cell_size);
+  auto shared = MrcSdfModel::Create(fx.links, fx.grids, index, options);
+  ASSERT_TRUE(own.ok() && shared.ok());
+  EXPECT_EQ(&(*shared)->points(), index.get());  // shared, not copied
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(fx.robot, state.BasePose(), state.joints, &kinematics);
+  const PenaltyParameters parameters{0.03, 0.01};
+  StateGradient a, b;
+  a.SetZero(3);
+  b.SetZero(3);
+  const double cost_own = WholeBodyPenalty(fx.robot, kinematics, **own, parameters, {}, &a);
+  const double cost_shared = WholeBodyPenalty(fx.robot, kinematics, **shared, parameters, {}, &b);
+  ASSERT_GT(cost_own, 0.0);
+  EXPECT_EQ(cost_own, cost_shared);
+  EXPECT_EQ(a.position, b.position);
+  EXPECT_EQ(a.rotation, b.rotation);
+  EXPECT_EQ(a.joints, b.joints);
+  EXPECT_FALSE(MrcSdfModel::Create(fx.links, fx.grids, std::shared_ptr<const scene::PointGrid>(), options).ok());
+}
+
 TEST(MrcSdfModelTest, ClearanceMatchesExactDistanceToAnOffsetPoint) {
   const Fixture& fx = QuadHand();
   // One obstacle point straight below the battery's bottom face (z = -0.018 in

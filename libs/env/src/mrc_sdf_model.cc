@@ -19,7 +19,8 @@ bool MrcSdfOptions::IsValid(std::string* why) const {
   return true;
 }
 
-MrcSdfModel::MrcSdfModel(std::vector<int> links, std::vector<geometry::SdfGrid> grids, scene::PointGrid points)
+MrcSdfModel::MrcSdfModel(std::vector<int> links, std::vector<geometry::SdfGrid> grids,
+                         std::shared_ptr<const scene::PointGrid> points)
     : links_(std::move(links)), slot_of_link_(SlotsOfLinks(links_)), grids_(std::move(grids)), points_(std::move(points)) {}
 
 void MrcSdfModel::BuildFarGrid(const std::vector<Vec3>& points, const MrcSdfOptions& options) {
@@ -86,7 +87,7 @@ void MrcSdfModel::BuildFarGrid(const std::vector<Vec3>& points, const MrcSdfOpti
 }
 
 bool MrcSdfModel::FarFromEveryPoint(const geometry::SdfGrid& grid, const Pose& X_WL, double reach) const {
-  if (far_cells_.empty()) return points_.num_points() == 0;
+  if (far_cells_.empty()) return points_->num_points() == 0;
   // The query box (geometry box +- reach, link frame) lies in this sphere.
   const Vec3 half = 0.5 * (grid.info().geometry_max - grid.info().geometry_min) + Vec3::Constant(reach);
   const double radius = half.norm();
@@ -108,25 +109,35 @@ core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> 
                                                                const std::vector<Vec3>& points,
                                                                const MrcSdfOptions& options) {
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument(why);
+  for (const Vec3& p : points) {
+    if (!p.allFinite()) return core::Status::InvalidArgument("mrc_sdf: obstacle points must be finite");
+  }
+  return Create(std::move(links), std::move(grids), std::make_shared<const scene::PointGrid>(points, options.cell_size),
+                options);
+}
+
+core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> links,
+                                                               std::vector<geometry::SdfGrid> grids,
+                                                               std::shared_ptr<const scene::PointGrid> index,
+                                                               const MrcSdfOptions& options) {
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument(why);
   if (links.size() != grids.size() || links.empty()) {
     return core::Status::InvalidArgument("mrc_sdf: need one SDF per collision link");
   }
   for (int link : links) {
     if (link < 0) return core::Status::InvalidArgument("mrc_sdf: negative link index");
   }
-  for (const Vec3& p : points) {
-    if (!p.allFinite()) return core::Status::InvalidArgument("mrc_sdf: obstacle points must be finite");
-  }
-  std::unique_ptr<MrcSdfModel> model(
-      new MrcSdfModel(std::move(links), std::move(grids), scene::PointGrid(points, options.cell_size)));
-  model->BuildFarGrid(points, options);
+  if (index == nullptr) return core::Status::InvalidArgument("mrc_sdf: no indexed cloud");
+  std::unique_ptr<MrcSdfModel> model(new MrcSdfModel(std::move(links), std::move(grids), index));
+  model->BuildFarGrid(index->points(), options);
   return model;
 }
 
-core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(const robot::RobotModel& robot,
-                                                               const std::string& sdf_dir,
-                                                               const std::vector<Vec3>& points,
-                                                               const MrcSdfOptions& options) {
+namespace {
+
+// The SDF of every collision link of `robot` from `<sdf_dir>/<link>.qhsdf`.
+core::Status LoadLinkGrids(const robot::RobotModel& robot, const std::string& sdf_dir, std::vector<int>* links_out,
+                           std::vector<geometry::SdfGrid>* grids_out) {
   std::vector<int> links = robot.CollisionLinks();
   std::vector<geometry::SdfGrid> grids;
   for (int link : links) {
@@ -145,7 +156,31 @@ core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(const robot::Robo
     }
     grids.push_back(std::move(*grid));
   }
+  *links_out = std::move(links);
+  *grids_out = std::move(grids);
+  return core::Status::Ok();
+}
+
+}  // namespace
+
+core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(const robot::RobotModel& robot,
+                                                               const std::string& sdf_dir,
+                                                               const std::vector<Vec3>& points,
+                                                               const MrcSdfOptions& options) {
+  std::vector<int> links;
+  std::vector<geometry::SdfGrid> grids;
+  QUADHAND_RETURN_IF_ERROR(LoadLinkGrids(robot, sdf_dir, &links, &grids));
   return Create(std::move(links), std::move(grids), points, options);
+}
+
+core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(const robot::RobotModel& robot,
+                                                               const std::string& sdf_dir,
+                                                               std::shared_ptr<const scene::PointGrid> index,
+                                                               const MrcSdfOptions& options) {
+  std::vector<int> links;
+  std::vector<geometry::SdfGrid> grids;
+  QUADHAND_RETURN_IF_ERROR(LoadLinkGrids(robot, sdf_dir, &links, &grids));
+  return Create(std::move(links), std::move(grids), std::move(index), options);
 }
 
 template <typename Visitor>
@@ -159,7 +194,7 @@ void MrcSdfModel::VisitNearbyPoints(int link, const Pose& X_WL, double reach, Vi
   const Vec3 center_W = X_WL * (0.5 * (box_lo + box_hi));
   const Vec3 half_W = R.cwiseAbs() * (0.5 * (box_hi - box_lo));
   const Vec3& t = X_WL.translation();
-  points_.VisitBox(center_W - half_W, center_W + half_W, [&](const Vec3& x_W) {
+  points_->VisitBox(center_W - half_W, center_W + half_W, [&](const Vec3& x_W) {
     const Vec3 x_L = R.transpose() * (x_W - t);
     if ((x_L.array() < box_lo.array()).any() || (x_L.array() > box_hi.array()).any()) return;
     double distance;

@@ -42,7 +42,10 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(Task task
   context->dropped_non_finite_ = dropped_non_finite;
   const Task& t = context->task_;
 
-  auto exact = ExactClearance::Create(context->robot_, context->points());
+  // The cloud is indexed once here and shared by the post-check and the
+  // representations whose index has the same cell.
+  auto index = std::make_shared<const scene::PointGrid>(context->points(), ExactClearance::kIndexCellSize);
+  auto exact = ExactClearance::Create(context->robot_, index);
   if (!exact.ok()) return exact.status();
   context->exact_ = std::move(*exact);
 
@@ -59,7 +62,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(Task task
 
   for (const std::string& name : options.representations) {
     auto model =
-        MakeRepresentation(name, context->robot_, t.sdf_dir, context->points(), options.representation_options);
+        MakeRepresentation(name, context->robot_, t.sdf_dir, context->points(), options.representation_options, index);
     if (!model.ok()) return model.status();
     context->representations_.push_back(std::move(*model));
   }

@@ -57,11 +57,17 @@ std::string PostCheckReport::FirstFailure() const {
 
 // ------------------------------------------------------------ exact clearance
 
-ExactClearance::ExactClearance(std::vector<LinkGeometry> links, scene::PointGrid points)
+ExactClearance::ExactClearance(std::vector<LinkGeometry> links, std::shared_ptr<const scene::PointGrid> points)
     : links_(std::move(links)), points_(std::move(points)) {}
 
 core::Result<std::unique_ptr<ExactClearance>> ExactClearance::Create(const robot::RobotModel& robot,
                                                                     const std::vector<Vec3>& points) {
+  return Create(robot, std::make_shared<const scene::PointGrid>(points, kIndexCellSize));
+}
+
+core::Result<std::unique_ptr<ExactClearance>> ExactClearance::Create(const robot::RobotModel& robot,
+                                                                    std::shared_ptr<const scene::PointGrid> index) {
+  if (index == nullptr) return core::Status::InvalidArgument("exact clearance: no indexed cloud");
   std::vector<LinkGeometry> links;
   for (int link : robot.CollisionLinks()) {
     auto mesh = robot::LinkCollisionMesh(robot, link);
@@ -71,7 +77,7 @@ core::Result<std::unique_ptr<ExactClearance>> ExactClearance::Create(const robot
     const geometry::AxisAlignedBox box = geometry::BoundingBox(*mesh);
     links.push_back({link, std::move(*query), box.min, box.max});
   }
-  return std::unique_ptr<ExactClearance>(new ExactClearance(std::move(links), scene::PointGrid(points, 0.05)));
+  return std::unique_ptr<ExactClearance>(new ExactClearance(std::move(links), std::move(index)));
 }
 
 double ExactClearance::WholeBody(const robot::KinematicsState& kinematics, double reach, int* closest_link) const {
@@ -84,7 +90,7 @@ double ExactClearance::WholeBody(const robot::KinematicsState& kinematics, doubl
     const Vec3 center = X * (0.5 * (lo + hi));
     const Vec3 half = X.linear().cwiseAbs() * (0.5 * (hi - lo));
     candidates.clear();
-    points_.VisitBox(center - half, center + half, [&](const Vec3& x) {
+    points_->VisitBox(center - half, center + half, [&](const Vec3& x) {
       const Vec3 local = X.linear().transpose() * (x - X.translation());
       if ((local.array() < lo.array()).any() || (local.array() > hi.array()).any()) return;
       // The box distance is a lower bound of the signed distance outside the

@@ -19,7 +19,9 @@ double MillisecondsSince(std::chrono::steady_clock::time_point start) {
 core::Result<Representation> MakeMrcSdf(const RepresentationInputs& in) {
   Representation representation;
   const auto start = std::chrono::steady_clock::now();
-  auto model = env::MrcSdfModel::Create(in.robot, in.sdf_dir, in.points, in.options.mrc_sdf);
+  const bool share = in.index != nullptr && in.index->cell_size() == in.options.mrc_sdf.cell_size;
+  auto model = share ? env::MrcSdfModel::Create(in.robot, in.sdf_dir, in.index, in.options.mrc_sdf)
+                     : env::MrcSdfModel::Create(in.robot, in.sdf_dir, in.points, in.options.mrc_sdf);
   if (!model.ok()) return model.status();
   representation.scene_model = std::move(*model);
   representation.build_ms = MillisecondsSince(start);
@@ -136,7 +138,8 @@ core::Status CheckRepresentationName(const std::string& name) {
 
 core::Result<Representation> MakeRepresentation(const std::string& name, const robot::RobotModel& robot,
                                                 const std::string& sdf_dir, const std::vector<Vec3>& points,
-                                                const RepresentationOptions& options) {
+                                                const RepresentationOptions& options,
+                                                std::shared_ptr<const scene::PointGrid> index) {
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("representation options: " + why);
   RepresentationFactory factory;
   {
@@ -145,7 +148,7 @@ core::Result<Representation> MakeRepresentation(const std::string& name, const r
     if (const RepresentationFactory* found = registry.Find(name)) factory = *found;
   }
   if (!factory) return UnknownRepresentation(name, RepresentationNames());
-  auto representation = factory(RepresentationInputs{robot, points, sdf_dir, options});
+  auto representation = factory(RepresentationInputs{robot, points, sdf_dir, options, std::move(index)});
   if (!representation.ok()) return representation.status();
   representation->name = name;
   return representation;

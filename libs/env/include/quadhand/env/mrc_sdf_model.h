@@ -41,6 +41,17 @@ class MrcSdfModel final : public CollisionModel {
                                                            std::vector<geometry::SdfGrid> grids,
                                                            const std::vector<Vec3>& points,
                                                            const MrcSdfOptions& options = {});
+  // Both of the above with the cloud already indexed and shared (with the
+  // post-check's exact clearance, say): the index's own cell size is used,
+  // not options.cell_size.
+  static core::Result<std::unique_ptr<MrcSdfModel>> Create(const robot::RobotModel& robot,
+                                                           const std::string& sdf_dir,
+                                                           std::shared_ptr<const scene::PointGrid> index,
+                                                           const MrcSdfOptions& options = {});
+  static core::Result<std::unique_ptr<MrcSdfModel>> Create(std::vector<int> links,
+                                                           std::vector<geometry::SdfGrid> grids,
+                                                           std::shared_ptr<const scene::PointGrid> index,
+                                                           const MrcSdfOptions& options = {});
 
   std::string name() const override { return "mrc_sdf"; }
   DistanceQuality distance_quality() const override { return DistanceQuality::kExact; }
@@ -52,10 +63,11 @@ class MrcSdfModel final : public CollisionModel {
                        const QueryContext& context) const override;
 
   const geometry::SdfGrid& grid_of_link(int link) const { return grids_[slot_of_link_[link]]; }
-  const scene::PointGrid& points() const { return points_; }
+  const scene::PointGrid& points() const { return *points_; }
 
  private:
-  MrcSdfModel(std::vector<int> links, std::vector<geometry::SdfGrid> grids, scene::PointGrid points);
+  MrcSdfModel(std::vector<int> links, std::vector<geometry::SdfGrid> grids,
+              std::shared_ptr<const scene::PointGrid> points);
 
   // Calls visit(x_W, x_L, distance, gradient_L) for obstacle points whose
   // distance to the link is below `reach`.
@@ -73,7 +85,7 @@ class MrcSdfModel final : public CollisionModel {
   std::vector<int> links_;
   std::vector<int> slot_of_link_;  // robot link index -> index into grids_ (-1 if none)
   std::vector<geometry::SdfGrid> grids_;
-  scene::PointGrid points_;
+  std::shared_ptr<const scene::PointGrid> points_;
   // Chebyshev distance, in cells (saturating at 253), from each cell of a
   // grid over the points' bounding box (plus padding; stored with a one-cell
   // border) to the nearest cell holding a point: a point in a cell k cells

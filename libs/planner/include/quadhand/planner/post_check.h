@@ -71,6 +71,11 @@ class ExactClearance {
  public:
   static core::Result<std::unique_ptr<ExactClearance>> Create(const robot::RobotModel& robot,
                                                               const std::vector<Vec3>& points);
+  // The same with the cloud already indexed, and shared (with MRC-SDF, say).
+  static core::Result<std::unique_ptr<ExactClearance>> Create(const robot::RobotModel& robot,
+                                                              std::shared_ptr<const scene::PointGrid> index);
+  // The cell of the index Create(robot, points) builds, metres.
+  static constexpr double kIndexCellSize = 0.05;
   // Smallest signed distance between any link and any point within `reach`
   // of it (returns `reach` if none is closer); `link` gets the closest link.
   double WholeBody(const robot::KinematicsState& kinematics, double reach, int* link) const;
@@ -81,9 +86,9 @@ class ExactClearance {
     std::unique_ptr<geometry::MeshDistanceQuery> query;
     Vec3 box_min, box_max;  // link-frame bounding box of the mesh
   };
-  ExactClearance(std::vector<LinkGeometry> links, scene::PointGrid points);
+  ExactClearance(std::vector<LinkGeometry> links, std::shared_ptr<const scene::PointGrid> points);
   std::vector<LinkGeometry> links_;
-  scene::PointGrid points_;
+  std::shared_ptr<const scene::PointGrid> points_;
 };
 
 // Checks `trajectory` for `task` (whose joint limits ApplyRobot filled).

@@ -18,6 +18,7 @@
 #include "quadhand/env/esdf_model.h"
 #include "quadhand/env/mrc_sdf_model.h"
 #include "quadhand/env/sfc_model.h"
+#include "quadhand/scene/point_grid.h"
 #include "quadhand/planner/planner.h"
 
 namespace quadhand::planner {
@@ -50,6 +51,10 @@ struct RepresentationInputs {
   const std::vector<Vec3>& points;
   const std::string& sdf_dir;
   const RepresentationOptions& options;
+  // The same points indexed once per scene and shared (PlanningContext's,
+  // also used by the post-check), or null: a representation whose index has
+  // the same cell size uses it instead of indexing the cloud again.
+  std::shared_ptr<const scene::PointGrid> index;
 };
 
 // Builds one representation; errors name the file or option at fault, and
@@ -73,6 +78,7 @@ core::Status CheckRepresentationName(const std::string& name);
 // unknown name or invalid options).
 core::Result<Representation> MakeRepresentation(const std::string& name, const robot::RobotModel& robot,
                                                 const std::string& sdf_dir, const std::vector<Vec3>& points,
-                                                const RepresentationOptions& options = {});
+                                                const RepresentationOptions& options = {},
+                                                std::shared_ptr<const scene::PointGrid> index = nullptr);
 
 }  // namespace quadhand::planner
