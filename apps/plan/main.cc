@@ -93,11 +93,12 @@ int main(int argc, char** argv) {
   double dt = 0.01;
   unsigned seed = 0;
   bool verbose = false, keep_failed_plan = false;
-  CLI::Option* task_option = app.add_option("task", task_path, "Task file (YAML, docs/task_format.md)");
-  CLI::Option* out_option =
-      app.add_option("--out", out_path, "Plan file to write (CSV), written only when the plan passed the post-check");
+  // Required unless --print-config: checked after parsing.
+  CLI::Option* task_option = app.add_option("task", task_path, "Task file (YAML, docs/task_format.md); required");
+  CLI::Option* out_option = app.add_option(
+      "--out", out_path, "Plan file to write (CSV), written only when the plan passed the post-check; required");
   CLI::Option* report_option =
-      app.add_option("--report", report_path, "Report file to write (JSON), always written when planning ran");
+      app.add_option("--report", report_path, "Report file to write (JSON), always written when planning ran; required");
   app.add_option("--html", html_path, "Also write a self-contained 3-D page of the plan");
   app.add_option("--solver", solver_name, "Optimiser back-end: lbfgs, ceres, ceres:BFGS, ipopt, nlopt, nlopt:ALGORITHM (docs/solvers.md)")->capture_default_str();
   app.add_option("--representation", representation, "Collision representation: mrc_sdf, esdf or sfc")->capture_default_str();
