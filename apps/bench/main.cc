@@ -163,13 +163,9 @@ int main(int argc, char** argv) {
   }
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status().message());
-  planner::PlannerConfig planner_config = planner::DefaultPlannerConfig();
-  if (!planner_config_path.empty()) {
-    auto loaded = planner::LoadPlannerConfig(planner_config_path);
-    if (!loaded.ok()) return Fail(loaded.status().message());
-    planner_config = std::move(*loaded);
-  }
-  planner::PlanningContextOptions context_options = planner::ContextOptions(planner_config, representations);
+  auto planner_config = planner::LoadPlannerConfigOrDefaults(planner_config_path);
+  if (!planner_config.ok()) return Fail(planner_config.status().message());
+  planner::PlanningContextOptions context_options = planner::ContextOptions(*planner_config, representations);
   context_options.front_end_also_contain = {config->box_min, config->box_max};
   std::fprintf(stderr, "loading %s and building %zu representation(s)...\n", config->task_path.c_str(),
                representations.size());
@@ -178,7 +174,7 @@ int main(int argc, char** argv) {
   const planner::Task* task = &(*context)->task();
   const robot::RobotModel* robot = &(*context)->robot();
   const planner::ExactClearance* exact = &(*context)->exact();
-  const planner::PlannerOptions options = planner_config.planner;
+  const planner::PlannerOptions options = planner_config->planner;
 
   std::ostringstream lines;
   std::map<std::string, Tally> tallies;

@@ -202,16 +202,12 @@ int main(int argc, char** argv) {
   if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
   auto solver = opt::CreateSolver("lbfgs");
   if (!solver.ok()) return Fail(solver.status().message());
-  planner::PlannerConfig config = planner::DefaultPlannerConfig();
-  if (!planner_config_path.empty()) {
-    auto loaded = planner::LoadPlannerConfig(planner_config_path);
-    if (!loaded.ok()) return Fail(loaded.status().message());
-    config = std::move(*loaded);
-  }
-  auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(config, {"mrc_sdf"}));
+  auto config = planner::LoadPlannerConfigOrDefaults(planner_config_path);
+  if (!config.ok()) return Fail(config.status().message());
+  auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;
-  online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config.planner, config.replan, solver->get()};
+  online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config->planner, config->replan, solver->get()};
   if (dry_run) return DryRun(ctx, setup, rate);
 
   online::OnlineOptions options;

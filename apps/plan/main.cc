@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
-#include <sstream>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -123,12 +122,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return Fail(e.what());
   }
-  planner::PlannerConfig config = planner::DefaultPlannerConfig();
-  if (!config_path.empty()) {
-    auto loaded = planner::LoadPlannerConfig(config_path);
-    if (!loaded.ok()) return Fail(loaded.status().message());
-    config = std::move(*loaded);
-  }
+  auto loaded_config = planner::LoadPlannerConfigOrDefaults(config_path);
+  if (!loaded_config.ok()) return Fail(loaded_config.status().message());
+  const planner::PlannerConfig& config = *loaded_config;
   if (print_config) {
     std::printf("%s", planner::PlannerConfigYaml(config).c_str());
     return 0;

@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
-#include <map>
 #include <set>
 #include <sstream>
 
@@ -292,6 +291,11 @@ core::Result<PlannerConfig> LoadPlannerConfig(const std::string& path) {
   auto text = core::ReadFileToString(path);
   if (!text.ok()) return text.status();
   return ParsePlannerConfig(*text, path);
+}
+
+core::Result<PlannerConfig> LoadPlannerConfigOrDefaults(const std::string& path) {
+  if (path.empty()) return DefaultPlannerConfig();
+  return LoadPlannerConfig(path);
 }
 
 core::Result<PlannerConfig> ParsePlannerConfig(const std::string& text, const std::string& name) {

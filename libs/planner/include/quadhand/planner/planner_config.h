@@ -41,6 +41,8 @@ PlannerConfig DefaultPlannerConfig();
 // options reject are errors naming the file and the key
 // ("cfg.yaml: cost.weight_collision: must be finite and non-negative").
 core::Result<PlannerConfig> LoadPlannerConfig(const std::string& path);
+// The defaults for an empty path (no --planner-config given), else LoadPlannerConfig(path).
+core::Result<PlannerConfig> LoadPlannerConfigOrDefaults(const std::string& path);
 // The same from YAML text; errors name `name`.
 core::Result<PlannerConfig> ParsePlannerConfig(const std::string& text, const std::string& name);
 
