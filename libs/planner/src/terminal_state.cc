@@ -5,8 +5,10 @@
 #include <random>
 
 #include "quadhand/opt/objective.h"
-#include "quadhand/opt/penalty.h"
+#include "quadhand/planner/cost_term.h"
 #include "quadhand/robot/kinematics.h"
+#include "terms/builtin_terms.h"
+#include "terms/rotation_distance.h"
 
 namespace quadhand::planner {
 namespace {
@@ -15,13 +17,39 @@ Pose HoverPose(const Vec3& position, double yaw) {
   return MakePose(position, Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix());
 }
 
-// x = [base position (3), yaw, joints (n)] of a hovering robot.
+// The whole-body cost options the terminal state's terms are built from: the
+// same collision and joint-limit penalties the trajectory is optimised
+// with, at the search's own threshold, margin and smoothing.
+WholeBodyCostOptions TermOptions(const Task& task, const TerminalStateOptions& options) {
+  WholeBodyCostOptions cost;
+  cost.collision_threshold = task.safety_distance + options.collision_margin;
+  cost.insertion_collision_threshold = 0.0;  // the search never sets SampleState::insertion_piece
+  cost.collision_mu = options.collision_mu;
+  cost.joint_limit_margin = options.joint_limit_margin;
+  cost.joint_limit_mu = options.joint_limit_mu;
+  return cost;
+}
+
+// x = [base position (3), yaw, joints (n)] of a hovering robot. The tool-pose
+// error is the search's own (squared distance and rotation distance to the
+// goal, no tolerance); collision and joint limits are the cost terms of
+// cost_term.h evaluated at one state (quadrature weight 1).
 class TerminalStateObjective final : public opt::Objective {
  public:
   TerminalStateObjective(const robot::RobotModel& robot, const env::CollisionModel& collision, const Task& task,
                          const ToolGoal& tool, int tool_link, const TerminalStateOptions& options)
-      : robot_(robot), collision_(collision), task_(task), tool_(tool), tool_link_(tool_link), options_(options),
-        goal_rotation_(tool.orientation.toRotationMatrix()) {}
+      : robot_(robot), tool_(tool), tool_link_(tool_link), options_(options),
+        goal_rotation_(tool.orientation.toRotationMatrix()), limits_(task.limits),
+        cost_options_(TermOptions(task, options)) {
+    const CostTermInputs inputs{robot, collision, limits_, no_insertion_, cost_options_};
+    collision_ = CollisionTerm().make(inputs, options.weight_collision);
+    joint_limits_ = JointLimitTerm().make(inputs, options.weight_joint_limits);
+    const int n = robot.num_actuated();
+    aux_value_.resize(1 + n);
+    aux_rate_ = VecX::Zero(1 + n);
+    gradient_.aux_value.resize(1 + n);
+    gradient_.aux_rate.resize(1 + n);
+  }
 
   int num_variables() const override { return 4 + robot_.num_actuated(); }
 
@@ -30,68 +58,71 @@ class TerminalStateObjective final : public opt::Objective {
     const int n = robot_.num_actuated();
     const Vec3 position = x.head<3>();
     const double yaw = x[3];
-    const VecX joints = x.tail(n);
-    env::StateGradient gradient;
-    gradient.SetZero(n);
-    scratch_.SetZero(n);
-    double total = 0.0;
-    robot::ComputeKinematics(robot_, HoverPose(position, yaw), joints, &kinematics_);
+    SampleGradient& g = gradient_;
+    g.position.setZero();
+    g.rotation.setZero();
+    g.aux_value.setZero();
+    g.aux_rate.setZero();
+    g.point.SetZero(n);
+    g.scratch.SetZero(n);
+    aux_value_ << yaw, x.tail(n);
+    SampleState s;
+    s.piece = -1;  // no trajectory piece: corridor models query without a polytope
+    s.weight = 1.0;
+    s.position = position;
+    s.yaw = yaw;
+    s.aux_value = &aux_value_;
+    s.aux_rate = &aux_rate_;
+    s.kinematics = &kinematics_;
+    double breakdown = 0.0, sample = 0.0, total = 0.0;
+    SampleSums sums{breakdown, sample, total};
+    SampleGradient* gradient = grad != nullptr ? &g : nullptr;
+    robot::ComputeKinematics(robot_, HoverPose(position, yaw), x.tail(n), &kinematics_);
 
     // Tool pose.
     const Pose& tool = kinematics_.link_poses[tool_link_];
     const Vec3 error = tool.translation() - tool_.position;
-    const Mat3 M = tool.linear() * goal_rotation_.transpose();
-    const double rotation_distance = 0.5 * (3.0 - M.trace());
-    total += options_.weight_position * error.squaredNorm() + options_.weight_rotation * rotation_distance;
-    env::LinkWrench wrench;
-    wrench.force = 2.0 * options_.weight_position * error;
-    const Vec3 trace_gradient(M(1, 2) - M(2, 1), M(2, 0) - M(0, 2), M(0, 1) - M(1, 0));
-    wrench.torque = -0.5 * options_.weight_rotation * trace_gradient;
-    env::AccumulateLinkWrench(robot_, kinematics_, tool_link_, wrench, &gradient);
+    const RotationDistance rotation = RotationDistanceTo(tool.linear(), goal_rotation_);
+    total += options_.weight_position * error.squaredNorm() + options_.weight_rotation * rotation.value;
+    if (gradient != nullptr) {
+      env::LinkWrench wrench;
+      wrench.force = 2.0 * options_.weight_position * error;
+      wrench.torque = options_.weight_rotation * rotation.gradient;
+      env::AccumulateLinkWrench(robot_, kinematics_, tool_link_, wrench, &g.point);
+    }
 
     // Collision at the goal state and, with an insertion, where it starts.
-    const env::PenaltyParameters parameters{task_.safety_distance + options_.collision_margin, 0.01};
-    total += options_.weight_collision *
-             env::WholeBodyPenalty(robot_, kinematics_, collision_, parameters, {}, &scratch_);
+    collision_->AddSample(s, &sums, gradient);
     if (tool_.has_insertion) {
-      const Vec3 back = position - tool_.insertion_direction * tool_.insertion_length;
-      robot::ComputeKinematics(robot_, HoverPose(back, yaw), joints, &kinematics_);
-      total += options_.weight_collision *
-               env::WholeBodyPenalty(robot_, kinematics_, collision_, parameters, {}, &scratch_);
+      s.position = position - tool_.insertion_direction * tool_.insertion_length;
+      robot::ComputeKinematics(robot_, HoverPose(s.position, yaw), x.tail(n), &kinematics_);
+      collision_->AddSample(s, &sums, gradient);
     }
-    // WholeBodyPenalty added its gradient into scratch_ unweighted: fold it in.
-    gradient.position += options_.weight_collision * scratch_.position;
-    gradient.rotation += options_.weight_collision * scratch_.rotation;
-    gradient.joints += options_.weight_collision * scratch_.joints;
-
-    // Joint limits, with a margin.
-    const VecX lower = task_.limits.joint_lower, upper = task_.limits.joint_upper;
-    for (int q = 0; q < n; ++q) {
-      double slope_high = 0, slope_low = 0;
-      total += options_.weight_joint_limits *
-               (opt::SmoothedL1(joints[q] - (upper[q] - options_.joint_limit_margin), 0.02, &slope_high) +
-                opt::SmoothedL1(lower[q] + options_.joint_limit_margin - joints[q], 0.02, &slope_low));
-      gradient.joints[q] += options_.weight_joint_limits * (slope_high - slope_low);
-    }
+    joint_limits_->AddSample(s, &sums, gradient);
+    total += sample;
     *cost = total;
     if (grad != nullptr) {
-      grad->head<3>() = gradient.position;
-      (*grad)[3] = gradient.rotation.z();  // the base turns about world z with the yaw
-      grad->tail(n) = gradient.joints;
+      grad->head<3>() = g.position + g.point.position;
+      // The base turns about world z with the yaw.
+      (*grad)[3] = g.rotation.z() + g.point.rotation.z() + g.aux_value[0];
+      grad->tail(n) = g.aux_value.tail(n) + g.point.joints;
     }
     return std::isfinite(total);
   }
 
  private:
   const robot::RobotModel& robot_;
-  const env::CollisionModel& collision_;
-  const Task task_;      // copies: callers may pass temporaries
-  const ToolGoal tool_;
+  const ToolGoal tool_;  // a copy: callers may pass temporaries
   int tool_link_;
   TerminalStateOptions options_;
   Mat3 goal_rotation_;
+  const Limits limits_;
+  const WholeBodyCostOptions cost_options_;
+  const InsertionGoal no_insertion_;
+  std::unique_ptr<CostTerm> collision_, joint_limits_;
   mutable robot::KinematicsState kinematics_;
-  mutable env::StateGradient scratch_;
+  mutable VecX aux_value_, aux_rate_;
+  mutable SampleGradient gradient_;
 };
 
 }  // namespace
@@ -110,7 +141,7 @@ bool TerminalStateOptions::IsValid(std::string* why) const {
   };
   if (restarts < 1) return fail("restarts must be at least 1");
   for (double v : {position_tolerance, angle_tolerance, collision_margin, joint_limit_margin, weight_position,
-                   weight_rotation, weight_collision, weight_joint_limits}) {
+                   weight_rotation, weight_collision, weight_joint_limits, collision_mu, joint_limit_mu}) {
     if (!(std::isfinite(v) && v >= 0.0)) return fail("tolerances, margins and weights must be finite and >= 0");
   }
   return true;

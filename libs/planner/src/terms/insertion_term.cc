@@ -5,6 +5,7 @@
 // of backing off the full insertion length (and a margin) along the line.
 #include "quadhand/opt/penalty.h"
 #include "terms/builtin_terms.h"
+#include "terms/rotation_distance.h"
 
 namespace quadhand::planner {
 namespace {
@@ -35,9 +36,8 @@ class InsertionPenalty final : public CostTerm {
     const double off_line = across.norm();
     double slope_position = 0, slope_rotation = 0;
     const double c_position = opt::SmoothedL1(off_line - position_tolerance_, mu_, &slope_position);
-    const Mat3 M = tool.linear() * goal_rotation_.transpose();
-    const double rotation_distance = 0.5 * (3.0 - M.trace());
-    const double c_rotation = opt::SmoothedL1(rotation_distance - rotation_tolerance_, mu_, &slope_rotation);
+    const RotationDistance rotation = RotationDistanceTo(tool.linear(), goal_rotation_);
+    const double c_rotation = opt::SmoothedL1(rotation.value - rotation_tolerance_, mu_, &slope_rotation);
     const double c = position_weight_ * c_position + rotation_weight_ * c_rotation;
     sums->breakdown += s.weight * c;
     sums->sample += weight_ * c;
@@ -62,9 +62,7 @@ class InsertionPenalty final : public CostTerm {
     if (gradient != nullptr && c > 0.0) {
       env::LinkWrench wrench;
       if (off_line > 0.0) wrench.force = weight_ * position_weight_ * slope_position * across / off_line;
-      // d tr(exp([phi]x) M) / d phi = (M23 - M32, M31 - M13, M12 - M21).
-      const Vec3 trace_gradient(M(1, 2) - M(2, 1), M(2, 0) - M(0, 2), M(0, 1) - M(1, 0));
-      wrench.torque = weight_ * rotation_weight_ * slope_rotation * (-0.5) * trace_gradient;
+      wrench.torque = weight_ * rotation_weight_ * slope_rotation * rotation.gradient;
       gradient->scratch.SetZero(n);
       env::AccumulateLinkWrench(robot_, *s.kinematics, goal_.tool_link, wrench, &gradient->scratch);
       gradient->position += gradient->scratch.position;

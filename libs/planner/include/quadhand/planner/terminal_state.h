@@ -29,6 +29,8 @@ struct TerminalStateOptions {
   double weight_rotation = 1e3;        // per unit of d_R = (3 - tr(R_e R_g^T)) / 2
   double weight_collision = 1e3;
   double weight_joint_limits = 1e3;
+  double collision_mu = 0.01;          // smoothing of the collision penalty, metres
+  double joint_limit_mu = 0.02;        // smoothing of the joint-limit penalty, rad
 
   bool IsValid(std::string* why) const;
 };
@@ -53,8 +55,9 @@ core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& rob
 
 // The objective FindTerminalState minimises, over x = [base position (3),
 // yaw, joints (n)] of a hovering robot: weighted squared tool position error,
-// rotation distance to the goal orientation, collision penalties at the goal
-// state (and backed off along the insertion), joint-limit penalties. Exposed
+// rotation distance to the goal orientation, and the trajectory's collision
+// and joint-limit cost terms (cost_term.h) at the goal state (collision also
+// backed off along the insertion). Exposed
 // for gradient tests; `robot` and `collision` must outlive it (task and tool are copied).
 std::unique_ptr<opt::Objective> MakeTerminalStateObjective(const robot::RobotModel& robot,
                                                            const env::CollisionModel& collision,
