@@ -70,7 +70,7 @@ core::Result<BenchConfig> LoadConfig(const std::string& path) {
 // Trial k's start: uniform in the box, yaw and joint ranges, redrawn (same
 // generator) while the robot is within the safety distance of the scene.
 bool DrawStart(unsigned seed, const BenchConfig& config, const robot::RobotModel& robot,
-               const planner::ExactClearance& exact, double safety, planner::BoundaryState* start) {
+               const env::ExactMeshModel& exact, double safety, planner::BoundaryState* start) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const VecX lower = robot.LowerLimits(), upper = robot.UpperLimits();
@@ -84,7 +84,7 @@ bool DrawStart(unsigned seed, const BenchConfig& config, const robot::RobotModel
     start->acceleration.setZero();
     const Pose base = MakePose(start->position, Eigen::AngleAxisd(start->yaw, Vec3::UnitZ()).toRotationMatrix());
     robot::ComputeKinematics(robot, base, start->joints, &kinematics);
-    if (exact.WholeBody(kinematics, safety + 0.01, nullptr) >= safety + 0.005) return true;
+    if (env::WholeBodyClearance(kinematics, exact, safety + 0.01, {}, nullptr) >= safety + 0.005) return true;
   }
   return false;
 }
@@ -173,7 +173,7 @@ int main(int argc, char** argv) {
   if (!context.ok()) return Fail(context.status().message());
   const planner::Task* task = &(*context)->task();
   const robot::RobotModel* robot = &(*context)->robot();
-  const planner::ExactClearance* exact = &(*context)->exact();
+  const env::ExactMeshModel* exact = &(*context)->exact();
   const planner::PlannerOptions options = planner_config->planner;
 
   std::ostringstream lines;

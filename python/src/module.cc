@@ -206,7 +206,7 @@ PlanOutput RunPlan(const PlanArguments& args) {
 class Clearance {
  public:
   Clearance(const Robot& robot, const Scene& scene)
-      : model_(robot.model), points_(scene.points), exact_(Take(planner::ExactClearance::Create(model_, *points_))) {}
+      : model_(robot.model), points_(scene.points), exact_(Take(env::ExactMeshModel::Create(model_, *points_))) {}
 
   // (distance, closest link name); the distance is `reach` when nothing is closer.
   std::pair<double, std::string> Query(const Vec3& position, const Quat& attitude, const VecX& joints,
@@ -219,7 +219,7 @@ class Clearance {
     robot::ComputeKinematics(model_, MakePose(position, attitude.normalized().toRotationMatrix()), joints,
                              &kinematics);
     int link = -1;
-    const double distance = exact_->WholeBody(kinematics, reach, &link);
+    const double distance = env::WholeBodyClearance(kinematics, *exact_, reach, {}, &link);
     return {distance, link >= 0 ? model_.link(link).name : std::string()};
   }
 
@@ -232,7 +232,7 @@ class Clearance {
 
   robot::RobotModel model_;
   std::shared_ptr<const std::vector<Vec3>> points_;
-  std::unique_ptr<planner::ExactClearance> exact_;
+  std::unique_ptr<env::ExactMeshModel> exact_;
 };
 
 std::vector<std::string> GenerateSdfs(const std::string& urdf_path, const std::string& out_dir, double resolution,

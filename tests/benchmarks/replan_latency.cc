@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
       fk_ms += Ms(a);
       a = Clock::now();
       int link;
-      volatile double d = scene.exact.WholeBody(kin, 0.08, &link);
+      volatile double d = env::WholeBodyClearance(kin, scene.exact, 0.08, {}, &link);
       exact_ms += Ms(a);
       a = Clock::now();
       volatile double e = env::WholeBodyClearance(kin, scene.collision, 0.08, env::QueryContext{0, 0.0});

@@ -130,7 +130,7 @@ double StateClearance(const Vec3& position, double yaw, const VecX& joints, doub
   robot::KinematicsState kinematics;
   robot::ComputeKinematics(WindowCup().robot(), MakePose(position, Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix()),
                            joints, &kinematics);
-  return WindowCup().exact->WholeBody(kinematics, reach, nullptr);
+  return env::WholeBodyClearance(kinematics, *WindowCup().exact, reach, {});
 }
 
 // A gust puts the vehicle 1 cm from a window edge (inside the 3 cm safety

@@ -45,7 +45,7 @@ double StartClearance(const BoundaryState& state) {
   robot::ComputeKinematics(WindowCup().robot(),
                            MakePose(state.position, Eigen::AngleAxisd(state.yaw, Vec3::UnitZ()).toRotationMatrix()),
                            state.joints, &kinematics);
-  return WindowCup().exact->WholeBody(kinematics, 0.1, nullptr);  // 10 cm: the margins of interest are 3 cm
+  return env::WholeBodyClearance(kinematics, *WindowCup().exact, 0.1, {});  // 10 cm: the margins of interest are 3 cm
 }
 
 // `state` moved (position only) towards the nearest obstacle until its exact

@@ -15,7 +15,7 @@ namespace {
 struct CupScene {
   std::vector<Vec3> points;
   std::unique_ptr<env::MrcSdfModel> model;
-  std::unique_ptr<ExactClearance> exact;
+  std::unique_ptr<env::ExactMeshModel> exact;
   Task task;
 };
 
@@ -25,7 +25,7 @@ const CupScene& Cup() {
     CupScene s;
     s.points = scene::LoadPcd(std::string(QUADHAND_SOURCE_DIR) + "/data/scenes/window_cup.pcd")->points;
     s.model = std::move(*env::MrcSdfModel::Create(fx.links, fx.grids, s.points));
-    s.exact = std::move(*ExactClearance::Create(fx.robot, s.points));
+    s.exact = std::move(*env::ExactMeshModel::Create(fx.robot, s.points));
     s.task.start.yaw = M_PI;
     s.task.start.joints = Vec3(0.3, -0.2, 0.0);
     s.task.limits.joint_lower = fx.robot.LowerLimits();
@@ -60,14 +60,14 @@ TEST(TerminalStateTest, FindsACollisionFreeStateWithTheToolAtTheCup) {
   const Pose& tool = k.link_poses[tool_link];
   EXPECT_LT((tool.translation() - CupGoal().position).norm(), 0.002);
   EXPECT_LT(Eigen::AngleAxisd(tool.linear() * CupGoal().orientation.toRotationMatrix().transpose()).angle(), 0.01);
-  EXPECT_GE(s.exact->WholeBody(k, 0.1, nullptr), 0.03);
+  EXPECT_GE(env::WholeBodyClearance(k, *s.exact, 0.1, {}), 0.03);
   for (int q = 0; q < 3; ++q) {
     EXPECT_GE(found->state.joints[q], s.task.limits.joint_lower[q]);
     EXPECT_LE(found->state.joints[q], s.task.limits.joint_upper[q]);
   }
   // Backed off along the insertion, the robot is clear too.
   robot::ComputeKinematics(fx.robot, MakePose(base.translation() + Vec3(0, 0, 0.1), base.linear()), found->state.joints, &k);
-  EXPECT_GE(s.exact->WholeBody(k, 0.1, nullptr), 0.03);
+  EXPECT_GE(env::WholeBodyClearance(k, *s.exact, 0.1, {}), 0.03);
 }
 
 TEST(TerminalStateTest, ObjectiveGradientMatchesFiniteDifferences) {

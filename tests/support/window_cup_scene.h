@@ -22,7 +22,7 @@ struct WindowCupScene {
   planner::Task task;
   std::vector<Vec3> points;
   std::unique_ptr<env::MrcSdfModel> model;
-  std::unique_ptr<planner::ExactClearance> exact;
+  std::unique_ptr<env::ExactMeshModel> exact;
   std::unique_ptr<planner::FrontEndMap> front_end;
 
   const robot::RobotModel& robot() const { return CoarseQuadHand().robot; }
@@ -40,7 +40,7 @@ inline const WindowCupScene& WindowCup() {
     if (!applied.ok()) std::abort();
     s.points = scene::LoadPcd(s.task.scene_path)->points;
     s.model = std::move(*env::MrcSdfModel::Create(fx.links, fx.grids, s.points));
-    s.exact = std::move(*planner::ExactClearance::Create(fx.robot, s.points));
+    s.exact = std::move(*env::ExactMeshModel::Create(fx.robot, s.points));
     std::vector<Vec3> contain = {s.task.start.position, s.task.terminal->position};
     s.front_end = std::make_unique<planner::FrontEndMap>(
         std::move(*planner::FrontEndMap::Build(s.points, planner::FrontEndOptions{}, contain)));

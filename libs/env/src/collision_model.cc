@@ -65,7 +65,11 @@ double WholeBodyClearance(const robot::KinematicsState& kinematics, const Collis
                           double search_radius, const QueryContext& context, int* closest_link) {
   double clearance = search_radius;
   for (int link : model.links()) {
-    const double d = model.LinkClearance(link, kinematics.link_poses[link], search_radius, context);
+    // Only a link closer than the minimum so far matters: searching within
+    // that minimum (not below zero: penetration depths are not searched by
+    // radius) gives the same result and prunes more.
+    const double radius = std::max(clearance, std::min(search_radius, 0.0));
+    const double d = model.LinkClearance(link, kinematics.link_poses[link], radius, context);
     if (d < clearance) {
       clearance = d;
       if (closest_link != nullptr) *closest_link = link;

@@ -88,7 +88,7 @@ std::string FlightLog::Csv(const std::vector<std::string>& joint_names) const {
 }
 
 FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
-                             const planner::ExactClearance& exact, const planner::Task& task,
+                             const env::ExactMeshModel& exact, const planner::Task& task,
                              const Vec3& terminal_position, double reach) {
   FlightMetrics metrics;
   std::vector<double> errors;
@@ -103,7 +103,7 @@ FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const rob
     robot::ComputeKinematics(robot, MakePose(s.measured.position, s.measured.attitude.toRotationMatrix()),
                              s.measured.joints, &kinematics);
     int link = -1;
-    const double d = exact.WholeBody(kinematics, reach, &link);
+    const double d = env::WholeBodyClearance(kinematics, exact, reach, {}, &link);
     if (std::isnan(metrics.min_clearance_time)) metrics.min_clearance_time = s.measured.time;
     if (d < min_clearance) {
       min_clearance = d;

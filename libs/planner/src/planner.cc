@@ -144,7 +144,7 @@ double StateClearance(const PlanningScene& scene, const BoundaryState& state, do
   robot::KinematicsState kinematics;
   const Pose base = MakePose(state.position, Eigen::AngleAxisd(state.yaw, Vec3::UnitZ()).toRotationMatrix());
   robot::ComputeKinematics(scene.robot, base, state.joints, &kinematics);
-  return scene.exact.WholeBody(kinematics, reach, link);
+  return env::WholeBodyClearance(kinematics, scene.exact, reach, {}, link);
 }
 
 core::Result<bool> BuildPlanCollision(const PlanningScene& scene, const std::vector<Vec3>& path, const Vec3& start,

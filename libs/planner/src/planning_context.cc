@@ -44,8 +44,8 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(Task task
 
   // The cloud is indexed once here and shared by the post-check and the
   // representations whose index has the same cell.
-  auto index = std::make_shared<const scene::PointGrid>(context->points(), ExactClearance::kIndexCellSize);
-  auto exact = ExactClearance::Create(context->robot_, index);
+  auto index = std::make_shared<const scene::PointGrid>(context->points(), env::ExactMeshModel::kIndexCellSize);
+  auto exact = env::ExactMeshModel::Create(context->robot_, index);
   if (!exact.ok()) return exact.status();
   context->exact_ = std::move(*exact);
 

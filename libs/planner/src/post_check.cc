@@ -6,7 +6,6 @@
 #include <limits>
 
 #include "quadhand/robot/kinematics.h"
-#include "quadhand/robot/link_meshes.h"
 
 namespace quadhand::planner {
 namespace {
@@ -55,90 +54,11 @@ std::string PostCheckReport::FirstFailure() const {
   return "";
 }
 
-// ------------------------------------------------------------ exact clearance
-
-ExactClearance::ExactClearance(std::vector<LinkGeometry> links, std::shared_ptr<const scene::PointGrid> points)
-    : links_(std::move(links)), points_(std::move(points)) {}
-
-core::Result<std::unique_ptr<ExactClearance>> ExactClearance::Create(const robot::RobotModel& robot,
-                                                                    const std::vector<Vec3>& points) {
-  return Create(robot, std::make_shared<const scene::PointGrid>(points, kIndexCellSize));
-}
-
-core::Result<std::unique_ptr<ExactClearance>> ExactClearance::Create(const robot::RobotModel& robot,
-                                                                    std::shared_ptr<const scene::PointGrid> index) {
-  if (index == nullptr) return core::Status::InvalidArgument("exact clearance: no indexed cloud");
-  std::vector<LinkGeometry> links;
-  for (int link : robot.CollisionLinks()) {
-    auto mesh = robot::LinkCollisionMesh(robot, link);
-    if (!mesh.ok()) return mesh.status();
-    auto query = geometry::MeshDistanceQuery::Create(*mesh, /*is_signed=*/true);
-    if (!query.ok()) return query.status();
-    const geometry::AxisAlignedBox box = geometry::BoundingBox(*mesh);
-    links.push_back({link, std::move(*query), box.min, box.max});
-  }
-  return std::unique_ptr<ExactClearance>(new ExactClearance(std::move(links), std::move(index)));
-}
-
-double ExactClearance::WholeBody(const robot::KinematicsState& kinematics, double reach, int* closest_link) const {
-  double clearance = reach;
-  // Candidate points of one link: (lower bound of their distance, position in the link frame).
-  thread_local std::vector<std::pair<double, Vec3>> candidates, queried;
-  for (const LinkGeometry& g : links_) {
-    const Pose& X = kinematics.link_poses[g.link];
-    const Vec3 lo = g.box_min - Vec3::Constant(reach), hi = g.box_max + Vec3::Constant(reach);
-    const Vec3 center = X * (0.5 * (lo + hi));
-    const Vec3 half = X.linear().cwiseAbs() * (0.5 * (hi - lo));
-    candidates.clear();
-    points_->VisitBox(center - half, center + half, [&](const Vec3& x) {
-      const Vec3 local = X.linear().transpose() * (x - X.translation());
-      if ((local.array() < lo.array()).any() || (local.array() > hi.array()).any()) return;
-      // The box distance is a lower bound of the signed distance outside the
-      // box; inside it, a point may be inside the mesh (no bound). Points
-      // that cannot beat the current minimum need no exact query.
-      const double outside = (g.box_min - local).cwiseMax(local - g.box_max).cwiseMax(0.0).norm();
-      const double bound = outside > 0.0 ? outside : -std::numeric_limits<double>::infinity();
-      if (bound < clearance) candidates.emplace_back(bound, local);
-    });
-    // Nearest bounds first: the minimum drops fast and prunes the rest, and
-    // each query starts from the previous closest point (coherent queries).
-    std::sort(candidates.begin(), candidates.end(),
-              [](const std::pair<double, Vec3>& a, const std::pair<double, Vec3>& b) { return a.first < b.first; });
-    Vec3 hint = Vec3::Zero();
-    bool have_hint = false;
-    queried.clear();
-    for (const auto& [bound, local] : candidates) {
-      if (bound >= clearance) break;
-      // The signed distance is 1-Lipschitz: d(q) >= d(p) - |q - p| for every
-      // point p queried already, which prunes the dense cloud's neighbours.
-      bool pruned = false;
-      for (const auto& [d_p, p] : queried) {
-        if (d_p - (local - p).norm() >= clearance) {
-          pruned = true;
-          break;
-        }
-      }
-      if (pruned) continue;
-      double d = have_hint ? g.query->UnsignedDistanceWithHint(local, hint, &hint)
-                           : g.query->UnsignedDistance(local, &hint);
-      have_hint = true;
-      // Only a point inside the bounding box can be inside the mesh.
-      if (bound < 0.0 && d > 0.0 && g.query->IsInside(local)) d = -d;
-      queried.emplace_back(d, local);
-      if (d < clearance) {
-        clearance = d;
-        if (closest_link != nullptr) *closest_link = g.link;
-      }
-    }
-  }
-  return clearance;
-}
-
 // ------------------------------------------------------------------ post-check
 
 PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, const Task& task,
                           const BoundaryState& terminal, const InsertionGoal& insertion,
-                          const env::CollisionModel& model, const ExactClearance& exact,
+                          const env::CollisionModel& model, const env::ExactMeshModel& exact,
                           const PostCheckOptions& options) {
   PostCheckReport report;
   const Limits& limits = task.limits;
@@ -161,7 +81,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     const WholeBodySample s = trajectory.Sample(t);
     robot::ComputeKinematics(robot, s.BasePose(), s.joints, &kinematics);
     int link = -1;
-    const double d_exact = exact.WholeBody(kinematics, reach, &link);
+    const double d_exact = env::WholeBodyClearance(kinematics, exact, reach, {}, &link);
     if (d_exact < min_exact) {
       min_exact = d_exact;
       closest = link;

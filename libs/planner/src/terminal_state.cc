@@ -149,7 +149,7 @@ bool TerminalStateOptions::IsValid(std::string* why) const {
 
 core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& robot,
                                                     const env::CollisionModel& collision,
-                                                    const ExactClearance& exact, const Task& task,
+                                                    const env::ExactMeshModel& exact, const Task& task,
                                                     const ToolGoal& tool, int tool_link,
                                                     const TerminalStateOptions& options,
                                                     const opt::Solver& solver) {
@@ -187,11 +187,11 @@ core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& rob
     const double position_error = (tool_pose.translation() - tool.position).norm();
     const double angle_error = Eigen::AngleAxisd(tool_pose.linear() * tool.orientation.toRotationMatrix().transpose()).angle();
     const double reach = task.safety_distance + 0.05;
-    double clearance = exact.WholeBody(kinematics, reach, nullptr);
+    double clearance = env::WholeBodyClearance(kinematics, exact, reach, {}, nullptr);
     if (tool.has_insertion) {
       robot::ComputeKinematics(robot, HoverPose(y.head<3>() - tool.insertion_direction * tool.insertion_length, y[3]),
                                joints, &kinematics);
-      clearance = std::min(clearance, exact.WholeBody(kinematics, reach, nullptr));
+      clearance = std::min(clearance, env::WholeBodyClearance(kinematics, exact, reach, {}, nullptr));
     }
     bool within_limits = true;
     for (int q = 0; q < n; ++q) {

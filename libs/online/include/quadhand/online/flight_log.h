@@ -60,7 +60,7 @@ struct FlightMetrics {
 };
 
 FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
-                             const planner::ExactClearance& exact, const planner::Task& task,
+                             const env::ExactMeshModel& exact, const planner::Task& task,
                              const Vec3& terminal_position, double reach = 0.3);
 
 }  // namespace quadhand::online

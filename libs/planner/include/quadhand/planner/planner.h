@@ -119,7 +119,7 @@ struct PlanningScene {
   // The representation optimised against, and the one the terminal-state
   // search uses; with `per_plan_collision` set, only the latter.
   const env::CollisionModel& collision;
-  const ExactClearance& exact;           // for the post-check
+  const env::ExactMeshModel& exact;      // for the post-check
   const FrontEndMap& front_end;
   PerPlanCollisionBuilder per_plan_collision = nullptr;
 };

@@ -52,7 +52,7 @@ class PlanningContext {
   const robot::RobotModel& robot() const { return robot_; }
   const std::vector<Vec3>& points() const { return *points_; }
   long dropped_non_finite_points() const { return dropped_non_finite_; }
-  const ExactClearance& exact() const { return *exact_; }
+  const env::ExactMeshModel& exact() const { return *exact_; }
   const FrontEndMap& front_end() const { return *front_end_; }
   const std::vector<Representation>& representations() const { return representations_; }
   // The scene of representation `index` (in PlanningContextOptions order);
@@ -66,7 +66,7 @@ class PlanningContext {
   robot::RobotModel robot_;
   std::shared_ptr<const std::vector<Vec3>> points_;
   long dropped_non_finite_ = 0;
-  std::unique_ptr<ExactClearance> exact_;
+  std::unique_ptr<env::ExactMeshModel> exact_;
   std::unique_ptr<FrontEndMap> front_end_;
   std::vector<Representation> representations_;
 };

@@ -10,11 +10,10 @@
 
 #include "quadhand/core/status.h"
 #include "quadhand/env/collision_model.h"
-#include "quadhand/geometry/mesh_distance.h"
+#include "quadhand/env/exact_mesh_model.h"
 #include "quadhand/planner/plan_status.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/planner/whole_body_problem.h"
-#include "quadhand/scene/point_grid.h"
 
 namespace quadhand::planner {
 
@@ -66,36 +65,11 @@ struct PostCheckReport {
   std::string FirstFailure() const;   // "clearance: 0.021 m < 0.028 m at t = 3.2 s", or empty
 };
 
-// Exact distances from raw obstacle points to the robot's link meshes.
-class ExactClearance {
- public:
-  static core::Result<std::unique_ptr<ExactClearance>> Create(const robot::RobotModel& robot,
-                                                              const std::vector<Vec3>& points);
-  // The same with the cloud already indexed, and shared (with MRC-SDF, say).
-  static core::Result<std::unique_ptr<ExactClearance>> Create(const robot::RobotModel& robot,
-                                                              std::shared_ptr<const scene::PointGrid> index);
-  // The cell of the index Create(robot, points) builds, metres.
-  static constexpr double kIndexCellSize = 0.05;
-  // Smallest signed distance between any link and any point within `reach`
-  // of it (returns `reach` if none is closer); `link` gets the closest link.
-  double WholeBody(const robot::KinematicsState& kinematics, double reach, int* link) const;
-
- private:
-  struct LinkGeometry {
-    int link;
-    std::unique_ptr<geometry::MeshDistanceQuery> query;
-    Vec3 box_min, box_max;  // link-frame bounding box of the mesh
-  };
-  ExactClearance(std::vector<LinkGeometry> links, std::shared_ptr<const scene::PointGrid> points);
-  std::vector<LinkGeometry> links_;
-  std::shared_ptr<const scene::PointGrid> points_;
-};
-
 // Checks `trajectory` for `task` (whose joint limits ApplyRobot filled).
 // `insertion` is the straight approach the plan had to make (enabled or not).
 PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, const Task& task,
                           const BoundaryState& terminal, const InsertionGoal& insertion,
-                          const env::CollisionModel& model, const ExactClearance& exact,
+                          const env::CollisionModel& model, const env::ExactMeshModel& exact,
                           const PostCheckOptions& options);
 
 }  // namespace quadhand::planner

@@ -48,7 +48,7 @@ struct TerminalStateResult {
 // errors found) when no restart passes; InvalidArgument for bad options.
 core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& robot,
                                                     const env::CollisionModel& collision,
-                                                    const ExactClearance& exact, const Task& task,
+                                                    const env::ExactMeshModel& exact, const Task& task,
                                                     const ToolGoal& tool, int tool_link,
                                                     const TerminalStateOptions& options,
                                                     const opt::Solver& solver);

@@ -1,0 +1,68 @@
+// The exact collision model: signed distances from the raw obstacle points
+// to the robot's link meshes (CGAL AABB trees), with no grid, no sampling and
+// no interpolation. It is the reference the post-check judges every plan by
+// (whatever representation planned it), and a CollisionModel like the others,
+// so it can also be optimised against or compared with them; it is slower
+// than MRC-SDF by about one exact mesh query per nearby point.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/env/collision_model.h"
+#include "quadhand/geometry/mesh_distance.h"
+#include "quadhand/scene/point_grid.h"
+
+namespace quadhand::env {
+
+class ExactMeshModel final : public CollisionModel {
+ public:
+  // The cell of the index Create(robot, points) builds, metres.
+  static constexpr double kIndexCellSize = 0.05;
+
+  // Meshes of every collision link of `robot` (robot/link_meshes.h); the
+  // points (finite, world frame) are indexed here.
+  static core::Result<std::unique_ptr<ExactMeshModel>> Create(const robot::RobotModel& robot,
+                                                              const std::vector<Vec3>& points);
+  // The same with the cloud already indexed, and shared (with MRC-SDF, say).
+  static core::Result<std::unique_ptr<ExactMeshModel>> Create(const robot::RobotModel& robot,
+                                                              std::shared_ptr<const scene::PointGrid> index);
+  ~ExactMeshModel() override;
+
+  std::string name() const override { return "exact"; }
+  DistanceQuality distance_quality() const override { return DistanceQuality::kExact; }
+  const std::vector<int>& links() const override { return links_; }
+
+  // Sum over points within `threshold` of the mesh of SmoothedL1(threshold -
+  // d, mu); the wrench from each point's closest-point direction (zero for a
+  // point exactly on the surface, where the distance has no gradient).
+  double LinkPenalty(int link, const Pose& X_WL, const PenaltyParameters& parameters,
+                     const QueryContext& context, LinkWrench* wrench) const override;
+  // Exact signed distance of the closest point within `search_radius`;
+  // points that cannot beat the minimum found so far (their bounding-box
+  // distance, and the 1-Lipschitz bound from points already queried) get no
+  // mesh query, so a smaller radius is faster. Thread-safe.
+  double LinkClearance(int link, const Pose& X_WL, double search_radius,
+                       const QueryContext& context) const override;
+
+ private:
+  struct LinkGeometry {
+    std::unique_ptr<geometry::MeshDistanceQuery> query;
+    Vec3 box_min, box_max;  // link-frame bounding box of the mesh
+  };
+  ExactMeshModel(std::vector<int> links, std::vector<LinkGeometry> geometry,
+                 std::shared_ptr<const scene::PointGrid> points);
+  // Calls visit(x_W, x_L, box_bound) for the points within `reach` of the
+  // link's bounding box at X_WL, x_L in the link frame; box_bound is a lower
+  // bound of the point's signed distance (-inf inside the box).
+  template <typename Visitor>
+  void VisitBoxNeighbours(const LinkGeometry& g, const Pose& X_WL, double reach, Visitor&& visit) const;
+
+  std::vector<int> links_;
+  std::vector<int> slot_of_link_;
+  std::vector<LinkGeometry> geometry_;
+  std::shared_ptr<const scene::PointGrid> points_;
+};
+
+}  // namespace quadhand::env

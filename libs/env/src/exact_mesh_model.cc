@@ -1,0 +1,125 @@
+#include "quadhand/env/exact_mesh_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "quadhand/opt/penalty.h"
+#include "quadhand/robot/link_meshes.h"
+
+namespace quadhand::env {
+
+ExactMeshModel::ExactMeshModel(std::vector<int> links, std::vector<LinkGeometry> geometry,
+                               std::shared_ptr<const scene::PointGrid> points)
+    : links_(std::move(links)), slot_of_link_(SlotsOfLinks(links_)), geometry_(std::move(geometry)),
+      points_(std::move(points)) {}
+
+ExactMeshModel::~ExactMeshModel() = default;
+
+core::Result<std::unique_ptr<ExactMeshModel>> ExactMeshModel::Create(const robot::RobotModel& robot,
+                                                                    const std::vector<Vec3>& points) {
+  return Create(robot, std::make_shared<const scene::PointGrid>(points, kIndexCellSize));
+}
+
+core::Result<std::unique_ptr<ExactMeshModel>> ExactMeshModel::Create(const robot::RobotModel& robot,
+                                                                    std::shared_ptr<const scene::PointGrid> index) {
+  if (index == nullptr) return core::Status::InvalidArgument("exact mesh model: no indexed cloud");
+  std::vector<int> links = robot.CollisionLinks();
+  std::vector<LinkGeometry> geometry;
+  for (int link : links) {
+    auto mesh = robot::LinkCollisionMesh(robot, link);
+    if (!mesh.ok()) return mesh.status();
+    auto query = geometry::MeshDistanceQuery::Create(*mesh, /*is_signed=*/true);
+    if (!query.ok()) return query.status();
+    const geometry::AxisAlignedBox box = geometry::BoundingBox(*mesh);
+    geometry.push_back({std::move(*query), box.min, box.max});
+  }
+  return std::unique_ptr<ExactMeshModel>(new ExactMeshModel(std::move(links), std::move(geometry), std::move(index)));
+}
+
+template <typename Visitor>
+void ExactMeshModel::VisitBoxNeighbours(const LinkGeometry& g, const Pose& X_WL, double reach, Visitor&& visit) const {
+  const Vec3 lo = g.box_min - Vec3::Constant(reach), hi = g.box_max + Vec3::Constant(reach);
+  const Vec3 center = X_WL * (0.5 * (lo + hi));
+  const Vec3 half = X_WL.linear().cwiseAbs() * (0.5 * (hi - lo));
+  points_->VisitBox(center - half, center + half, [&](const Vec3& x) {
+    const Vec3 local = X_WL.linear().transpose() * (x - X_WL.translation());
+    if ((local.array() < lo.array()).any() || (local.array() > hi.array()).any()) return;
+    // The box distance is a lower bound of the signed distance outside the
+    // box; inside it, a point may be inside the mesh (no bound).
+    const double outside = (g.box_min - local).cwiseMax(local - g.box_max).cwiseMax(0.0).norm();
+    visit(x, local, outside > 0.0 ? outside : -std::numeric_limits<double>::infinity());
+  });
+}
+
+double ExactMeshModel::LinkClearance(int link, const Pose& X_WL, double search_radius,
+                                     const QueryContext& /*context*/) const {
+  const LinkGeometry& g = geometry_[slot_of_link_[link]];
+  double clearance = search_radius;
+  // Candidate points: (lower bound of their distance, position in the link frame).
+  thread_local std::vector<std::pair<double, Vec3>> candidates, queried;
+  candidates.clear();
+  VisitBoxNeighbours(g, X_WL, search_radius, [&](const Vec3&, const Vec3& local, double bound) {
+    if (bound < clearance) candidates.emplace_back(bound, local);
+  });
+  // Nearest bounds first: the minimum drops fast and prunes the rest, and
+  // each query starts from the previous closest point (coherent queries).
+  std::sort(candidates.begin(), candidates.end(),
+            [](const std::pair<double, Vec3>& a, const std::pair<double, Vec3>& b) { return a.first < b.first; });
+  Vec3 hint = Vec3::Zero();
+  bool have_hint = false;
+  queried.clear();
+  for (const auto& [bound, local] : candidates) {
+    if (bound >= clearance) break;
+    // The signed distance is 1-Lipschitz: d(q) >= d(p) - |q - p| for every
+    // point p queried already, which prunes the dense cloud's neighbours.
+    bool pruned = false;
+    for (const auto& [d_p, p] : queried) {
+      if (d_p - (local - p).norm() >= clearance) {
+        pruned = true;
+        break;
+      }
+    }
+    if (pruned) continue;
+    double d = have_hint ? g.query->UnsignedDistanceWithHint(local, hint, &hint) : g.query->UnsignedDistance(local, &hint);
+    have_hint = true;
+    // Only a point inside the bounding box can be inside the mesh.
+    if (bound < 0.0 && d > 0.0 && g.query->IsInside(local)) d = -d;
+    queried.emplace_back(d, local);
+    clearance = std::min(clearance, d);
+  }
+  return clearance;
+}
+
+double ExactMeshModel::LinkPenalty(int link, const Pose& X_WL, const PenaltyParameters& parameters,
+                                   const QueryContext& /*context*/, LinkWrench* wrench) const {
+  const LinkGeometry& g = geometry_[slot_of_link_[link]];
+  const Mat3& R = X_WL.linear();
+  const Vec3& t = X_WL.translation();
+  double cost = 0.0;
+  Vec3 force = Vec3::Zero(), torque = Vec3::Zero();
+  VisitBoxNeighbours(g, X_WL, parameters.threshold, [&](const Vec3& x_W, const Vec3& local, double bound) {
+    if (bound >= parameters.threshold) return;
+    Vec3 closest;
+    double d = g.query->UnsignedDistance(local, &closest);
+    const bool inside = bound < 0.0 && d > 0.0 && g.query->IsInside(local);
+    if (inside) d = -d;
+    double slope = 0.0;
+    cost += opt::SmoothedL1(parameters.threshold - d, parameters.mu, &slope);
+    const double gap = (local - closest).norm();
+    if (wrench == nullptr || slope == 0.0 || gap == 0.0) return;
+    // Gradient of the signed distance at x_L: away from the closest surface
+    // point outside, towards it inside. As for MRC-SDF: d distance / d(link
+    // translation) = -g_W, / d(link rotation) = g_W x (x - t), d cost / d distance = -slope.
+    const Vec3 gradient_W = R * ((inside ? -1.0 : 1.0) / gap * (local - closest));
+    force += slope * gradient_W;
+    torque -= slope * gradient_W.cross(x_W - t);
+  });
+  if (wrench != nullptr) {
+    wrench->force += force;
+    wrench->torque += torque;
+  }
+  return cost;
+}
+
+}  // namespace quadhand::env
