@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 
 namespace quadhand::planner {
@@ -66,6 +67,53 @@ TEST(RepresentationRegistryTest, ARegisteredRepresentationIsBuiltByNameWithItsOp
   seen_resolution = 0.0;
   EXPECT_FALSE(MakeRepresentation("coarse_esdf", robot, "", points, options).ok());
   EXPECT_EQ(seen_resolution, 0.0);
+}
+
+// A representation registered from outside the library reads its own
+// section of the configuration file: the file is parsed, the section passed
+// on as YAML text, and written back by --print-config and into the report.
+TEST(RepresentationRegistryTest, ARegisteredRepresentationGetsItsOwnConfigurationSection) {
+  std::string seen;
+  ASSERT_TRUE(RegisterRepresentation("plugin_floor", [&seen](const RepresentationInputs& in) {
+                seen = in.own_options;
+                return MakeRepresentation("mrc_sdf", in.robot, in.sdf_dir, in.points, in.options, in.index);
+              }).ok());
+  auto config = ParsePlannerConfig(
+      "representations:\n  plugin_floor:\n    radius: 0.2\n    levels: [1, 2]\n  esdf: {resolution: 0.03}\n",
+      "cfg.yaml");
+  ASSERT_TRUE(config.ok()) << config.status().message();
+  EXPECT_EQ(config->representations.esdf.resolution, 0.03);
+  ASSERT_EQ(config->representations.registered.count("plugin_floor"), 1u);
+  EXPECT_EQ(config->representations.registered.at("plugin_floor"), "{radius: 0.2, levels: [1, 2]}");
+
+  // Round trip through the printed configuration, and the report's entries.
+  auto again = ParsePlannerConfig(PlannerConfigYaml(*config), "printed.yaml");
+  ASSERT_TRUE(again.ok()) << again.status().message() << "\n" << PlannerConfigYaml(*config);
+  EXPECT_EQ(again->representations.registered, config->representations.registered);
+  const auto entries = PlannerConfigEntries(*config);
+  EXPECT_EQ(entries.back().first, "representations.plugin_floor");
+  EXPECT_EQ(std::get<std::string>(entries.back().second), "{radius: 0.2, levels: [1, 2]}");
+
+  const robot::RobotModel robot = QuadHand();
+  const std::vector<Vec3> points = Floor();
+  const std::string sdf_dir = std::string(QUADHAND_SOURCE_DIR) + "/data/sdf/quadhand";
+  auto built = MakeRepresentation("plugin_floor", robot, sdf_dir, points, config->representations);
+  ASSERT_TRUE(built.ok()) << built.status().message();
+  EXPECT_EQ(seen, "{radius: 0.2, levels: [1, 2]}");
+  seen = "unset";
+  ASSERT_TRUE(MakeRepresentation("plugin_floor", robot, sdf_dir, points).ok());
+  EXPECT_EQ(seen, "");  // no section: no options
+
+  // A section for a name nobody registered is an error naming it; a built-in
+  // cannot be given as text.
+  auto unknown = ParsePlannerConfig("representations: {voxels: {size: 1}}\n", "cfg.yaml");
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_EQ(unknown.status().message().rfind("cfg.yaml: representations.voxels: unknown representation 'voxels'", 0),
+            0u)
+      << unknown.status().message();
+  RepresentationOptions text_for_builtin;
+  text_for_builtin.registered["esdf"] = "{resolution: 0.03}";
+  EXPECT_FALSE(text_for_builtin.IsValid(nullptr));
 }
 
 }  // namespace

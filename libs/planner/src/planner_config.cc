@@ -255,6 +255,36 @@ void LeafKeys(const YAML::Node& node, const std::string& prefix, std::vector<std
   }
 }
 
+// The sections representations.<name> of representations registered from
+// outside the library, kept as YAML text for their factories.
+core::Status ReadRegisteredRepresentationOptions(const YAML::Node& root, const std::string& name,
+                                                 RepresentationOptions* options) {
+  const YAML::Node& const_root = root;  // const lookups insert nothing
+  const YAML::Node sections = const_root["representations"];
+  if (!sections || !sections.IsMap()) return core::Status::Ok();
+  for (const auto& entry : sections) {
+    const std::string representation = entry.first.Scalar();
+    if (IsBuiltInRepresentation(representation)) continue;  // the key table reads those
+    if (core::Status known = CheckRepresentationName(representation); !known.ok()) {
+      return core::Status::InvalidArgument(name + ": representations." + representation + ": " + known.message());
+    }
+    YAML::Node section = YAML::Clone(entry.second);
+    section.SetStyle(YAML::EmitterStyle::Flow);  // one line, so that it nests anywhere
+    YAML::Emitter text;
+    text << section;
+    options->registered[representation] = text.c_str();
+  }
+  return core::Status::Ok();
+}
+
+bool IsRegisteredOptionsKey(const RepresentationOptions& options, const std::string& key) {
+  for (const auto& [representation, text] : options.registered) {
+    const std::string prefix = "representations." + representation;
+    if (key == prefix || key.rfind(prefix + ".", 0) == 0) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 bool PlannerConfig::IsValid(std::string* why) const {
@@ -315,10 +345,11 @@ core::Result<PlannerConfig> ParsePlannerConfig(const std::string& text, const st
     Reader reader(root, name);
     Visit(config, reader);
     QUADHAND_RETURN_IF_ERROR(reader.status());
+    QUADHAND_RETURN_IF_ERROR(ReadRegisteredRepresentationOptions(root, name, &config.representations));
     std::vector<std::string> present;
     LeafKeys(root, "", &present);
     for (const std::string& key : present) {
-      if (reader.keys().count(key) != 0) continue;
+      if (reader.keys().count(key) != 0 || IsRegisteredOptionsKey(config.representations, key)) continue;
       const auto after = reader.keys().lower_bound(key + ".");
       const bool is_section = after != reader.keys().end() && after->rfind(key + ".", 0) == 0;
       return core::Status::InvalidArgument(name + ": " + key +
@@ -359,6 +390,11 @@ std::string PlannerConfigYaml(const PlannerConfig& config) {
     }
     out << "\n";
   });
+  // Registered representations' sections, as given, under "representations:"
+  // (the last section of the key table).
+  for (const auto& [representation, text] : config.representations.registered) {
+    out << "  " << representation << ": " << text << "\n";
+  }
   return out.str();
 }
 
@@ -376,6 +412,9 @@ std::vector<std::pair<std::string, ConfigValue>> PlannerConfigEntries(const Plan
       entries.emplace_back(key, ConfigValue(static_cast<double>(field)));
     }
   });
+  for (const auto& [representation, text] : config.representations.registered) {
+    entries.emplace_back("representations." + representation, ConfigValue(text));
+  }
   return entries;
 }
 

@@ -108,7 +108,17 @@ bool RepresentationOptions::IsValid(std::string* why) const {
       return false;
     }
   }
+  for (const auto& [name, text] : registered) {
+    if (IsBuiltInRepresentation(name)) {
+      if (why != nullptr) *why = name + ": a built-in representation's options are fields, not text";
+      return false;
+    }
+  }
   return true;
+}
+
+bool IsBuiltInRepresentation(const std::string& name) {
+  return name == "mrc_sdf" || name == "esdf" || name == "sfc";
 }
 
 core::Status RegisterRepresentation(const std::string& name, RepresentationFactory factory) {
@@ -148,7 +158,10 @@ core::Result<Representation> MakeRepresentation(const std::string& name, const r
     if (const RepresentationFactory* found = registry.Find(name)) factory = *found;
   }
   if (!factory) return UnknownRepresentation(name, RepresentationNames());
-  auto representation = factory(RepresentationInputs{robot, points, sdf_dir, options, std::move(index)});
+  const auto own = options.registered.find(name);
+  const std::string no_options;
+  auto representation = factory(RepresentationInputs{robot, points, sdf_dir, options, std::move(index),
+                                                     own != options.registered.end() ? own->second : no_options});
   if (!representation.ok()) return representation.status();
   representation->name = name;
   return representation;

@@ -62,7 +62,8 @@ PlanningContextOptions ContextOptions(const PlannerConfig& config, std::vector<s
 
 // Every key with its value, in file order ("cost.samples_per_piece", 16):
 // for reports.
-using ConfigValue = std::variant<bool, long long, double, std::vector<double>>;
+// (A registered representation's options are one string: their YAML text.)
+using ConfigValue = std::variant<bool, long long, double, std::vector<double>, std::string>;
 std::vector<std::pair<std::string, ConfigValue>> PlannerConfigEntries(const PlannerConfig& config);
 
 }  // namespace quadhand::planner

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -38,6 +39,12 @@ struct RepresentationOptions {
   env::MrcSdfOptions mrc_sdf;
   env::EsdfOptions esdf;
   env::SfcOptions sfc;
+  // Options of representations registered from outside the library: the
+  // section `representations.<name>` of the configuration file as one line
+  // of (flow-style) YAML, by name. The factory registered as <name> gets its text as
+  // RepresentationInputs::own_options and parses it (a bad value is its
+  // InvalidArgument); the configuration only checks that <name> is registered.
+  std::map<std::string, std::string> registered;
 
   bool IsValid(std::string* why) const;
 };
@@ -55,6 +62,9 @@ struct RepresentationInputs {
   // also used by the post-check), or null: a representation whose index has
   // the same cell size uses it instead of indexing the cloud again.
   std::shared_ptr<const scene::PointGrid> index;
+  // options.registered's text for the representation being built; empty
+  // when the configuration has no section for it (and for the built-ins).
+  const std::string& own_options;
 };
 
 // Builds one representation; errors name the file or option at fault, and
@@ -66,6 +76,9 @@ using RepresentationFactory = std::function<core::Result<Representation>(const R
 // mrc_sdf, esdf and sfc are registered before the first use of the registry.
 // Thread-safe.
 core::Status RegisterRepresentation(const std::string& name, RepresentationFactory factory);
+
+// mrc_sdf, esdf or sfc: options in RepresentationOptions' own fields.
+bool IsBuiltInRepresentation(const std::string& name);
 
 // The registered names, in registration order (mrc_sdf, esdf, sfc first).
 std::vector<std::string> RepresentationNames();
