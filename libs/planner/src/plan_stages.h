@@ -39,11 +39,9 @@ core::Result<bool> BuildPlanCollision(const PlanningScene& scene, const std::vec
                                       PlanResult* result);
 
 // Creates the whole-body problem from task.start to result->terminal (with
-// result->insertion) and runs SolveAndPostCheck from the guess: the first
-// solve with `first`, re-solves with `retry`, at most `max_attempts`.
+// result->insertion) and runs SolveAndPostCheck from the guess on `schedule`.
 core::Status Optimise(const PlanningScene& scene, const PlanCollision& collision, const Task& task,
-                      const InitialGuess& guess, const PlannerOptions& options, const opt::SolverOptions& first,
-                      const opt::SolverOptions& retry, int max_attempts, const opt::Solver& solver,
+                      const InitialGuess& guess, const PlannerOptions& options, const SolveSchedule& schedule,
                       PlanResult* result);
 
 }  // namespace quadhand::planner

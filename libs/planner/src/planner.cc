@@ -91,19 +91,17 @@ bool RaiseWeightsOfFailedChecks(const PostCheckReport& report, double factor, in
 
 core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const PlanningScene& scene,
                                const env::CollisionModel& collision, const Task& task,
-                               const PlannerOptions& options, const opt::SolverOptions& first_options,
-                               const opt::SolverOptions& retry_options, int max_attempts, const opt::Solver& solver,
-                               PlanResult* result) {
+                               const PlannerOptions& options, const SolveSchedule& schedule, PlanResult* result) {
   if (problem == nullptr || result == nullptr) return core::Status::InvalidArgument("no problem or result");
   if (x0.size() != problem->num_variables()) return core::Status::InvalidArgument("initial guess has the wrong size");
-  for (const opt::SolverOptions* o : {&first_options, &retry_options}) {
+  for (const opt::SolverOptions* o : {&schedule.first, &schedule.retry}) {
     if (std::string why; !o->IsValid(&why)) return core::Status::InvalidArgument("solver options: " + why);
   }
   WholeBodyCostOptions cost = problem->options();
   VecX x = x0;
   result->success = false;
-  for (int attempt = 0; attempt < max_attempts; ++attempt) {
-    const opt::SolveResult solved = solver.Solve(*problem, x, attempt == 0 ? first_options : retry_options);
+  for (int attempt = 0; attempt < schedule.max_attempts; ++attempt) {
+    const opt::SolveResult solved = schedule.solver.Solve(*problem, x, attempt == 0 ? schedule.first : schedule.retry);
     PlanAttempt record;
     record.solve_ms = solved.wall_time_seconds * 1e3;
     record.iterations = solved.iterations;
@@ -169,16 +167,14 @@ core::Result<bool> BuildPlanCollision(const PlanningScene& scene, const std::vec
 }
 
 core::Status Optimise(const PlanningScene& scene, const PlanCollision& collision, const Task& task,
-                      const InitialGuess& guess, const PlannerOptions& options, const opt::SolverOptions& first,
-                      const opt::SolverOptions& retry, int max_attempts, const opt::Solver& solver,
+                      const InitialGuess& guess, const PlannerOptions& options, const SolveSchedule& schedule,
                       PlanResult* result) {
   result->num_pieces = static_cast<int>(guess.durations.size());
   auto problem = WholeBodyProblem::Create(scene.robot, *collision.model, task.start, result->terminal, task.limits,
                                           result->insertion, CostForTask(options, task), result->num_pieces);
   if (!problem.ok()) return problem.status().WithPrefix(task.file);
   const VecX x0 = (*problem)->Pack(guess.position_waypoints, guess.aux_waypoints, guess.durations);
-  return SolveAndPostCheck(problem->get(), x0, scene, *collision.model, task, options, first, retry, max_attempts,
-                           solver, result);
+  return SolveAndPostCheck(problem->get(), x0, scene, *collision.model, task, options, schedule, result);
 }
 
 namespace {
@@ -363,8 +359,8 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
                                   &result);
   if (!built.ok()) return built.status();
   if (!*built) return result;
-  QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, task, *guess, options, options.solver, options.solver,
-                                    options.max_attempts, solver, &result));
+  const SolveSchedule schedule{solver, options.solver, options.solver, options.max_attempts};
+  QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, task, *guess, options, schedule, &result));
   return result;
 }
 

@@ -165,8 +165,8 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   // Re-solves of a replan raise weights only; they keep the sample count
   // (measured with that rule: docs/online.md).
   checked.resolve_sample_factor = 1;
-  QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, replan_task, guess, checked, replan.solver, options.solver,
-                                    replan.max_attempts, solver, &result));
+  const SolveSchedule schedule{solver, replan.solver, options.solver, replan.max_attempts};
+  QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, replan_task, guess, checked, schedule, &result));
   return result;
 }
 

@@ -135,16 +135,25 @@ WholeBodyCostOptions CostForTask(const PlannerOptions& options, const Task& task
 // raising the weights of the violated terms between solves (and, after a
 // failed clearance check, the samples per piece by
 // options.resolve_sample_factor up to options.max_samples_per_piece). The
-// first solve uses `first_options`, the re-solves `retry_options`. Fills the
+// first solve uses schedule.first, the re-solves schedule.retry. Fills the
 // trajectory, post_check, final_cost, attempts, solve_ms, iterations,
 // evaluations, success, status (kSuccess, kPostCheckFailed,
 // kSolverFailed) and message of *result; reads result->terminal and
 // result->insertion. Errors only for inconsistent input (sizes, options).
+// How a plan is solved: the back-end, the first solve's options, the
+// re-solves' (after a failed post-check raised the weights), and how many
+// solves at most. Plan uses PlannerOptions::solver for both; Replan starts
+// with its own budget (ReplanOptions::solver).
+struct SolveSchedule {
+  const opt::Solver& solver;
+  opt::SolverOptions first;
+  opt::SolverOptions retry;
+  int max_attempts = 1;
+};
+
 core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const PlanningScene& scene,
                                const env::CollisionModel& collision, const Task& task,
-                               const PlannerOptions& options, const opt::SolverOptions& first_options,
-                               const opt::SolverOptions& retry_options, int max_attempts, const opt::Solver& solver,
-                               PlanResult* result);
+                               const PlannerOptions& options, const SolveSchedule& schedule, PlanResult* result);
 
 // Raises (by `factor`) the weight of each term whose post-check failed; a
 // failed clearance also multiplies the samples per piece by `sample_factor`
