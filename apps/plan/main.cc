@@ -40,7 +40,8 @@ double Ms(Clock::time_point since) { return std::chrono::duration<double, std::m
 
 // The 3-D page: the cloud, the base and tool paths, the link meshes along the plan.
 core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robot::RobotModel& robot,
-                                   const std::vector<Vec3>& points, const std::string& task_path) {
+                                   const std::vector<Vec3>& points, const std::string& task_path,
+                                   const std::string& tool_link) {
   viz::HtmlViewData data;
   data.title = "QuadHand plan: " + task_path;
   data.points = points;
@@ -51,7 +52,7 @@ core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robo
     data.links.push_back({robot.link(link).name, std::move(*mesh)});
   }
   const planner::WholeBodyTrajectory& trajectory = *result.trajectory;
-  const int tool = robot.LinkIndex("tool");
+  const int tool = robot.LinkIndex(tool_link);
   robot::KinematicsState kinematics;
   const int steps = std::max(2, static_cast<int>(std::ceil(trajectory.duration() / 0.02)));
   for (int k = 0; k <= steps; ++k) {
@@ -169,7 +170,7 @@ int main(int argc, char** argv) {
     }
   }
   if (!html_path.empty() && result->trajectory) {
-    auto page = HtmlPage(*result, robot, (*context)->points(), task_path);
+    auto page = HtmlPage(*result, robot, (*context)->points(), task_path, (*context)->task().tool_link);
     if (!page.ok()) return Fail(html_path + ": " + page.status().message());
     if (core::Status s = outputs.Stage(html_path, *page); !s.ok()) return Fail(s.message());
   }

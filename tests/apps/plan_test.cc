@@ -65,6 +65,10 @@ TEST_F(PlanCliTest, RejectsBadTasks) {
   ExpectBadInput(WriteTask({{"safety_distance:", "safety_distanse: 0.03"}}), "unknown key");
   ExpectBadInput(WriteTask({{"scene:", "scene: /nonexistent/scene.pcd"}}), "/nonexistent/scene.pcd");
   ExpectBadInput(WriteTask({{"sdf_dir:", "sdf_dir: /nonexistent/sdf"}}), "/nonexistent/sdf");
+  ExpectBadInput(WriteTask({{"safety_distance:", "tool_link: gripper_tip"}}),
+                 "tool_link: the robot (");
+  ExpectBadInput(WriteTask({{"safety_distance:", "tool_link: gripper_tip"}}), "no link named 'gripper_tip'");
+  ExpectBadInput(WriteTask({{"safety_distance:", "tool_link: [a, b]"}}), "tool_link: expected a link name");
   // Start inside the first wall.
   ExpectBadInput(WriteTask({{"  position: [0.5, 0.2, 1.2]", "  position: [-1.0, 1.0, 1.2]"}}), "in collision");
   {

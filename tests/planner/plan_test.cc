@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "quadhand/robot/kinematics.h"
 #include "quadhand/solvers/lbfgs_solver.h"
 #include "support/window_cup_scene.h"
 
@@ -120,6 +121,35 @@ TEST(PlanTest, ClearanceFailureResolvesWithMoreSamples) {
   ASSERT_TRUE(weights_only.ok());
   EXPECT_FALSE(weights_only->success);
   EXPECT_EQ(weights_only->message.rfind("clearance", 0), 0u) << weights_only->message;
+}
+
+// The end effector is the link the task names: the default task with the
+// tool pose and insertion given for `link3` (the parent of `tool`) instead,
+// at link3's pose in the same terminal state, plans and puts link3 there.
+TEST(PlanTest, TheInsertionMovesTheLinkTheTaskNames) {
+  const robot::RobotModel& robot = WindowCup().robot();
+  Task task = WindowCup().task;
+  task.tool_link = "link3";
+  task.tool_link_given = true;
+  ASSERT_TRUE(ApplyRobot(robot, &task).ok());
+  const int link3 = robot.LinkIndex("link3");
+  const BoundaryState& terminal = *task.terminal;
+  const Pose hover = MakePose(terminal.position, Eigen::AngleAxisd(terminal.yaw, Vec3::UnitZ()).toRotationMatrix());
+  const Pose goal = robot::LinkPose(robot, hover, terminal.joints, link3);
+  ASSERT_GT((goal.translation() - task.tool->position).norm(), 0.05);  // a different frame from `tool`
+  task.tool->position = goal.translation();
+  task.tool->orientation = Quat(goal.linear());
+  solvers::LbfgsSolver solver;
+  auto result = Plan(WindowCup().Scene(), task, PlannerOptions{}, solver);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  EXPECT_EQ(result->insertion.tool_link, link3);
+  EXPECT_TRUE(result->success) << result->message;
+  const WholeBodySample end = result->trajectory->Sample(result->trajectory->duration());
+  const Pose reached = robot::LinkPose(robot, end.BasePose(), end.joints, link3);
+  EXPECT_LT((reached.translation() - goal.translation()).norm(), 0.01);
+
+  task.tool_link = "no_such_link";
+  EXPECT_EQ(ApplyRobot(robot, &task).code(), core::StatusCode::kInvalidArgument);
 }
 
 TEST(PlanTest, RejectsANegativeStowLead) {

@@ -189,8 +189,10 @@ core::Result<bool> ResolveGoal(const PlanningScene& scene, const Task& task, con
   if (task.terminal) {
     result->terminal = *task.terminal;
   } else {
-    const int tool_link = robot.LinkIndex("tool");
-    if (tool_link < 0) return core::Status::InvalidArgument(task.robot_path + ": no link named 'tool' for the goal pose");
+    const int tool_link = robot.LinkIndex(task.tool_link);
+    if (tool_link < 0) {
+      return core::Status::InvalidArgument(task.file + ": tool_link: the robot has no link named '" + task.tool_link + "'");
+    }
     auto found = FindTerminalState(robot, scene.collision, scene.exact, task, *task.tool, tool_link,
                                    options.terminal_state, solver);
     if (!found.ok()) {
@@ -208,8 +210,10 @@ core::Result<bool> ResolveGoal(const PlanningScene& scene, const Task& task, con
   InsertionGoal& insertion = result->insertion;
   if (task.tool && task.tool->has_insertion) {
     insertion.enabled = true;
-    insertion.tool_link = robot.LinkIndex("tool");
-    if (insertion.tool_link < 0) return core::Status::InvalidArgument(task.robot_path + ": no link named 'tool' for the insertion");
+    insertion.tool_link = robot.LinkIndex(task.tool_link);
+    if (insertion.tool_link < 0) {
+      return core::Status::InvalidArgument(task.file + ": tool_link: the robot has no link named '" + task.tool_link + "'");
+    }
     insertion.tool_position = task.tool->position;
     insertion.tool_orientation = task.tool->orientation;
     insertion.direction = task.tool->insertion_direction;

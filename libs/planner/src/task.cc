@@ -118,7 +118,7 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
   const Reader r(name, base_dir);
   Task task;
   task.file = name;
-  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(root, "", {"robot", "sdf_dir", "scene", "start", "goal", "limits", "safety_distance"}));
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(root, "", {"robot", "sdf_dir", "scene", "start", "goal", "limits", "safety_distance", "tool_link"}));
   QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "robot", sources.robot_given, &task.robot_path));
   QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "sdf_dir", sources.robot_given, &task.sdf_dir));
   QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "scene", sources.scene_given, &task.scene_path));
@@ -155,6 +155,11 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
       QUADHAND_RETURN_IF_ERROR(r.Number(limits[key], std::string("limits.") + key, value));
       if (*value <= 0.0) return r.Error(std::string("limits.") + key, "must be positive");
     }
+  }
+  if (const YAML::Node tool_link = root["tool_link"]) {
+    if (!tool_link.IsScalar() || tool_link.Scalar().empty()) return r.Error("tool_link", "expected a link name");
+    task.tool_link = tool_link.Scalar();
+    task.tool_link_given = true;
   }
   if (root["safety_distance"]) {
     QUADHAND_RETURN_IF_ERROR(r.Number(root["safety_distance"], "safety_distance", &task.safety_distance));
@@ -213,6 +218,14 @@ core::Status ApplyRobot(const robot::RobotModel& robot, Task* task) {
   task->limits.joint_lower = lower;
   task->limits.joint_upper = upper;
   task->limits.joint_rate_max = robot.VelocityLimits();
+  if (robot.LinkIndex(task->tool_link) < 0 && (task->tool_link_given || task->tool)) {
+    std::string links;
+    for (int i = 0; i < robot.num_links(); ++i) links += (links.empty() ? "" : ", ") + robot.link(i).name;
+    return core::Status::InvalidArgument(task->file + ": tool_link: the robot (" + task->robot_path +
+                                         ") has no link named '" + task->tool_link + "'" +
+                                         (task->tool_link_given ? "" : " (the default; name the end effector with tool_link:)") +
+                                         "; its links: " + links);
+  }
   for (int i = 0; i < n; ++i) {
     if (!(task->limits.joint_rate_max[i] > 0.0)) {
       return core::Status::InvalidArgument(robot.name() + ": joint " + names[i] + " has no velocity limit in the URDF");

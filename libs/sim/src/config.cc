@@ -109,10 +109,12 @@ Status ParseInto(const YAML::Node& root, const std::string& base_dir, const std:
     QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"enabled", "joint"}));
     QUADHAND_RETURN_IF_ERROR(p.Get("enabled", &c->pcgc));
     QUADHAND_RETURN_IF_ERROR(p.Get("joint", &c->pcgc_joint));
+    c->pcgc_joint_given = p.Has("joint");
   }
   if (r.Has("payload")) {
     const Reader p = r.Child("payload");
-    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"attached", "mass", "offset"}));
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"attached", "mass", "offset", "link"}));
+    QUADHAND_RETURN_IF_ERROR(p.Get("link", &c->payload.link));
     QUADHAND_RETURN_IF_ERROR(p.Get("attached", &c->payload.attached));
     QUADHAND_RETURN_IF_ERROR(p.Get("mass", &c->payload.mass));
     QUADHAND_RETURN_IF_ERROR(p.Get("offset", &c->payload.offset));

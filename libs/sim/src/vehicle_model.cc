@@ -44,7 +44,7 @@ core::Result<VehicleModel> VehicleModel::Create(const robot::RobotModel& robot, 
 
   // Joint couplings: mimic joints follow their source; the PCGC joint may be locked.
   int pcgc_joint = -1;
-  if (!config.pcgc_joint.empty()) {
+  if (!config.pcgc_joint.empty() && (config.pcgc_joint_given || robot.JointIndex(config.pcgc_joint) >= 0)) {
     pcgc_joint = robot.JointIndex(config.pcgc_joint);
     if (pcgc_joint < 0) {
       return Status::InvalidArgument("pcgc.joint: the robot has no joint '" + config.pcgc_joint + "'");
@@ -69,10 +69,12 @@ core::Result<VehicleModel> VehicleModel::Create(const robot::RobotModel& robot, 
     const robot::Link& link = robot.link(i);
     model.bodies_[i] = MassProperties{link.mass, link.center_of_mass, link.inertia};
   }
-  const int tool = robot.LinkIndex(kToolLink);
-  if (tool < 0) return Status::InvalidArgument(std::string("the robot has no '") + kToolLink + "' link for the payload");
   if (model.payload_mass() > 0.0) {
-    Combine(MassProperties{model.payload_mass(), config.payload.offset, Mat3::Zero()}, &model.bodies_[tool]);
+    const int carrier = robot.LinkIndex(config.payload.link);
+    if (carrier < 0) {
+      return Status::InvalidArgument("payload.link: the robot has no link '" + config.payload.link + "' for the payload");
+    }
+    Combine(MassProperties{model.payload_mass(), config.payload.offset, Mat3::Zero()}, &model.bodies_[carrier]);
   }
   model.spatial_inertias_.resize(robot.num_links());
   model.total_mass_ = 0.0;

@@ -30,6 +30,10 @@ struct Task {
   std::optional<ToolGoal> tool;           // goal.tool
   Limits limits;                          // joint entries filled by ApplyRobot()
   double safety_distance = 0.03;
+  // The end-effector frame: a link of the URDF (task key tool_link, default
+  // "tool"; ApplyRobot checks it).
+  std::string tool_link = "tool";
+  bool tool_link_given = false;  // the task named it
 };
 
 // Parses and checks a task file on its own: every error names the file and
@@ -49,7 +53,10 @@ core::Result<Task> ParseTaskText(const std::string& text, const std::string& nam
                                  const TaskSources& sources);
 
 // Checks the task against the robot (joint counts, start and terminal joints
-// within limits) and fills the joint limits from the URDF.
+// within limits), fills the joint limits from the URDF and checks tool_link:
+// an error when the task named a link the robot lacks, or has a tool goal
+// and the robot has no link of that name (a robot without one may still fly
+// joint-space goals).
 core::Status ApplyRobot(const robot::RobotModel& robot, Task* task);
 
 }  // namespace quadhand::planner

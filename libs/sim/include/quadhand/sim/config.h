@@ -36,11 +36,12 @@ struct ServoConfig {
   std::vector<double> max_acceleration = {30.0, 30.0, 60.0};  // rad/s^2 per actuated joint
 };
 
-// A point mass rigidly attached to the tool frame.
+// A point mass rigidly attached to the end-effector link.
 struct PayloadConfig {
   bool attached = false;
   double mass = 0.15;         // kg
-  Vec3 offset = Vec3::Zero();  // in the tool frame, m
+  Vec3 offset = Vec3::Zero();  // in the link's frame, m
+  std::string link = "tool";  // the URDF link carrying it (needed only when attached)
 };
 
 // Geometric tracking controller on SE(3) (Lee, Leok, McClamroch 2010) with
@@ -75,7 +76,11 @@ struct SimConfig {
   std::string robot_path;           // URDF, resolved against the YAML file's folder
   double step = 0.001;              // RK4 step = control period, s (<= 0.002: at least 500 Hz)
   double gravity = 9.81;            // m/s^2, along -z of the world
-  std::string pcgc_joint = "battery_joint";  // the mimic joint of the battery
+  // The mimic joint of the battery. When it was left at this default and the
+  // robot has no such joint, the robot has no PCGC and none is simulated;
+  // a joint named in the configuration must exist.
+  std::string pcgc_joint = "battery_joint";
+  bool pcgc_joint_given = false;
   bool pcgc = true;                 // false: that joint is locked at 0
   Vec3 linear_drag = Vec3::Zero();  // N/(m/s) along the base axes, on the base velocity
   RotorConfig rotors;

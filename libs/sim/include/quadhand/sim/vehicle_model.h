@@ -23,9 +23,6 @@ using Vec4 = Eigen::Vector4d;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 
-// Name of the URDF link that carries the payload (robot.md: the end-effector frame).
-inline constexpr const char* kToolLink = "tool";
-
 // Mass, centre of mass and inertia of a set of bodies, in some frame F:
 // `com` is p_FC, `inertia` is about the centre of mass with F's axes.
 struct MassProperties {
