@@ -185,7 +185,7 @@ core::Status WholeBodyProblem::SetOptions(const WholeBodyCostOptions& options) {
   const CostTermInputs inputs{robot_, collision_, limits_, insertion_, options_};
   for (const CostTermDescriptor& term : CostTermDescriptors()) {
     terms_.push_back(term.make(inputs, options_.*(term.weight)));
-    needs_kinematics_ = needs_kinematics_ || terms_.back()->NeedsKinematics();
+    if (terms_.back() != nullptr) needs_kinematics_ = needs_kinematics_ || terms_.back()->NeedsKinematics();
   }
   work_->term_values.assign(terms_.size(), 0.0);
   return core::Status::Ok();
@@ -300,7 +300,7 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
       double sample = 0.0;  // lambda-weighted integrand at this sample
       for (size_t i = 0; i < terms_.size(); ++i) {
         SampleSums sums{w.term_values[i], sample, total};
-        terms_[i]->AddSample(s, &sums, with_gradient ? &g : nullptr);
+        if (terms_[i] != nullptr) terms_[i]->AddSample(s, &sums, with_gradient ? &g : nullptr);
       }
       total += weight * sample;
       if (!with_gradient) continue;

@@ -79,18 +79,12 @@ class InsertionPenalty final : public CostTerm {
   double weight_;
 };
 
-// A plan without an insertion: the term costs nothing.
-class NoInsertion final : public CostTerm {
- public:
-  void AddSample(const SampleState&, SampleSums*, SampleGradient*) const override {}
-};
-
 }  // namespace
 
 CostTermDescriptor InsertionTerm() {
   return {"insertion", &WholeBodyCostOptions::weight_insertion, {CheckKind::kInsertion},
           [](const CostTermInputs& in, double weight) -> std::unique_ptr<CostTerm> {
-            if (!in.insertion.enabled) return std::make_unique<NoInsertion>();
+            if (!in.insertion.enabled) return nullptr;  // a plan without an insertion: nothing to cost
             return std::make_unique<InsertionPenalty>(in.robot, in.insertion, in.options, weight);
           }};
 }

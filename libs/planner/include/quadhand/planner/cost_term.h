@@ -79,6 +79,8 @@ struct CostTermDescriptor {
   const char* name;                          // CostBreakdown key and the report's final_cost key
   double WholeBodyCostOptions::*weight;      // its lambda
   std::vector<CheckKind> raised_by;          // failed checks that raise the weight
+  // Null when the term costs nothing in this problem (the insertion of a
+  // plan without one): it is skipped, and its breakdown value stays 0.
   std::function<std::unique_ptr<CostTerm>(const CostTermInputs& inputs, double weight)> make;
 };
 
