@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "quadhand/env/mrc_sdf_model.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/scene/point_cloud.h"
@@ -68,6 +70,22 @@ TEST(TerminalStateTest, FindsACollisionFreeStateWithTheToolAtTheCup) {
   // Backed off along the insertion, the robot is clear too.
   robot::ComputeKinematics(fx.robot, MakePose(base.translation() + Vec3(0, 0, 0.1), base.linear()), found->state.joints, &k);
   EXPECT_GE(env::WholeBodyClearance(k, *s.exact, 0.1, {}), 0.03);
+}
+
+// A joint without position limits (a continuous wrist): restarts seed it
+// within a half turn of 0, never at lo + u (hi - lo) = NaN.
+TEST(TerminalStateTest, AJointWithoutLimitsIsSeededFinitely) {
+  const auto& fx = testing::CoarseQuadHand();
+  const CupScene& s = Cup();
+  Task task = s.task;
+  task.limits.joint_lower[2] = -std::numeric_limits<double>::infinity();
+  task.limits.joint_upper[2] = std::numeric_limits<double>::infinity();
+  solvers::LbfgsSolver solver;
+  const int tool_link = fx.robot.LinkIndex("tool");
+  auto found = FindTerminalState(fx.robot, *s.model, *s.exact, task, CupGoal(), tool_link, {}, solver);
+  ASSERT_TRUE(found.ok()) << found.status().message();
+  EXPECT_TRUE(found->state.joints.allFinite());
+  EXPECT_LT(found->position_error, 0.002);
 }
 
 TEST(TerminalStateTest, ObjectiveGradientMatchesFiniteDifferences) {

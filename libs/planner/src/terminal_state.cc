@@ -125,6 +125,20 @@ class TerminalStateObjective final : public opt::Objective {
   mutable SampleGradient gradient_;
 };
 
+// Where restarts draw actuated joint q from: its limits less the margin; a
+// side without a limit (a continuous joint, or a URDF without <limit>) is a
+// half turn from the other side or from 0 for a rotational joint, half a
+// metre for a prismatic one, so that a seed is always finite.
+std::pair<double, double> SeedInterval(const robot::RobotModel& robot, const Task& task, int q, double margin) {
+  const robot::Joint& joint = robot.joint(robot.JointIndex(robot.ActuatedJointNames()[q]));
+  const double span = joint.type == robot::JointType::kPrismatic ? 0.5 : M_PI;
+  double lo = task.limits.joint_lower[q] + margin, hi = task.limits.joint_upper[q] - margin;
+  if (!std::isfinite(lo) && !std::isfinite(hi)) return {-span, span};
+  if (!std::isfinite(lo)) lo = hi - 2.0 * span;
+  if (!std::isfinite(hi)) hi = lo + 2.0 * span;
+  return {lo, std::max(lo, hi)};
+}
+
 }  // namespace
 
 std::unique_ptr<opt::Objective> MakeTerminalStateObjective(const robot::RobotModel& robot,
@@ -171,9 +185,8 @@ core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& rob
     VecX x(4 + n);
     const double yaw = restart == 0 ? task.start.yaw : -M_PI + 2.0 * M_PI * unit(rng);
     for (int q = 0; q < n; ++q) {
-      const double lo = task.limits.joint_lower[q] + options.joint_limit_margin;
-      const double hi = task.limits.joint_upper[q] - options.joint_limit_margin;
-      x[4 + q] = lo + unit(rng) * std::max(0.0, hi - lo);
+      const auto [lo, hi] = SeedInterval(robot, task, q, options.joint_limit_margin);
+      x[4 + q] = lo + unit(rng) * (hi - lo);
     }
     const Vec3 tool_offset = robot::LinkPose(robot, HoverPose(Vec3::Zero(), yaw), x.tail(n), tool_link).translation();
     x.head<3>() = tool.position - tool_offset;
