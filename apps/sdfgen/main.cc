@@ -197,7 +197,7 @@ int main(int argc, char** argv) {
   } else {
     auto mesh = geometry::ReadMesh(mesh_path);
     if (!mesh.ok()) return Fail(mesh.status().message());
-    jobs.push_back({link_name, mesh_path, std::move(*mesh)});
+    jobs.push_back({link_name, mesh_path, {std::move(*mesh)}});
   }
   // Check every mesh before generating anything, so a bad last link fails in
   // seconds rather than after the others were computed.

@@ -11,6 +11,8 @@
 #include <random>
 
 #include "quadhand/geometry/mesh_distance.h"
+#include "quadhand/geometry/mesh_to_sdf.h"
+#include "quadhand/robot/link_sdfs.h"
 #include "quadhand/opt/penalty.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/link_meshes.h"
@@ -169,6 +171,90 @@ TEST(ExactMeshModelTest, ALinkFarFromEveryPointCostsNothing) {
     EXPECT_EQ((*model)->LinkClearance(link, kinematics.link_poses[link], 0.5, {}), 0.5);
   }
   EXPECT_EQ((*model)->distance_quality(), DistanceQuality::kExact);
+}
+
+// Signed distances of the primitives of tests/robot/fixtures/rotor_guards.urdf.
+double BoxDistance(const Vec3& p, const Vec3& center, const Vec3& size) {
+  const Vec3 q = (p - center).cwiseAbs() - 0.5 * size;
+  return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+}
+double CylinderDistance(const Vec3& p, const Vec3& center, double radius, double length) {
+  const Vec3 r = p - center;
+  const Eigen::Vector2d q(std::hypot(r.x(), r.y()) - radius, std::abs(r.z()) - 0.5 * length);
+  return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+}
+double RotorGuardsDistance(const Vec3& p) {
+  double d = std::min(BoxDistance(p, Vec3::Zero(), Vec3(0.30, 0.30, 0.06)),
+                      BoxDistance(p, Vec3(0, 0, 0.055), Vec3(0.10, 0.10, 0.05)));
+  for (const double x : {-0.15, 0.15}) {
+    for (const double y : {-0.15, 0.15}) d = std::min(d, CylinderDistance(p, Vec3(x, y, 0), 0.08, 0.04));
+  }
+  return d;
+}
+
+// A link of six overlapping primitives, two of them sharing a face: its SDF
+// grid and the exact model both give the distance to the union (the minimum
+// over the elements), within the cylinders' tessellation tolerance, outside
+// it, and a negative value inside.
+TEST(ExactMeshModelTest, ALinkOfOverlappingPrimitivesIsTheirUnion) {
+  const std::string urdf = std::string(QUADHAND_SOURCE_DIR) + "/tests/robot/fixtures/rotor_guards.urdf";
+  auto robot = robot::RobotModel::LoadFromUrdfFile(urdf);
+  ASSERT_TRUE(robot.ok()) << robot.status().message();
+  const int frame = robot->LinkIndex("frame");
+  auto elements = robot::LinkCollisionElements(*robot, frame);
+  ASSERT_TRUE(elements.ok()) << elements.status().message();
+  EXPECT_EQ(elements->size(), 6u);
+  ASSERT_TRUE(robot::LinkCollisionMesh(*robot, frame).ok());  // drawable, union or not
+
+  auto jobs = robot::LinkSdfJobsFromUrdf(urdf, {});
+  ASSERT_TRUE(jobs.ok()) << jobs.status().message();
+  geometry::SdfGenerationOptions options;
+  options.resolution = 0.01;
+  options.padding = 0.05;
+  ASSERT_TRUE(robot::CheckLinkSdfJobs(*jobs, options).ok());
+  auto grid = geometry::GenerateSdf(jobs->front().elements, "frame", urdf, options);
+  ASSERT_TRUE(grid.ok()) << grid.status().message();
+  EXPECT_TRUE(grid->info().is_signed);
+
+  const double tolerance = 2e-4;  // cylinders are inscribed within 1e-4
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-0.28, 0.28), uz(-0.09, 0.12);
+  std::vector<Vec3> probes;
+  for (int n = 0; n < 400; ++n) probes.emplace_back(u(rng), u(rng), uz(rng));
+  int outside = 0, inside = 0;
+  for (const Vec3& p : probes) {
+    const double exact = RotorGuardsDistance(p);
+    const std::vector<Vec3> one = {p};
+    auto model = ExactMeshModel::Create(*robot, one);
+    ASSERT_TRUE(model.ok());
+    const double measured = (*model)->LinkClearance(frame, Pose::Identity(), 1.0, {});
+    if (exact > tolerance) {
+      EXPECT_NEAR(measured, exact, tolerance) << p.transpose();
+      ++outside;
+    } else if (exact < -tolerance) {
+      EXPECT_LT(measured, 0.0) << p.transpose();
+      EXPECT_GE(measured, exact - tolerance) << p.transpose();  // never deeper than the union's depth
+      ++inside;
+    }
+  }
+  EXPECT_GT(outside, 100);
+  EXPECT_GT(inside, 20);
+  // Grid nodes: exact distances to the tessellated elements.
+  const geometry::SdfGridInfo& info = grid->info();
+  int nodes = 0;
+  for (int k = 0; k < info.dims.z(); k += 3) {
+    for (int j = 0; j < info.dims.y(); j += 3) {
+      for (int i = 0; i < info.dims.x(); i += 3) {
+        const Vec3 p = info.origin + info.resolution * Vec3(i, j, k);
+        const double exact = RotorGuardsDistance(p);
+        const double value = grid->NodeValue(i, j, k);
+        if (exact > tolerance) EXPECT_NEAR(value, exact, tolerance + 1e-6) << p.transpose();
+        if (exact < -tolerance) EXPECT_LT(value, 0.0) << p.transpose();
+        ++nodes;
+      }
+    }
+  }
+  EXPECT_GT(nodes, 1000);
 }
 
 }  // namespace

@@ -27,12 +27,18 @@ core::Result<std::unique_ptr<ExactMeshModel>> ExactMeshModel::Create(const robot
   std::vector<int> links = robot.CollisionLinks();
   std::vector<LinkGeometry> geometry;
   for (int link : links) {
-    auto mesh = robot::LinkCollisionMesh(robot, link);
-    if (!mesh.ok()) return mesh.status();
-    auto query = geometry::MeshDistanceQuery::Create(*mesh, /*is_signed=*/true);
-    if (!query.ok()) return query.status();
-    const geometry::AxisAlignedBox box = geometry::BoundingBox(*mesh);
-    geometry.push_back({std::move(*query), box.min, box.max});
+    auto meshes = robot::LinkCollisionElements(robot, link);
+    if (!meshes.ok()) return meshes.status();
+    LinkGeometry g;
+    for (const geometry::TriangleMesh& mesh : *meshes) {
+      auto query = geometry::MeshDistanceQuery::Create(mesh, /*is_signed=*/true);
+      if (!query.ok()) return query.status().WithPrefix("link '" + robot.link(link).name + "'");
+      const geometry::AxisAlignedBox box = geometry::BoundingBox(mesh);
+      g.box_min = g.elements.empty() ? box.min : g.box_min.cwiseMin(box.min);
+      g.box_max = g.elements.empty() ? box.max : g.box_max.cwiseMax(box.max);
+      g.elements.push_back({std::move(*query), box.min, box.max});
+    }
+    geometry.push_back(std::move(g));
   }
   return std::unique_ptr<ExactMeshModel>(new ExactMeshModel(std::move(links), std::move(geometry), std::move(index)));
 }
@@ -45,11 +51,45 @@ void ExactMeshModel::VisitBoxNeighbours(const LinkGeometry& g, const Pose& X_WL,
   points_->VisitBox(center - half, center + half, [&](const Vec3& x) {
     const Vec3 local = X_WL.linear().transpose() * (x - X_WL.translation());
     if ((local.array() < lo.array()).any() || (local.array() > hi.array()).any()) return;
-    // The box distance is a lower bound of the signed distance outside the
-    // box; inside it, a point may be inside the mesh (no bound).
-    const double outside = (g.box_min - local).cwiseMax(local - g.box_max).cwiseMax(0.0).norm();
-    visit(x, local, outside > 0.0 ? outside : -std::numeric_limits<double>::infinity());
+    // An element's box distance is a lower bound of its signed distance
+    // outside the box; inside it, a point may be inside the element (no
+    // bound). The union's distance is the smallest over the elements.
+    double bound = std::numeric_limits<double>::infinity();
+    for (const Element& e : g.elements) {
+      const double outside = (e.box_min - local).cwiseMax(local - e.box_max).cwiseMax(0.0).norm();
+      bound = std::min(bound, outside > 0.0 ? outside : -std::numeric_limits<double>::infinity());
+    }
+    visit(x, local, bound);
   });
+}
+
+double ExactMeshModel::UnionDistance(const LinkGeometry& g, const Vec3& local, Hints* hints, Vec3* gradient) {
+  double best = std::numeric_limits<double>::infinity();
+  if (gradient != nullptr) gradient->setZero();
+  for (size_t i = 0; i < g.elements.size(); ++i) {
+    const Element& e = g.elements[i];
+    // Outside an element's box a point is outside the element and at least
+    // the box distance away: no query when that cannot beat the minimum.
+    const double outside = (e.box_min - local).cwiseMax(local - e.box_max).cwiseMax(0.0).norm();
+    if (outside > 0.0 && outside >= best) continue;
+    Vec3 closest;
+    double d = hints != nullptr && hints->have[i] ? e.query->UnsignedDistanceWithHint(local, hints->closest[i], &closest)
+                                                 : e.query->UnsignedDistance(local, &closest);
+    if (hints != nullptr) {
+      hints->closest[i] = closest;
+      hints->have[i] = true;
+    }
+    const bool inside = outside == 0.0 && d > 0.0 && e.query->IsInside(local);
+    if (inside) d = -d;
+    if (d >= best) continue;
+    best = d;
+    if (gradient != nullptr) {
+      // Away from the closest surface point outside, towards it inside.
+      const double gap = (local - closest).norm();
+      *gradient = gap > 0.0 ? Vec3((inside ? -1.0 : 1.0) / gap * (local - closest)) : Vec3::Zero();
+    }
+  }
+  return best;
 }
 
 double ExactMeshModel::LinkClearance(int link, const Pose& X_WL, double search_radius,
@@ -66,13 +106,15 @@ double ExactMeshModel::LinkClearance(int link, const Pose& X_WL, double search_r
   // each query starts from the previous closest point (coherent queries).
   std::sort(candidates.begin(), candidates.end(),
             [](const std::pair<double, Vec3>& a, const std::pair<double, Vec3>& b) { return a.first < b.first; });
-  Vec3 hint = Vec3::Zero();
-  bool have_hint = false;
+  thread_local Hints hints;
+  hints.closest.assign(g.elements.size(), Vec3::Zero());
+  hints.have.assign(g.elements.size(), false);
   queried.clear();
   for (const auto& [bound, local] : candidates) {
     if (bound >= clearance) break;
-    // The signed distance is 1-Lipschitz: d(q) >= d(p) - |q - p| for every
-    // point p queried already, which prunes the dense cloud's neighbours.
+    // The signed distance is 1-Lipschitz (so is a minimum of such): d(q) >=
+    // d(p) - |q - p| for every point p queried already, which prunes the
+    // dense cloud's neighbours.
     bool pruned = false;
     for (const auto& [d_p, p] : queried) {
       if (d_p - (local - p).norm() >= clearance) {
@@ -81,10 +123,7 @@ double ExactMeshModel::LinkClearance(int link, const Pose& X_WL, double search_r
       }
     }
     if (pruned) continue;
-    double d = have_hint ? g.query->UnsignedDistanceWithHint(local, hint, &hint) : g.query->UnsignedDistance(local, &hint);
-    have_hint = true;
-    // Only a point inside the bounding box can be inside the mesh.
-    if (bound < 0.0 && d > 0.0 && g.query->IsInside(local)) d = -d;
+    const double d = UnionDistance(g, local, &hints, nullptr);
     queried.emplace_back(d, local);
     clearance = std::min(clearance, d);
   }
@@ -100,18 +139,14 @@ double ExactMeshModel::LinkPenalty(int link, const Pose& X_WL, const PenaltyPara
   Vec3 force = Vec3::Zero(), torque = Vec3::Zero();
   VisitBoxNeighbours(g, X_WL, parameters.threshold, [&](const Vec3& x_W, const Vec3& local, double bound) {
     if (bound >= parameters.threshold) return;
-    Vec3 closest;
-    double d = g.query->UnsignedDistance(local, &closest);
-    const bool inside = bound < 0.0 && d > 0.0 && g.query->IsInside(local);
-    if (inside) d = -d;
+    Vec3 gradient_L;
+    const double d = UnionDistance(g, local, nullptr, &gradient_L);
     double slope = 0.0;
     cost += opt::SmoothedL1(parameters.threshold - d, parameters.mu, &slope);
-    const double gap = (local - closest).norm();
-    if (wrench == nullptr || slope == 0.0 || gap == 0.0) return;
-    // Gradient of the signed distance at x_L: away from the closest surface
-    // point outside, towards it inside. As for MRC-SDF: d distance / d(link
-    // translation) = -g_W, / d(link rotation) = g_W x (x - t), d cost / d distance = -slope.
-    const Vec3 gradient_W = R * ((inside ? -1.0 : 1.0) / gap * (local - closest));
+    if (wrench == nullptr || slope == 0.0) return;
+    // As for MRC-SDF: d distance / d(link translation) = -g_W, / d(link
+    // rotation) = g_W x (x - t), d cost / d distance = -slope.
+    const Vec3 gradient_W = R * gradient_L;
     force += slope * gradient_W;
     torque -= slope * gradient_W.cross(x_W - t);
   });

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -30,49 +31,67 @@ bool InBox(const Vec3& p, const AxisAlignedBox& box) {
   return (p.array() >= box.min.array()).all() && (p.array() <= box.max.array()).all();
 }
 
-// Fills the values of slice z = k. Each slice depends only on its own
-// queries, so the result does not depend on how slices are spread over threads.
-void ComputeSlice(const MeshDistanceQuery& query, const SdfGridInfo& info, int k,
-                  std::vector<float>* values) {
+// One collision element of the grid's geometry: its distance query and
+// bounding box.
+struct Element {
+  const MeshDistanceQuery* query;
+  AxisAlignedBox box;
+};
+
+// Fills the values of slice z = k: at each node the smallest signed distance
+// over the elements (exact outside their union). Each slice depends only on
+// its own queries, so the result does not depend on how slices are spread
+// over threads.
+void ComputeSlice(const std::vector<Element>& elements, const SdfGridInfo& info, int k, std::vector<float>* values) {
   const double h = info.resolution;
-  const AxisAlignedBox geometry_box{info.geometry_min, info.geometry_max};
   // Two neighbouring nodes a, b on opposite sides of the surface have a
   // surface point s between them, so d(a) + d(b) <= |a - s| + |s - b| = h.
   // Hence d(a) + d(b) > h means they share a side and the costly inside test
   // (a ray cast) can be skipped. The margin absorbs rounding in d.
   const double same_side_threshold = h * (1.0 + 1e-9);
   const size_t slice_offset = static_cast<size_t>(k) * info.dims.x() * info.dims.y();
-  Vec3 row_hint = Vec3::Zero();
-  bool have_row_hint = false;
-  for (int j = 0; j < info.dims.y(); ++j) {
-    Vec3 hint = row_hint;
-    bool have_hint = have_row_hint;
+  // Per element: the closest point of the previous node (and of the row's
+  // first), a good first guess that lets the tree prune most of its boxes.
+  struct Walk {
+    Vec3 row_hint = Vec3::Zero(), hint = Vec3::Zero();
+    bool have_row_hint = false, have_hint = false;
     double previous_distance = 0.0;
     bool previous_inside = false;
+  };
+  std::vector<Walk> walks(elements.size());
+  for (int j = 0; j < info.dims.y(); ++j) {
+    for (Walk& w : walks) {
+      w.hint = w.row_hint;
+      w.have_hint = w.have_row_hint;
+      w.previous_distance = 0.0;
+      w.previous_inside = false;
+    }
     for (int i = 0; i < info.dims.x(); ++i) {
       const Vec3 p = info.origin + h * Vec3(i, j, k);
-      Vec3 closest;
-      // The previous node's closest point is a good first guess, which lets
-      // the tree prune most of its boxes at once.
-      const double distance = have_hint ? query.UnsignedDistanceWithHint(p, hint, &closest)
-                                        : query.UnsignedDistance(p, &closest);
-      hint = closest;
-      have_hint = true;
-      if (i == 0) {
-        row_hint = closest;
-        have_row_hint = true;
+      double value = std::numeric_limits<double>::infinity();
+      for (size_t e = 0; e < elements.size(); ++e) {
+        const MeshDistanceQuery& query = *elements[e].query;
+        Walk& w = walks[e];
+        Vec3 closest;
+        const double distance = w.have_hint ? query.UnsignedDistanceWithHint(p, w.hint, &closest)
+                                            : query.UnsignedDistance(p, &closest);
+        w.hint = closest;
+        w.have_hint = true;
+        if (i == 0) {
+          w.row_hint = closest;
+          w.have_row_hint = true;
+        }
+        bool inside = false;
+        // Outside the element's bounding box every point is outside it.
+        if (query.is_signed() && InBox(p, elements[e].box)) {
+          inside = (i > 0 && w.previous_distance + distance > same_side_threshold) ? w.previous_inside
+                                                                                   : query.IsInside(p);
+        }
+        value = std::min(value, inside ? -distance : distance);
+        w.previous_distance = distance;
+        w.previous_inside = inside;
       }
-      bool inside = false;
-      // Outside the geometry's bounding box every point is outside.
-      if (query.is_signed() && InBox(p, geometry_box)) {
-        inside = (i > 0 && previous_distance + distance > same_side_threshold)
-                     ? previous_inside
-                     : query.IsInside(p);
-      }
-      (*values)[slice_offset + static_cast<size_t>(j) * info.dims.x() + i] =
-          static_cast<float>(inside ? -distance : distance);
-      previous_distance = distance;
-      previous_inside = inside;
+      (*values)[slice_offset + static_cast<size_t>(j) * info.dims.x() + i] = static_cast<float>(value);
     }
   }
 }
@@ -107,30 +126,58 @@ bool SdfGenerationOptions::IsValid(std::string* why) const {
 core::Result<SdfGrid> GenerateSdf(const TriangleMesh& mesh, const std::string& link_name,
                                   const std::string& source, const SdfGenerationOptions& options,
                                   const ProgressCallback& progress) {
+  return GenerateSdf(std::vector<TriangleMesh>{mesh}, link_name, source, options, progress);
+}
+
+core::Result<SdfGrid> GenerateSdf(const std::vector<TriangleMesh>& meshes, const std::string& link_name,
+                                  const std::string& source, const SdfGenerationOptions& options,
+                                  const ProgressCallback& progress) {
   const std::string what = "SDF of link '" + link_name + "' (" + source + ")";
   std::string why;
   if (!options.IsValid(&why)) return core::Status::InvalidArgument(what + ": " + why);
-  if (mesh.triangles.empty() || mesh.vertices.empty()) {
-    return core::Status::InvalidArgument(what + ": the mesh is empty");
+  if (meshes.empty()) return core::Status::InvalidArgument(what + ": no collision geometry");
+  std::vector<std::unique_ptr<MeshDistanceQuery>> queries;
+  std::vector<Element> elements;
+  bool all_signed = true;
+  AxisAlignedBox box;
+  for (size_t e = 0; e < meshes.size(); ++e) {
+    const TriangleMesh& mesh = meshes[e];
+    const std::string element = meshes.size() > 1 ? " collision element " + std::to_string(e + 1) : "";
+    if (mesh.triangles.empty() || mesh.vertices.empty()) {
+      return core::Status::InvalidArgument(what + ":" + element + (element.empty() ? " the mesh is empty" : " is empty"));
+    }
+    const MeshCheck check = CheckMesh(mesh);
+    if (!check.bounds_volume && !options.allow_unsigned) {
+      return core::Status::InvalidArgument(
+          what + ":" + (element.empty() ? " the mesh" : element) + " does not bound a volume (" + check.problem +
+          "); allow unsigned distances to accept it");
+    }
+    // Unsigned elements make the whole grid unsigned: a minimum over signed
+    // and unsigned distances has no consistent inside.
+    all_signed = all_signed && check.bounds_volume;
+    const AxisAlignedBox element_box = BoundingBox(mesh);
+    if (e == 0) {
+      box = element_box;
+    } else {
+      box.min = box.min.cwiseMin(element_box.min);
+      box.max = box.max.cwiseMax(element_box.max);
+    }
+    elements.push_back({nullptr, element_box});
   }
-  const MeshCheck check = CheckMesh(mesh);
-  if (!check.bounds_volume && !options.allow_unsigned) {
-    return core::Status::InvalidArgument(
-        what + ": the mesh does not bound a volume (" + check.problem +
-        "); allow unsigned distances to accept it");
+  for (size_t e = 0; e < meshes.size(); ++e) {
+    auto query_or = MeshDistanceQuery::Create(meshes[e], all_signed);
+    if (!query_or.ok()) return query_or.status().WithPrefix(what);
+    queries.push_back(std::move(*query_or));
+    elements[e].query = queries.back().get();
   }
-  auto query_or = MeshDistanceQuery::Create(mesh, check.bounds_volume);
-  if (!query_or.ok()) return query_or.status().WithPrefix(what);
-  const MeshDistanceQuery& query = **query_or;
 
-  const AxisAlignedBox box = BoundingBox(mesh);
   SdfGridInfo info;
   info.link_name = link_name;
   info.frame = link_name;
   info.source = source;
   info.resolution = options.resolution;
   info.origin = box.min - Vec3::Constant(options.padding);
-  info.is_signed = check.bounds_volume;
+  info.is_signed = all_signed;
   info.geometry_min = box.min;
   info.geometry_max = box.max;
   const Vec3 extent = box.size() + Vec3::Constant(2.0 * options.padding);
@@ -165,7 +212,7 @@ core::Result<SdfGrid> GenerateSdf(const TriangleMesh& mesh, const std::string& l
       const int k = next_slice.fetch_add(1);
       if (k >= info.dims.z() || failed.load()) return;
       try {
-        ComputeSlice(query, info, k, &values);
+        ComputeSlice(elements, info, k, &values);
       } catch (const std::exception& e) {
         const std::lock_guard<std::mutex> lock(mutex);
         if (!failed.exchange(true)) error = e.what();

@@ -37,7 +37,7 @@ Result<geometry::TriangleMesh> ElementMesh(const CollisionGeometry& element) {
 
 }  // namespace
 
-Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int link) {
+Result<std::vector<geometry::TriangleMesh>> LinkCollisionElements(const RobotModel& model, int link) {
   if (link < 0 || link >= model.num_links()) {
     return Status::InvalidArgument("link index " + std::to_string(link) + " out of range");
   }
@@ -51,11 +51,25 @@ Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int li
     if (!part.ok()) return part.status().WithPrefix(where);
     parts.push_back(std::move(part).value());
   }
+  return parts;
+}
+
+Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int link) {
+  Result<std::vector<geometry::TriangleMesh>> parts = LinkCollisionElements(model, link);
+  if (!parts.ok()) return parts.status();
   // A single element is returned as read: the union would only re-mesh it.
-  if (parts.size() == 1) return std::move(parts.front());
-  Result<geometry::TriangleMesh> merged = geometry::UnionOfClosedMeshes(parts);
-  if (!merged.ok()) return merged.status().WithPrefix(where + ": union of collision elements");
-  return merged;
+  if (parts->size() == 1) return std::move(parts->front());
+  Result<geometry::TriangleMesh> merged = geometry::UnionOfClosedMeshes(*parts);
+  if (merged.ok()) return merged;
+  geometry::TriangleMesh soup;
+  for (const geometry::TriangleMesh& part : *parts) {
+    const int offset = static_cast<int>(soup.vertices.size());
+    soup.vertices.insert(soup.vertices.end(), part.vertices.begin(), part.vertices.end());
+    for (const auto& triangle : part.triangles) {
+      soup.triangles.push_back(triangle + Eigen::Vector3i::Constant(offset));
+    }
+  }
+  return soup;
 }
 
 }  // namespace quadhand::robot

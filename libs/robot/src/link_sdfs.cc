@@ -27,9 +27,9 @@ core::Result<std::vector<LinkSdfJob>> LinkSdfJobsFromUrdf(const std::string& urd
     if (!only_links.empty() && std::find(only_links.begin(), only_links.end(), name) == only_links.end()) {
       continue;
     }
-    auto mesh = LinkCollisionMesh(*model, link);
-    if (!mesh.ok()) return mesh.status();
-    jobs.push_back({name, urdf_path + "#" + name, std::move(*mesh)});
+    auto elements = LinkCollisionElements(*model, link);
+    if (!elements.ok()) return elements.status().WithPrefix(urdf_path);
+    jobs.push_back({name, urdf_path + "#" + name, std::move(*elements)});
   }
   if (jobs.empty()) return core::Status::InvalidArgument(urdf_path + ": no link has collision geometry");
   return jobs;
@@ -38,11 +38,13 @@ core::Result<std::vector<LinkSdfJob>> LinkSdfJobsFromUrdf(const std::string& urd
 core::Status CheckLinkSdfJobs(const std::vector<LinkSdfJob>& jobs, const geometry::SdfGenerationOptions& options) {
   if (options.allow_unsigned) return core::Status::Ok();
   for (const LinkSdfJob& job : jobs) {
-    const geometry::MeshCheck check = geometry::CheckMesh(job.mesh);
-    if (!check.bounds_volume) {
-      return core::Status::InvalidArgument(job.source + ": mesh of link '" + job.link_name +
-                                           "' does not bound a volume (" + check.problem +
-                                           "); pass --unsigned to accept it with unsigned distances");
+    for (size_t e = 0; e < job.elements.size(); ++e) {
+      const geometry::MeshCheck check = geometry::CheckMesh(job.elements[e]);
+      if (check.bounds_volume) continue;
+      const std::string which =
+          job.elements.size() > 1 ? "collision element " + std::to_string(e + 1) + " of link '" : "mesh of link '";
+      return core::Status::InvalidArgument(job.source + ": " + which + job.link_name + "' does not bound a volume (" +
+                                           check.problem + "); pass --unsigned to accept it with unsigned distances");
     }
   }
   return core::Status::Ok();
@@ -63,11 +65,13 @@ core::Result<std::vector<WrittenLinkSdf>> WriteLinkSdfs(const std::vector<LinkSd
   for (const LinkSdfJob& job : jobs) {
     geometry::ProgressCallback link_progress;
     if (progress) link_progress = [&](long done, long total) { progress(job.link_name, done, total); };
-    auto grid = geometry::GenerateSdf(job.mesh, job.link_name, job.source, options, link_progress);
+    auto grid = geometry::GenerateSdf(job.elements, job.link_name, job.source, options, link_progress);
     if (!grid.ok()) return grid.status();
     const std::string path = out_dir + "/" + job.link_name + kSdfFileExtension;
     QUADHAND_RETURN_IF_ERROR(outputs.Stage(path, grid->Serialize()));
-    written.push_back({path, grid->info(), grid->MemoryBytes(), job.mesh.num_triangles()});
+    int triangles = 0;
+    for (const geometry::TriangleMesh& element : job.elements) triangles += element.num_triangles();
+    written.push_back({path, grid->info(), grid->MemoryBytes(), triangles});
   }
   QUADHAND_RETURN_IF_ERROR(outputs.Commit());
   return written;

@@ -3,7 +3,9 @@
 // no interpolation. It is the reference the post-check judges every plan by
 // (whatever representation planned it), and a CollisionModel like the others,
 // so it can also be optimised against or compared with them; it is slower
-// than MRC-SDF by about one exact mesh query per nearby point.
+// than MRC-SDF by about one exact mesh query per nearby point. A link with
+// several collision elements is their union: the smallest of their signed
+// distances (robot/link_meshes.h).
 #pragma once
 
 #include <memory>
@@ -21,8 +23,9 @@ class ExactMeshModel final : public CollisionModel {
   // The cell of the index Create(robot, points) builds, metres.
   static constexpr double kIndexCellSize = 0.05;
 
-  // Meshes of every collision link of `robot` (robot/link_meshes.h); the
-  // points (finite, world frame) are indexed here.
+  // The collision elements of every collision link of `robot`
+  // (robot/link_meshes.h), each a closed mesh; the points (finite, world
+  // frame) are indexed here.
   static core::Result<std::unique_ptr<ExactMeshModel>> Create(const robot::RobotModel& robot,
                                                               const std::vector<Vec3>& points);
   // The same with the cloud already indexed, and shared (with MRC-SDF, say).
@@ -34,9 +37,10 @@ class ExactMeshModel final : public CollisionModel {
   DistanceQuality distance_quality() const override { return DistanceQuality::kExact; }
   const std::vector<int>& links() const override { return links_; }
 
-  // Sum over points within `threshold` of the mesh of SmoothedL1(threshold -
-  // d, mu); the wrench from each point's closest-point direction (zero for a
-  // point exactly on the surface, where the distance has no gradient).
+  // Sum over points within `threshold` of the link of SmoothedL1(threshold -
+  // d, mu); the wrench from each point's closest-point direction on the
+  // nearest element (zero for a point exactly on the surface, where the
+  // distance has no gradient).
   double LinkPenalty(int link, const Pose& X_WL, const PenaltyParameters& parameters,
                      const QueryContext& context, LinkWrench* wrench) const override;
   // Exact signed distance of the closest point within `search_radius`;
@@ -47,15 +51,27 @@ class ExactMeshModel final : public CollisionModel {
                        const QueryContext& context) const override;
 
  private:
-  struct LinkGeometry {
+  struct Element {
     std::unique_ptr<geometry::MeshDistanceQuery> query;
-    Vec3 box_min, box_max;  // link-frame bounding box of the mesh
+    Vec3 box_min, box_max;  // link-frame bounding box of the element
   };
+  struct LinkGeometry {
+    std::vector<Element> elements;
+    Vec3 box_min, box_max;  // of all elements
+  };
+  // Signed distance of x_L to the union of the link's elements, and the
+  // unit gradient (zero on the surface); `hints` carry each element's
+  // previous closest point (coherent queries).
+  struct Hints {
+    std::vector<Vec3> closest;
+    std::vector<bool> have;
+  };
+  static double UnionDistance(const LinkGeometry& g, const Vec3& local, Hints* hints, Vec3* gradient);
   ExactMeshModel(std::vector<int> links, std::vector<LinkGeometry> geometry,
                  std::shared_ptr<const scene::PointGrid> points);
   // Calls visit(x_W, x_L, box_bound) for the points within `reach` of the
   // link's bounding box at X_WL, x_L in the link frame; box_bound is a lower
-  // bound of the point's signed distance (-inf inside the box).
+  // bound of the point's signed distance (-inf inside an element's box).
   template <typename Visitor>
   void VisitBoxNeighbours(const LinkGeometry& g, const Pose& X_WL, double reach, Visitor&& visit) const;
 

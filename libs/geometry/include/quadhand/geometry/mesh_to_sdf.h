@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "quadhand/core/status.h"
 #include "quadhand/geometry/sdf_grid.h"
@@ -26,6 +27,17 @@ using ProgressCallback = std::function<void(long done, long total)>;
 // `mesh` is in the link frame. Fails (InvalidArgument) on an empty mesh, and on
 // a mesh that does not bound a volume unless options.allow_unsigned.
 core::Result<SdfGrid> GenerateSdf(const TriangleMesh& mesh, const std::string& link_name,
+                                  const std::string& source, const SdfGenerationOptions& options,
+                                  const ProgressCallback& progress = {});
+
+// The SDF of the union of several closed meshes (a link's collision
+// elements, overlapping freely): at every node the smallest of their signed
+// distances, which is the exact distance to the union outside it and a
+// negative value inside (a bound on the depth, never positive). No mesh
+// boolean is needed, so touching, coincident or degenerate overlaps are
+// fine. The grid spans the union's bounding box; any element that does not
+// bound a volume fails it, or (options.allow_unsigned) makes it unsigned.
+core::Result<SdfGrid> GenerateSdf(const std::vector<TriangleMesh>& meshes, const std::string& link_name,
                                   const std::string& source, const SdfGenerationOptions& options,
                                   const ProgressCallback& progress = {});
 

@@ -1,8 +1,13 @@
-// The collision geometry of a link as one closed mesh in the link's frame:
-// every collision element loaded (mesh files) or tessellated (URDF boxes,
-// cylinders, spheres), placed by its origin and scale, and merged by boolean
-// union when there are several, so consumers see one surface per link.
+// The collision geometry of a link in the link's frame: every collision
+// element loaded (mesh files) or tessellated (URDF boxes, cylinders,
+// spheres), placed by its origin and scale. Distances (SDFs, the exact
+// model) are taken from the elements, the minimum of their signed distances:
+// exact outside their union, with no mesh boolean, so elements may overlap,
+// touch or share faces freely. One surface per link is for drawing and
+// surface sampling.
 #pragma once
+
+#include <vector>
 
 #include "quadhand/core/status.h"
 #include "quadhand/geometry/triangle_mesh.h"
@@ -13,7 +18,17 @@ namespace quadhand::robot {
 // Tolerance used to tessellate URDF cylinders and spheres, metres.
 inline constexpr double kPrimitiveTessellationTolerance = 1e-4;
 
-// Fails if the link has no collision geometry or a mesh cannot be read.
+// Every collision element of the link, each a closed mesh when its source
+// is (primitives always are). Fails if the link has no collision geometry or
+// a mesh cannot be read.
+core::Result<std::vector<geometry::TriangleMesh>> LinkCollisionElements(const RobotModel& model, int link);
+
+// One surface for the link: the single element as read, else the boolean
+// union of the elements, or, where that union cannot be computed (elements
+// sharing faces, degenerate overlaps), all elements as one mesh with their
+// inner surfaces kept (fine for drawing and for surface samples, which then
+// include points inside the union; not a closed surface). Fails as
+// LinkCollisionElements does.
 core::Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int link);
 
 }  // namespace quadhand::robot

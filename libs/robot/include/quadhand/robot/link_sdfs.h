@@ -17,11 +17,12 @@ namespace quadhand::robot {
 inline constexpr const char* kSdfFileExtension = ".qhsdf";
 
 // One grid to make: the link's name (and output file), where its geometry
-// came from (for messages and the file header), and the mesh in its frame.
+// came from (for messages and the file header), and its collision elements
+// in its frame (the grid is their union: geometry::GenerateSdf).
 struct LinkSdfJob {
   std::string link_name;
   std::string source;
-  geometry::TriangleMesh mesh;
+  std::vector<geometry::TriangleMesh> elements;
 };
 
 // A job for every link of the URDF with collision geometry, or only for
@@ -29,9 +30,9 @@ struct LinkSdfJob {
 core::Result<std::vector<LinkSdfJob>> LinkSdfJobsFromUrdf(const std::string& urdf_path,
                                                           const std::vector<std::string>& only_links);
 
-// Fails, naming the link and its source, if a mesh does not bound a volume
-// (open, self-intersecting) and options.allow_unsigned is off. Cheap: run it
-// before generating anything.
+// Fails, naming the link, its source and the element, if an element does not
+// bound a volume (open, self-intersecting, NaN vertices) and
+// options.allow_unsigned is off. Cheap: run it before generating anything.
 core::Status CheckLinkSdfJobs(const std::vector<LinkSdfJob>& jobs, const geometry::SdfGenerationOptions& options);
 
 // Progress of one link's grid (nodes done of total); a null function is fine.
@@ -42,7 +43,7 @@ struct WrittenLinkSdf {
   std::string path;
   geometry::SdfGridInfo info;
   size_t memory_bytes = 0;
-  int num_triangles = 0;  // of the mesh it was made from
+  int num_triangles = 0;  // of the elements it was made from
 };
 
 // Generates every job's grid and writes all files into `out_dir` (created if
