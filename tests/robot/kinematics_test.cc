@@ -244,3 +244,42 @@ TEST_F(KinematicsTest, SteadyStateDoesNotAllocate) {
 
 }  // namespace
 }  // namespace quadhand::robot
+
+namespace quadhand::robot {
+namespace {
+
+// LinkOriginReach bounds every link origin's distance from the root over
+// joint values within the limits (and is infinite below a prismatic joint
+// driven by a joint without limits); at the joint values that stretch the
+// reference arm along its chain it is nearly attained.
+TEST(LinkOriginReachTest, BoundsEveryLinkOriginOverTheJointRange) {
+  for (const std::string& path :
+       {testing::Arm2Path(), testing::SourcePath("meshes/quadhand/quadhand.urdf")}) {
+    auto model = RobotModel::LoadFromUrdfFile(path);
+    ASSERT_TRUE(model.ok()) << model.status().message();
+    const std::vector<double> reach = LinkOriginReach(*model);
+    ASSERT_EQ(static_cast<int>(reach.size()), model->num_links());
+    EXPECT_EQ(reach[0], 0.0);
+    std::mt19937 rng(5);
+    KinematicsState state;
+    double largest_tool = 0.0;
+    for (int trial = 0; trial < 2000; ++trial) {
+      ComputeKinematics(*model, Pose::Identity(), testing::RandomConfiguration(*model, &rng), &state);
+      for (int l = 0; l < model->num_links(); ++l) {
+        EXPECT_LE(state.link_poses[l].translation().norm(), reach[l] + 1e-12) << path << " link " << l;
+      }
+      if (const int tool = model->LinkIndex("tool"); tool >= 0) {
+        largest_tool = std::max(largest_tool, state.link_poses[tool].translation().norm());
+      }
+    }
+    if (const int tool = model->LinkIndex("tool"); tool >= 0) {
+      EXPECT_GT(largest_tool, 0.6 * reach[tool]) << path;  // a bound, not a gross overestimate
+    }
+  }
+  // arm2's flap2 is a prismatic mimic of the continuous wrist: no finite bound.
+  auto arm2 = RobotModel::LoadFromUrdfFile(testing::Arm2Path());
+  EXPECT_TRUE(std::isinf(LinkOriginReach(*arm2)[arm2->LinkIndex("flap2")]));
+}
+
+}  // namespace
+}  // namespace quadhand::robot

@@ -1,6 +1,9 @@
 #include "quadhand/planner/planning_context.h"
 
 #include <algorithm>
+#include <cmath>
+
+#include "quadhand/robot/kinematics.h"
 
 #include "quadhand/scene/point_cloud.h"
 
@@ -52,9 +55,16 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(Task task
   std::vector<Vec3> contain = options.front_end_also_contain;
   contain.push_back(t.start.position);
   if (t.terminal) contain.push_back(t.terminal->position);
-  if (t.tool) {  // a goal given as a tool pose: the base ends within the arm's reach of it
-    contain.push_back(t.tool->position - Vec3::Constant(1.0));
-    contain.push_back(t.tool->position + Vec3::Constant(1.0));
+  if (t.tool) {
+    // A goal given as a tool pose: the base ends within the arm's reach of
+    // it (from the URDF; a prismatic joint without limits has none, and
+    // then the scene's extent bounds the search).
+    const int tool_link = context->robot_.LinkIndex(t.tool_link);
+    const double reach = tool_link >= 0 ? robot::LinkOriginReach(context->robot_)[tool_link] : 0.0;
+    if (std::isfinite(reach)) {
+      contain.push_back(t.tool->position - Vec3::Constant(reach));
+      contain.push_back(t.tool->position + Vec3::Constant(reach));
+    }
   }
   auto front_end = FrontEndMap::Build(context->points(), options.front_end, contain);
   if (!front_end.ok()) return front_end.status().WithPrefix(t.scene_path);

@@ -1,5 +1,6 @@
 #include "quadhand/robot/kinematics.h"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 
@@ -133,6 +134,22 @@ void LinkJacobian(const RobotModel& model, const KinematicsState& state, int lin
       J->block<3, 1>(3, col) += joint.mimic_multiplier * axis;
     }
   }
+}
+
+std::vector<double> LinkOriginReach(const RobotModel& model) {
+  std::vector<double> reach(model.num_links(), 0.0);
+  const VecX lower = model.LowerLimits(), upper = model.UpperLimits();
+  for (int j = 0; j < model.num_joints(); ++j) {  // parents come first (topological order)
+    const Joint& joint = model.joint(j);
+    double travel = 0.0;
+    if (joint.type == JointType::kPrismatic && joint.q_index >= 0) {
+      // A mimic joint moves by multiplier x its source's position + offset.
+      travel = std::max(std::abs(lower[joint.q_index]), std::abs(upper[joint.q_index]));
+      if (joint.is_mimic) travel = std::abs(joint.mimic_multiplier) * travel + std::abs(joint.mimic_offset);
+    }
+    reach[joint.child_link] = reach[joint.parent_link] + joint.origin.translation().norm() + travel;
+  }
+  return reach;
 }
 
 }  // namespace quadhand::robot

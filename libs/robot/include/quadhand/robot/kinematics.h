@@ -29,6 +29,14 @@ void ComputeKinematics(const RobotModel& model, const Pose& X_WB, const VecX& q,
 // Convenience: pose of one link.
 Pose LinkPose(const RobotModel& model, const Pose& X_WB, const VecX& q, int link);
 
+// Per link: an upper bound of the distance from the root link's origin to
+// the link's origin over every joint value within the limits (the sum of the
+// joint offsets along the chain, plus each prismatic joint's largest travel;
+// rotations do not move a child origin away from its joint). Infinite below
+// a prismatic joint without limits. From the URDF alone: the arm's reach,
+// with no constant of any particular robot.
+std::vector<double> LinkOriginReach(const RobotModel& model);
+
 using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic>;
 
 // 3 x (6 + n) Jacobian of the world position of a point rigidly attached to
