@@ -148,8 +148,9 @@ int main(int argc, char** argv) {
     core::LogInfo("%s: dropped %ld non-finite points", task.scene_path.c_str(),
                   (*context)->dropped_non_finite_points());
   }
-  core::LogInfo("quadhand-plan: %s, %zu scene points, robot %s", task_path.c_str(), (*context)->points().size(),
-                robot.name().c_str());
+  core::LogInfo("quadhand-plan: %s, %zu scene points (%zu post-checked) loaded in %.0f ms, robot %s",
+                task_path.c_str(), (*context)->points().size(), (*context)->checked_points().size(),
+                (*context)->scene_load_seconds() * 1e3, robot.name().c_str());
   const double representation_ms = (*context)->representations().front().build_ms;
 
   const planner::PlannerOptions options = planner::RunPlannerOptions(config, dt, seed, verbose);
@@ -158,9 +159,12 @@ int main(int argc, char** argv) {
 
   const double total_ms = Ms(start_time);
   core::AtomicFileSet outputs;
-  const planner::PlanReportInfo info{task_path,         solver_name, representation,
-                                seed,              representation_ms, total_ms,
-                                &config, config_path.empty() ? "defaults" : config_path};
+  planner::PlanReportInfo info{task_path,         solver_name, representation,
+                               seed,              representation_ms, total_ms,
+                               &config, config_path.empty() ? "defaults" : config_path};
+  info.scene_load_ms = (*context)->scene_load_seconds() * 1e3;
+  info.scene_points = static_cast<long>((*context)->points().size());
+  info.checked_points = static_cast<long>((*context)->checked_points().size());
   if (core::Status s = outputs.Stage(report_path, planner::PlanReportJson(*result, robot, info)); !s.ok()) {
     return Fail(s.message());
   }

@@ -97,7 +97,7 @@ Scene SceneFromArray(const py::array_t<double, py::array::c_style | py::array::f
 }
 
 Scene SceneFromPcd(const std::string& path) {
-  scene::PointCloud cloud = Take(scene::LoadPcd(path));
+  scene::PointCloud cloud = Take(scene::LoadPointCloud(path));
   return Scene{std::make_shared<const std::vector<Vec3>>(std::move(cloud.points)), cloud.dropped_non_finite, path};
 }
 
@@ -160,16 +160,19 @@ PlanOutput RunPlan(const PlanArguments& args) {
   } else {
     model = Take(robot::RobotModel::LoadFromUrdfFile(task.robot_path));
   }
-  std::shared_ptr<const std::vector<Vec3>> points;
+  std::shared_ptr<const std::vector<Vec3>> points, checked_points;
   long dropped = 0;
   if (args.scene) {
     points = args.scene->points;
     dropped = args.scene->dropped_non_finite;
     task.scene_path = args.scene->source;
   } else {
-    Scene loaded = SceneFromPcd(task.scene_path);
-    points = loaded.points;
-    dropped = loaded.dropped_non_finite;
+    scene::LoadedScans scans = Take(scene::LoadScans(task.scans));
+    points = std::make_shared<const std::vector<Vec3>>(std::move(scans.points));
+    if (!scans.unfiltered_points.empty()) {
+      checked_points = std::make_shared<const std::vector<Vec3>>(std::move(scans.unfiltered_points));
+    }
+    dropped = scans.dropped_non_finite;
   }
 
   planner::PlannerConfig config = planner::DefaultPlannerConfig();
@@ -177,7 +180,8 @@ PlanOutput RunPlan(const PlanArguments& args) {
 
   core::SetLogLevel(args.verbose ? core::LogLevel::kVerbose : core::LogLevel::kQuiet);
   auto context = Take(planner::PlanningContext::Create(std::move(task), std::move(model), std::move(points), dropped,
-                                                       planner::ContextOptions(config, {args.representation})));
+                                                       planner::ContextOptions(config, {args.representation}),
+                                                       std::move(checked_points)));
   const double representation_ms = context->representations().front().build_ms;
 
   const planner::PlannerOptions options = planner::RunPlannerOptions(config, args.dt, args.seed, args.verbose);

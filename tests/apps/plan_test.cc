@@ -5,7 +5,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
+#include "quadhand/scene/point_cloud.h"
 #include "support/run_command.h"
 #include "support/window_cup_task.h"
 
@@ -76,6 +78,49 @@ TEST_F(PlanCliTest, RejectsBadTasks) {
     std::ofstream(path) << "robot: [unclosed\n";
     ExpectBadInput(path, "broken.yaml");
   }
+}
+
+// A scan as its sensor wrote it: the default scene in a sensor frame (PLY,
+// float64, with a colour property), and the task's scene list carrying the
+// sensor's pose back into the world, a crop box and a voxel filter. The plan
+// must succeed as on the default scene; a pose that is not a rotation is
+// bad input.
+TEST_F(PlanCliTest, PlansOnAScanGivenInItsSensorFrame) {
+  auto cloud = scene::LoadPcd(std::string(QUADHAND_SOURCE_DIR) + "/data/scenes/window_cup.pcd");
+  ASSERT_TRUE(cloud.ok());
+  const Pose sensor_to_world = MakePose(Vec3(-1.5, 0.3, 1.4), Quat(0.9, 0.1, -0.3, 0.2).normalized().toRotationMatrix());
+  const std::string ply = (dir_ / "sensor.ply").string();
+  {
+    std::ofstream out(ply);
+    out << "ply\nformat ascii 1.0\nelement vertex " << cloud->points.size()
+        << "\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nend_header\n";
+    out.precision(17);
+    for (const Vec3& p : cloud->points) {
+      const Vec3 q = sensor_to_world.inverse() * p;
+      out << q.x() << " " << q.y() << " " << q.z() << " 200\n";
+    }
+  }
+  const Quat q(sensor_to_world.linear());
+  auto scene = [&](const std::string& orientation) {
+    std::ostringstream text;
+    text.precision(17);
+    text << "scene:\n  - file: " << ply << "\n    pose: {position: [" << sensor_to_world.translation().x() << ", "
+         << sensor_to_world.translation().y() << ", " << sensor_to_world.translation().z()
+         << "], orientation: " << orientation << "}\n"
+         << "    crop: {min: [-10, -10, -10], max: [10, 10, 10]}\n    voxel: 0.005";
+    return text.str();
+  };
+  std::ostringstream orientation;
+  orientation.precision(17);
+  orientation << "[" << q.w() << ", " << q.x() << ", " << q.y() << ", " << q.z() << "]";
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const auto planned = RunCommand(kPlan + " " + WriteTask({{"scene:", scene(orientation.str())}}) + " --out " + out +
+                                  " --report " + report);
+  EXPECT_EQ(planned.exit_code, 0) << planned.err;
+  EXPECT_TRUE(fs::exists(out));
+  fs::remove(out);
+  fs::remove(report);
+  ExpectBadInput(WriteTask({{"scene:", scene("[2, 0, 0, 0]")}}), "scene[0].pose.orientation: expected a unit quaternion");
 }
 
 TEST_F(PlanCliTest, RejectsBadOptions) {

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -86,6 +87,99 @@ TEST_F(PointCloudTest, ReportsBadFilesWithTheirName) {
             "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 100\nHEIGHT 1\n"
             "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 100\nDATA binary\nabc");
   expect_error(Path("short.pcd"), "PCD");
+}
+
+// Binary PCD with x, y, z stored as `type` of `size` bytes, plus an rgb
+// field between them (extra fields are ignored, wherever they are).
+template <typename T>
+std::string BinaryPcd(const char* type, const std::vector<Vec3>& points) {
+  std::string text = "VERSION 0.7\nFIELDS x rgb y z\nSIZE " + std::to_string(sizeof(T)) + " 4 " +
+                     std::to_string(sizeof(T)) + " " + std::to_string(sizeof(T)) + "\nTYPE " + type + " F " + type +
+                     " " + type + "\nCOUNT 1 1 1 1\nWIDTH " + std::to_string(points.size()) +
+                     "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + std::to_string(points.size()) + "\nDATA binary\n";
+  for (const Vec3& p : points) {
+    const T x = static_cast<T>(p.x()), y = static_cast<T>(p.y()), z = static_cast<T>(p.z());
+    const float rgb = 1.0f;
+    text.append(reinterpret_cast<const char*>(&x), sizeof(T));
+    text.append(reinterpret_cast<const char*>(&rgb), sizeof(float));
+    text.append(reinterpret_cast<const char*>(&y), sizeof(T));
+    text.append(reinterpret_cast<const char*>(&z), sizeof(T));
+  }
+  return text;
+}
+
+// A valid cloud whose coordinates are float64 or integers must be read as
+// those numbers: read as zeros, a wall would vanish and a plan through it
+// would pass its post-check.
+TEST_F(PointCloudTest, ReadsEveryNumericCoordinateType) {
+  const std::vector<Vec3> points = {Vec3(1.25, -2.5, 3.0), Vec3(100.123456789012, 7.0, -0.001), Vec3(4, 5, 6)};
+  WriteText("f8.pcd", BinaryPcd<double>("F", points));
+  auto f8 = LoadPcd(Path("f8.pcd"));
+  ASSERT_TRUE(f8.ok()) << f8.status().message();
+  ASSERT_EQ(f8->points.size(), 3u);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(f8->points[i], points[i]);  // exact: no float32 on the way
+
+  const std::vector<Vec3> whole = {Vec3(1, 2, 3), Vec3(-4, 5, -6), Vec3(7, 8, 9)};
+  WriteText("i4.pcd", BinaryPcd<std::int32_t>("I", whole));
+  WriteText("i2.pcd", BinaryPcd<std::int16_t>("I", whole));
+  auto i4 = LoadPcd(Path("i4.pcd"));
+  auto i2 = LoadPcd(Path("i2.pcd"));
+  ASSERT_TRUE(i4.ok()) << i4.status().message();
+  ASSERT_TRUE(i2.ok()) << i2.status().message();
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(i4->points[i], whole[i]);
+    EXPECT_EQ(i2->points[i], whole[i]);
+  }
+  WriteText("u1.pcd", BinaryPcd<std::uint8_t>("U", {Vec3(1, 2, 3), Vec3(250, 0, 9)}));
+  auto u1 = LoadPcd(Path("u1.pcd"));
+  ASSERT_TRUE(u1.ok()) << u1.status().message();
+  EXPECT_EQ(u1->points[1], Vec3(250, 0, 9));
+
+  // Ascii float64 with extra columns, organised 2 x 2 with a NaN (a depth
+  // camera's invalid pixel).
+  WriteText("organised.pcd",
+            "VERSION 0.7\nFIELDS x y z intensity\nSIZE 8 8 8 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 2\n"
+            "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 4\nDATA ascii\n0.1 0.2 0.30000000001 7\nnan nan nan 0\n"
+            "1 2 3 4\n-1 -2 -3 5\n");
+  auto organised = LoadPcd(Path("organised.pcd"));
+  ASSERT_TRUE(organised.ok()) << organised.status().message();
+  ASSERT_EQ(organised->points.size(), 3u);
+  EXPECT_EQ(organised->dropped_non_finite, 1);
+  EXPECT_EQ(organised->points[0], Vec3(0.1, 0.2, 0.30000000001));
+}
+
+TEST_F(PointCloudTest, RejectsWhatItCannotConvert) {
+  auto expect_error = [&](const std::string& name, const std::string& fragment) {
+    auto cloud = LoadPointCloud(Path(name));
+    ASSERT_FALSE(cloud.ok()) << name;
+    EXPECT_NE(cloud.status().message().find(Path(name)), std::string::npos) << cloud.status().message();
+    EXPECT_NE(cloud.status().message().find(fragment), std::string::npos) << cloud.status().message();
+  };
+  WriteText("count2.pcd",
+            "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 2 1 1\nWIDTH 1\nHEIGHT 1\n"
+            "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n1 2 3 4\n");
+  expect_error("count2.pcd", "COUNT 2");
+  fs::create_directories(dir_ / "folder.pcd");
+  expect_error("folder.pcd", "not a regular file");
+  WriteText("cloud.xyz", "1 2 3\n");
+  expect_error("cloud.xyz", "expected .pcd or .ply");
+  WriteText("negative_width.pcd",
+            "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH -5\nHEIGHT 1\n"
+            "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n1 2 3\n");
+  expect_error("negative_width.pcd", "PCD");
+}
+
+TEST_F(PointCloudTest, ReadsPlyVertices) {
+  WriteText("cloud.ply",
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n"
+            "property uchar red\nend_header\n1.5 2.5 3.5 255\n-1 0.000000001 2 0\n7 8 9 1\n");
+  auto cloud = LoadPointCloud(Path("cloud.ply"));
+  ASSERT_TRUE(cloud.ok()) << cloud.status().message();
+  ASSERT_EQ(cloud->points.size(), 3u);
+  EXPECT_EQ(cloud->points[0], Vec3(1.5, 2.5, 3.5));
+  EXPECT_EQ(cloud->points[1], Vec3(-1, 0.000000001, 2));
+  WriteText("bad.ply", "ply\nformat ascii 1.0\nelement vertex 3\nend_header\n");
+  EXPECT_FALSE(LoadPointCloud(Path("bad.ply")).ok());
 }
 
 }  // namespace

@@ -48,6 +48,9 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   report["solve_ms"] = result.solve_ms;
   report["front_end_ms"] = result.front_end_ms;
   report["representation_build_ms"] = info.representation_build_ms + result.per_plan_collision_ms;
+  if (info.scene_load_ms >= 0.0) report["scene_load_ms"] = info.scene_load_ms;
+  if (info.scene_points >= 0) report["scene_points"] = info.scene_points;
+  if (info.checked_points >= 0) report["checked_points"] = info.checked_points;
   report["total_ms"] = info.total_ms;
   report["iterations"] = result.iterations;
   report["cost_evaluations"] = result.evaluations;

@@ -24,31 +24,44 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Load(const std::
   if (!task.ok()) return task.status();
   auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
   if (!robot.ok()) return robot.status();
-  auto cloud = scene::LoadPcd(task->scene_path);
-  if (!cloud.ok()) return cloud.status();
-  return Create(std::move(*task), std::move(*robot),
-                std::make_shared<const std::vector<Vec3>>(std::move(cloud->points)), cloud->dropped_non_finite, options);
+  auto scans = scene::LoadScans(task->scans);
+  if (!scans.ok()) return scans.status();
+  auto checked = scans->unfiltered_points.empty()
+                     ? nullptr
+                     : std::make_shared<const std::vector<Vec3>>(std::move(scans->unfiltered_points));
+  auto context = Create(std::move(*task), std::move(*robot),
+                        std::make_shared<const std::vector<Vec3>>(std::move(scans->points)), scans->dropped_non_finite,
+                        options, std::move(checked));
+  if (context.ok()) (*context)->scene_load_seconds_ = scans->load_seconds;
+  return context;
 }
 
-core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(Task task, robot::RobotModel robot,
-                                                                       std::shared_ptr<const std::vector<Vec3>> points,
-                                                                       long dropped_non_finite,
-                                                                       const PlanningContextOptions& options) {
+core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
+    Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
+    const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points) {
   QUADHAND_RETURN_IF_ERROR(CheckRepresentationNames(options));
-  if (!points || points->empty()) return core::Status::InvalidArgument("the scene has no points");
-  for (const Vec3& p : *points) {
-    if (!p.allFinite()) return core::Status::InvalidArgument("the scene has a non-finite point");
+  if (checked_points == nullptr) checked_points = points;
+  for (const auto* cloud : {&points, &checked_points}) {
+    if (!*cloud || (*cloud)->empty()) return core::Status::InvalidArgument("the scene has no points");
+    for (const Vec3& p : **cloud) {
+      if (!p.allFinite()) return core::Status::InvalidArgument("the scene has a non-finite point");
+    }
   }
   QUADHAND_RETURN_IF_ERROR(ApplyRobot(robot, &task));
   std::unique_ptr<PlanningContext> context(new PlanningContext(std::move(task), std::move(robot)));
   context->points_ = std::move(points);
+  context->checked_points_ = std::move(checked_points);
   context->dropped_non_finite_ = dropped_non_finite;
   const Task& t = context->task_;
 
   // The cloud is indexed once here and shared by the post-check and the
-  // representations whose index has the same cell.
-  auto index = std::make_shared<const scene::PointGrid>(context->points(), env::ExactMeshModel::kIndexCellSize);
-  auto exact = env::ExactMeshModel::Create(context->robot_, index);
+  // representations whose index has the same cell (when both see the same
+  // points: with a voxel filter the post-check sees the unfiltered ones).
+  auto checked_index =
+      std::make_shared<const scene::PointGrid>(context->checked_points(), env::ExactMeshModel::kIndexCellSize);
+  const bool same_points = context->checked_points_ == context->points_;
+  auto index = same_points ? checked_index : nullptr;
+  auto exact = env::ExactMeshModel::Create(context->robot_, checked_index);
   if (!exact.ok()) return exact.status();
   context->exact_ = std::move(*exact);
 

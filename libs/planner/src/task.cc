@@ -86,15 +86,65 @@ core::Status ReadState(const Reader& r, const YAML::Node& node, const std::strin
   return core::Status::Ok();
 }
 
+core::Status ReadUnitQuaternion(const Reader& r, const YAML::Node& node, const std::string& key, Quat* out) {
+  VecX q;
+  QUADHAND_RETURN_IF_ERROR(r.Vector(node, key, 4, &q));
+  if (std::abs(q.norm() - 1.0) > 1e-3) {
+    return r.Error(key, "expected a unit quaternion [w, x, y, z] (norm " + std::to_string(q.norm()) + ")");
+  }
+  *out = Quat(q[0], q[1], q[2], q[3]).normalized();
+  return core::Status::Ok();
+}
+
+// scene: a path, or a list of {file, pose, crop, voxel} (contracts.md).
+core::Status ReadScene(const Reader& r, const YAML::Node& node, Task* task) {
+  if (node.IsScalar()) {
+    scene::ScanSource source;
+    QUADHAND_RETURN_IF_ERROR(r.Path(node, "scene", &source.path));
+    task->scans = {source};
+    task->scene_path = source.path;
+    return core::Status::Ok();
+  }
+  if (!node.IsSequence() || node.size() == 0) {
+    return r.Error("scene", "expected a point cloud path or a list of scans ({file, pose, crop, voxel})");
+  }
+  task->scans.clear();
+  for (size_t i = 0; i < node.size(); ++i) {
+    const std::string key = "scene[" + std::to_string(i) + "]";
+    const YAML::Node entry = node[i];
+    QUADHAND_RETURN_IF_ERROR(r.CheckKeys(entry, key, {"file", "pose", "crop", "voxel"}));
+    scene::ScanSource source;
+    QUADHAND_RETURN_IF_ERROR(r.Path(entry["file"], key + ".file", &source.path));
+    if (const YAML::Node pose = entry["pose"]) {
+      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(pose, key + ".pose", {"position", "orientation"}));
+      Vec3 position;
+      Quat orientation;
+      QUADHAND_RETURN_IF_ERROR(r.Vector3(pose["position"], key + ".pose.position", &position));
+      QUADHAND_RETURN_IF_ERROR(ReadUnitQuaternion(r, pose["orientation"], key + ".pose.orientation", &orientation));
+      source.sensor_to_world = MakePose(position, orientation.toRotationMatrix());
+    }
+    if (const YAML::Node crop = entry["crop"]) {
+      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(crop, key + ".crop", {"min", "max"}));
+      scene::CropBox box;
+      QUADHAND_RETURN_IF_ERROR(r.Vector3(crop["min"], key + ".crop.min", &box.min));
+      QUADHAND_RETURN_IF_ERROR(r.Vector3(crop["max"], key + ".crop.max", &box.max));
+      if (!(box.min.array() < box.max.array()).all()) return r.Error(key + ".crop", "min must be below max on every axis");
+      source.crop = box;
+    }
+    if (entry["voxel"]) {
+      QUADHAND_RETURN_IF_ERROR(r.Number(entry["voxel"], key + ".voxel", &source.voxel));
+      if (!(source.voxel > 0.0)) return r.Error(key + ".voxel", "must be a positive leaf size in metres");
+    }
+    task->scans.push_back(source);
+  }
+  task->scene_path = task->scans.front().path;
+  return core::Status::Ok();
+}
+
 core::Status ReadTool(const Reader& r, const YAML::Node& node, ToolGoal* tool) {
   QUADHAND_RETURN_IF_ERROR(r.CheckKeys(node, "goal.tool", {"position", "orientation", "insertion"}));
   QUADHAND_RETURN_IF_ERROR(r.Vector3(node["position"], "goal.tool.position", &tool->position));
-  VecX q;
-  QUADHAND_RETURN_IF_ERROR(r.Vector(node["orientation"], "goal.tool.orientation", 4, &q));
-  if (std::abs(q.norm() - 1.0) > 1e-3) {
-    return r.Error("goal.tool.orientation", "expected a unit quaternion [w, x, y, z] (norm " + std::to_string(q.norm()) + ")");
-  }
-  tool->orientation = Quat(q[0], q[1], q[2], q[3]).normalized();
+  QUADHAND_RETURN_IF_ERROR(ReadUnitQuaternion(r, node["orientation"], "goal.tool.orientation", &tool->orientation));
   if (const YAML::Node insertion = node["insertion"]) {
     QUADHAND_RETURN_IF_ERROR(r.CheckKeys(insertion, "goal.tool.insertion", {"direction", "length"}));
     QUADHAND_RETURN_IF_ERROR(r.Vector3(insertion["direction"], "goal.tool.insertion.direction", &tool->insertion_direction));
@@ -121,7 +171,10 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
   QUADHAND_RETURN_IF_ERROR(r.CheckKeys(root, "", {"robot", "sdf_dir", "scene", "start", "goal", "limits", "safety_distance", "tool_link"}));
   QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "robot", sources.robot_given, &task.robot_path));
   QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "sdf_dir", sources.robot_given, &task.sdf_dir));
-  QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "scene", sources.scene_given, &task.scene_path));
+  if (!sources.scene_given || root["scene"]) {
+    if (!root["scene"]) return r.Error("scene", "expected a point cloud path or a list of scans ({file, pose, crop, voxel})");
+    QUADHAND_RETURN_IF_ERROR(ReadScene(r, root["scene"], &task));
+  }
 
   const YAML::Node start = root["start"];
   if (!start) return r.Error("start", "missing");

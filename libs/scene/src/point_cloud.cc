@@ -2,14 +2,19 @@
 
 #include <unistd.h>
 
+#include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/console/print.h>
 #include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -19,23 +24,134 @@ namespace {
 // PCL prints its own diagnostics to the console; ours come back as Status.
 void SilencePcl() { pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS); }
 
-bool HasField(const pcl::PCLPointCloud2& cloud, const std::string& name) {
+const pcl::PCLPointField* FindField(const pcl::PCLPointCloud2& cloud, const std::string& name) {
   for (const auto& field : cloud.fields) {
-    if (field.name == name) return true;
+    if (field.name == name) return &field;
   }
-  return false;
+  return nullptr;
+}
+
+// Bytes of one value of a PCL field datatype (0: unknown).
+int DatatypeSize(std::uint8_t datatype) {
+  switch (datatype) {
+    case pcl::PCLPointField::INT8:
+    case pcl::PCLPointField::UINT8: return 1;
+    case pcl::PCLPointField::INT16:
+    case pcl::PCLPointField::UINT16: return 2;
+    case pcl::PCLPointField::INT32:
+    case pcl::PCLPointField::UINT32:
+    case pcl::PCLPointField::FLOAT32: return 4;
+    case pcl::PCLPointField::FLOAT64: return 8;
+    default: return 0;
+  }
+}
+
+template <typename T>
+double Read(const std::uint8_t* bytes) {
+  T value;
+  std::memcpy(&value, bytes, sizeof(T));
+  return static_cast<double>(value);
+}
+
+double ReadValue(const std::uint8_t* bytes, std::uint8_t datatype) {
+  switch (datatype) {
+    case pcl::PCLPointField::INT8: return Read<std::int8_t>(bytes);
+    case pcl::PCLPointField::UINT8: return Read<std::uint8_t>(bytes);
+    case pcl::PCLPointField::INT16: return Read<std::int16_t>(bytes);
+    case pcl::PCLPointField::UINT16: return Read<std::uint16_t>(bytes);
+    case pcl::PCLPointField::INT32: return Read<std::int32_t>(bytes);
+    case pcl::PCLPointField::UINT32: return Read<std::uint32_t>(bytes);
+    case pcl::PCLPointField::FLOAT32: return Read<float>(bytes);
+    default: return Read<double>(bytes);
+  }
+}
+
+// The fields x, y, z must exist, hold one number each of a numeric type,
+// and fit in a point; the error says which does not.
+core::Status CheckCoordinateFields(const pcl::PCLPointCloud2& cloud, const std::string& path, const char* format) {
+  for (const char* name : {"x", "y", "z"}) {
+    const pcl::PCLPointField* field = FindField(cloud, name);
+    if (field == nullptr) {
+      return core::Status::InvalidArgument(path + ": not a " + format + " point cloud with x, y, z fields");
+    }
+    if (field->count != 1) {
+      return core::Status::InvalidArgument(path + ": field " + name + " has COUNT " + std::to_string(field->count) +
+                                           " (a coordinate must be one number)");
+    }
+    const int size = DatatypeSize(field->datatype);
+    if (size == 0) return core::Status::InvalidArgument(path + ": field " + name + " has an unknown type");
+    if (cloud.point_step > 0 && field->offset + size > cloud.point_step) {
+      return core::Status::InvalidArgument(path + ": field " + name + " lies outside the point's bytes");
+    }
+  }
+  return core::Status::Ok();
+}
+
+// Every point's x, y, z converted from its stored type (float32 or 64,
+// signed or unsigned integers of 8 to 32 bits) to double; non-finite points
+// dropped and counted.
+core::Result<PointCloud> ExtractPoints(const pcl::PCLPointCloud2& cloud, const std::string& path, const char* format) {
+  QUADHAND_RETURN_IF_ERROR(CheckCoordinateFields(cloud, path, format));
+  const std::uint64_t count = static_cast<std::uint64_t>(cloud.width) * cloud.height;
+  if (count == 0) return core::Status::InvalidArgument(path + ": point cloud has no finite points (it is empty)");
+  const std::uint64_t row_bytes = static_cast<std::uint64_t>(cloud.width) * cloud.point_step;
+  const std::uint64_t row_step = cloud.row_step >= row_bytes ? cloud.row_step : row_bytes;
+  if (cloud.point_step == 0 || cloud.data.size() < row_step * (cloud.height - 1) + row_bytes) {
+    return core::Status::InvalidArgument(path + ": the data is shorter than the header's " + std::to_string(count) +
+                                         " points");
+  }
+  const pcl::PCLPointField* fields[3] = {FindField(cloud, "x"), FindField(cloud, "y"), FindField(cloud, "z")};
+  PointCloud out;
+  out.points.reserve(count);
+  for (std::uint32_t row = 0; row < cloud.height; ++row) {
+    const std::uint8_t* row_data = cloud.data.data() + row * row_step;
+    for (std::uint32_t column = 0; column < cloud.width; ++column) {
+      const std::uint8_t* point = row_data + static_cast<std::uint64_t>(column) * cloud.point_step;
+      const Vec3 p(ReadValue(point + fields[0]->offset, fields[0]->datatype),
+                   ReadValue(point + fields[1]->offset, fields[1]->datatype),
+                   ReadValue(point + fields[2]->offset, fields[2]->datatype));
+      if (p.allFinite()) {
+        out.points.push_back(p);
+      } else {
+        ++out.dropped_non_finite;
+      }
+    }
+  }
+  if (out.points.empty()) {
+    return core::Status::InvalidArgument(path + ": point cloud has no finite points (" +
+                                         std::to_string(out.dropped_non_finite) + " non-finite)");
+  }
+  return out;
+}
+
+core::Status CheckRegularFile(const std::string& path) {
+  std::error_code error;
+  const std::filesystem::file_status status = std::filesystem::status(path, error);
+  if (error || !std::filesystem::exists(status)) return core::Status::NotFound(path + ": cannot open point cloud file");
+  if (!std::filesystem::is_regular_file(status)) {
+    return core::Status::InvalidArgument(path + ": not a regular file (a point cloud must be a PCD or PLY file)");
+  }
+  if (!std::ifstream(path).good()) return core::Status::NotFound(path + ": cannot open point cloud file");
+  return core::Status::Ok();
+}
+
+std::string LowerExtension(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension;
 }
 
 }  // namespace
 
 core::Result<PointCloud> LoadPcd(const std::string& path) {
   SilencePcl();
-  if (!std::ifstream(path).good()) return core::Status::NotFound(path + ": cannot open point cloud file");
+  QUADHAND_RETURN_IF_ERROR(CheckRegularFile(path));
   pcl::PCLPointCloud2 blob;
   pcl::PCDReader reader;
   // PCL 1.13 accepts a header-less file in readHeader and then crashes in
-  // read(), so the header is validated here before any data is read.
-  {
+  // read(), and throws on some headers (negative or huge WIDTH), so the
+  // header is validated here before any data is read.
+  try {
     Eigen::Vector4f origin;
     Eigen::Quaternionf orientation;
     int version = 0, data_type = 0;
@@ -43,12 +159,12 @@ core::Result<PointCloud> LoadPcd(const std::string& path) {
     if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_offset) < 0) {
       return core::Status::InvalidArgument(path + ": not a readable PCD file (bad header)");
     }
-    if (!HasField(blob, "x") || !HasField(blob, "y") || !HasField(blob, "z")) {
-      return core::Status::InvalidArgument(path + ": not a PCD point cloud with x, y, z fields");
-    }
-    if (static_cast<long>(blob.width) * blob.height == 0) {
-      return core::Status::InvalidArgument(path + ": point cloud has no finite points (it is empty)");
-    }
+  } catch (const std::exception& e) {
+    return core::Status::InvalidArgument(path + ": not a readable PCD file (bad header: " + e.what() + ")");
+  }
+  QUADHAND_RETURN_IF_ERROR(CheckCoordinateFields(blob, path, "PCD"));
+  if (static_cast<std::uint64_t>(blob.width) * blob.height == 0) {
+    return core::Status::InvalidArgument(path + ": point cloud has no finite points (it is empty)");
   }
   int result = -1;
   try {
@@ -57,22 +173,31 @@ core::Result<PointCloud> LoadPcd(const std::string& path) {
     return core::Status::InvalidArgument(path + ": not a readable PCD file: " + e.what());
   }
   if (result < 0) return core::Status::InvalidArgument(path + ": not a readable PCD file (bad header or data)");
-  pcl::PointCloud<pcl::PointXYZ> cloud;
-  pcl::fromPCLPointCloud2(blob, cloud);
-  PointCloud out;
-  out.points.reserve(cloud.size());
-  for (const auto& p : cloud) {
-    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) {
-      out.points.emplace_back(p.x, p.y, p.z);
-    } else {
-      ++out.dropped_non_finite;
-    }
+  return ExtractPoints(blob, path, "PCD");
+}
+
+core::Result<PointCloud> LoadPly(const std::string& path) {
+  SilencePcl();
+  QUADHAND_RETURN_IF_ERROR(CheckRegularFile(path));
+  pcl::PCLPointCloud2 blob;
+  pcl::PLYReader reader;
+  int result = -1;
+  try {
+    result = reader.read(path, blob);
+  } catch (const std::exception& e) {
+    return core::Status::InvalidArgument(path + ": not a readable PLY file: " + e.what());
   }
-  if (out.points.empty()) {
-    return core::Status::InvalidArgument(path + ": point cloud has no finite points (" +
-                                         std::to_string(out.dropped_non_finite) + " non-finite)");
-  }
-  return out;
+  if (result < 0) return core::Status::InvalidArgument(path + ": not a readable PLY file (bad header or data)");
+  return ExtractPoints(blob, path, "PLY");
+}
+
+core::Result<PointCloud> LoadPointCloud(const std::string& path) {
+  const std::string extension = LowerExtension(path);
+  if (extension == ".ply") return LoadPly(path);
+  if (extension == ".pcd") return LoadPcd(path);
+  QUADHAND_RETURN_IF_ERROR(CheckRegularFile(path));
+  return core::Status::InvalidArgument(path + ": unknown point cloud format '" + extension +
+                                       "' (expected .pcd or .ply)");
 }
 
 core::Status WritePcd(const std::string& path, const std::vector<Vec3>& points, PcdEncoding encoding) {

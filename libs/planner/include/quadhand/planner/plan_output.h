@@ -30,6 +30,12 @@ struct PlanReportInfo {
   // file, or "defaults"); none recorded when null.
   const PlannerConfig* config = nullptr;
   std::string config_source = "defaults";
+  // The scene as loaded: reading, moving, cropping and filtering its scans
+  // (ms), the points planned against and the points post-checked against
+  // (more when a voxel filter reduced the former); not recorded when negative.
+  double scene_load_ms = -1.0;
+  long scene_points = -1;
+  long checked_points = -1;
 };
 
 // The report as pretty-printed JSON text (two-space indent, newline at the end).

@@ -43,14 +43,18 @@ class PlanningContext {
   // module's way in): checks the task against the robot, then builds as
   // Load() does. The cloud is shared, not copied; it must be non-empty and
   // finite. `dropped_non_finite` is what the caller removed, for the record.
-  static core::Result<std::unique_ptr<PlanningContext>> Create(Task task, robot::RobotModel robot,
-                                                               std::shared_ptr<const std::vector<Vec3>> points,
-                                                               long dropped_non_finite,
-                                                               const PlanningContextOptions& options);
+  // `checked_points`, when not null, are what the post-check judges plans
+  // against instead of `points` (the scans before a voxel filter reduced
+  // them: a plan must clear the raw points, not only their centroids).
+  static core::Result<std::unique_ptr<PlanningContext>> Create(
+      Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
+      const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points = nullptr);
 
   const Task& task() const { return task_; }
   const robot::RobotModel& robot() const { return robot_; }
-  const std::vector<Vec3>& points() const { return *points_; }
+  const std::vector<Vec3>& points() const { return *points_; }  // planned against
+  const std::vector<Vec3>& checked_points() const { return *checked_points_; }  // post-checked against
+  double scene_load_seconds() const { return scene_load_seconds_; }  // Load(): reading and filtering the scans
   long dropped_non_finite_points() const { return dropped_non_finite_; }
   const env::ExactMeshModel& exact() const { return *exact_; }
   const FrontEndMap& front_end() const { return *front_end_; }
@@ -65,7 +69,9 @@ class PlanningContext {
   Task task_;
   robot::RobotModel robot_;
   std::shared_ptr<const std::vector<Vec3>> points_;
+  std::shared_ptr<const std::vector<Vec3>> checked_points_;  // points_ unless a voxel filter reduced them
   long dropped_non_finite_ = 0;
+  double scene_load_seconds_ = 0.0;
   std::unique_ptr<env::ExactMeshModel> exact_;
   std::unique_ptr<FrontEndMap> front_end_;
   std::vector<Representation> representations_;

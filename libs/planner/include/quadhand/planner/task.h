@@ -9,6 +9,7 @@
 #include "quadhand/core/status.h"
 #include "quadhand/planner/whole_body_problem.h"
 #include "quadhand/robot/robot_model.h"
+#include "quadhand/scene/scans.h"
 
 namespace quadhand::planner {
 
@@ -24,7 +25,10 @@ struct Task {
   std::string file;        // the task file itself, for messages
   std::string robot_path;  // resolved against the task file's folder
   std::string sdf_dir;
-  std::string scene_path;
+  std::string scene_path;  // the first scan's file, for messages
+  // scene: one path (a scan in the world frame) or a list of scans with
+  // their sensor poses, crop boxes and voxel filters.
+  std::vector<scene::ScanSource> scans;
   BoundaryState start;                   // joints sized by the file
   std::optional<BoundaryState> terminal;  // goal.position/yaw/joints, at rest
   std::optional<ToolGoal> tool;           // goal.tool

@@ -1,5 +1,6 @@
-// Obstacle point clouds: PCD files (ascii, binary, binary_compressed) read and
-// written with PCL. PCL stays inside point_cloud.cc.
+// Obstacle point clouds: PCD files (ascii, binary, binary_compressed;
+// organised or not) and PLY files read with PCL, PCD written with PCL. PCL
+// stays inside point_cloud.cc.
 #pragma once
 
 #include <string>
@@ -15,10 +16,20 @@ struct PointCloud {
   long dropped_non_finite = 0;  // points with NaN/inf coordinates skipped while loading
 };
 
-// Loads the x, y, z fields of a PCD file, dropping non-finite points.
-// Errors (naming the file): unreadable, not a PCD, no x/y/z fields, and no
-// finite point left.
+// Loads the x, y, z fields of a PCD file as doubles, whatever numeric type
+// they are stored in (float32, float64, 8- to 32-bit integers), ignoring
+// other fields (rgb, intensity, normals) and dropping non-finite points (an
+// organised cloud's NaNs). Errors (naming the file): not a regular file,
+// unreadable, not a PCD, no x/y/z fields, a coordinate field with COUNT > 1,
+// less data than the header says, and no finite point left.
 core::Result<PointCloud> LoadPcd(const std::string& path);
+
+// The same for a PLY file (vertex x, y, z properties of any numeric type).
+core::Result<PointCloud> LoadPly(const std::string& path);
+
+// LoadPcd or LoadPly by the file's extension (.pcd, .ply, any case); other
+// extensions are errors.
+core::Result<PointCloud> LoadPointCloud(const std::string& path);
 
 enum class PcdEncoding { kAscii, kBinary, kBinaryCompressed };
 

@@ -1,0 +1,47 @@
+// A scene made of one or more scans, each as its sensor wrote it: a point
+// cloud file (scene/point_cloud.h), the sensor's pose in the world, an
+// optional crop box (world frame) and an optional voxel filter, both PCL's
+// filters. The task file's `scene:` (docs/task_format.md) is a list of these.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/core/types.h"
+
+namespace quadhand::scene {
+
+struct CropBox {
+  Vec3 min, max;  // world frame, metres; min < max on every axis
+};
+
+struct ScanSource {
+  std::string path;               // PCD or PLY
+  Pose sensor_to_world = Pose::Identity();
+  std::optional<CropBox> crop;    // applied in the world frame, after the pose
+  double voxel = 0.0;             // leaf size, metres; 0: no voxel filter
+};
+
+struct LoadedScans {
+  // What planning optimises against: every scan moved into the world,
+  // cropped, and voxel-filtered where asked (a voxel's points become their
+  // centroid).
+  std::vector<Vec3> points;
+  // The cropped points before any voxel filter: what the post-check must
+  // keep the robot clear of. Empty when no scan has a voxel filter (then
+  // they are `points`).
+  std::vector<Vec3> unfiltered_points;
+  long dropped_non_finite = 0;  // over all scans
+  long cropped_away = 0;        // finite points outside their scan's crop box
+  double load_seconds = 0.0;    // reading, moving and filtering every scan
+};
+
+// Errors name the scan's file: unreadable or malformed (LoadPointCloud), a
+// pose that is not a rigid motion, a crop box with min >= max, a voxel leaf
+// that is not positive and finite or so small for the scan's extent that
+// PCL's voxel indices would overflow, and a scene with no point left.
+core::Result<LoadedScans> LoadScans(const std::vector<ScanSource>& sources);
+
+}  // namespace quadhand::scene
