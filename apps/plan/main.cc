@@ -165,6 +165,7 @@ int main(int argc, char** argv) {
   info.scene_load_ms = (*context)->scene_load_seconds() * 1e3;
   info.scene_points = static_cast<long>((*context)->points().size());
   info.checked_points = static_cast<long>((*context)->checked_points().size());
+  info.self_collision = &(*context)->self_collision();
   if (core::Status s = outputs.Stage(report_path, planner::PlanReportJson(*result, robot, info)); !s.ok()) {
     return Fail(s.message());
   }

@@ -162,6 +162,7 @@ PlanOutput RunPlan(const PlanArguments& args) {
   }
   std::shared_ptr<const std::vector<Vec3>> points, checked_points;
   long dropped = 0;
+  double scene_load_ms = -1.0;  // not recorded for a cloud handed over in memory
   if (args.scene) {
     points = args.scene->points;
     dropped = args.scene->dropped_non_finite;
@@ -173,6 +174,7 @@ PlanOutput RunPlan(const PlanArguments& args) {
       checked_points = std::make_shared<const std::vector<Vec3>>(std::move(scans.unfiltered_points));
     }
     dropped = scans.dropped_non_finite;
+    scene_load_ms = scans.load_seconds * 1e3;
   }
 
   planner::PlannerConfig config = planner::DefaultPlannerConfig();
@@ -192,9 +194,13 @@ PlanOutput RunPlan(const PlanArguments& args) {
   output.status = planner::PlanStatusName(result.status);
   output.message = result.message;
   const double total_ms = std::chrono::duration<double, std::milli>(Clock::now() - start_time).count();
-  const planner::PlanReportInfo info{args.task_name, args.solver,        args.representation,
-                                args.seed,      representation_ms, total_ms,
-                                &config,        args.config_text.empty() ? "defaults" : args.config_name};
+  planner::PlanReportInfo info{args.task_name, args.solver,        args.representation,
+                               args.seed,      representation_ms, total_ms,
+                               &config,        args.config_text.empty() ? "defaults" : args.config_name};
+  info.self_collision = &context->self_collision();
+  info.scene_load_ms = scene_load_ms;
+  info.scene_points = static_cast<long>(context->points().size());
+  info.checked_points = static_cast<long>(context->checked_points().size());
   output.report_json = planner::PlanReportJson(result, context->robot(), info);
   if (result.trajectory && (result.success || args.keep_failed_plan)) {
     io::PlanTable table = planner::SamplePlanTable(*result.trajectory, context->robot(), args.dt);

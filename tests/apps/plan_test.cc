@@ -7,6 +7,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "quadhand/scene/point_cloud.h"
 #include "support/run_command.h"
 #include "support/window_cup_task.h"
@@ -121,6 +123,46 @@ TEST_F(PlanCliTest, PlansOnAScanGivenInItsSensorFrame) {
   fs::remove(out);
   fs::remove(report);
   ExpectBadInput(WriteTask({{"scene:", scene("[2, 0, 0, 0]")}}), "scene[0].pose.orientation: expected a unit quaternion");
+}
+
+// Self-collision: with a self-safety distance no posture of the reference
+// arm keeps (0.25 m from the airframe) and an SRDF that disables one pair,
+// the plan fails the self_clearance check (exit 1, no plan file) and the
+// report lists the pairs checked and why the others are not; an SRDF naming
+// a link the URDF lacks is bad input.
+TEST_F(PlanCliTest, KeepsTheRobotsLinksApart) {
+  const std::string srdf = (dir_ / "quadhand.srdf").string();
+  std::ofstream(srdf) << "<robot name=\"quadhand\"><disable_collisions link1=\"link1\" link2=\"battery\" "
+                         "reason=\"Never\"/></robot>\n";
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const auto r = RunCommand(kPlan + " " +
+                            WriteTask({{"safety_distance:", "safety_distance: 0.03\nself_safety_distance: 0.25\nsrdf: " +
+                                                                srdf}}) +
+                            " --out " + out + " --report " + report);
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  std::ifstream in(report);
+  const nlohmann::json json = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  ASSERT_TRUE(json.is_object()) << r.err;
+  EXPECT_EQ(json["status"], "post_check_failed");
+  bool self_check_failed = false;
+  for (const auto& check : json["checks"]) {
+    if (check["name"] == "self_clearance") self_check_failed = check["passed"] == false;
+  }
+  EXPECT_TRUE(self_check_failed) << json["checks"].dump();
+  EXPECT_EQ(json["self_collision_pairs"].size(), 5u) << json["self_collision_pairs"].dump();
+  std::map<std::string, std::string> why;
+  for (const auto& e : json["self_collision_excluded"]) {
+    why[e["links"][0].get<std::string>() + "/" + e["links"][1].get<std::string>()] = e["why"];
+  }
+  EXPECT_EQ(why["link1/battery"] + why["battery/link1"], "srdf");
+  EXPECT_EQ(why["base_link/link1"], "adjacent");
+  fs::remove(report);
+
+  std::ofstream(srdf) << "<robot name=\"quadhand\"><disable_collisions link1=\"link1\" link2=\"wing\"/></robot>\n";
+  ExpectBadInput(WriteTask({{"safety_distance:", "safety_distance: 0.03\nsrdf: " + srdf}}), "no link named 'wing'");
+  ExpectBadInput(WriteTask({{"safety_distance:", "safety_distance: 0.03\nself_safety_distance: -1"}}),
+                 "self_safety_distance");
 }
 
 TEST_F(PlanCliTest, RejectsBadOptions) {

@@ -254,7 +254,7 @@ TEST(ReplanTest, FromAStartInsideTheSafetyMarginRecoversAndReachesTheGoal) {
   }
   // Plan()'s check (no recovery stretch) refuses it: nothing was weakened there.
   const PostCheckReport plain = PostCheck(fresh, WindowCup().robot(), task, plan.terminal, plan.insertion,
-                                          *WindowCup().model, *WindowCup().exact, DefaultPlannerOptions().post_check);
+                                          *WindowCup().model, *WindowCup().exact, nullptr, DefaultPlannerOptions().post_check);
   EXPECT_FALSE(plain.passed);
   EXPECT_FALSE(plain.recovery);
   // Nor does a recovery stretch too short to get out of the margin (2 cm in
@@ -262,7 +262,7 @@ TEST(ReplanTest, FromAStartInsideTheSafetyMarginRecoversAndReachesTheGoal) {
   PostCheckOptions short_stretch = DefaultPlannerOptions().post_check;
   short_stretch.recovery_time = 0.05;
   const PostCheckReport hurried = PostCheck(fresh, WindowCup().robot(), task, plan.terminal, plan.insertion,
-                                            *WindowCup().model, *WindowCup().exact, short_stretch);
+                                            *WindowCup().model, *WindowCup().exact, nullptr, short_stretch);
   EXPECT_TRUE(hurried.recovery);
   EXPECT_FALSE(hurried.passed);
   EXPECT_NE(hurried.FirstFailure().find("clearance: recovery"), std::string::npos) << hurried.FirstFailure();
@@ -277,7 +277,7 @@ TEST(ReplanTest, TheRecoveryRuleKeepsTheVerdictOfAStartOutsideTheMargin) {
   Task task = WindowCup().task;
   task.start = StateOnPlan(old, 0.0);
   const PostCheckReport report =
-      PostCheck(old, WindowCup().robot(), task, plan.terminal, plan.insertion, *WindowCup().model, *WindowCup().exact,
+      PostCheck(old, WindowCup().robot(), task, plan.terminal, plan.insertion, *WindowCup().model, *WindowCup().exact, nullptr,
                 options);
   EXPECT_TRUE(report.passed) << report.FirstFailure();
   EXPECT_FALSE(report.recovery);

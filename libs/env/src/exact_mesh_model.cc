@@ -130,6 +130,16 @@ double ExactMeshModel::LinkClearance(int link, const Pose& X_WL, double search_r
   return clearance;
 }
 
+double ExactMeshModel::LinkSignedDistance(int link, const Vec3& x_L, Vec3* gradient) const {
+  return UnionDistance(geometry_[slot_of_link_[link]], x_L, nullptr, gradient);
+}
+
+void ExactMeshModel::LinkBox(int link, Vec3* box_min, Vec3* box_max) const {
+  const LinkGeometry& g = geometry_[slot_of_link_[link]];
+  *box_min = g.box_min;
+  *box_max = g.box_max;
+}
+
 double ExactMeshModel::LinkPenalty(int link, const Pose& X_WL, const PenaltyParameters& parameters,
                                    const QueryContext& /*context*/, LinkWrench* wrench) const {
   const LinkGeometry& g = geometry_[slot_of_link_[link]];

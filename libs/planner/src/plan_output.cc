@@ -76,6 +76,20 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   report["min_clearance_m"] = result.post_check.min_clearance_model;
   report["min_clearance_exact_m"] = result.post_check.min_clearance_exact;
   report["closest_link"] = result.post_check.closest_link >= 0 ? robot.link(result.post_check.closest_link).name : "";
+  if (info.self_collision != nullptr) {
+    nlohmann::json checked = nlohmann::json::array(), excluded = nlohmann::json::array();
+    for (const env::LinkPair& p : info.self_collision->pairs()) {
+      checked.push_back({robot.link(p.sampled_link).name, robot.link(p.queried_link).name});
+    }
+    for (const env::ExcludedPair& p : info.self_collision->excluded()) {
+      excluded.push_back({{"links", {robot.link(p.link_a).name, robot.link(p.link_b).name}},
+                          {"why", env::PairExclusionName(p.why)}});
+    }
+    report["self_collision_pairs"] = checked;
+    report["self_collision_excluded"] = excluded;
+    report["self_safety_distance_m"] = info.self_collision->options().safety_distance;
+    report["min_self_distance_m"] = result.post_check.min_self_distance;
+  }
   nlohmann::json violations = nlohmann::json::object();
   for (const auto& [name, ratio] : result.post_check.violations) violations[name] = ratio;
   report["violations"] = violations;

@@ -20,6 +20,7 @@ const char* PlanStatusName(PlanStatus status) {
 const char* CheckKindName(CheckKind kind) {
   switch (kind) {
     case CheckKind::kClearance: return "clearance";
+    case CheckKind::kSelfClearance: return "self_clearance";
     case CheckKind::kVelocity: return "velocity";
     case CheckKind::kAcceleration: return "acceleration";
     case CheckKind::kYawRate: return "yaw_rate";

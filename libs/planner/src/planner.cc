@@ -120,7 +120,7 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
     }
     x = solved.x;
     result->post_check = PostCheck(*trajectory, scene.robot, task, result->terminal, result->insertion, collision,
-                                   scene.exact, options.post_check);
+                                   scene.exact, scene.self_collision, options.post_check);
     result->trajectory = std::move(*trajectory);
     if (auto breakdown = problem->Breakdown(x); breakdown.ok()) result->final_cost = *breakdown;
     record.post_check_failure = result->post_check.FirstFailure();

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "quadhand/robot/kinematics.h"
+#include "quadhand/robot/srdf.h"
 
 #include "quadhand/scene/point_cloud.h"
 
@@ -65,6 +66,18 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
   if (!exact.ok()) return exact.status();
   context->exact_ = std::move(*exact);
 
+  std::optional<std::vector<std::pair<int, int>>> srdf_disabled;
+  if (!t.srdf_path.empty()) {
+    auto pairs = robot::LoadSrdfDisabledPairs(t.srdf_path, context->robot_);
+    if (!pairs.ok()) return pairs.status();
+    srdf_disabled = std::move(*pairs);
+  }
+  env::SelfCollisionOptions self_options;
+  self_options.safety_distance = t.self_safety_distance;
+  auto self_collision = env::SelfCollisionModel::Create(context->robot_, *context->exact_, srdf_disabled, self_options);
+  if (!self_collision.ok()) return self_collision.status().WithPrefix(t.robot_path);
+  context->self_collision_ = std::move(*self_collision);
+
   std::vector<Vec3> contain = options.front_end_also_contain;
   contain.push_back(t.start.position);
   if (t.terminal) contain.push_back(t.terminal->position);
@@ -94,7 +107,8 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
 
 PlanningScene PlanningContext::Scene(size_t index) const {
   const Representation& model = representations_.at(index);
-  return PlanningScene{robot_, *model.scene_model, *exact_, *front_end_, model.per_plan};
+  return PlanningScene{robot_, *model.scene_model, *exact_, *front_end_, model.per_plan,
+                       self_collision_.get()};
 }
 
 }  // namespace quadhand::planner

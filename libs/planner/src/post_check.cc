@@ -59,7 +59,7 @@ std::string PostCheckReport::FirstFailure() const {
 PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, const Task& task,
                           const BoundaryState& terminal, const InsertionGoal& insertion,
                           const env::CollisionModel& model, const env::ExactMeshModel& exact,
-                          const PostCheckOptions& options) {
+                          const env::SelfCollisionModel* self_collision, const PostCheckOptions& options) {
   PostCheckReport report;
   const Limits& limits = task.limits;
   const int n = robot.num_actuated();
@@ -76,6 +76,11 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   std::vector<std::pair<double, double>> tool_track;  // (along line, off line) per sample
   std::vector<double> times;
   std::vector<std::pair<double, double>> exact_track;  // (t, exact clearance) per sample
+  const bool check_self = self_collision != nullptr && !self_collision->pairs().empty();
+  const double self_reach = task.self_safety_distance + 0.02;
+  double min_self = self_reach;
+  int closest_self = -1;
+  Worst self_deficit;
   for (int step = 0; step <= steps; ++step) {
     const double t = std::min(duration, step * duration / steps);
     const WholeBodySample s = trajectory.Sample(t);
@@ -88,6 +93,15 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     }
     clearance_deficit.Update(-d_exact, t);
     exact_track.emplace_back(t, d_exact);
+    if (check_self) {
+      int pair = -1;
+      const double d_self = self_collision->MinDistanceLowerBound(kinematics, self_reach, &pair);
+      if (d_self < min_self) {
+        min_self = d_self;
+        closest_self = pair;
+      }
+      self_deficit.Update(-d_self, t);
+    }
     int piece = 0;
     double local = 0;
     trajectory.position().LocatePiece(t, &piece, &local);
@@ -149,6 +163,21 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
                    task.safety_distance, 0) +
             Format("exact clearance %.4f m at t = %.2f s, accepted down to %.4f m", worst_value, worst_time,
                    worst_bound));
+  }
+  report.min_self_distance = min_self;
+  report.closest_self_pair = closest_self;
+  if (check_self) {
+    std::string pair_names;
+    if (closest_self >= 0) {
+      const env::LinkPair& pair = self_collision->pairs()[closest_self];
+      pair_names = ", links " + robot.link(pair.sampled_link).name + " and " + robot.link(pair.queried_link).name;
+    }
+    add(CheckKind::kSelfClearance, -1, "self_clearance",
+        min_self >= task.self_safety_distance - options.clearance_tolerance, min_self, task.self_safety_distance,
+        self_deficit.time,
+        Format("robot links %.4f m apart (self-safety distance %.4f m) at t = %.2f s", min_self,
+               task.self_safety_distance, self_deficit.time) +
+            pair_names);
   }
   const double ratio_bound = 1.0 + options.limit_tolerance;
   auto add_limit = [&](CheckKind kind, int joint, const std::string& name, const Worst& w) {

@@ -168,7 +168,8 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
   const Reader r(name, base_dir);
   Task task;
   task.file = name;
-  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(root, "", {"robot", "sdf_dir", "scene", "start", "goal", "limits", "safety_distance", "tool_link"}));
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(root, "", {"robot", "sdf_dir", "scene", "start", "goal", "limits", "safety_distance", "tool_link",
+                                                  "self_safety_distance", "srdf"}));
   QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "robot", sources.robot_given, &task.robot_path));
   QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "sdf_dir", sources.robot_given, &task.sdf_dir));
   if (!sources.scene_given || root["scene"]) {
@@ -218,6 +219,13 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
     QUADHAND_RETURN_IF_ERROR(r.Number(root["safety_distance"], "safety_distance", &task.safety_distance));
     if (task.safety_distance < 0.0) return r.Error("safety_distance", "must not be negative");
   }
+  if (root["self_safety_distance"]) {
+    QUADHAND_RETURN_IF_ERROR(r.Number(root["self_safety_distance"], "self_safety_distance", &task.self_safety_distance));
+    if (!(task.self_safety_distance >= 0.0 && task.self_safety_distance <= 0.5)) {
+      return r.Error("self_safety_distance", "must be in [0, 0.5] m");
+    }
+  }
+  if (root["srdf"]) QUADHAND_RETURN_IF_ERROR(r.Path(root["srdf"], "srdf", &task.srdf_path));
   return task;
 }
 

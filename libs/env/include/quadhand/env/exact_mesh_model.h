@@ -50,6 +50,14 @@ class ExactMeshModel final : public CollisionModel {
   double LinkClearance(int link, const Pose& X_WL, double search_radius,
                        const QueryContext& context) const override;
 
+  // Signed distance of `x_L` (in the frame of `link`, a robot link index
+  // from links()) to the link's collision elements (negative inside), and
+  // its unit gradient in the link frame when `gradient` is not null (zero on
+  // the surface). Thread-safe.
+  double LinkSignedDistance(int link, const Vec3& x_L, Vec3* gradient = nullptr) const;
+  // The link-frame bounding box of the link's elements.
+  void LinkBox(int link, Vec3* box_min, Vec3* box_max) const;
+
  private:
   struct Element {
     std::unique_ptr<geometry::MeshDistanceQuery> query;

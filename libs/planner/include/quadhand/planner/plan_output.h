@@ -36,6 +36,9 @@ struct PlanReportInfo {
   double scene_load_ms = -1.0;
   long scene_points = -1;
   long checked_points = -1;
+  // The robot's self-collision pairs (checked and excluded, with why); none
+  // recorded when null.
+  const env::SelfCollisionModel* self_collision = nullptr;
 };
 
 // The report as pretty-printed JSON text (two-space indent, newline at the end).

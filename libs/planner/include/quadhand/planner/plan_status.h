@@ -24,6 +24,7 @@ const char* PlanStatusName(PlanStatus status);
 // The kinds of check of the post-check (post_check.h).
 enum class CheckKind {
   kClearance,     // exact link meshes vs the scene's points
+  kSelfClearance, // the robot's checked link pairs apart (env/self_collision.h)
   kVelocity,
   kAcceleration,
   kYawRate,

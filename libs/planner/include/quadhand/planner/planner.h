@@ -122,6 +122,8 @@ struct PlanningScene {
   const env::ExactMeshModel& exact;      // for the post-check
   const FrontEndMap& front_end;
   PerPlanCollisionBuilder per_plan_collision = nullptr;
+  // The robot's link pairs the post-check keeps apart; null: none.
+  const env::SelfCollisionModel* self_collision = nullptr;
 };
 
 // The cost options a plan for `task` is optimised with: options.cost with the

@@ -57,6 +57,8 @@ class PlanningContext {
   double scene_load_seconds() const { return scene_load_seconds_; }  // Load(): reading and filtering the scans
   long dropped_non_finite_points() const { return dropped_non_finite_; }
   const env::ExactMeshModel& exact() const { return *exact_; }
+  // The robot's self-collision pairs (task keys self_safety_distance, srdf).
+  const env::SelfCollisionModel& self_collision() const { return *self_collision_; }
   const FrontEndMap& front_end() const { return *front_end_; }
   const std::vector<Representation>& representations() const { return representations_; }
   // The scene of representation `index` (in PlanningContextOptions order);
@@ -73,6 +75,7 @@ class PlanningContext {
   long dropped_non_finite_ = 0;
   double scene_load_seconds_ = 0.0;
   std::unique_ptr<env::ExactMeshModel> exact_;
+  std::unique_ptr<env::SelfCollisionModel> self_collision_;
   std::unique_ptr<FrontEndMap> front_end_;
   std::vector<Representation> representations_;
 };

@@ -1,7 +1,8 @@
 // The planner's own verdict on a trajectory (docs/post_check.md): sampled
 // densely, it must keep the safety distance from every obstacle point (exact
-// link meshes), every limit, the joint limits, the start and end states, and
-// a straight tool approach over the insertion. "Success" means all hold.
+// link meshes), the robot's links apart from each other, every limit, the
+// joint limits, the start and end states, and a straight tool approach over
+// the insertion. "Success" means all hold.
 #pragma once
 
 #include <memory>
@@ -11,6 +12,7 @@
 #include "quadhand/core/status.h"
 #include "quadhand/env/collision_model.h"
 #include "quadhand/env/exact_mesh_model.h"
+#include "quadhand/env/self_collision.h"
 #include "quadhand/planner/plan_status.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/planner/whole_body_problem.h"
@@ -58,6 +60,11 @@ struct PostCheckReport {
   double min_clearance_exact = 0.0;   // link meshes vs raw points
   double min_clearance_model = 0.0;   // as the planner's collision model measures it
   int closest_link = -1;
+  // Lower bound of the smallest distance between checked robot link pairs
+  // (env/self_collision.h), capped at self_safety_distance + 0.02 m, and the
+  // pair's index in SelfCollisionModel::pairs() (-1: none that close).
+  double min_self_distance = 0.0;
+  int closest_self_pair = -1;
   double start_clearance_exact = 0.0; // at t = 0
   bool recovery = false;              // the recovery rule judged the clearance (see recovery_time)
   // Worst ratio of each limit (1.0 = at the bound): v, a, yaw_rate, body_rate_xy, joint rates.
@@ -67,9 +74,11 @@ struct PostCheckReport {
 
 // Checks `trajectory` for `task` (whose joint limits ApplyRobot filled).
 // `insertion` is the straight approach the plan had to make (enabled or not).
+// `self_collision` (null: none) holds the link pairs that must keep the
+// task's self_safety_distance.
 PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, const Task& task,
                           const BoundaryState& terminal, const InsertionGoal& insertion,
                           const env::CollisionModel& model, const env::ExactMeshModel& exact,
-                          const PostCheckOptions& options);
+                          const env::SelfCollisionModel* self_collision, const PostCheckOptions& options);
 
 }  // namespace quadhand::planner

@@ -38,6 +38,11 @@ struct Task {
   // "tool"; ApplyRobot checks it).
   std::string tool_link = "tool";
   bool tool_link_given = false;  // the task named it
+  // Distance every checked pair of robot links keeps (env/self_collision.h),
+  // metres, and the SRDF whose <disable_collisions> pairs are not checked
+  // (empty: none; then pairs close at the zero configuration are dropped).
+  double self_safety_distance = 0.01;
+  std::string srdf_path;
 };
 
 // Parses and checks a task file on its own: every error names the file and

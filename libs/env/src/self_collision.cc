@@ -1,0 +1,227 @@
+#include "quadhand/env/self_collision.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <set>
+
+#include "quadhand/robot/link_meshes.h"
+
+namespace quadhand::env {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Union-find root of a link over the fixed joints.
+int Root(std::vector<int>& parent, int i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+// Distance of `x` outside the box [lo, hi]; -inf inside it (a point inside
+// the box may be inside the link: no bound).
+double OutsideBox(const Vec3& lo, const Vec3& hi, const Vec3& x) {
+  const double outside = (lo - x).cwiseMax(x - hi).cwiseMax(0.0).norm();
+  return outside > 0.0 ? outside : -kInf;
+}
+
+}  // namespace
+
+bool SelfCollisionOptions::IsValid(std::string* why) const {
+  if (!(std::isfinite(safety_distance) && safety_distance >= 0.0)) {
+    if (why != nullptr) *why = "self_safety_distance must be finite and non-negative";
+    return false;
+  }
+  if (!(std::isfinite(sample_spacing) && sample_spacing > 0.0 && sample_spacing <= 0.05)) {
+    if (why != nullptr) *why = "self-collision sample spacing must be in (0, 0.05] m";
+    return false;
+  }
+  return true;
+}
+
+const char* PairExclusionName(PairExclusion exclusion) {
+  switch (exclusion) {
+    case PairExclusion::kRigid: return "rigid";
+    case PairExclusion::kAdjacent: return "adjacent";
+    case PairExclusion::kSrdf: return "srdf";
+    case PairExclusion::kCloseAtZero: return "close_at_zero";
+  }
+  return "?";
+}
+
+core::Result<std::unique_ptr<SelfCollisionModel>> SelfCollisionModel::Create(
+    const robot::RobotModel& robot, const ExactMeshModel& exact,
+    const std::optional<std::vector<std::pair<int, int>>>& srdf_disabled, const SelfCollisionOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) return core::Status::InvalidArgument(why);
+  std::unique_ptr<SelfCollisionModel> model(new SelfCollisionModel(exact, options));
+  const int num_links = robot.num_links();
+  const std::vector<int> collision_links = robot.CollisionLinks();
+  std::vector<bool> has_collision(num_links, false);
+  for (int link : collision_links) has_collision[link] = true;
+
+  // Rigid groups: links joined by fixed joints only.
+  std::vector<int> group(num_links);
+  std::iota(group.begin(), group.end(), 0);
+  for (int j = 0; j < robot.num_joints(); ++j) {
+    const robot::Joint& joint = robot.joint(j);
+    if (joint.type == robot::JointType::kFixed) group[Root(group, joint.child_link)] = Root(group, joint.parent_link);
+  }
+  std::vector<bool> group_has_collision(num_links, false);
+  for (int link : collision_links) group_has_collision[Root(group, link)] = true;
+  // Adjacent groups: a moving joint from the nearest ancestor group with
+  // collision geometry (links before the child are in topological order).
+  std::set<std::pair<int, int>> adjacent;
+  for (int link = 1; link < num_links; ++link) {
+    const robot::Joint& joint = robot.joint(robot.link(link).parent_joint);
+    if (joint.type == robot::JointType::kFixed) continue;
+    int ancestor = joint.parent_link;
+    while (!group_has_collision[Root(group, ancestor)] && robot.link(ancestor).parent_joint >= 0) {
+      ancestor = robot.joint(robot.link(ancestor).parent_joint).parent_link;
+    }
+    // A child group without collision geometry passes adjacency on to the
+    // groups below it.
+    std::vector<int> below = {link};
+    while (!below.empty()) {
+      const int child = below.back();
+      below.pop_back();
+      const int a = Root(group, ancestor), b = Root(group, child);
+      if (group_has_collision[b]) {
+        adjacent.insert({std::min(a, b), std::max(a, b)});
+        continue;
+      }
+      for (int j = 0; j < robot.num_joints(); ++j) {
+        if (robot.joint(j).parent_link == child) below.push_back(robot.joint(j).child_link);
+      }
+    }
+  }
+
+  std::set<std::pair<int, int>> disabled;
+  if (srdf_disabled) disabled.insert(srdf_disabled->begin(), srdf_disabled->end());
+
+  model->sampled_.resize(num_links);
+  model->anchors_.resize(num_links);
+  model->boxes_.resize(num_links);
+  std::vector<size_t> sample_count(num_links, 0);
+  for (int link : collision_links) {
+    auto elements = robot::LinkCollisionElements(robot, link);
+    if (!elements.ok()) return elements.status();
+    SampledLink& s = model->sampled_[link];
+    for (const geometry::TriangleMesh& mesh : *elements) {
+      if (!mesh.vertices.empty()) model->anchors_[link].push_back(mesh.vertices.front());
+      LinkSurfaceSamples part = SampleLinkSurface(mesh, options.sample_spacing);
+      const int offset = static_cast<int>(s.samples.points.size());
+      s.samples.points.insert(s.samples.points.end(), part.points.begin(), part.points.end());
+      for (LinkSurfaceSamples::Cluster c : part.clusters) {
+        c.begin += offset;
+        c.end += offset;
+        s.samples.clusters.push_back(c);
+      }
+    }
+    sample_count[link] = s.samples.points.size();
+    if (!s.samples.points.empty()) {
+      Vec3 lo = s.samples.points.front(), hi = lo;
+      for (const Vec3& p : s.samples.points) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+      s.center = 0.5 * (lo + hi);
+      for (const Vec3& p : s.samples.points) s.radius = std::max(s.radius, (p - s.center).norm());
+    }
+    exact.LinkBox(link, &model->boxes_[link].first, &model->boxes_[link].second);
+  }
+
+  // The zero configuration, within the limits.
+  VecX q(robot.num_actuated());
+  for (int i = 0; i < robot.num_actuated(); ++i) {
+    const robot::Joint& joint = robot.joint(robot.actuated_joints()[i]);
+    q[i] = std::clamp(0.0, joint.lower, joint.upper);
+  }
+  robot::KinematicsState zero;
+  robot::ComputeKinematics(robot, Pose::Identity(), q, &zero);
+
+  for (size_t i = 0; i < collision_links.size(); ++i) {
+    for (size_t k = i + 1; k < collision_links.size(); ++k) {
+      const int a = collision_links[i], b = collision_links[k];
+      const int ga = Root(group, a), gb = Root(group, b);
+      if (ga == gb) {
+        model->excluded_.push_back({a, b, PairExclusion::kRigid});
+        continue;
+      }
+      if (adjacent.count({std::min(ga, gb), std::max(ga, gb)}) != 0) {
+        model->excluded_.push_back({a, b, PairExclusion::kAdjacent});
+        continue;
+      }
+      if (disabled.count({a, b}) != 0) {
+        model->excluded_.push_back({a, b, PairExclusion::kSrdf});
+        continue;
+      }
+      // The link with fewer samples is sampled, the other queried.
+      const LinkPair pair = sample_count[a] <= sample_count[b] ? LinkPair{a, b} : LinkPair{b, a};
+      model->pairs_.push_back(pair);
+      if (!srdf_disabled) {
+        const int index = static_cast<int>(model->pairs_.size()) - 1;
+        const double reach = options.safety_distance + options.sample_spacing;
+        if (model->PairDistanceLowerBound(index, zero, reach) < options.safety_distance) {
+          model->pairs_.pop_back();
+          model->excluded_.push_back({a, b, PairExclusion::kCloseAtZero});
+        }
+      }
+    }
+  }
+  return model;
+}
+
+double SelfCollisionModel::BoxLowerBound(int link, const Vec3& x_L) const {
+  return OutsideBox(boxes_[link].first, boxes_[link].second, x_L);
+}
+
+double SelfCollisionModel::PairDistanceLowerBound(int pair_index, const robot::KinematicsState& kinematics,
+                                                  double reach) const {
+  const LinkPair& pair = pairs_[pair_index];
+  const SampledLink& a = sampled_[pair.sampled_link];
+  const Pose& X_WA = kinematics.link_poses[pair.sampled_link];
+  const Pose& X_WB = kinematics.link_poses[pair.queried_link];
+  const Pose X_BA = X_WB.inverse() * X_WA;
+  const double h = options_.sample_spacing;
+  double bound = reach;
+  if (BoxLowerBound(pair.queried_link, X_BA * a.center) - a.radius - h >= bound) return bound;
+  for (const LinkSurfaceSamples::Cluster& cluster : a.samples.clusters) {
+    const Vec3 center = X_BA * cluster.center;
+    if (BoxLowerBound(pair.queried_link, center) - cluster.radius - h >= bound) continue;
+    if (exact_.LinkSignedDistance(pair.queried_link, center) - cluster.radius - h >= bound) continue;
+    for (int i = cluster.begin; i < cluster.end; ++i) {
+      const Vec3 x = X_BA * a.samples.points[i];
+      if (BoxLowerBound(pair.queried_link, x) - h >= bound) continue;
+      bound = std::min(bound, exact_.LinkSignedDistance(pair.queried_link, x) - h);
+    }
+  }
+  if (bound > 0.0) {
+    // B wholly inside A leaves every sample of A outside B.
+    const Pose X_AB = X_BA.inverse();
+    for (const Vec3& anchor : anchors_[pair.queried_link]) {
+      const Vec3 x = X_AB * anchor;
+      if (BoxLowerBound(pair.sampled_link, x) > 0.0) continue;
+      const double d = exact_.LinkSignedDistance(pair.sampled_link, x);
+      if (d < 0.0) bound = std::min(bound, d);
+    }
+  }
+  return bound;
+}
+
+double SelfCollisionModel::MinDistanceLowerBound(const robot::KinematicsState& kinematics, double reach,
+                                                 int* closest_pair) const {
+  double best = reach;
+  if (closest_pair != nullptr) *closest_pair = -1;
+  for (size_t i = 0; i < pairs_.size(); ++i) {
+    const double d = PairDistanceLowerBound(static_cast<int>(i), kinematics, best);
+    if (d < best) {
+      best = d;
+      if (closest_pair != nullptr) *closest_pair = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+}  // namespace quadhand::env
