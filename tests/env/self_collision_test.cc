@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include "quadhand/geometry/mesh_to_sdf.h"
 #include "quadhand/robot/link_meshes.h"
 #include "quadhand/robot/srdf.h"
 
@@ -165,6 +166,72 @@ TEST(SelfCollisionTest, TheBoundIsBelowTheExactSphereDistanceByAtMostTheSpacing)
   q << 0.5, 0.0;
   robot::ComputeKinematics(f.robot, Pose::Identity(), q, &kinematics);
   EXPECT_EQ((*model)->PairDistanceLowerBound(pair, kinematics, 0.05), 0.05);
+}
+
+// The penalty's gradient w.r.t. the base pose and both joints against
+// central differences, with the hand's sphere a few millimetres to a few
+// centimetres from the base's (both links move, through their chains).
+TEST(SelfCollisionTest, PenaltyGradientMatchesFiniteDifferences) {
+  const Fixture f = Load(kSphereArm);
+  auto model = SelfCollisionModel::Create(f.robot, *f.exact, std::nullopt, SelfCollisionOptions{});
+  ASSERT_TRUE(model.ok());
+  geometry::SdfGenerationOptions sdf_options;
+  sdf_options.resolution = 0.004;
+  auto grids = std::make_shared<std::vector<geometry::SdfGrid>>();
+  for (int link : f.robot.CollisionLinks()) {
+    auto elements = robot::LinkCollisionElements(f.robot, link);
+    ASSERT_TRUE(elements.ok());
+    auto grid = geometry::GenerateSdf(*elements, f.robot.link(link).name, "test", sdf_options);
+    ASSERT_TRUE(grid.ok()) << grid.status().message();
+    grids->push_back(std::move(*grid));
+  }
+  EXPECT_FALSE((*model)->has_penalty());
+  ASSERT_TRUE((*model)->AttachSdfGrids(grids).ok());
+  EXPECT_TRUE((*model)->has_penalty());
+  const PenaltyParameters parameters{0.03, 0.01};
+  const Pose X_WB = Pose(Eigen::AngleAxisd(0.4, Vec3(1, 2, 3).normalized())) * Eigen::Translation3d(0.2, -0.1, 1.0);
+  auto penalty = [&](const Pose& base, const VecX& q, StateGradient* gradient) {
+    robot::KinematicsState kinematics;
+    robot::ComputeKinematics(f.robot, base, q, &kinematics);
+    return (*model)->Penalty(f.robot, kinematics, parameters, gradient);
+  };
+  int checked = 0;
+  // Hand centre at (0.3 + slide + 0.1 cos(wrist), 0.1 sin(wrist)) from the
+  // base's: spheres 1 cm apart, 2.5 cm apart, 1 cm deep, touching.
+  for (const auto& [slide, wrist] : {std::pair{-0.25, 0.8}, std::pair{-0.24, 0.5}, std::pair{-0.26, 1.2},
+                                     std::pair{-0.27, 0.0}}) {
+    VecX q(2);
+    q << slide, wrist;
+    StateGradient gradient;
+    gradient.SetZero(2);
+    const double value = penalty(X_WB, q, &gradient);
+    if (value <= 0.0) continue;
+    ++checked;
+    const double h = 1e-6;
+    for (int axis = 0; axis < 3; ++axis) {
+      Pose plus = X_WB, minus = X_WB;
+      plus.translation()[axis] += h;
+      minus.translation()[axis] -= h;
+      const double fd = (penalty(plus, q, nullptr) - penalty(minus, q, nullptr)) / (2 * h);
+      EXPECT_NEAR(gradient.position[axis], fd, 1e-5 + 1e-4 * std::abs(fd)) << "translation " << axis;
+      Pose turned_plus = X_WB, turned_minus = X_WB;
+      turned_plus.linear() = Eigen::AngleAxisd(h, Vec3::Unit(axis)).toRotationMatrix() * X_WB.linear();
+      turned_minus.linear() = Eigen::AngleAxisd(-h, Vec3::Unit(axis)).toRotationMatrix() * X_WB.linear();
+      const double fd_rotation = (penalty(turned_plus, q, nullptr) - penalty(turned_minus, q, nullptr)) / (2 * h);
+      EXPECT_NEAR(gradient.rotation[axis], fd_rotation, 1e-5 + 1e-4 * std::abs(fd_rotation)) << "rotation " << axis;
+    }
+    for (int j = 0; j < 2; ++j) {
+      VecX plus = q, minus = q;
+      plus[j] += h;
+      minus[j] -= h;
+      const double fd = (penalty(X_WB, plus, nullptr) - penalty(X_WB, minus, nullptr)) / (2 * h);
+      EXPECT_NEAR(gradient.joints[j], fd, 1e-5 + 1e-4 * std::abs(fd)) << "joint " << j;
+    }
+  }
+  EXPECT_EQ(checked, 4);
+  VecX far(2);
+  far << 0.5, 0.0;
+  EXPECT_EQ(penalty(X_WB, far, nullptr), 0.0);
 }
 
 class SrdfFile {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "quadhand/env/mrc_sdf_model.h"
+#include "quadhand/env/self_collision.h"
 #include "quadhand/planner/cost_term.h"
 #include "quadhand/robot/kinematics.h"
 #include "support/quadhand_fixture.h"
@@ -52,6 +53,20 @@ std::vector<Vec3> Wall() {
   return points;
 }
 
+// The reference robot's self-collision pairs, every one of them (an SRDF
+// that disables none), penalised in the coarse fixture's SDFs.
+const env::SelfCollisionModel& SelfCollision() {
+  static const auto model = [] {
+    const auto& fx = CoarseQuadHand();
+    static const auto exact = std::move(*env::ExactMeshModel::Create(fx.robot, std::vector<Vec3>{Vec3(50, 50, 50)}));
+    auto self = std::move(*env::SelfCollisionModel::Create(fx.robot, *exact, std::vector<std::pair<int, int>>{},
+                                                           env::SelfCollisionOptions{}));
+    EXPECT_TRUE(self->AttachSdfGrids(std::make_shared<const std::vector<geometry::SdfGrid>>(fx.grids)).ok());
+    return self;
+  }();
+  return *model;
+}
+
 struct ProblemSetup {
   std::unique_ptr<env::MrcSdfModel> model;
   std::unique_ptr<WholeBodyProblem> problem;
@@ -84,7 +99,8 @@ ProblemSetup MakeSetup(const WholeBodyCostOptions& options, bool insertion, cons
     goal_tool.direction = Vec3(0.1, 0.0, -1.0);
     goal_tool.length = 0.1;
   }
-  auto problem = WholeBodyProblem::Create(fx.robot, *setup.model, Start(), Goal(), limits, goal_tool, options, kPieces);
+  auto problem = WholeBodyProblem::Create(fx.robot, *setup.model, Start(), Goal(), limits, goal_tool, options, kPieces,
+                                          &SelfCollision());
   EXPECT_TRUE(problem.ok()) << problem.status().message();
   setup.problem = std::move(*problem);
   // Straight-line waypoints, perturbed so nothing is symmetric.
@@ -141,6 +157,13 @@ WholeBodyCostOptions OnlyTerm(const std::string& term) {
                               ? 1e3
                               : 1e2;
     o.*(descriptor.weight) = term == descriptor.name ? weight : 0.0;
+  }
+  // The arm's links pass within 15 cm of the battery and the airframe (a
+  // lower weight: the term sums many samples, and a larger value leaves
+  // more rounding in the differences).
+  if (term == "self_collision") {
+    o.self_collision_threshold = 0.15;
+    o.weight_self_collision = 10.0;
   }
   return o;
 }

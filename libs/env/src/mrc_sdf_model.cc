@@ -19,8 +19,7 @@ bool MrcSdfOptions::IsValid(std::string* why) const {
   return true;
 }
 
-MrcSdfModel::MrcSdfModel(std::vector<int> links, std::vector<geometry::SdfGrid> grids,
-                         std::shared_ptr<const scene::PointGrid> points)
+MrcSdfModel::MrcSdfModel(std::vector<int> links, SharedSdfGrids grids, std::shared_ptr<const scene::PointGrid> points)
     : links_(std::move(links)), slot_of_link_(SlotsOfLinks(links_)), grids_(std::move(grids)), points_(std::move(points)) {}
 
 void MrcSdfModel::BuildFarGrid(const std::vector<Vec3>& points, const MrcSdfOptions& options) {
@@ -120,8 +119,15 @@ core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> 
                                                                std::vector<geometry::SdfGrid> grids,
                                                                std::shared_ptr<const scene::PointGrid> index,
                                                                const MrcSdfOptions& options) {
+  return Create(std::move(links), std::make_shared<const std::vector<geometry::SdfGrid>>(std::move(grids)),
+                std::move(index), options);
+}
+
+core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> links, SharedSdfGrids grids,
+                                                               std::shared_ptr<const scene::PointGrid> index,
+                                                               const MrcSdfOptions& options) {
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument(why);
-  if (links.size() != grids.size() || links.empty()) {
+  if (grids == nullptr || links.size() != grids->size() || links.empty()) {
     return core::Status::InvalidArgument("mrc_sdf: need one SDF per collision link");
   }
   for (int link : links) {
@@ -133,11 +139,8 @@ core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> 
   return model;
 }
 
-namespace {
-
-// The SDF of every collision link of `robot` from `<sdf_dir>/<link>.qhsdf`.
-core::Status LoadLinkGrids(const robot::RobotModel& robot, const std::string& sdf_dir, std::vector<int>* links_out,
-                           std::vector<geometry::SdfGrid>* grids_out) {
+core::Status LoadLinkSdfGrids(const robot::RobotModel& robot, const std::string& sdf_dir, std::vector<int>* links_out,
+                              std::vector<geometry::SdfGrid>* grids_out) {
   std::vector<int> links = robot.CollisionLinks();
   std::vector<geometry::SdfGrid> grids;
   for (int link : links) {
@@ -161,15 +164,13 @@ core::Status LoadLinkGrids(const robot::RobotModel& robot, const std::string& sd
   return core::Status::Ok();
 }
 
-}  // namespace
-
 core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(const robot::RobotModel& robot,
                                                                const std::string& sdf_dir,
                                                                const std::vector<Vec3>& points,
                                                                const MrcSdfOptions& options) {
   std::vector<int> links;
   std::vector<geometry::SdfGrid> grids;
-  QUADHAND_RETURN_IF_ERROR(LoadLinkGrids(robot, sdf_dir, &links, &grids));
+  QUADHAND_RETURN_IF_ERROR(LoadLinkSdfGrids(robot, sdf_dir, &links, &grids));
   return Create(std::move(links), std::move(grids), points, options);
 }
 
@@ -179,13 +180,13 @@ core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(const robot::Robo
                                                                const MrcSdfOptions& options) {
   std::vector<int> links;
   std::vector<geometry::SdfGrid> grids;
-  QUADHAND_RETURN_IF_ERROR(LoadLinkGrids(robot, sdf_dir, &links, &grids));
+  QUADHAND_RETURN_IF_ERROR(LoadLinkSdfGrids(robot, sdf_dir, &links, &grids));
   return Create(std::move(links), std::move(grids), std::move(index), options);
 }
 
 template <typename Visitor>
 void MrcSdfModel::VisitNearbyPoints(int link, const Pose& X_WL, double reach, Visitor&& visit) const {
-  const geometry::SdfGrid& grid = grids_[slot_of_link_[link]];
+  const geometry::SdfGrid& grid = (*grids_)[slot_of_link_[link]];
   if (FarFromEveryPoint(grid, X_WL, reach)) return;
   const Vec3 box_lo = grid.info().geometry_min - Vec3::Constant(reach);
   const Vec3 box_hi = grid.info().geometry_max + Vec3::Constant(reach);

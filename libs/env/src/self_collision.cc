@@ -6,6 +6,7 @@
 #include <numeric>
 #include <set>
 
+#include "quadhand/opt/penalty.h"
 #include "quadhand/robot/link_meshes.h"
 
 namespace quadhand::env {
@@ -17,6 +18,31 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 int Root(std::vector<int>& parent, int i) {
   while (parent[i] != i) i = parent[i] = parent[parent[i]];
   return i;
+}
+
+// Samples of every element of a link, with their bounding sphere.
+void SampleElements(const std::vector<geometry::TriangleMesh>& elements, double spacing,
+                    LinkSurfaceSamples* samples, Vec3* center, double* radius) {
+  for (const geometry::TriangleMesh& mesh : elements) {
+    LinkSurfaceSamples part = SampleLinkSurface(mesh, spacing);
+    const int offset = static_cast<int>(samples->points.size());
+    samples->points.insert(samples->points.end(), part.points.begin(), part.points.end());
+    for (LinkSurfaceSamples::Cluster c : part.clusters) {
+      c.begin += offset;
+      c.end += offset;
+      samples->clusters.push_back(c);
+    }
+  }
+  *center = Vec3::Zero();
+  *radius = 0.0;
+  if (samples->points.empty()) return;
+  Vec3 lo = samples->points.front(), hi = lo;
+  for (const Vec3& p : samples->points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  *center = 0.5 * (lo + hi);
+  for (const Vec3& p : samples->points) *radius = std::max(*radius, (p - *center).norm());
 }
 
 // Distance of `x` outside the box [lo, hi]; -inf inside it (a point inside
@@ -33,8 +59,9 @@ bool SelfCollisionOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "self_safety_distance must be finite and non-negative";
     return false;
   }
-  if (!(std::isfinite(sample_spacing) && sample_spacing > 0.0 && sample_spacing <= 0.05)) {
-    if (why != nullptr) *why = "self-collision sample spacing must be in (0, 0.05] m";
+  if (!(std::isfinite(sample_spacing) && sample_spacing > 0.0 && sample_spacing <= 0.05 &&
+        std::isfinite(penalty_spacing) && penalty_spacing > 0.0 && penalty_spacing <= 0.1)) {
+    if (why != nullptr) *why = "self-collision sample spacings must be in (0, 0.05] m (check) and (0, 0.1] m (penalty)";
     return false;
   }
   return true;
@@ -100,35 +127,23 @@ core::Result<std::unique_ptr<SelfCollisionModel>> SelfCollisionModel::Create(
   std::set<std::pair<int, int>> disabled;
   if (srdf_disabled) disabled.insert(srdf_disabled->begin(), srdf_disabled->end());
 
+  model->collision_links_ = collision_links;
   model->sampled_.resize(num_links);
+  model->penalty_samples_.resize(num_links);
   model->anchors_.resize(num_links);
   model->boxes_.resize(num_links);
   std::vector<size_t> sample_count(num_links, 0);
   for (int link : collision_links) {
     auto elements = robot::LinkCollisionElements(robot, link);
     if (!elements.ok()) return elements.status();
-    SampledLink& s = model->sampled_[link];
     for (const geometry::TriangleMesh& mesh : *elements) {
       if (!mesh.vertices.empty()) model->anchors_[link].push_back(mesh.vertices.front());
-      LinkSurfaceSamples part = SampleLinkSurface(mesh, options.sample_spacing);
-      const int offset = static_cast<int>(s.samples.points.size());
-      s.samples.points.insert(s.samples.points.end(), part.points.begin(), part.points.end());
-      for (LinkSurfaceSamples::Cluster c : part.clusters) {
-        c.begin += offset;
-        c.end += offset;
-        s.samples.clusters.push_back(c);
-      }
     }
+    SampledLink& s = model->sampled_[link];
+    SampleElements(*elements, options.sample_spacing, &s.samples, &s.center, &s.radius);
+    SampledLink& p = model->penalty_samples_[link];
+    SampleElements(*elements, options.penalty_spacing, &p.samples, &p.center, &p.radius);
     sample_count[link] = s.samples.points.size();
-    if (!s.samples.points.empty()) {
-      Vec3 lo = s.samples.points.front(), hi = lo;
-      for (const Vec3& p : s.samples.points) {
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
-      }
-      s.center = 0.5 * (lo + hi);
-      for (const Vec3& p : s.samples.points) s.radius = std::max(s.radius, (p - s.center).norm());
-    }
     exact.LinkBox(link, &model->boxes_[link].first, &model->boxes_[link].second);
   }
 
@@ -222,6 +237,81 @@ double SelfCollisionModel::MinDistanceLowerBound(const robot::KinematicsState& k
     }
   }
   return best;
+}
+
+core::Status SelfCollisionModel::AttachSdfGrids(SharedSdfGrids grids) {
+  const std::vector<int> links = collision_links_;
+  if (grids == nullptr || grids->size() != links.size()) {
+    return core::Status::InvalidArgument("self-collision: need one SDF per collision link");
+  }
+  grid_slot_.assign(sampled_.size(), -1);
+  for (size_t i = 0; i < links.size(); ++i) grid_slot_[links[i]] = static_cast<int>(i);
+  grids_ = std::move(grids);
+  return core::Status::Ok();
+}
+
+double SelfCollisionModel::Penalty(const robot::RobotModel& robot, const robot::KinematicsState& kinematics,
+                                   const PenaltyParameters& parameters, StateGradient* gradient) const {
+  if (grids_ == nullptr) return 0.0;
+  const double threshold = parameters.threshold;
+  double cost = 0.0;
+  for (const LinkPair& pair : pairs_) {
+    const SampledLink& a = penalty_samples_[pair.sampled_link];
+    const geometry::SdfGrid& grid = (*grids_)[grid_slot_[pair.queried_link]];
+    const Pose& X_WA = kinematics.link_poses[pair.sampled_link];
+    const Pose& X_WB = kinematics.link_poses[pair.queried_link];
+    const double slack = std::sqrt(3.0) * grid.info().resolution;
+    // Most pairs are far apart at most samples: the sampled link's sphere
+    // against the queried link's box first (its true distance is at most
+    // the SDF's, so this prunes no more than the tests below).
+    const Vec3 center_B = X_WB.linear().transpose() * (X_WA * a.center - X_WB.translation());
+    const auto& box = boxes_[pair.queried_link];
+    const double box_reach = threshold + a.radius + slack;
+    if ((box.first - center_B).cwiseMax(center_B - box.second).cwiseMax(0.0).squaredNorm() >= box_reach * box_reach) {
+      continue;
+    }
+    const Pose X_BA = X_WB.inverse() * X_WA;
+    double d = 0.0;
+    Vec3 g;
+    // The grid's nodes hold exact distances, which are 1-Lipschitz, and the
+    // trilinear interpolant is within sqrt(3)/2 resolutions of them (the
+    // weighted mean distance to the cell's nodes); outside the grid the
+    // value is the distance to its box, also 1-Lipschitz. So a sphere whose
+    // centre's value is its radius plus two such errors beyond the
+    // threshold holds no penalised sample.
+    // EvaluateBelow may also answer true for a value at or above the cutoff.
+    auto below = [&](const Vec3& x_B, double cutoff) {
+      return grid.EvaluateBelow(x_B, cutoff, &d, &g) && d < cutoff;
+    };
+    if (!below(X_BA * a.center, threshold + a.radius + slack)) continue;
+    LinkWrench on_a, on_b;
+    bool any = false;
+    for (const LinkSurfaceSamples::Cluster& cluster : a.samples.clusters) {
+      if (!below(X_BA * cluster.center, threshold + cluster.radius + slack)) continue;
+      for (int i = cluster.begin; i < cluster.end; ++i) {
+        const Vec3 x_B = X_BA * a.samples.points[i];
+        if (!below(x_B, threshold)) continue;
+        double slope = 0.0;
+        cost += opt::SmoothedL1(threshold - d, parameters.mu, &slope);
+        if (gradient == nullptr || slope == 0.0) continue;
+        // d cost / d d = -slope. Moving A moves the sample (d d / d p_A =
+        // g_W, about A's origin (x - p_A) x g_W); moving B moves the field
+        // the other way (-g_W, -(x - p_B) x g_W).
+        const Vec3 g_W = X_WB.linear() * g;
+        const Vec3 x_W = X_WB * x_B;
+        on_a.force -= slope * g_W;
+        on_a.torque -= slope * (x_W - X_WA.translation()).cross(g_W);
+        on_b.force += slope * g_W;
+        on_b.torque += slope * (x_W - X_WB.translation()).cross(g_W);
+        any = true;
+      }
+    }
+    if (any) {
+      AccumulateLinkWrench(robot, kinematics, pair.sampled_link, on_a, gradient);
+      AccumulateLinkWrench(robot, kinematics, pair.queried_link, on_b, gradient);
+    }
+  }
+  return cost;
 }
 
 }  // namespace quadhand::env

@@ -31,6 +31,9 @@ bool PlannerOptions::IsValid(std::string* why) const {
   if (!(insertion_collision_margin >= 0.0 && std::isfinite(insertion_collision_margin))) {
     return fail("insertion_collision_margin must be >= 0");
   }
+  if (!(self_collision_margin >= 0.0 && std::isfinite(self_collision_margin))) {
+    return fail("self_collision_margin must be >= 0");
+  }
   if (!(piece_length > 0.0 && std::isfinite(piece_length))) return fail("piece_length must be positive");
   if (min_pieces < 2) return fail("min_pieces must be at least 2");
   if (!(cruise_speed > 0.0 && cruise_acceleration > 0.0)) return fail("cruise speed and acceleration must be positive");
@@ -62,6 +65,7 @@ WholeBodyCostOptions CostForTask(const PlannerOptions& options, const Task& task
   WholeBodyCostOptions cost = options.cost;
   cost.collision_threshold = task.safety_distance + options.collision_margin;
   cost.insertion_collision_threshold = task.safety_distance + options.insertion_collision_margin;
+  cost.self_collision_threshold = task.self_safety_distance + options.self_collision_margin;
   return cost;
 }
 
@@ -171,7 +175,8 @@ core::Status Optimise(const PlanningScene& scene, const PlanCollision& collision
                       PlanResult* result) {
   result->num_pieces = static_cast<int>(guess.durations.size());
   auto problem = WholeBodyProblem::Create(scene.robot, *collision.model, task.start, result->terminal, task.limits,
-                                          result->insertion, CostForTask(options, task), result->num_pieces);
+                                          result->insertion, CostForTask(options, task), result->num_pieces,
+                                          scene.self_collision);
   if (!problem.ok()) return problem.status().WithPrefix(task.file);
   const VecX x0 = (*problem)->Pack(guess.position_waypoints, guess.aux_waypoints, guess.durations);
   return SolveAndPostCheck(problem->get(), x0, scene, *collision.model, task, options, schedule, result);

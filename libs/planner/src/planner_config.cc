@@ -35,6 +35,7 @@ void Visit(Config& c, Visitor&& v) {
   v("plan.weight_raise_factor", p.weight_raise_factor);
   v("plan.resolve_sample_factor", p.resolve_sample_factor);
   v("plan.max_samples_per_piece", p.max_samples_per_piece);
+  v("plan.self_collision_margin", p.self_collision_margin);
 
   auto& k = p.cost;
   v("cost.samples_per_piece", k.samples_per_piece);
@@ -50,9 +51,11 @@ void Visit(Config& c, Visitor&& v) {
   v("cost.weight_joint_rate", k.weight_joint_rate);
   v("cost.weight_body_rate", k.weight_body_rate);
   v("cost.weight_joint_limits", k.weight_joint_limits);
+  v("cost.weight_self_collision", k.weight_self_collision);
   v("cost.limit_fraction", k.limit_fraction);
   v("cost.joint_limit_margin", k.joint_limit_margin);
   v("cost.collision_mu", k.collision_mu);
+  v("cost.self_collision_mu", k.self_collision_mu);
   v("cost.feasibility_mu", k.feasibility_mu);
   v("cost.joint_limit_mu", k.joint_limit_mu);
   v("cost.insertion_position_tolerance", k.insertion_position_tolerance);

@@ -1,6 +1,7 @@
 #include "quadhand/planner/planning_context.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "quadhand/robot/kinematics.h"
@@ -78,6 +79,23 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
   if (!self_collision.ok()) return self_collision.status().WithPrefix(t.robot_path);
   context->self_collision_ = std::move(*self_collision);
 
+  // The link SDFs, loaded once for MRC-SDF and the self-collision penalty.
+  env::SharedSdfGrids sdf_grids;
+  const bool mrc_sdf = std::find(options.representations.begin(), options.representations.end(), "mrc_sdf") !=
+                       options.representations.end();
+  double sdf_load_ms = 0.0;
+  if (mrc_sdf || !context->self_collision_->pairs().empty()) {
+    const auto load_start = std::chrono::steady_clock::now();
+    std::vector<int> links;
+    std::vector<geometry::SdfGrid> grids;
+    QUADHAND_RETURN_IF_ERROR(env::LoadLinkSdfGrids(context->robot_, t.sdf_dir, &links, &grids));
+    sdf_grids = std::make_shared<const std::vector<geometry::SdfGrid>>(std::move(grids));
+    sdf_load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start).count();
+    if (!context->self_collision_->pairs().empty()) {
+      QUADHAND_RETURN_IF_ERROR(context->self_collision_->AttachSdfGrids(sdf_grids));
+    }
+  }
+
   std::vector<Vec3> contain = options.front_end_also_contain;
   contain.push_back(t.start.position);
   if (t.terminal) contain.push_back(t.terminal->position);
@@ -97,9 +115,11 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
   context->front_end_ = std::make_unique<FrontEndMap>(std::move(*front_end));
 
   for (const std::string& name : options.representations) {
-    auto model =
-        MakeRepresentation(name, context->robot_, t.sdf_dir, context->points(), options.representation_options, index);
+    auto model = MakeRepresentation(name, context->robot_, t.sdf_dir, context->points(), options.representation_options,
+                                    index, sdf_grids);
     if (!model.ok()) return model.status();
+    // MRC-SDF's build time includes loading the grids it was handed.
+    if (name == "mrc_sdf") model->build_ms += sdf_load_ms;
     context->representations_.push_back(std::move(*model));
   }
   return context;

@@ -20,8 +20,14 @@ core::Result<Representation> MakeMrcSdf(const RepresentationInputs& in) {
   Representation representation;
   const auto start = std::chrono::steady_clock::now();
   const bool share = in.index != nullptr && in.index->cell_size() == in.options.mrc_sdf.cell_size;
-  auto model = share ? env::MrcSdfModel::Create(in.robot, in.sdf_dir, in.index, in.options.mrc_sdf)
-                     : env::MrcSdfModel::Create(in.robot, in.sdf_dir, in.points, in.options.mrc_sdf);
+  core::Result<std::unique_ptr<env::MrcSdfModel>> model = core::Status::Internal("unset");
+  if (in.sdf_grids != nullptr) {
+    auto index = share ? in.index : std::make_shared<const scene::PointGrid>(in.points, in.options.mrc_sdf.cell_size);
+    model = env::MrcSdfModel::Create(in.robot.CollisionLinks(), in.sdf_grids, std::move(index), in.options.mrc_sdf);
+  } else {
+    model = share ? env::MrcSdfModel::Create(in.robot, in.sdf_dir, in.index, in.options.mrc_sdf)
+                  : env::MrcSdfModel::Create(in.robot, in.sdf_dir, in.points, in.options.mrc_sdf);
+  }
   if (!model.ok()) return model.status();
   representation.scene_model = std::move(*model);
   representation.build_ms = MillisecondsSince(start);
@@ -149,7 +155,8 @@ core::Status CheckRepresentationName(const std::string& name) {
 core::Result<Representation> MakeRepresentation(const std::string& name, const robot::RobotModel& robot,
                                                 const std::string& sdf_dir, const std::vector<Vec3>& points,
                                                 const RepresentationOptions& options,
-                                                std::shared_ptr<const scene::PointGrid> index) {
+                                                std::shared_ptr<const scene::PointGrid> index,
+                                                env::SharedSdfGrids sdf_grids) {
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("representation options: " + why);
   RepresentationFactory factory;
   {
@@ -160,8 +167,9 @@ core::Result<Representation> MakeRepresentation(const std::string& name, const r
   if (!factory) return UnknownRepresentation(name, RepresentationNames());
   const auto own = options.registered.find(name);
   const std::string no_options;
-  auto representation = factory(RepresentationInputs{robot, points, sdf_dir, options, std::move(index),
-                                                     own != options.registered.end() ? own->second : no_options});
+  auto representation =
+      factory(RepresentationInputs{robot, points, sdf_dir, options, std::move(index), std::move(sdf_grids),
+                                   own != options.registered.end() ? own->second : no_options});
   if (!representation.ok()) return representation.status();
   representation->name = name;
   return representation;

@@ -38,15 +38,16 @@ bool WholeBodyCostOptions::IsValid(std::string* why) const {
   if (insertion_samples < 0 || insertion_samples > 1000) return fail("insertion_samples must be in [0, 1000]");
   for (double w : {time_weight, energy_weight_position, energy_weight_aux, weight_collision, weight_insertion,
                    weight_velocity, weight_acceleration, weight_yaw_rate, weight_joint_rate, weight_body_rate,
-                   weight_joint_limits, insertion_position_weight, insertion_rotation_weight,
+                   weight_joint_limits, weight_self_collision, insertion_position_weight, insertion_rotation_weight,
                    insertion_position_tolerance, insertion_rotation_tolerance}) {
     if (!NonNegativeFinite(w)) return fail("weights and tolerances must be finite and non-negative");
   }
   if (!PositiveFinite(collision_threshold)) return fail("collision_threshold must be positive");
+  if (!NonNegativeFinite(self_collision_threshold)) return fail("self_collision_threshold must be >= 0");
   if (!std::isfinite(insertion_collision_threshold)) return fail("insertion_collision_threshold must be finite");
   if (!(limit_fraction > 0.0 && limit_fraction <= 1.0)) return fail("limit_fraction must be in (0, 1]");
   if (!NonNegativeFinite(joint_limit_margin)) return fail("joint_limit_margin must be >= 0");
-  for (double mu : {collision_mu, feasibility_mu, joint_limit_mu, insertion_mu}) {
+  for (double mu : {collision_mu, self_collision_mu, feasibility_mu, joint_limit_mu, insertion_mu}) {
     if (!PositiveFinite(mu)) return fail("smoothing parameters (mu) must be positive");
   }
   return true;
@@ -107,7 +108,7 @@ WholeBodyProblem::~WholeBodyProblem() = default;
 core::Result<std::unique_ptr<WholeBodyProblem>> WholeBodyProblem::Create(
     const robot::RobotModel& robot, const env::CollisionModel& collision, const BoundaryState& start,
     const BoundaryState& goal, const Limits& limits, const InsertionGoal& insertion,
-    const WholeBodyCostOptions& options, int num_pieces) {
+    const WholeBodyCostOptions& options, int num_pieces, const env::SelfCollisionModel* self_collision) {
   const int n = robot.num_actuated();
   if (num_pieces < 1) return core::Status::InvalidArgument("the trajectory needs at least one piece");
   for (const BoundaryState* state : {&start, &goal}) {
@@ -131,6 +132,7 @@ core::Result<std::unique_ptr<WholeBodyProblem>> WholeBodyProblem::Create(
     }
   }
   std::unique_ptr<WholeBodyProblem> problem(new WholeBodyProblem(robot, collision));
+  problem->self_collision_ = self_collision;
   problem->start_ = start;
   problem->goal_ = goal;
   for (BoundaryState* state : {&problem->start_, &problem->goal_}) {
@@ -182,7 +184,7 @@ core::Status WholeBodyProblem::SetOptions(const WholeBodyCostOptions& options) {
   options_ = options;
   terms_.clear();
   needs_kinematics_ = false;
-  const CostTermInputs inputs{robot_, collision_, limits_, insertion_, options_};
+  const CostTermInputs inputs{robot_, collision_, limits_, insertion_, options_, self_collision_};
   for (const CostTermDescriptor& term : CostTermDescriptors()) {
     terms_.push_back(term.make(inputs, options_.*(term.weight)));
     if (terms_.back() != nullptr) needs_kinematics_ = needs_kinematics_ || terms_.back()->NeedsKinematics();

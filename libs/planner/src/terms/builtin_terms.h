@@ -14,5 +14,6 @@ CostTermDescriptor BodyRateTerm();      // rate_limit_terms.cc
 CostTermDescriptor JointLimitTerm();    // joint_limit_term.cc
 CostTermDescriptor CollisionTerm();     // collision_term.cc
 CostTermDescriptor InsertionTerm();     // insertion_term.cc
+CostTermDescriptor SelfCollisionTerm(); // self_collision_term.cc
 
 }  // namespace quadhand::planner

@@ -28,6 +28,15 @@ struct MrcSdfOptions {
   bool IsValid(std::string* why) const;
 };
 
+// Link SDF grids held by more than one user; grids[i] belongs to links[i].
+using SharedSdfGrids = std::shared_ptr<const std::vector<geometry::SdfGrid>>;
+
+// Loads `<sdf_dir>/<link>.qhsdf` for every collision link of `robot`,
+// checking each file's link name; errors name the file (a missing one says
+// how to make it).
+core::Status LoadLinkSdfGrids(const robot::RobotModel& robot, const std::string& sdf_dir, std::vector<int>* links,
+                              std::vector<geometry::SdfGrid>* grids);
+
 class MrcSdfModel final : public CollisionModel {
  public:
   // Loads `<sdf_dir>/<link>.qhsdf` for every collision link of `robot`
@@ -52,6 +61,10 @@ class MrcSdfModel final : public CollisionModel {
                                                            std::vector<geometry::SdfGrid> grids,
                                                            std::shared_ptr<const scene::PointGrid> index,
                                                            const MrcSdfOptions& options = {});
+  // With the grids shared too (with the self-collision term, say).
+  static core::Result<std::unique_ptr<MrcSdfModel>> Create(std::vector<int> links, SharedSdfGrids grids,
+                                                           std::shared_ptr<const scene::PointGrid> index,
+                                                           const MrcSdfOptions& options = {});
 
   std::string name() const override { return "mrc_sdf"; }
   DistanceQuality distance_quality() const override { return DistanceQuality::kExact; }
@@ -62,12 +75,11 @@ class MrcSdfModel final : public CollisionModel {
   double LinkClearance(int link, const Pose& X_WL, double search_radius,
                        const QueryContext& context) const override;
 
-  const geometry::SdfGrid& grid_of_link(int link) const { return grids_[slot_of_link_[link]]; }
+  const geometry::SdfGrid& grid_of_link(int link) const { return (*grids_)[slot_of_link_[link]]; }
   const scene::PointGrid& points() const { return *points_; }
 
  private:
-  MrcSdfModel(std::vector<int> links, std::vector<geometry::SdfGrid> grids,
-              std::shared_ptr<const scene::PointGrid> points);
+  MrcSdfModel(std::vector<int> links, SharedSdfGrids grids, std::shared_ptr<const scene::PointGrid> points);
 
   // Calls visit(x_W, x_L, distance, gradient_L) for obstacle points whose
   // distance to the link is below `reach`.
@@ -84,7 +96,7 @@ class MrcSdfModel final : public CollisionModel {
 
   std::vector<int> links_;
   std::vector<int> slot_of_link_;  // robot link index -> index into grids_ (-1 if none)
-  std::vector<geometry::SdfGrid> grids_;
+  SharedSdfGrids grids_;
   std::shared_ptr<const scene::PointGrid> points_;
   // Chebyshev distance, in cells (saturating at 253), from each cell of a
   // grid over the points' bounding box (plus padding; stored with a one-cell

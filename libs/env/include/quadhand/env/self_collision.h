@@ -24,6 +24,12 @@
 // at most sample_spacing below it: a check built on it can reject a pair
 // that is slightly farther apart than needed, never accept one that is not.
 // Clusters of samples are skipped with their bounding spheres.
+//
+// Penalty. For the optimiser: coarser surface samples of the sampled link
+// (`penalty_spacing`) looked up in the queried link's SDF grid, the paper's
+// smoothed L1 of (threshold - d) summed, with its gradient w.r.t. both links'
+// motions carried through both kinematic chains. The post-check, not the
+// penalty, decides whether a plan keeps the distance.
 #pragma once
 
 #include <memory>
@@ -36,6 +42,7 @@
 #include "quadhand/env/collision_model.h"
 #include "quadhand/env/exact_mesh_model.h"
 #include "quadhand/env/link_surface_samples.h"
+#include "quadhand/env/mrc_sdf_model.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/robot_model.h"
 
@@ -48,6 +55,8 @@ struct SelfCollisionOptions {
   // Surface sample spacing of the sampled link, metres: the lower bound is
   // within it of the true distance.
   double sample_spacing = 0.003;
+  // Surface sample spacing of the penalty's samples, metres.
+  double penalty_spacing = 0.01;
   bool IsValid(std::string* why) const;
 };
 
@@ -86,6 +95,16 @@ class SelfCollisionModel {
   double MinDistanceLowerBound(const robot::KinematicsState& kinematics, double reach,
                                int* closest_pair = nullptr) const;
 
+  // The link SDFs the penalty looks up (one per collision link of the robot,
+  // in robot.CollisionLinks() order, as env::LoadLinkSdfGrids loads them).
+  core::Status AttachSdfGrids(SharedSdfGrids grids);
+  bool has_penalty() const { return grids_ != nullptr && !pairs_.empty(); }
+  // Sum over pairs and penalty samples of SmoothedL1(threshold - d, mu), d the
+  // sample's distance in the queried link's SDF; when `gradient` is not null
+  // (sized), the gradient is ADDED to it. 0 without grids.
+  double Penalty(const robot::RobotModel& robot, const robot::KinematicsState& kinematics,
+                 const PenaltyParameters& parameters, StateGradient* gradient) const;
+
  private:
   struct SampledLink {
     LinkSurfaceSamples samples;
@@ -99,7 +118,11 @@ class SelfCollisionModel {
   SelfCollisionOptions options_;
   std::vector<LinkPair> pairs_;
   std::vector<ExcludedPair> excluded_;
+  std::vector<int> collision_links_;
   std::vector<SampledLink> sampled_;        // per robot link (empty for links not sampled)
+  std::vector<SampledLink> penalty_samples_;  // per robot link, at penalty_spacing
+  SharedSdfGrids grids_;
+  std::vector<int> grid_slot_;              // per robot link: its grid in grids_, -1 if none
   std::vector<std::vector<Vec3>> anchors_;  // per robot link: one vertex of each element
   std::vector<std::pair<Vec3, Vec3>> boxes_;
 };

@@ -13,6 +13,7 @@
 
 #include "quadhand/core/types.h"
 #include "quadhand/env/collision_model.h"
+#include "quadhand/env/self_collision.h"
 #include "quadhand/planner/plan_status.h"
 #include "quadhand/planner/whole_body_problem.h"
 #include "quadhand/robot/kinematics.h"
@@ -63,6 +64,7 @@ struct CostTermInputs {
   const Limits& limits;
   const InsertionGoal& insertion;  // direction normalised
   const WholeBodyCostOptions& options;
+  const env::SelfCollisionModel* self_collision = nullptr;  // null: no self-collision pairs
 };
 
 class CostTerm {

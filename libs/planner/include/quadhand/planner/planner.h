@@ -36,6 +36,10 @@ struct PlannerOptions {
   // insertion_collision_threshold): small, because there the robot moves
   // slowly and the gripper is meant to come close to the target.
   double insertion_collision_margin = 0.003;
+  // The self-collision penalty starts at the task's self_safety_distance
+  // plus this margin (the post-check bound is certified; the penalty's
+  // samples are coarser and its SDFs interpolated).
+  double self_collision_margin = 0.01;
   double piece_length = 0.4;    // metres of front-end path per MINCO piece
   int min_pieces = 4;
   // The initial time allocation (trapezoidal speed profile along the path):

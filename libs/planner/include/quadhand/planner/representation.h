@@ -62,6 +62,9 @@ struct RepresentationInputs {
   // also used by the post-check), or null: a representation whose index has
   // the same cell size uses it instead of indexing the cloud again.
   std::shared_ptr<const scene::PointGrid> index;
+  // The robot's link SDFs (robot.CollisionLinks() order) already loaded from
+  // sdf_dir and shared, or null: a representation that needs them loads its own.
+  env::SharedSdfGrids sdf_grids;
   // options.registered's text for the representation being built; empty
   // when the configuration has no section for it (and for the built-ins).
   const std::string& own_options;
@@ -92,6 +95,7 @@ core::Status CheckRepresentationName(const std::string& name);
 core::Result<Representation> MakeRepresentation(const std::string& name, const robot::RobotModel& robot,
                                                 const std::string& sdf_dir, const std::vector<Vec3>& points,
                                                 const RepresentationOptions& options = {},
-                                                std::shared_ptr<const scene::PointGrid> index = nullptr);
+                                                std::shared_ptr<const scene::PointGrid> index = nullptr,
+                                                env::SharedSdfGrids sdf_grids = nullptr);
 
 }  // namespace quadhand::planner

@@ -30,6 +30,10 @@
 #include "quadhand/traj/flatness.h"
 #include "quadhand/traj/minco.h"
 
+namespace quadhand::env {
+class SelfCollisionModel;  // env/self_collision.h
+}  // namespace quadhand::env
+
 namespace quadhand::planner {
 
 class CostTerm;
@@ -85,6 +89,7 @@ struct WholeBodyCostOptions {
   double weight_joint_rate = 1e4;
   double weight_body_rate = 1e4;
   double weight_joint_limits = 1e5;
+  double weight_self_collision = 1e5;
   // Penalties start at limit_fraction of each rate limit and joint_limit_margin
   // inside each joint limit, so that the soft penalties leave the post-check's
   // hard limits intact.
@@ -94,6 +99,11 @@ struct WholeBodyCostOptions {
   // distance plus a margin), smoothed over `collision_mu`.
   double collision_threshold = 0.04;
   double collision_mu = 0.01;
+  // Self-collision (env/self_collision.h): pairs of robot links closer than
+  // `self_collision_threshold` (the task's self-safety distance plus a
+  // margin), smoothed over `self_collision_mu`.
+  double self_collision_threshold = 0.02;
+  double self_collision_mu = 0.01;
   // Threshold of the collision penalty on the insertion piece (when the
   // insertion is enabled), for every link; non-positive: collision_threshold.
   // A grasp may be designed with less clearance than collision_threshold
@@ -164,11 +174,14 @@ class WholeBodyTrajectory {
 
 class WholeBodyProblem final : public opt::Objective {
  public:
-  // `robot` and `collision` must outlive the problem. Checks sizes and options.
+  // `robot` and `collision` (and `self_collision`, whose pairs the
+  // self-collision term keeps apart when it has a penalty; null: none) must
+  // outlive the problem. Checks sizes and options.
   static core::Result<std::unique_ptr<WholeBodyProblem>> Create(
       const robot::RobotModel& robot, const env::CollisionModel& collision, const BoundaryState& start,
       const BoundaryState& goal, const Limits& limits, const InsertionGoal& insertion,
-      const WholeBodyCostOptions& options, int num_pieces);
+      const WholeBodyCostOptions& options, int num_pieces,
+      const env::SelfCollisionModel* self_collision = nullptr);
   ~WholeBodyProblem() override;
 
   int num_variables() const override;
@@ -197,6 +210,7 @@ class WholeBodyProblem final : public opt::Objective {
 
   const robot::RobotModel& robot_;
   const env::CollisionModel& collision_;
+  const env::SelfCollisionModel* self_collision_ = nullptr;
   BoundaryState start_, goal_;
   Limits limits_;
   InsertionGoal insertion_;
