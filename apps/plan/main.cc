@@ -166,6 +166,7 @@ int main(int argc, char** argv) {
   info.scene_points = static_cast<long>((*context)->points().size());
   info.checked_points = static_cast<long>((*context)->checked_points().size());
   info.self_collision = &(*context)->self_collision();
+  info.front_end_inflation = (*context)->front_end_inflation();
   if (core::Status s = outputs.Stage(report_path, planner::PlanReportJson(*result, robot, info)); !s.ok()) {
     return Fail(s.message());
   }

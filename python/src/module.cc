@@ -198,6 +198,7 @@ PlanOutput RunPlan(const PlanArguments& args) {
                                args.seed,      representation_ms, total_ms,
                                &config,        args.config_text.empty() ? "defaults" : args.config_name};
   info.self_collision = &context->self_collision();
+  info.front_end_inflation = context->front_end_inflation();
   info.scene_load_ms = scene_load_ms;
   info.scene_points = static_cast<long>(context->points().size());
   info.checked_points = static_cast<long>(context->checked_points().size());

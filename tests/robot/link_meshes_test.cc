@@ -139,5 +139,26 @@ TEST(LinkMeshesTest, MissingMeshFileFailsNamingIt) {
   EXPECT_EQ(message.find('\n'), std::string::npos) << message;
 }
 
+// The half-width the front end inflates by: a 0.2 m sphere body with a box
+// guard at y 0.3 (0.05 m edge) and an arm that stows along x within its
+// limits (the slide's limits [0.1, 0.5] put it at 0.1): largest |x| 0.1 +
+// 0.3 + 0.05 = 0.45, largest |y| 0.325; the narrower is y.
+TEST(LinkMeshesTest, StowedHalfWidthIsTheNarrowerHorizontalReach) {
+  auto robot = RobotModel::LoadFromUrdfString(R"(<robot name="w">
+    <link name="base"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>
+    <link name="guard"><collision><geometry><box size="0.05 0.05 0.05"/></geometry></collision></link>
+    <link name="arm"><collision><origin xyz="0.3 0 0"/><geometry><sphere radius="0.05"/></geometry></collision></link>
+    <joint name="mount" type="fixed"><parent link="base"/><child link="guard"/><origin xyz="0 0.3 0"/></joint>
+    <joint name="slide" type="prismatic"><parent link="base"/><child link="arm"/><axis xyz="1 0 0"/>
+      <limit lower="0.1" upper="0.5" effort="1" velocity="1"/></joint></robot>)", ".");
+  ASSERT_TRUE(robot.ok()) << robot.status().message();
+  auto half_width = StowedHalfWidth(*robot);
+  ASSERT_TRUE(half_width.ok());
+  EXPECT_NEAR(*half_width, 0.325, 1e-9);
+  auto bare = RobotModel::LoadFromUrdfString(R"(<robot name="bare"><link name="base"/></robot>)", ".");
+  ASSERT_TRUE(bare.ok());
+  EXPECT_EQ(*StowedHalfWidth(*bare), 0.0);
+}
+
 }  // namespace
 }  // namespace quadhand::robot

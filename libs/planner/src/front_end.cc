@@ -105,6 +105,7 @@ bool FrontEndOptions::IsValid(std::string* why) const {
   if (!(shortcut_clearance >= 0.0) || !(shortcut_clearance <= inflation_radius)) {
     return Fail(why, "shortcut_clearance must be in [0, inflation_radius]");
   }
+  if (!(shortcut_ratio >= 0.0 && shortcut_ratio <= 1.0)) return Fail(why, "shortcut_ratio must be in [0, 1]");
   if (!bounds_margin.allFinite() || (bounds_margin.array() < 0.0).any()) {
     return Fail(why, "bounds_margin must be non-negative and finite");
   }

@@ -111,6 +111,7 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   nlohmann::json path = nlohmann::json::array();
   for (const Vec3& p : result.path.shortcut) path.push_back({p.x(), p.y(), p.z()});
   report["front_end_path"] = path;
+  if (info.front_end_inflation >= 0.0) report["front_end_inflation_m"] = info.front_end_inflation;
   if (info.config != nullptr) {
     nlohmann::json values = nlohmann::json::object();
     for (const auto& [key, value] : PlannerConfigEntries(*info.config)) {

@@ -113,6 +113,8 @@ void Visit(Config& c, Visitor&& v) {
   v("front_end.max_expansions", f.max_expansions);
   v("front_end.max_seconds", f.max_seconds);
   v("front_end.max_voxels", f.max_voxels);
+  v("front_end.size_from_robot", f.size_from_robot);
+  v("front_end.shortcut_ratio", f.shortcut_ratio);
 
   auto& r = c.replan;
   v("replan.max_attempts", r.max_attempts);

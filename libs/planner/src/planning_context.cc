@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "quadhand/robot/kinematics.h"
+#include "quadhand/robot/link_meshes.h"
 #include "quadhand/robot/srdf.h"
 
 #include "quadhand/scene/point_cloud.h"
@@ -110,7 +111,17 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
       contain.push_back(t.tool->position + Vec3::Constant(reach));
     }
   }
-  auto front_end = FrontEndMap::Build(context->points(), options.front_end, contain);
+  FrontEndOptions front_end_options = options.front_end;
+  if (front_end_options.size_from_robot) {
+    auto half_width = robot::StowedHalfWidth(context->robot_);
+    if (!half_width.ok()) return half_width.status();
+    if (*half_width > 0.0) {
+      front_end_options.inflation_radius = *half_width;
+      front_end_options.shortcut_clearance = front_end_options.shortcut_ratio * *half_width;
+    }
+  }
+  context->front_end_inflation_ = front_end_options.inflation_radius;
+  auto front_end = FrontEndMap::Build(context->points(), front_end_options, contain);
   if (!front_end.ok()) return front_end.status().WithPrefix(t.scene_path);
   context->front_end_ = std::make_unique<FrontEndMap>(std::move(*front_end));
 

@@ -1,9 +1,11 @@
 #include "quadhand/robot/link_meshes.h"
 
+#include <algorithm>
 #include <utility>
 #include <vector>
 
 #include "quadhand/geometry/mesh_io.h"
+#include "quadhand/robot/kinematics.h"
 #include "quadhand/geometry/primitives.h"
 
 namespace quadhand::robot {
@@ -70,6 +72,29 @@ Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int li
     }
   }
   return soup;
+}
+
+core::Result<double> StowedHalfWidth(const RobotModel& model) {
+  VecX q(model.num_actuated());
+  for (int i = 0; i < model.num_actuated(); ++i) {
+    const Joint& joint = model.joint(model.actuated_joints()[i]);
+    q[i] = std::clamp(0.0, joint.lower, joint.upper);
+  }
+  KinematicsState state;
+  ComputeKinematics(model, Pose::Identity(), q, &state);
+  Vec3 reach = Vec3::Zero();
+  bool any = false;
+  for (int link : model.CollisionLinks()) {
+    auto elements = LinkCollisionElements(model, link);
+    if (!elements.ok()) return elements.status();
+    for (const geometry::TriangleMesh& mesh : *elements) {
+      for (const Vec3& v : mesh.vertices) {
+        reach = reach.cwiseMax((state.link_poses[link] * v).cwiseAbs());
+        any = true;
+      }
+    }
+  }
+  return any ? std::min(reach.x(), reach.y()) : 0.0;
 }
 
 }  // namespace quadhand::robot

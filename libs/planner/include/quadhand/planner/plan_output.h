@@ -39,6 +39,7 @@ struct PlanReportInfo {
   // The robot's self-collision pairs (checked and excluded, with why); none
   // recorded when null.
   const env::SelfCollisionModel* self_collision = nullptr;
+  double front_end_inflation = -1.0;  // m; not recorded when negative
 };
 
 // The report as pretty-printed JSON text (two-space indent, newline at the end).

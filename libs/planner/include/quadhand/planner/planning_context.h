@@ -60,6 +60,8 @@ class PlanningContext {
   // The robot's self-collision pairs (task keys self_safety_distance, srdf).
   const env::SelfCollisionModel& self_collision() const { return *self_collision_; }
   const FrontEndMap& front_end() const { return *front_end_; }
+  // The front end's inflation radius (FrontEndOptions::size_from_robot).
+  double front_end_inflation() const { return front_end_inflation_; }
   const std::vector<Representation>& representations() const { return representations_; }
   // The scene of representation `index` (in PlanningContextOptions order);
   // valid while this context lives.
@@ -77,6 +79,7 @@ class PlanningContext {
   std::unique_ptr<env::ExactMeshModel> exact_;
   std::unique_ptr<env::SelfCollisionModel> self_collision_;
   std::unique_ptr<FrontEndMap> front_end_;
+  double front_end_inflation_ = 0.0;
   std::vector<Representation> representations_;
 };
 

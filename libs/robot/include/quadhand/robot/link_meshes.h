@@ -31,4 +31,11 @@ core::Result<std::vector<geometry::TriangleMesh>> LinkCollisionElements(const Ro
 // LinkCollisionElements does.
 core::Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int link);
 
+// Half the robot's narrower horizontal extent with every joint at its value
+// nearest zero within its limits (the arm stowed): the largest |x| and the
+// largest |y| of the collision elements' vertices in the root link's frame,
+// the smaller of the two. 0 for a robot without collision geometry; fails as
+// LinkCollisionElements does.
+core::Result<double> StowedHalfWidth(const RobotModel& model);
+
 }  // namespace quadhand::robot
