@@ -142,7 +142,7 @@ int main(int argc, char** argv) {
   geometry::SdfGenerationOptions options;
   bool allow_unsigned = false, quiet = false;
   app.add_option("--urdf", urdf_path, "URDF file: one SDF per link with collision geometry");
-  app.add_option("--mesh", mesh_path, "One mesh file (STL, OBJ, PLY, OFF), already in the link frame");
+  app.add_option("--mesh", mesh_path, "One mesh file (STL, OBJ, PLY, OFF, Collada DAE), already in the link frame");
   app.add_option("--link", link_name, "With --mesh: the link name (output file <link>.qhsdf)");
   app.add_option("--links", only_links, "With --urdf: only these links (comma separated)")->delimiter(',');
   app.add_option("--out", out_dir, "Output directory (created if missing)");

@@ -113,6 +113,57 @@ TEST_F(MeshIoTest, EmptyGarbageAndUnknownFilesAreErrorsNamingTheFile) {
   }
 }
 
+// A Collada box as ROS packages ship them: millimetres (<unit meter=
+// "0.001">), <up_axis>Z_UP</up_axis>, placed by a node translation, with
+// two triangles of each face wound inconsistently. Read in metres, in the
+// file's own axes (the ROS convention: the up axis is not applied), closed
+// and outward after the same repair as the other formats.
+std::string ColladaBox(const std::string& unit, const std::string& triangles) {
+  return R"(<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit name="unit" meter=")" + unit + R"("/><up_axis>Z_UP</up_axis></asset>
+  <library_geometries>
+    <geometry id="box" name="box"><mesh>
+      <source id="box-positions">
+        <float_array id="box-positions-array" count="24">0 0 0 10 0 0 10 20 0 0 20 0 0 0 30 10 0 30 10 20 30 0 20 30</float_array>
+        <technique_common><accessor source="#box-positions-array" count="8" stride="3">
+          <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
+        </accessor></technique_common>
+      </source>
+      <vertices id="box-vertices"><input semantic="POSITION" source="#box-positions"/></vertices>
+      <triangles count="12"><input semantic="VERTEX" source="#box-vertices" offset="0"/>
+        <p>)" + triangles + R"(</p>
+      </triangles>
+    </mesh></geometry>
+  </library_geometries>
+  <library_visual_scenes>
+    <visual_scene id="scene"><node id="part" name="part"><translate>100 0 0</translate>
+      <instance_geometry url="#box"/></node></visual_scene>
+  </library_visual_scenes>
+  <scene><instance_visual_scene url="#scene"/></scene>
+</COLLADA>
+)";
+}
+
+TEST_F(MeshIoTest, ReadsColladaInMetresInItsOwnAxes) {
+  // Outward faces, except the top's two triangles, which are reversed.
+  WriteText("box.dae", ColladaBox("0.001", "0 2 1 0 3 2 0 1 5 0 5 4 1 2 6 1 6 5 2 3 7 2 7 6 3 0 4 3 4 7 4 6 5 4 7 6"));
+  const auto read = ReadMesh(Path("box.dae"));
+  ASSERT_TRUE(read.ok()) << read.status().message();
+  EXPECT_EQ(read->num_triangles(), 12);
+  const AxisAlignedBox box = BoundingBox(*read);
+  EXPECT_TRUE(box.min.isApprox(Vec3(0.1, 0.0, 0.0), 1e-6)) << box.min.transpose();
+  EXPECT_TRUE(box.max.isApprox(Vec3(0.11, 0.02, 0.03), 1e-6)) << box.max.transpose();
+  const MeshCheck check = CheckMesh(*read);
+  EXPECT_TRUE(check.bounds_volume) << check.problem;
+  EXPECT_TRUE(check.outward) << check.problem;
+
+  WriteText("broken.dae", "<COLLADA><library_geometries>");
+  const auto broken = ReadMesh(Path("broken.dae"));
+  ASSERT_FALSE(broken.ok());
+  EXPECT_NE(broken.status().message().find(Path("broken.dae")), std::string::npos) << broken.status().message();
+}
+
 TEST_F(MeshIoTest, WriteRejectsUnknownFormatAndBadIndices) {
   const TriangleMesh box = TessellateBox(Box{});
   EXPECT_FALSE(WriteMesh(Path("box.xyz"), box).ok());

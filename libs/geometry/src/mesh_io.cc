@@ -30,12 +30,14 @@
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/orientation.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/shape_predicates.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_faces.h>
 #include <CGAL/Surface_mesh.h>
 #pragma GCC diagnostic pop
 
+#include "assimp_mesh_reader.h"
 #include "quadhand/core/file_util.h"
 
 namespace quadhand::geometry {
@@ -56,7 +58,8 @@ std::string LowerCaseExtension(const std::string& path) {
 }
 
 bool IsSupportedExtension(const std::string& extension) {
-  return extension == ".stl" || extension == ".obj" || extension == ".ply" || extension == ".off";
+  return extension == ".stl" || extension == ".obj" || extension == ".ply" || extension == ".off" ||
+         extension == ".dae";
 }
 
 // Empty string if every triangle indexes existing vertices.
@@ -268,7 +271,7 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
   const std::string extension = LowerCaseExtension(path);
   if (!IsSupportedExtension(extension)) {
     return core::Status::InvalidArgument(path + ": unsupported mesh format '" + extension +
-                                         "' (expected .stl, .obj, .ply or .off)");
+                                         "' (expected .stl, .obj, .ply, .off or .dae)");
   }
   if (std::filesystem::file_size(path, error) == 0 || error) {
     return core::Status::InvalidArgument(path + ": empty mesh file");
@@ -276,7 +279,26 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
   InexactMesh mesh;
   bool read = false;
   std::string reader_message;
-  {
+  if (extension == ".dae") {
+    // The same repair as read_polygon_mesh gives the other formats.
+    auto soup = ReadAssimpSoup(path);
+    if (!soup.ok()) return soup.status();
+    std::vector<InexactKernel::Point_3> points;
+    points.reserve(soup->vertices.size());
+    for (const Vec3& v : soup->vertices) {
+      if (!v.allFinite()) return core::Status::InvalidArgument(path + ": mesh has a non-finite vertex");
+      points.emplace_back(v.x(), v.y(), v.z());
+    }
+    std::vector<std::vector<std::size_t>> polygons;
+    polygons.reserve(soup->triangles.size());
+    for (const auto& t : soup->triangles) polygons.push_back({t[0], t[1], t[2]});
+    PMP::repair_polygon_soup(points, polygons);
+    PMP::orient_polygon_soup(points, polygons);
+    if (!polygons.empty() && PMP::is_polygon_soup_a_polygon_mesh(polygons)) {
+      PMP::polygon_soup_to_polygon_mesh(points, polygons, mesh);
+      read = true;
+    }
+  } else {
     const CerrCapture capture;
     try {
       // Reads a soup, merges duplicate points, drops degenerate and duplicate
