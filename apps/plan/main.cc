@@ -21,6 +21,7 @@
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/solvers/builtin_solvers.h"
 #include "quadhand/robot/link_meshes.h"
+#include "quadhand/robot/robot_model.h"
 #include "quadhand/viz/html_view.h"
 
 namespace {
@@ -113,6 +114,12 @@ int main(int argc, char** argv) {
   app.add_flag("--print-config", print_config,
                "Print the configuration planning would use (the defaults, or --planner-config's with the\n"
                "defaults filled in) as YAML, and exit");
+  std::vector<std::string> package_path;
+  app.add_option("--package-path", package_path,
+                 "Folders searched for package://NAME/ mesh URIs before ROS_PACKAGE_PATH (repeatable or\n"
+                 "comma separated; also the URDF's own ancestors are searched)")
+      ->delimiter(',')
+      ->check(CLI::ExistingDirectory);
   app.add_flag("-v,--verbose", verbose, "Print solver progress");
   app.add_flag("--keep-failed-plan", keep_failed_plan,
                "Write the plan file even when the plan failed the post-check (for inspection only)");
@@ -123,6 +130,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return Fail(e.what());
   }
+  robot::PrependRosPackagePath(package_path);
   auto loaded_config = planner::LoadPlannerConfigOrDefaults(config_path);
   if (!loaded_config.ok()) return Fail(loaded_config.status().message());
   const planner::PlannerConfig& config = *loaded_config;

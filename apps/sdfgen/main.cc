@@ -153,6 +153,12 @@ int main(int argc, char** argv) {
   app.add_option("--threads", options.num_threads, "Worker threads (0: all cores)")->capture_default_str();
   app.add_flag("--unsigned", allow_unsigned,
                "Accept meshes that are not closed or self-intersect; distances are then unsigned");
+  std::vector<std::string> package_path;
+  app.add_option("--package-path", package_path,
+                 "Folders searched for package://NAME/ mesh URIs before ROS_PACKAGE_PATH (repeatable or\n"
+                 "comma separated; also the URDF's own ancestors are searched)")
+      ->delimiter(',')
+      ->check(CLI::ExistingDirectory);
   app.add_flag("-q,--quiet", quiet, "No progress output");
 
   std::string probe_file, info_file;
@@ -179,6 +185,7 @@ int main(int argc, char** argv) {
 
   if (*probe) return Probe(probe_file, probe_point);
   if (*info) return Info(info_file);
+  robot::PrependRosPackagePath(package_path);
 
   if (quiet) core::SetLogLevel(core::LogLevel::kQuiet);
   options.allow_unsigned = allow_unsigned;

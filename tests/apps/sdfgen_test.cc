@@ -160,5 +160,28 @@ TEST_F(SdfgenTest, TruncatedFileIsRejected) {
   ExpectBadInput("probe " + file + " 0 0 0", "truncated");
 }
 
+// package:// URIs of a URDF kept apart from its package: unresolved (exit 2
+// naming the package) until --package-path names the folder holding it.
+TEST_F(SdfgenTest, PackagePathResolvesPackageUris) {
+  fs::create_directories(dir_ / "packages" / "parts");
+  fs::create_directories(dir_ / "description");
+  fs::copy_file(WriteCube(), dir_ / "packages" / "parts" / "cube.off");
+  {
+    std::ofstream urdf(Path("description/robot.urdf"));
+    urdf << "<robot name=\"r\"><link name=\"base\"><collision><geometry>"
+            "<mesh filename=\"package://parts/cube.off\"/></geometry></collision></link></robot>\n";
+  }
+  const std::string out = Path("out");
+  ExpectBadInput("--urdf " + Path("description/robot.urdf") + " --out " + out + " --resolution 0.01",
+                 "package 'parts' not found", out);
+  ExpectBadInput("--urdf " + Path("description/robot.urdf") + " --out " + out + " --package-path " +
+                     Path("nowhere"),
+                 "nowhere", out);
+  const auto found = RunCommand(kSdfgen + " --urdf " + Path("description/robot.urdf") + " --out " + out +
+                                " --resolution 0.01 -q --package-path " + Path("packages"));
+  EXPECT_EQ(found.exit_code, 0) << found.err;
+  EXPECT_TRUE(fs::exists(out + "/base.qhsdf"));
+}
+
 }  // namespace
 }  // namespace quadhand

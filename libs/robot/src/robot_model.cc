@@ -179,6 +179,20 @@ std::optional<fs::path> FindPackage(const std::string& package, const std::strin
   return std::nullopt;
 }
 
+}  // namespace
+
+void PrependRosPackagePath(const std::vector<std::string>& dirs) {
+  if (dirs.empty()) return;
+  std::string value;
+  for (const std::string& dir : dirs) value += (value.empty() ? "" : ":") + dir;
+  if (const char* existing = std::getenv("ROS_PACKAGE_PATH"); existing != nullptr && *existing != '\0') {
+    value += std::string(":") + existing;
+  }
+  setenv("ROS_PACKAGE_PATH", value.c_str(), /*overwrite=*/1);
+}
+
+namespace {
+
 Result<std::string> ResolveMeshPath(const std::string& filename, const std::string& base_dir) {
   if (StartsWith(filename, "package://")) {
     const std::string rest = filename.substr(std::string("package://").size());

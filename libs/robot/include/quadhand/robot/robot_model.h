@@ -59,6 +59,12 @@ struct Link {
   Mat3 inertia = Mat3::Zero();         // about the centre of mass, link-frame axes
 };
 
+// Puts `dirs` before the ROS_PACKAGE_PATH entries that package:// mesh URIs
+// are resolved against (the programs' --package-path). It sets the
+// process's environment: call it before loading, not while another thread
+// loads a robot.
+void PrependRosPackagePath(const std::vector<std::string>& dirs);
+
 class RobotModel {
  public:
   // Loads a URDF file. Relative mesh paths resolve against the file's folder;
