@@ -148,6 +148,7 @@ int main(int argc, char** argv) {
 
   auto model = sim::VehicleModel::Create(*robot, *config);
   if (!model.ok()) return Fail(config_path + ": " + model.status().message());
+  const bool pcgc_acts = model->pcgc();
 
   if (udp) {
     sim_app::UdpModeOptions options;
@@ -220,7 +221,7 @@ int main(int argc, char** argv) {
         "3-D tracking error (m): mean %.4f, median %.4f, p95 %.4f, max %.4f\n"
         "out: %s\n",
         result->samples.size(), result->simulated_s, wall, result->simulated_s / std::max(wall, 1e-9),
-        config->pcgc ? "on" : "off", config->payload.attached ? config->payload.mass : 0.0, e.mean, e.median, e.p95,
+        pcgc_acts ? "on" : "off", config->payload.attached ? config->payload.mass : 0.0, e.mean, e.median, e.p95,
         e.max, out_path.c_str());
   }
   return 0;

@@ -53,6 +53,7 @@ core::Result<VehicleModel> VehicleModel::Create(const robot::RobotModel& robot, 
       return Status::InvalidArgument("pcgc.joint: '" + config.pcgc_joint + "' is not a mimic joint");
     }
   }
+  model.has_pcgc_joint_ = pcgc_joint >= 0;
   model.couplings_.resize(robot.num_joints());
   for (int j = 0; j < robot.num_joints(); ++j) {
     const robot::Joint& joint = robot.joint(j);

@@ -54,7 +54,8 @@ class VehicleModel {
   const robot::RobotModel& robot() const { return robot_; }
   const SimConfig& config() const { return config_; }
   int num_actuated() const { return robot_.num_actuated(); }
-  bool pcgc() const { return config_.pcgc; }
+  // PCGC acts: switched on, and the robot has its joint.
+  bool pcgc() const { return config_.pcgc && has_pcgc_joint_; }
   double payload_mass() const { return config_.payload.attached ? config_.payload.mass : 0.0; }
   double gravity() const { return config_.gravity; }
 
@@ -92,6 +93,7 @@ class VehicleModel {
 
   robot::RobotModel robot_;
   SimConfig config_;
+  bool has_pcgc_joint_ = false;
   std::vector<MassProperties> bodies_;
   std::vector<Mat6> spatial_inertias_;
   std::vector<JointCoupling> couplings_;
