@@ -213,6 +213,7 @@ int main(int argc, char** argv) {
           line["failure"] = result->success ? "" : result->message;
           line["solve_ms"] = result->solve_ms;
           line["front_end_ms"] = result->front_end_ms;
+          line["post_check_ms"] = result->post_check_ms;
           line["representation_build_ms"] = model.build_ms + result->per_plan_collision_ms;
           line["iterations"] = result->iterations;
           line["cost_evaluations"] = result->evaluations;

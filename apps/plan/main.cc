@@ -120,6 +120,11 @@ int main(int argc, char** argv) {
                  "comma separated; also the URDF's own ancestors are searched)")
       ->delimiter(',')
       ->check(CLI::ExistingDirectory);
+  int threads = -1;
+  app.add_option("--threads", threads,
+                 "Workers for the post-check's samples (0: one per core; default: the configuration's\n"
+                 "post_check.threads, 0). The result does not depend on it")
+      ->check(CLI::Range(0, 256));
   app.add_flag("-v,--verbose", verbose, "Print solver progress");
   app.add_flag("--keep-failed-plan", keep_failed_plan,
                "Write the plan file even when the plan failed the post-check (for inspection only)");
@@ -133,7 +138,8 @@ int main(int argc, char** argv) {
   robot::PrependRosPackagePath(package_path);
   auto loaded_config = planner::LoadPlannerConfigOrDefaults(config_path);
   if (!loaded_config.ok()) return Fail(loaded_config.status().message());
-  const planner::PlannerConfig& config = *loaded_config;
+  planner::PlannerConfig& config = *loaded_config;
+  if (threads >= 0) config.planner.post_check.threads = threads;
   if (print_config) {
     std::printf("%s", planner::PlannerConfigYaml(config).c_str());
     return 0;

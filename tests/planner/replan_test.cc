@@ -268,6 +268,34 @@ TEST(ReplanTest, FromAStartInsideTheSafetyMarginRecoversAndReachesTheGoal) {
   EXPECT_NE(hurried.FirstFailure().find("clearance: recovery"), std::string::npos) << hurried.FirstFailure();
 }
 
+// The post-check's samples are measured on several workers and reduced in
+// time order: the report is the same to the last bit for any count.
+TEST(ReplanTest, ThePostCheckVerdictDoesNotDependOnItsThreads) {
+  const PlanResult& plan = DefaultPlan();
+  PostCheckOptions options = DefaultPlannerOptions().post_check;
+  auto check = [&](int threads) {
+    options.threads = threads;
+    return PostCheck(*plan.trajectory, WindowCup().robot(), WindowCup().task, plan.terminal, plan.insertion,
+                     *WindowCup().model, *WindowCup().exact, nullptr, options);
+  };
+  const PostCheckReport one = check(1);
+  ASSERT_TRUE(one.passed) << one.FirstFailure();
+  for (int threads : {2, 3, 7}) {
+    const PostCheckReport many = check(threads);
+    EXPECT_EQ(many.min_clearance_exact, one.min_clearance_exact) << threads;
+    EXPECT_EQ(many.min_clearance_model, one.min_clearance_model) << threads;
+    EXPECT_EQ(many.closest_link, one.closest_link) << threads;
+    ASSERT_EQ(many.checks.size(), one.checks.size());
+    for (size_t i = 0; i < one.checks.size(); ++i) {
+      EXPECT_EQ(many.checks[i].value, one.checks[i].value) << one.checks[i].name << ", " << threads;
+      EXPECT_EQ(many.checks[i].time, one.checks[i].time) << one.checks[i].name << ", " << threads;
+      EXPECT_EQ(many.checks[i].passed, one.checks[i].passed) << one.checks[i].name << ", " << threads;
+    }
+  }
+  options.threads = -1;
+  EXPECT_FALSE(options.IsValid(nullptr));
+}
+
 // The recovery rule changes nothing for a start outside the margin.
 TEST(ReplanTest, TheRecoveryRuleKeepsTheVerdictOfAStartOutsideTheMargin) {
   const PlanResult& plan = DefaultPlan();

@@ -47,6 +47,7 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   report["seed"] = info.seed;
   report["solve_ms"] = result.solve_ms;
   report["front_end_ms"] = result.front_end_ms;
+  report["post_check_ms"] = result.post_check_ms;
   report["representation_build_ms"] = info.representation_build_ms + result.per_plan_collision_ms;
   if (info.scene_load_ms >= 0.0) report["scene_load_ms"] = info.scene_load_ms;
   if (info.scene_points >= 0) report["scene_points"] = info.scene_points;

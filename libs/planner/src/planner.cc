@@ -123,8 +123,10 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
       return core::Status::Ok();
     }
     x = solved.x;
+    const auto check_start = std::chrono::steady_clock::now();
     result->post_check = PostCheck(*trajectory, scene.robot, task, result->terminal, result->insertion, collision,
                                    scene.exact, scene.self_collision, options.post_check);
+    result->post_check_ms += MillisecondsSince(check_start);
     result->trajectory = std::move(*trajectory);
     if (auto breakdown = problem->Breakdown(x); breakdown.ok()) result->final_cost = *breakdown;
     record.post_check_failure = result->post_check.FirstFailure();

@@ -89,6 +89,7 @@ void Visit(Config& c, Visitor&& v) {
   v("post_check.angle_tolerance", pc.angle_tolerance);
   v("post_check.rate_tolerance", pc.rate_tolerance);
   v("post_check.insertion_tolerance", pc.insertion_tolerance);
+  v("post_check.threads", pc.threads);
 
   auto& t = p.terminal_state;
   v("terminal_state.restarts", t.restarts);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <thread>
 
 #include "quadhand/robot/kinematics.h"
 
@@ -44,6 +45,10 @@ bool PostCheckOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "post-check dt must be positive";
     return false;
   }
+  if (threads < 0 || threads > 256) {
+    if (why != nullptr) *why = "post-check threads must be in [0, 256] (0: all cores)";
+    return false;
+  }
   return true;
 }
 
@@ -68,46 +73,74 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   const int steps = std::max(1, static_cast<int>(std::ceil(duration / options.dt - 1e-9)));
   const double reach = task.safety_distance + 0.05;
 
+  const bool check_self = self_collision != nullptr && !self_collision->pairs().empty();
+  const double self_reach = task.self_safety_distance + 0.02;
+
+  // What one sample measures. The samples are measured on `threads` workers,
+  // each writing only its own entries; the reduction below visits them in
+  // time order, so the verdict is the same to the last bit for any count.
+  struct Measured {
+    double t = 0.0;
+    WholeBodySample sample;
+    double d_exact = 0.0, d_self = 0.0, d_model = 0.0;
+    int link = -1, pair = -1;
+    Vec3 tool = Vec3::Zero();
+  };
+  std::vector<Measured> measured(steps + 1);
+  // Worker `first` takes every `stride`-th sample: the costly samples (near
+  // the scene, at the end of a grasp) are spread over all workers.
+  auto measure = [&](int first, int stride) {
+    robot::KinematicsState kinematics;
+    for (int step = first; step <= steps; step += stride) {
+      Measured& m = measured[step];
+      m.t = std::min(duration, step * duration / steps);
+      m.sample = trajectory.Sample(m.t);
+      robot::ComputeKinematics(robot, m.sample.BasePose(), m.sample.joints, &kinematics);
+      m.d_exact = env::WholeBodyClearance(kinematics, exact, reach, {}, &m.link);
+      if (check_self) m.d_self = self_collision->MinDistanceLowerBound(kinematics, self_reach, &m.pair);
+      int piece = 0;
+      double local = 0;
+      trajectory.position().LocatePiece(m.t, &piece, &local);
+      m.d_model = env::WholeBodyClearance(kinematics, model, reach, env::QueryContext{piece, local});
+      if (insertion.enabled) m.tool = kinematics.link_poses[insertion.tool_link].translation();
+    }
+  };
+  const int workers = std::clamp(options.threads > 0 ? options.threads
+                                                     : static_cast<int>(std::thread::hardware_concurrency()),
+                                 1, steps + 1);
+  std::vector<std::thread> pool;
+  for (int w = 1; w < workers; ++w) pool.emplace_back(measure, w, workers);
+  measure(0, workers);
+  for (std::thread& worker : pool) worker.join();
+
   Worst clearance_deficit, model_deficit, speed, acceleration, yaw_rate, body_rate, joint_excess;
   std::vector<Worst> joint_rate(n);
   double min_exact = reach, min_model = reach;
   int closest = -1;
-  robot::KinematicsState kinematics;
   std::vector<std::pair<double, double>> tool_track;  // (along line, off line) per sample
   std::vector<double> times;
   std::vector<std::pair<double, double>> exact_track;  // (t, exact clearance) per sample
-  const bool check_self = self_collision != nullptr && !self_collision->pairs().empty();
-  const double self_reach = task.self_safety_distance + 0.02;
   double min_self = self_reach;
   int closest_self = -1;
   Worst self_deficit;
-  for (int step = 0; step <= steps; ++step) {
-    const double t = std::min(duration, step * duration / steps);
-    const WholeBodySample s = trajectory.Sample(t);
-    robot::ComputeKinematics(robot, s.BasePose(), s.joints, &kinematics);
-    int link = -1;
-    const double d_exact = env::WholeBodyClearance(kinematics, exact, reach, {}, &link);
-    if (d_exact < min_exact) {
-      min_exact = d_exact;
-      closest = link;
+  for (const Measured& m : measured) {
+    const double t = m.t;
+    const WholeBodySample& s = m.sample;
+    if (m.d_exact < min_exact) {
+      min_exact = m.d_exact;
+      closest = m.link;
     }
-    clearance_deficit.Update(-d_exact, t);
-    exact_track.emplace_back(t, d_exact);
+    clearance_deficit.Update(-m.d_exact, t);
+    exact_track.emplace_back(t, m.d_exact);
     if (check_self) {
-      int pair = -1;
-      const double d_self = self_collision->MinDistanceLowerBound(kinematics, self_reach, &pair);
-      if (d_self < min_self) {
-        min_self = d_self;
-        closest_self = pair;
+      if (m.d_self < min_self) {
+        min_self = m.d_self;
+        closest_self = m.pair;
       }
-      self_deficit.Update(-d_self, t);
+      self_deficit.Update(-m.d_self, t);
     }
-    int piece = 0;
-    double local = 0;
-    trajectory.position().LocatePiece(t, &piece, &local);
-    const double d_model = env::WholeBodyClearance(kinematics, model, reach, env::QueryContext{piece, local});
-    min_model = std::min(min_model, d_model);
-    model_deficit.Update(-d_model, t);
+    min_model = std::min(min_model, m.d_model);
+    model_deficit.Update(-m.d_model, t);
     speed.Update(s.velocity.norm() / limits.v_max, t);
     acceleration.Update(s.acceleration.norm() / limits.a_max, t);
     yaw_rate.Update(std::abs(s.yaw_rate) / limits.yaw_rate_max, t);
@@ -117,7 +150,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       joint_excess.Update(std::max(s.joints[q] - limits.joint_upper[q], limits.joint_lower[q] - s.joints[q]), t);
     }
     if (insertion.enabled) {
-      const Vec3 offset = kinematics.link_poses[insertion.tool_link].translation() - insertion.tool_position;
+      const Vec3 offset = m.tool - insertion.tool_position;
       const double along = insertion.direction.dot(offset);
       tool_track.emplace_back(along, (offset - along * insertion.direction).norm());
       times.push_back(t);

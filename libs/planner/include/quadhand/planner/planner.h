@@ -105,6 +105,7 @@ struct PlanResult {
   double front_end_ms = 0;
   double per_plan_collision_ms = 0;  // building a per-plan representation (corridors)
   double solve_ms = 0;  // optimisation wall time, all attempts
+  double post_check_ms = 0;  // post-check wall time, all attempts
   int iterations = 0;
   int evaluations = 0;
   int num_pieces = 0;

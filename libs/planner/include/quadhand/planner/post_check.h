@@ -37,6 +37,9 @@ struct PostCheckOptions {
   // distance minus clearance_tolerance. A start outside the margin is checked
   // exactly as without it.
   double recovery_time = 0.0;
+  // Workers measuring the samples (0: one per core). The report does not
+  // depend on it: the samples are reduced in time order.
+  int threads = 0;
 
   bool IsValid(std::string* why) const;
 };
