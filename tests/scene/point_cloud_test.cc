@@ -108,6 +108,42 @@ std::string BinaryPcd(const char* type, const std::vector<Vec3>& points) {
   return text;
 }
 
+// Data that disagrees with the header: PCL would read a word as 0, pad a
+// short row and ignore rows beyond the count, each a silently wrong scene.
+TEST_F(PointCloudTest, RejectsDataThatDisagreesWithTheHeader) {
+  const std::string header2 =
+      "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\nHEIGHT 1\n"
+      "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n";
+  auto expect_error = [](const std::string& path, const std::string& fragment) {
+    auto cloud = LoadPcd(path);
+    ASSERT_FALSE(cloud.ok()) << path;
+    EXPECT_NE(cloud.status().message().find(path), std::string::npos) << cloud.status().message();
+    EXPECT_NE(cloud.status().message().find(fragment), std::string::npos) << cloud.status().message();
+  };
+  WriteText("word.pcd", header2 + "DATA ascii\n1 2 3\nwall here 4\n");
+  expect_error(Path("word.pcd"), "not a number");
+  WriteText("two_columns.pcd", header2 + "DATA ascii\n1 2 3\n4 5\n");
+  expect_error(Path("two_columns.pcd"), "has 2 values");
+  WriteText("more_rows.pcd", header2 + "DATA ascii\n1 2 3\n4 5 6\n7 8 9\n");
+  expect_error(Path("more_rows.pcd"), "holds more");
+  WriteText("fewer_rows.pcd", header2 + "DATA ascii\n1 2 3\n");
+  expect_error(Path("fewer_rows.pcd"), "holds 1");
+  std::string binary = BinaryPcd<float>("F", {Vec3(1, 2, 3), Vec3(4, 5, 6), Vec3(7, 8, 9)});
+  const std::string three = "WIDTH 3", two = "WIDTH 2";
+  binary.replace(binary.find(three), three.size(), two);
+  binary.replace(binary.find("POINTS 3"), 8, "POINTS 2");
+  WriteText("more_binary.pcd", binary);
+  expect_error(Path("more_binary.pcd"), "bytes after the header");
+  // Comments and blank lines between rows, and a final newline after binary
+  // data, are fine.
+  WriteText("comments.pcd", header2 + "DATA ascii\n1 2 3\n\n# a note\n4 5 6\n");
+  auto ok = LoadPcd(Path("comments.pcd"));
+  ASSERT_TRUE(ok.ok()) << ok.status().message();
+  EXPECT_EQ(ok->points.size(), 2u);
+  WriteText("newline.pcd", BinaryPcd<float>("F", {Vec3(1, 2, 3)}) + "\n");
+  EXPECT_TRUE(LoadPcd(Path("newline.pcd")).ok());
+}
+
 // A valid cloud whose coordinates are float64 or integers must be read as
 // those numbers: read as zeros, a wall would vanish and a plan through it
 // would pass its post-check.

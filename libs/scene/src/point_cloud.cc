@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -124,6 +125,69 @@ core::Result<PointCloud> ExtractPoints(const pcl::PCLPointCloud2& cloud, const s
   return out;
 }
 
+// PCL's readers are lenient where a wrong point would be silent: an ascii
+// value that is not a number is read as 0 (a wall would vanish), a short
+// row is padded, and rows beyond the header's count are ignored. So the data
+// is checked against the header first: ascii, every row holds one number
+// per field value and there are exactly width x height rows; binary, the
+// file holds width x height points after the header, no fewer, no more.
+core::Status CheckPcdData(const std::string& path, const pcl::PCLPointCloud2& header, int data_type,
+                          unsigned int data_offset) {
+  const std::uint64_t count = static_cast<std::uint64_t>(header.width) * header.height;
+  std::uint64_t values_per_point = 0, point_bytes = 0;
+  for (const pcl::PCLPointField& field : header.fields) {
+    values_per_point += field.count;
+    point_bytes += static_cast<std::uint64_t>(field.count) * DatatypeSize(field.datatype);
+  }
+  if (data_type == 1) {
+    std::error_code error;
+    const std::uint64_t size = std::filesystem::file_size(path, error);
+    if (error) return core::Status::NotFound(path + ": cannot open point cloud file");
+    // A few trailing bytes (a final newline) are not a point.
+    const std::uint64_t data_bytes = size > data_offset ? size - data_offset : 0;
+    if (data_bytes < count * point_bytes || data_bytes >= (count + 1) * point_bytes) {
+      return core::Status::InvalidArgument(
+          path + ": the PCD header says " + std::to_string(count) + " points (" + std::to_string(count * point_bytes) +
+          " bytes of data) but the file holds " + std::to_string(data_bytes) + " bytes after the header");
+    }
+    return core::Status::Ok();
+  }
+  if (data_type != 0) return core::Status::Ok();  // binary_compressed: PCL checks its sizes
+  std::ifstream in(path);
+  in.seekg(data_offset);
+  std::string line;
+  std::uint64_t rows = 0, line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const size_t first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    std::uint64_t values = 0;
+    const char* cursor = line.c_str() + first;
+    while (*cursor != '\0') {
+      char* end = nullptr;
+      std::strtod(cursor, &end);
+      if (end == cursor) {
+        return core::Status::InvalidArgument(path + ": PCD data row " + std::to_string(rows + 1) +
+                                             " holds something that is not a number: '" + line.substr(0, 60) + "'");
+      }
+      ++values;
+      cursor = end;
+      while (*cursor == ' ' || *cursor == '\t' || *cursor == '\r') ++cursor;
+    }
+    if (values != values_per_point) {
+      return core::Status::InvalidArgument(path + ": PCD data row " + std::to_string(rows + 1) + " has " +
+                                           std::to_string(values) + " values, the header's fields need " +
+                                           std::to_string(values_per_point));
+    }
+    if (++rows > count) break;
+  }
+  if (rows != count) {
+    return core::Status::InvalidArgument(path + ": the PCD header says " + std::to_string(count) + " points but the data " +
+                                         (rows > count ? "holds more" : "holds " + std::to_string(rows)));
+  }
+  return core::Status::Ok();
+}
+
 core::Status CheckRegularFile(const std::string& path) {
   std::error_code error;
   const std::filesystem::file_status status = std::filesystem::status(path, error);
@@ -151,11 +215,12 @@ core::Result<PointCloud> LoadPcd(const std::string& path) {
   // PCL 1.13 accepts a header-less file in readHeader and then crashes in
   // read(), and throws on some headers (negative or huge WIDTH), so the
   // header is validated here before any data is read.
+  int data_type = 0;
+  unsigned int data_offset = 0;
   try {
     Eigen::Vector4f origin;
     Eigen::Quaternionf orientation;
-    int version = 0, data_type = 0;
-    unsigned int data_offset = 0;
+    int version = 0;
     if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_offset) < 0) {
       return core::Status::InvalidArgument(path + ": not a readable PCD file (bad header)");
     }
@@ -166,6 +231,7 @@ core::Result<PointCloud> LoadPcd(const std::string& path) {
   if (static_cast<std::uint64_t>(blob.width) * blob.height == 0) {
     return core::Status::InvalidArgument(path + ": point cloud has no finite points (it is empty)");
   }
+  QUADHAND_RETURN_IF_ERROR(CheckPcdData(path, blob, data_type, data_offset));
   int result = -1;
   try {
     result = reader.read(path, blob);
