@@ -120,6 +120,10 @@ TEST_F(PointCloudTest, RejectsDataThatDisagreesWithTheHeader) {
     EXPECT_NE(cloud.status().message().find(path), std::string::npos) << cloud.status().message();
     EXPECT_NE(cloud.status().message().find(fragment), std::string::npos) << cloud.status().message();
   };
+  WriteText("no_data_line.pcd", header2 + "1 2 3\n4 5 6\n");
+  expect_error(Path("no_data_line.pcd"), "no DATA line");
+  WriteText("lzma.pcd", header2 + "DATA lzma\n1 2 3\n4 5 6\n");
+  expect_error(Path("lzma.pcd"), "unknown PCD encoding");
   WriteText("word.pcd", header2 + "DATA ascii\n1 2 3\nwall here 4\n");
   expect_error(Path("word.pcd"), "not a number");
   WriteText("two_columns.pcd", header2 + "DATA ascii\n1 2 3\n4 5\n");

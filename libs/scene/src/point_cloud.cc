@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/console/print.h>
@@ -133,6 +134,24 @@ core::Result<PointCloud> ExtractPoints(const pcl::PCLPointCloud2& cloud, const s
 // file holds width x height points after the header, no fewer, no more.
 core::Status CheckPcdData(const std::string& path, const pcl::PCLPointCloud2& header, int data_type,
                           unsigned int data_offset) {
+  {
+    // The DATA line ends the header; PCL reads a header without one, or an
+    // unknown encoding, as ascii.
+    std::ifstream in(path);
+    std::string line, encoding;
+    while (std::getline(in, line) && static_cast<std::uint64_t>(in.tellg()) <= data_offset) {
+      if (line.rfind("DATA", 0) == 0) {
+        std::istringstream words(line.substr(4));
+        words >> encoding;
+        break;
+      }
+    }
+    if (encoding.empty()) return core::Status::InvalidArgument(path + ": the PCD header has no DATA line");
+    if (encoding != "ascii" && encoding != "binary" && encoding != "binary_compressed") {
+      return core::Status::InvalidArgument(path + ": unknown PCD encoding 'DATA " + encoding +
+                                           "' (expected ascii, binary or binary_compressed)");
+    }
+  }
   const std::uint64_t count = static_cast<std::uint64_t>(header.width) * header.height;
   std::uint64_t values_per_point = 0, point_bytes = 0;
   for (const pcl::PCLPointField& field : header.fields) {
