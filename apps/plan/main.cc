@@ -147,6 +147,25 @@ int main(int argc, char** argv) {
   for (const CLI::Option* option : {task_option, out_option, report_option}) {
     if (option->count() == 0) return Fail(option->get_name() + " is required");
   }
+  // The outputs are checked before anything is read or printed: each a file
+  // that may be replaced, no two the same, none an input given here (the
+  // task's own inputs are protected once it is read, below).
+  std::vector<std::pair<std::string, std::string>> outputs_given = {{"--out", out_path}, {"--report", report_path}};
+  if (app.count("--html") > 0) outputs_given.emplace_back("--html", html_path);
+  for (size_t i = 0; i < outputs_given.size(); ++i) {
+    const auto& [option, path] = outputs_given[i];
+    if (core::Status s = core::CheckOutputPath(path); !s.ok()) return Fail(option + ": " + s.message());
+    for (size_t j = 0; j < i; ++j) {
+      if (core::SameFile(path, outputs_given[j].second)) {
+        return Fail(option + " and " + outputs_given[j].first + " name the same file: " + path);
+      }
+    }
+    for (const std::string& input : {task_path, config_path}) {
+      if (!input.empty() && core::SameFile(path, input)) {
+        return Fail(option + " " + path + ": is an input of this run; refusing to overwrite it");
+      }
+    }
+  }
   core::SetLogLevel(verbose ? core::LogLevel::kVerbose : core::LogLevel::kInfo);
   if (!(std::isfinite(dt) && dt > 0.0 && dt <= 1.0)) return Fail("--dt must be in (0, 1] seconds");
   if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
@@ -158,6 +177,15 @@ int main(int argc, char** argv) {
   if (!context.ok()) return Fail(context.status().message());
   const planner::Task& task = (*context)->task();
   const robot::RobotModel& robot = (*context)->robot();
+  std::vector<std::string> inputs = {task_path, config_path, task.robot_path, task.srdf_path};
+  for (const scene::ScanSource& scan : task.scans) inputs.push_back(scan.path);
+  for (const auto& [option, path] : outputs_given) {
+    for (const std::string& input : inputs) {
+      if (!input.empty() && core::SameFile(path, input)) {
+        return Fail(option + " " + path + ": is an input of this run (" + task_path + "); refusing to overwrite it");
+      }
+    }
+  }
   if ((*context)->dropped_non_finite_points() > 0) {
     core::LogInfo("%s: dropped %ld non-finite points", task.scene_path.c_str(),
                   (*context)->dropped_non_finite_points());
@@ -173,6 +201,9 @@ int main(int argc, char** argv) {
 
   const double total_ms = Ms(start_time);
   core::AtomicFileSet outputs;
+  for (const std::string& input : inputs) {
+    if (!input.empty()) outputs.Protect(input);
+  }
   planner::PlanReportInfo info{task_path,         solver_name, representation,
                                seed,              representation_ms, total_ms,
                                &config, config_path.empty() ? "defaults" : config_path};

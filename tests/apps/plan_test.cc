@@ -165,6 +165,48 @@ TEST_F(PlanCliTest, KeepsTheRobotsLinksApart) {
                  "self_safety_distance");
 }
 
+// Outputs that would destroy something or alias each other are refused
+// before anything is written: exit 2, one line naming the option and path,
+// every input byte for byte as it was, and no file left in the folder.
+TEST_F(PlanCliTest, RefusesOutputsThatWouldDestroySomething) {
+  const std::string scene = (dir_ / "scene.pcd").string();
+  fs::copy_file(std::string(QUADHAND_SOURCE_DIR) + "/data/scenes/window_cup.pcd", scene);
+  const std::string task = WriteTask({{"scene:", "scene: " + scene}});
+  fs::create_directories(dir_ / "folder");
+  fs::create_symlink(dir_ / "elsewhere.csv", dir_ / "link.csv");
+  auto read = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string task_bytes = read(task), scene_bytes = read(scene);
+  const std::string report = (dir_ / "report.json").string(), out = (dir_ / "plan.csv").string();
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--out " + task + " --report " + report, "is an input of this run"},
+      {"--out " + scene + " --report " + report, "is an input of this run"},
+      {"--out " + report + " --report " + report, "name the same file"},
+      {"--out " + (dir_ / "." / "report.json").string() + " --report " + report, "name the same file"},
+      {"--out " + (dir_ / "folder").string() + " --report " + report, "is a directory"},
+      {"--out '' --report " + report, "empty"},
+      {"--out " + (dir_ / "link.csv").string() + " --report " + report, "symbolic link"},
+      {"--out " + out + " --report " + report + " --html /dev/null", "not a regular file"},
+  };
+  for (const auto& [args, fragment] : cases) {
+    const auto r = RunCommand(kPlan + " " + task + " " + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
+    EXPECT_EQ(CountLines(r.err), 1) << r.err;
+    EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+    EXPECT_EQ(read(task), task_bytes) << args;
+    EXPECT_EQ(read(scene), scene_bytes) << args;
+    EXPECT_FALSE(fs::exists(report)) << args;
+    EXPECT_FALSE(fs::exists(out)) << args;
+    EXPECT_FALSE(fs::exists(dir_ / "elsewhere.csv")) << args;
+  }
+  EXPECT_TRUE(fs::is_empty(dir_ / "folder"));
+  // And a plan still works after all that.
+  const auto planned = RunCommand(kPlan + " " + task + " --out " + out + " --report " + report);
+  EXPECT_EQ(planned.exit_code, 0) << planned.err;
+}
+
 TEST_F(PlanCliTest, RejectsBadOptions) {
   const std::string task = WriteTask({});
   const std::string outputs = " --out " + (dir_ / "p.csv").string() + " --report " + (dir_ / "r.json").string();

@@ -41,6 +41,38 @@ TEST_F(FileUtilTest, UncommittedSetLeavesNothingBehind) {
   EXPECT_TRUE(fs::is_empty(dir_));
 }
 
+// Stage() refuses what a rename would destroy or what aliases another
+// output or an input; the refused set leaves nothing behind, and the input
+// is untouched.
+TEST_F(FileUtilTest, StageRefusesDestructiveAndAliasedOutputs) {
+  const std::string input = (dir_ / "task.yaml").string();
+  ASSERT_TRUE(WriteFileAtomically(input, "keep me").ok());
+  fs::create_directories(dir_ / "folder");
+  fs::create_symlink(dir_ / "target", dir_ / "link");
+  EXPECT_FALSE(CheckOutputPath("").ok());
+  EXPECT_FALSE(CheckOutputPath((dir_ / "folder").string()).ok());
+  EXPECT_FALSE(CheckOutputPath((dir_ / "link").string()).ok());
+  EXPECT_FALSE(CheckOutputPath("/dev/null").ok());
+  EXPECT_TRUE(CheckOutputPath((dir_ / "new.csv").string()).ok());
+  EXPECT_TRUE(CheckOutputPath(input).ok());  // a regular file may be replaced, unless protected
+  EXPECT_TRUE(SameFile(input, (dir_ / "." / "task.yaml").string()));
+  EXPECT_TRUE(SameFile((dir_ / "a.csv").string(), (dir_ / "folder" / ".." / "a.csv").string()));
+  EXPECT_FALSE(SameFile(input, (dir_ / "a.csv").string()));
+  {
+    AtomicFileSet set;
+    set.Protect(input);
+    ASSERT_TRUE(set.Stage((dir_ / "a.csv").string(), "a").ok());
+    const Status aliased = set.Stage((dir_ / "folder" / ".." / "a.csv").string(), "b");
+    EXPECT_FALSE(aliased.ok());
+    EXPECT_NE(aliased.message().find("two outputs"), std::string::npos) << aliased.message();
+    const Status overwrite = set.Stage((dir_ / "." / "task.yaml").string(), "c");
+    EXPECT_FALSE(overwrite.ok());
+    EXPECT_NE(overwrite.message().find("input"), std::string::npos) << overwrite.message();
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "a.csv"));
+  EXPECT_EQ(*ReadFileToString(input), "keep me");
+}
+
 TEST_F(FileUtilTest, WriteIntoMissingDirectoryFailsCleanly) {
   const Status s = WriteFileAtomically((dir_ / "missing" / "x").string(), "x");
   EXPECT_EQ(s.code(), StatusCode::kIoError);

@@ -5,8 +5,10 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <system_error>
 
 namespace quadhand::core {
 namespace {
@@ -48,11 +50,47 @@ Status WriteFileAtomically(const std::string& path, const std::string& contents)
   return set.Commit();
 }
 
+Status CheckOutputPath(const std::string& path) {
+  namespace fs = std::filesystem;
+  if (path.empty()) return Status::InvalidArgument("an output path is empty");
+  std::error_code error;
+  const fs::file_status status = fs::symlink_status(path, error);
+  if (error || !fs::exists(status)) return Status::Ok();
+  if (fs::is_symlink(status)) {
+    return Status::InvalidArgument(path + ": is a symbolic link; give the path of the file itself as the output");
+  }
+  if (fs::is_directory(status)) return Status::InvalidArgument(path + ": is a directory, not an output file");
+  if (!fs::is_regular_file(status)) {
+    return Status::InvalidArgument(path + ": is not a regular file (a device, FIFO or socket); refusing to replace it");
+  }
+  return Status::Ok();
+}
+
+bool SameFile(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  if (fs::exists(a, error) && fs::exists(b, error) && fs::equivalent(a, b, error) && !error) return true;
+  error.clear();
+  const fs::path canonical_a = fs::weakly_canonical(fs::absolute(a, error), error);
+  if (error) return false;
+  const fs::path canonical_b = fs::weakly_canonical(fs::absolute(b, error), error);
+  return !error && canonical_a == canonical_b;
+}
+
 AtomicFileSet::~AtomicFileSet() {
   for (const auto& [temporary, final_path] : staged_) std::remove(temporary.c_str());
 }
 
 Status AtomicFileSet::Stage(const std::string& path, const std::string& contents) {
+  QUADHAND_RETURN_IF_ERROR(CheckOutputPath(path));
+  for (const auto& [temporary, final_path] : staged_) {
+    if (SameFile(path, final_path)) {
+      return Status::InvalidArgument(path + ": given for two outputs (" + final_path + " is the other)");
+    }
+  }
+  for (const std::string& input : protected_) {
+    if (SameFile(path, input)) return Status::InvalidArgument(path + ": is an input of this run; refusing to overwrite it");
+  }
   const std::string temporary = TemporaryNameFor(path);
   QUADHAND_RETURN_IF_ERROR(WriteWholeFile(temporary, contents));
   staged_.emplace_back(temporary, path);
@@ -64,9 +102,10 @@ Status AtomicFileSet::Commit() {
     const auto& [temporary, final_path] = staged_[i];
     if (std::rename(temporary.c_str(), final_path.c_str()) != 0) {
       const std::string reason = std::strerror(errno);
+      const std::string failed = final_path;  // the erase below invalidates the reference
       // Files renamed before the failure stay: they are complete, only the set is not.
       staged_.erase(staged_.begin(), staged_.begin() + static_cast<long>(i));
-      return Status::IoError(final_path + ": cannot rename into place: " + reason);
+      return Status::IoError(failed + ": cannot rename into place: " + reason);
     }
   }
   staged_.clear();

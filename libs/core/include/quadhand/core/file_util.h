@@ -16,9 +16,20 @@ Result<std::string> ReadFileToString(const std::string& path);
 // renamed. On failure nothing is left at `path` or at the temporary name.
 Status WriteFileAtomically(const std::string& path, const std::string& contents);
 
+// Whether `path` may be written as an output: not empty, and not an
+// existing directory, device, FIFO, socket or symbolic link (a rename would
+// replace the link or the device itself). InvalidArgument naming the path.
+Status CheckOutputPath(const std::string& path);
+
+// Whether two paths name the same file (the same existing file, or the same
+// normalised absolute path).
+bool SameFile(const std::string& a, const std::string& b);
+
 // Several outputs that appear together or not at all: Stage() writes each
 // under a temporary name, Commit() renames them all, and the destructor
-// removes whatever was staged but not committed.
+// removes whatever was staged but not committed. Stage() refuses a path that
+// CheckOutputPath() refuses, one staged already (two outputs given the same
+// path) and one that names a protected input.
 class AtomicFileSet {
  public:
   AtomicFileSet() = default;
@@ -26,11 +37,14 @@ class AtomicFileSet {
   AtomicFileSet& operator=(const AtomicFileSet&) = delete;
   ~AtomicFileSet();
 
+  // A file the run reads (task, scene, robot, configuration): never an output.
+  void Protect(const std::string& input) { protected_.push_back(input); }
   Status Stage(const std::string& path, const std::string& contents);
   Status Commit();
 
  private:
   std::vector<std::pair<std::string, std::string>> staged_;  // (temporary, final)
+  std::vector<std::string> protected_;
 };
 
 // Directory of `path` ("." if none), and `relative` resolved against `base_dir`
