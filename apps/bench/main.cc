@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
 
+#include "quadhand/core/yaml_text.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/opt/solver_registry.h"
@@ -45,6 +46,7 @@ struct BenchConfig {
 core::Result<BenchConfig> LoadConfig(const std::string& path) {
   auto text = core::ReadFileToString(path);
   if (!text.ok()) return text.status();
+  QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(*text, path));
   BenchConfig config;
   try {
     const YAML::Node root = YAML::Load(*text);

@@ -73,6 +73,8 @@ TEST_F(PlanCliTest, RejectsBadTasks) {
                  "tool_link: the robot (");
   ExpectBadInput(WriteTask({{"safety_distance:", "tool_link: gripper_tip"}}), "no link named 'gripper_tip'");
   ExpectBadInput(WriteTask({{"safety_distance:", "tool_link: [a, b]"}}), "tool_link: expected a link name");
+  ExpectBadInput(WriteTask({{"safety_distance:", "safety_distance: 0.03\nsafety_distance: 0.3"}}),
+                 "duplicate key 'safety_distance'");
   // Start inside the first wall.
   ExpectBadInput(WriteTask({{"  position: [0.5, 0.2, 1.2]", "  position: [-1.0, 1.0, 1.2]"}}), "in collision");
   {

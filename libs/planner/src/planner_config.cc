@@ -11,6 +11,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/yaml_text.h"
 
 namespace quadhand::planner {
 namespace {
@@ -337,6 +338,7 @@ core::Result<PlannerConfig> LoadPlannerConfigOrDefaults(const std::string& path)
 }
 
 core::Result<PlannerConfig> ParsePlannerConfig(const std::string& text, const std::string& name) {
+  QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(text, name));
   YAML::Node root;
   try {
     root = YAML::Load(text);

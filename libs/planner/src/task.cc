@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/yaml_text.h"
 
 namespace quadhand::planner {
 namespace {
@@ -239,6 +240,7 @@ core::Result<Task> LoadTask(const std::string& path) {
 
 core::Result<Task> ParseTaskText(const std::string& text, const std::string& name, const std::string& base_dir,
                                  const TaskSources& sources) {
+  QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(text, name));
   YAML::Node root;
   try {
     root = YAML::Load(text);

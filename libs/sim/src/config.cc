@@ -7,6 +7,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/yaml_text.h"
 
 namespace quadhand::sim {
 namespace {
@@ -212,6 +213,7 @@ bool SimConfig::IsValid(std::string* why) const {
 core::Result<SimConfig> ParseSimConfig(const std::string& yaml, const std::string& base_dir,
                                        const std::string& source) {
   SimConfig config;
+  QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(yaml, source));
   YAML::Node root;
   try {
     root = YAML::Load(yaml);

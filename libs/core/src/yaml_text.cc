@@ -1,0 +1,47 @@
+#include "quadhand/core/yaml_text.h"
+
+#include <map>
+
+#include <yaml-cpp/yaml.h>
+
+namespace quadhand::core {
+namespace {
+
+constexpr int kMaxDepth = 64;
+
+std::string Line(const YAML::Mark& mark) { return "line " + std::to_string(mark.line + 1); }
+
+Status CheckNode(const YAML::Node& node, const std::string& name, int depth) {
+  if (depth > kMaxDepth) {
+    return Status::InvalidArgument(name + ": " + Line(node.Mark()) + ": nested more than " +
+                                   std::to_string(kMaxDepth) + " levels deep");
+  }
+  if (node.IsMap()) {
+    std::map<std::string, YAML::Mark> seen;
+    for (auto it = node.begin(); it != node.end(); ++it) {
+      if (it->first.IsScalar()) {
+        const auto [where, inserted] = seen.emplace(it->first.Scalar(), it->first.Mark());
+        if (!inserted) {
+          return Status::InvalidArgument(name + ": " + Line(it->first.Mark()) + ": duplicate key '" +
+                                         it->first.Scalar() + "' (first on " + Line(where->second) + ")");
+        }
+      }
+      QUADHAND_RETURN_IF_ERROR(CheckNode(it->second, name, depth + 1));
+    }
+  } else if (node.IsSequence()) {
+    for (const YAML::Node& item : node) QUADHAND_RETURN_IF_ERROR(CheckNode(item, name, depth + 1));
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status CheckYamlText(const std::string& text, const std::string& name) {
+  try {
+    return CheckNode(YAML::Load(text), name, 0);
+  } catch (const YAML::Exception& e) {
+    return Status::InvalidArgument(name + ": not valid YAML: " + Line(e.mark) + ": " + e.msg);
+  }
+}
+
+}  // namespace quadhand::core
