@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
     }
   }
   core::SetLogLevel(verbose ? core::LogLevel::kVerbose : core::LogLevel::kInfo);
-  if (!(std::isfinite(dt) && dt > 0.0 && dt <= 1.0)) return Fail("--dt must be in (0, 1] seconds");
+  if (!(std::isfinite(dt) && dt >= 1e-4 && dt <= 1.0)) return Fail("--dt must be in [0.0001, 1] seconds");
   if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
   auto solver = opt::CreateSolver(solver_name);
   if (!solver.ok()) return Fail("--solver: " + solver.status().message());

@@ -216,6 +216,7 @@ TEST_F(PlanCliTest, RejectsBadOptions) {
            {" --solver nosuch", "unknown solver"},
            {" --representation voxels", "voxels"},
            {" --dt 0", "--dt"},
+           {" --dt 1e-7", "--dt"},
            {" --dt nan", "--dt"}}) {
     const auto r = RunCommand(kPlan + " " + task + outputs + args);
     EXPECT_EQ(r.exit_code, 2) << args;

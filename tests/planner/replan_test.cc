@@ -296,6 +296,21 @@ TEST(ReplanTest, ThePostCheckVerdictDoesNotDependOnItsThreads) {
   EXPECT_FALSE(options.IsValid(nullptr));
 }
 
+// A trajectory that would need more than a million samples is a failed
+// check, never hours of sampling (or an overflowing count).
+TEST(ReplanTest, APostCheckThatWouldNeverEndFailsInstead) {
+  const PlanResult& plan = DefaultPlan();
+  PostCheckOptions options = DefaultPlannerOptions().post_check;
+  options.dt = 1e-9;  // IsValid refuses it; PostCheck must not trust that
+  EXPECT_FALSE(options.IsValid(nullptr));
+  const PostCheckReport report = PostCheck(*plan.trajectory, WindowCup().robot(), WindowCup().task, plan.terminal,
+                                           plan.insertion, *WindowCup().model, *WindowCup().exact, nullptr, options);
+  EXPECT_FALSE(report.passed);
+  ASSERT_EQ(report.checks.size(), 1u);
+  EXPECT_EQ(report.checks[0].kind, CheckKind::kSampling);
+  EXPECT_NE(report.FirstFailure().find("samples"), std::string::npos) << report.FirstFailure();
+}
+
 // The recovery rule changes nothing for a start outside the margin.
 TEST(ReplanTest, TheRecoveryRuleKeepsTheVerdictOfAStartOutsideTheMargin) {
   const PlanResult& plan = DefaultPlan();

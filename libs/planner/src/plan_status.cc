@@ -30,6 +30,7 @@ const char* CheckKindName(CheckKind kind) {
     case CheckKind::kStartState: return "start_state";
     case CheckKind::kEndState: return "end_state";
     case CheckKind::kInsertion: return "insertion";
+    case CheckKind::kSampling: return "sampling";
   }
   return "unknown";
 }

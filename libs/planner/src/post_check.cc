@@ -31,6 +31,11 @@ struct Worst {
 
 double WrapAngle(double a) { return std::remainder(a, 2.0 * M_PI); }
 
+// More samples than this is a trajectory far longer than any plan, or a dt
+// far finer than any check needs: refused (a failed check) rather than run
+// for hours.
+constexpr double kMaxPostCheckSamples = 1e6;
+
 }  // namespace
 
 bool PostCheckOptions::IsValid(std::string* why) const {
@@ -41,8 +46,8 @@ bool PostCheckOptions::IsValid(std::string* why) const {
       return false;
     }
   }
-  if (!(dt > 0.0)) {
-    if (why != nullptr) *why = "post-check dt must be positive";
+  if (!(dt >= 1e-4)) {
+    if (why != nullptr) *why = "post-check dt must be at least 0.0001 s";
     return false;
   }
   if (threads < 0 || threads > 256) {
@@ -70,7 +75,17 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   const int n = robot.num_actuated();
   const std::vector<std::string> joint_names = robot.ActuatedJointNames();
   const double duration = trajectory.duration();
-  const int steps = std::max(1, static_cast<int>(std::ceil(duration / options.dt - 1e-9)));
+  const double wanted_steps = std::ceil(duration / options.dt - 1e-9);
+  if (!(wanted_steps <= kMaxPostCheckSamples)) {  // also a non-finite duration
+    report.checks.push_back({CheckKind::kSampling, -1, CheckKindName(CheckKind::kSampling), false, wanted_steps,
+                             kMaxPostCheckSamples, 0.0,
+                             Format("a %.3g s trajectory needs %.3g samples at dt = %.3g s; at most %.0f are checked",
+                                    duration, wanted_steps, options.dt) +
+                                 Format(" (%.0f)", kMaxPostCheckSamples, 0, 0)});
+    report.passed = false;
+    return report;
+  }
+  const int steps = std::max(1, static_cast<int>(wanted_steps));
   const double reach = task.safety_distance + 0.05;
 
   const bool check_self = self_collision != nullptr && !self_collision->pairs().empty();
@@ -86,13 +101,16 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     int link = -1, pair = -1;
     Vec3 tool = Vec3::Zero();
   };
-  std::vector<Measured> measured(steps + 1);
-  // Worker `first` takes every `stride`-th sample: the costly samples (near
-  // the scene, at the end of a grasp) are spread over all workers.
+  // Blocks of samples bound the memory; within a block, worker `first`
+  // takes every `stride`-th sample, so the costly samples (near the scene,
+  // at the end of a grasp) are spread over all workers.
+  constexpr int kBlock = 4096;
+  std::vector<Measured> measured(std::min(steps + 1, kBlock));
+  int block_begin = 0, block_end = 0;
   auto measure = [&](int first, int stride) {
     robot::KinematicsState kinematics;
-    for (int step = first; step <= steps; step += stride) {
-      Measured& m = measured[step];
+    for (int step = block_begin + first; step < block_end; step += stride) {
+      Measured& m = measured[step - block_begin];
       m.t = std::min(duration, step * duration / steps);
       m.sample = trajectory.Sample(m.t);
       robot::ComputeKinematics(robot, m.sample.BasePose(), m.sample.joints, &kinematics);
@@ -107,11 +125,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   };
   const int workers = std::clamp(options.threads > 0 ? options.threads
                                                      : static_cast<int>(std::thread::hardware_concurrency()),
-                                 1, steps + 1);
-  std::vector<std::thread> pool;
-  for (int w = 1; w < workers; ++w) pool.emplace_back(measure, w, workers);
-  measure(0, workers);
-  for (std::thread& worker : pool) worker.join();
+                                 1, std::min(steps + 1, kBlock));
 
   Worst clearance_deficit, model_deficit, speed, acceleration, yaw_rate, body_rate, joint_excess;
   std::vector<Worst> joint_rate(n);
@@ -123,7 +137,14 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   double min_self = self_reach;
   int closest_self = -1;
   Worst self_deficit;
-  for (const Measured& m : measured) {
+  for (block_begin = 0; block_begin <= steps; block_begin = block_end) {
+    block_end = std::min(steps + 1, block_begin + kBlock);
+    std::vector<std::thread> pool;
+    for (int w = 1; w < workers; ++w) pool.emplace_back(measure, w, workers);
+    measure(0, workers);
+    for (std::thread& worker : pool) worker.join();
+  for (int index = 0; index < block_end - block_begin; ++index) {
+    const Measured& m = measured[index];
     const double t = m.t;
     const WholeBodySample& s = m.sample;
     if (m.d_exact < min_exact) {
@@ -155,6 +176,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       tool_track.emplace_back(along, (offset - along * insertion.direction).norm());
       times.push_back(t);
     }
+  }
   }
   report.min_clearance_exact = min_exact;
   report.min_clearance_model = min_model;

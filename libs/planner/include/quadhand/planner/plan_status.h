@@ -34,6 +34,7 @@ enum class CheckKind {
   kStartState,
   kEndState,
   kInsertion,
+  kSampling,      // the trajectory needs more samples than are ever checked (a failure, never run)
 };
 
 // "clearance", "velocity", ..., "joint_rate".
