@@ -183,5 +183,21 @@ TEST_F(SdfgenTest, PackagePathResolvesPackageUris) {
   EXPECT_TRUE(fs::exists(out + "/base.qhsdf"));
 }
 
+// A link's name becomes a file name: one that would leave --out (or is no
+// file name at all) is refused before any folder or file is made.
+TEST_F(SdfgenTest, LinkNamesThatAreNoFileNamesAreRefused) {
+  for (const std::string name : {"../../evil", "a/b", ".."}) {
+    {
+      std::ofstream urdf(Path("evil.urdf"));
+      urdf << "<robot name=\"r\"><link name=\"" << name
+           << "\"><collision><geometry><box size=\"0.1 0.1 0.1\"/></geometry></collision></link></robot>\n";
+    }
+    const std::string out = Path("deep/out");
+    ExpectBadInput("--urdf " + Path("evil.urdf") + " --out " + out + " --resolution 0.01", "cannot be a file name");
+    EXPECT_FALSE(fs::exists(Path("deep"))) << name;
+    EXPECT_FALSE(fs::exists(dir_.parent_path() / "evil.qhsdf")) << name;
+  }
+}
+
 }  // namespace
 }  // namespace quadhand

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "quadhand/opt/penalty.h"
+#include "quadhand/robot/link_sdfs.h"
 
 namespace quadhand::env {
 
@@ -145,7 +146,9 @@ core::Status LoadLinkSdfGrids(const robot::RobotModel& robot, const std::string&
   std::vector<geometry::SdfGrid> grids;
   for (int link : links) {
     const std::string& name = robot.link(link).name;
-    const std::string path = sdf_dir + "/" + name + ".qhsdf";
+    auto sdf_path = robot::LinkSdfPath(sdf_dir, name);
+    if (!sdf_path.ok()) return sdf_path.status();
+    const std::string& path = *sdf_path;
     auto grid = geometry::SdfGrid::Load(path);
     if (!grid.ok()) {
       if (grid.status().code() == core::StatusCode::kNotFound) {

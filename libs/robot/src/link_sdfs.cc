@@ -36,6 +36,9 @@ core::Result<std::vector<LinkSdfJob>> LinkSdfJobsFromUrdf(const std::string& urd
 }
 
 core::Status CheckLinkSdfJobs(const std::vector<LinkSdfJob>& jobs, const geometry::SdfGenerationOptions& options) {
+  for (const LinkSdfJob& job : jobs) {
+    if (auto path = LinkSdfPath(".", job.link_name); !path.ok()) return path.status().WithPrefix(job.source);
+  }
   if (options.allow_unsigned) return core::Status::Ok();
   for (const LinkSdfJob& job : jobs) {
     for (size_t e = 0; e < job.elements.size(); ++e) {
@@ -50,11 +53,39 @@ core::Status CheckLinkSdfJobs(const std::vector<LinkSdfJob>& jobs, const geometr
   return core::Status::Ok();
 }
 
+core::Result<std::string> LinkSdfPath(const std::string& dir, const std::string& link_name) {
+  bool control = false;
+  for (unsigned char c : link_name) control = control || c < 0x20 || c == 0x7f;
+  if (link_name.empty() || link_name == "." || link_name == ".." || link_name.find('/') != std::string::npos ||
+      control) {
+    return core::Status::InvalidArgument("link '" + link_name +
+                                         "': its name cannot be a file name (empty, '.', '..', a '/' or a control "
+                                         "character); rename the link in the URDF");
+  }
+  return dir + "/" + link_name + kSdfFileExtension;
+}
+
 core::Result<std::vector<WrittenLinkSdf>> WriteLinkSdfs(const std::vector<LinkSdfJob>& jobs, const std::string& out_dir,
                                                      const geometry::SdfGenerationOptions& options,
                                                      const LinkSdfProgress& progress) {
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("invalid option: " + why);
+  std::vector<std::string> paths;
+  for (const LinkSdfJob& job : jobs) {
+    auto path = LinkSdfPath(out_dir, job.link_name);
+    if (!path.ok()) return path.status().WithPrefix(job.source);
+    paths.push_back(*path);
+  }
   std::error_code error;
+  // A folder made here and left empty by a failure is removed again (after
+  // the staged files, which `outputs` removes first).
+  struct RemoveIfEmptyOnFailure {
+    std::string dir;
+    bool committed = false;
+    ~RemoveIfEmptyOnFailure() {
+      std::error_code ignored;
+      if (!dir.empty() && !committed) std::filesystem::remove(dir, ignored);  // only an empty folder goes
+    }
+  } made_here{std::filesystem::exists(out_dir, error) ? std::string() : out_dir};
   std::filesystem::create_directories(out_dir, error);
   if (!std::filesystem::is_directory(out_dir)) {
     return core::Status::IoError(out_dir + ": cannot create output directory" +
@@ -62,18 +93,20 @@ core::Result<std::vector<WrittenLinkSdf>> WriteLinkSdfs(const std::vector<LinkSd
   }
   core::AtomicFileSet outputs;
   std::vector<WrittenLinkSdf> written;
-  for (const LinkSdfJob& job : jobs) {
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    const LinkSdfJob& job = jobs[i];
     geometry::ProgressCallback link_progress;
     if (progress) link_progress = [&](long done, long total) { progress(job.link_name, done, total); };
     auto grid = geometry::GenerateSdf(job.elements, job.link_name, job.source, options, link_progress);
     if (!grid.ok()) return grid.status();
-    const std::string path = out_dir + "/" + job.link_name + kSdfFileExtension;
+    const std::string& path = paths[i];
     QUADHAND_RETURN_IF_ERROR(outputs.Stage(path, grid->Serialize()));
     int triangles = 0;
     for (const geometry::TriangleMesh& element : job.elements) triangles += element.num_triangles();
     written.push_back({path, grid->info(), grid->MemoryBytes(), triangles});
   }
   QUADHAND_RETURN_IF_ERROR(outputs.Commit());
+  made_here.committed = true;
   return written;
 }
 

@@ -16,6 +16,12 @@ namespace quadhand::robot {
 
 inline constexpr const char* kSdfFileExtension = ".qhsdf";
 
+// `<dir>/<link_name>.qhsdf`, or InvalidArgument when the link's name cannot
+// be a file name in that folder (empty, ".", "..", a '/', a control
+// character): a URDF's link named "../../x" must not write or read outside
+// the SDF folder.
+core::Result<std::string> LinkSdfPath(const std::string& dir, const std::string& link_name);
+
 // One grid to make: the link's name (and output file), where its geometry
 // came from (for messages and the file header), and its collision elements
 // in its frame (the grid is their union: geometry::GenerateSdf).
@@ -30,8 +36,9 @@ struct LinkSdfJob {
 core::Result<std::vector<LinkSdfJob>> LinkSdfJobsFromUrdf(const std::string& urdf_path,
                                                           const std::vector<std::string>& only_links);
 
-// Fails, naming the link, its source and the element, if an element does not
-// bound a volume (open, self-intersecting, NaN vertices) and
+// Fails, naming the link, its source and the element, if a link's name
+// cannot be a file name (LinkSdfPath), or if an element does not bound a
+// volume (open, self-intersecting, NaN vertices) and
 // options.allow_unsigned is off. Cheap: run it before generating anything.
 core::Status CheckLinkSdfJobs(const std::vector<LinkSdfJob>& jobs, const geometry::SdfGenerationOptions& options);
 
