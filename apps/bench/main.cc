@@ -5,7 +5,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <random>
@@ -48,23 +50,47 @@ core::Result<BenchConfig> LoadConfig(const std::string& path) {
   if (!text.ok()) return text.status();
   QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(*text, path));
   BenchConfig config;
+  auto fail = [&path](const std::string& what) { return core::Status::InvalidArgument(path + ": " + what); };
   try {
     const YAML::Node root = YAML::Load(*text);
-    config.task_path = core::ResolvePath(core::DirectoryOf(path), root["task"].as<std::string>());
-    for (int i = 0; i < 3; ++i) {
-      config.box_min[i] = root["start_box"]["min"][i].as<double>();
-      config.box_max[i] = root["start_box"]["max"][i].as<double>();
+    if (!root.IsMap()) return fail("expected a mapping with task, start_box and optionally yaw");
+    for (auto it = root.begin(); it != root.end(); ++it) {
+      const std::string key = it->first.as<std::string>();
+      if (key != "task" && key != "start_box" && key != "yaw") {
+        return fail(key + ": unknown key (expected task, start_box, yaw)");
+      }
     }
-    if (root["yaw"]) {
-      config.yaw_min = root["yaw"][0].as<double>();
-      config.yaw_max = root["yaw"][1].as<double>();
+    if (!root["task"] || !root["task"].IsScalar()) return fail("task: expected the task file's path");
+    config.task_path = core::ResolvePath(core::DirectoryOf(path), root["task"].as<std::string>());
+    const YAML::Node box = root["start_box"];
+    if (!box || !box.IsMap()) return fail("start_box: expected {min: [x, y, z], max: [x, y, z]}");
+    for (auto it = box.begin(); it != box.end(); ++it) {
+      const std::string key = it->first.as<std::string>();
+      if (key != "min" && key != "max") return fail("start_box." + key + ": unknown key (expected min, max)");
+    }
+    for (const char* key : {"min", "max"}) {
+      if (!box[key] || !box[key].IsSequence() || box[key].size() != 3) {
+        return fail(std::string("start_box.") + key + ": expected three numbers");
+      }
+    }
+    for (int i = 0; i < 3; ++i) {
+      config.box_min[i] = box["min"][i].as<double>();
+      config.box_max[i] = box["max"][i].as<double>();
+    }
+    if (const YAML::Node yaw = root["yaw"]) {
+      if (!yaw.IsSequence() || yaw.size() != 2) return fail("yaw: expected [min, max] in radians");
+      config.yaw_min = yaw[0].as<double>();
+      config.yaw_max = yaw[1].as<double>();
     }
   } catch (const YAML::Exception& e) {
-    return core::Status::InvalidArgument(path + ": malformed benchmark config: " + e.msg);
+    return fail("malformed benchmark config: " + e.msg);
   }
-  if (!((config.box_min.array() <= config.box_max.array()).all() && config.box_min.allFinite() &&
-        config.box_max.allFinite() && config.yaw_min <= config.yaw_max)) {
-    return core::Status::InvalidArgument(path + ": start_box min must not exceed max");
+  if (!(config.box_min.allFinite() && config.box_max.allFinite() &&
+        (config.box_min.array() <= config.box_max.array()).all())) {
+    return fail("start_box: min and max must be finite, with min <= max");
+  }
+  if (!(std::isfinite(config.yaw_min) && std::isfinite(config.yaw_max) && config.yaw_min <= config.yaw_max)) {
+    return fail("yaw: min and max must be finite, with min <= max");
   }
   return config;
 }
@@ -152,6 +178,19 @@ int main(int argc, char** argv) {
   }
   int shard = 0, shards = 1;
   if (!ParseShard(shard_text, &shard, &shards)) return Fail("--shard '" + shard_text + "': expected K/N with 0 <= K < N");
+  if (static_cast<long long>(first) + trials > std::numeric_limits<int>::max()) {
+    return Fail("--first + --trials must stay below 2^31 (trial indices are seeds)");
+  }
+  // The output is checked before any trial runs, not after the last.
+  if (core::Status s = core::CheckOutputPath(out_path); !s.ok()) return Fail("--out: " + s.message());
+  for (const std::string& input : {config_path, planner_config_path}) {
+    if (!input.empty() && core::SameFile(out_path, input)) {
+      return Fail("--out " + out_path + ": is an input of this run; refusing to overwrite it");
+    }
+  }
+  if (std::error_code error; !std::filesystem::is_directory(core::DirectoryOf(out_path), error)) {
+    return Fail("--out " + out_path + ": its folder does not exist");
+  }
   if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
   std::vector<std::unique_ptr<opt::Solver>> solver_list;
   for (const std::string& name : solver_names) {
@@ -169,10 +208,13 @@ int main(int argc, char** argv) {
   if (!planner_config.ok()) return Fail(planner_config.status().message());
   planner::PlanningContextOptions context_options = planner::ContextOptions(*planner_config, representations);
   context_options.front_end_also_contain = {config->box_min, config->box_max};
-  std::fprintf(stderr, "loading %s and building %zu representation(s)...\n", config->task_path.c_str(),
-               representations.size());
+  if (core::SameFile(out_path, config->task_path)) {
+    return Fail("--out " + out_path + ": is an input of this run; refusing to overwrite it");
+  }
   auto context = planner::PlanningContext::Load(config->task_path, context_options);
   if (!context.ok()) return Fail(context.status().message());
+  std::fprintf(stderr, "loaded %s and built %zu representation(s)\n", config->task_path.c_str(),
+               representations.size());
   const planner::Task* task = &(*context)->task();
   const robot::RobotModel* robot = &(*context)->robot();
   const env::ExactMeshModel* exact = &(*context)->exact();

@@ -109,6 +109,20 @@ TEST_F(BenchCliTest, BadInputExitsWithTwoAndOneLine) {
   ExpectBadInput("--config " + Path("not_yaml.yaml"), "not_yaml.yaml");
   std::ofstream(Path("no_task.yaml")) << "task: nowhere.yaml\nstart_box: {min: [0, 0, 1], max: [1, 1, 1.5]}\n";
   ExpectBadInput("--config " + Path("no_task.yaml"), "nowhere.yaml");
+  std::ofstream(Path("typo.yaml")) << "task: task.yaml\nstart_box: {min: [0, 0, 1], max: [1, 1, 1.5]}\nyaww: [0, 1]\n";
+  ExpectBadInput("--config " + Path("typo.yaml"), "yaww: unknown key");
+  std::ofstream(Path("infinite.yaml")) << "task: task.yaml\nstart_box: {min: [0, 0, 1], max: [1, 1, .inf]}\n";
+  ExpectBadInput("--config " + Path("infinite.yaml"), "finite");
+  std::ofstream(Path("twice.yaml")) << "task: task.yaml\nstart_box: {min: [0, 0, 1], max: [1, 1, 1.5]}\ntask: x.yaml\n";
+  ExpectBadInput("--config " + Path("twice.yaml"), "duplicate key 'task'");
+  // Found before any trial runs (2^31 - 1 - 600 + 1000 overflows an int).
+  ExpectBadInput(" --config " + Config() + " --first 2147483000 --trials 1000", "--first + --trials");
+  for (const std::string& out : {dir_.string(), Config(), Path("missing/records.jsonl")}) {
+    const auto r = RunCommand(kBench + config + " --out " + out);
+    EXPECT_EQ(r.exit_code, 2) << out << "\n" << r.err;
+    EXPECT_EQ(CountLines(r.err), 1) << r.err;
+    EXPECT_EQ(r.err.find("trial"), std::string::npos) << "ran trials first: " << r.err;
+  }
 }
 
 TEST_F(BenchCliTest, TwoShardsGiveTheRecordsOfOneRun) {
