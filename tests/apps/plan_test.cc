@@ -1,6 +1,7 @@
 // Command-line behaviour of quadhand-plan: bad input gives exit code 2, one
 // line naming the file and the problem, and no output file.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -63,6 +64,13 @@ TEST_F(PlanCliTest, HelpListsEveryOption) {
 
 TEST_F(PlanCliTest, RejectsBadTasks) {
   ExpectBadInput((dir_ / "missing.yaml").string(), "missing.yaml");
+  ExpectBadInput("/dev/zero", "/dev/zero: is not a regular file");
+  ExpectBadInput(dir_.string(), "is a directory");
+  {
+    const std::string fifo = (dir_ / "fifo.yaml").string();
+    ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+    ExpectBadInput(fifo, "fifo.yaml: is not a regular file");  // would block forever if opened
+  }
   ExpectBadInput(WriteTask({{"  joints: [0.3, -0.2, 0.0]", "  joints: [0.3, -0.2]"}}), "start.joints: expected 3");
   ExpectBadInput(WriteTask({{"  joints: [0.3, -0.2, 0.0]", "  joints: [2.5, -0.2, 0.0]"}}), "outside its limits");
   ExpectBadInput(WriteTask({{"  yaw: 3.14159265", "  yaw: north"}}), "start.yaw");

@@ -1,6 +1,7 @@
 #include "quadhand/core/file_util.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -71,6 +72,25 @@ TEST_F(FileUtilTest, StageRefusesDestructiveAndAliasedOutputs) {
   }
   EXPECT_FALSE(fs::exists(dir_ / "a.csv"));
   EXPECT_EQ(*ReadFileToString(input), "keep me");
+}
+
+// Only regular files are read, within a size: a FIFO would block, a device
+// like /dev/zero would fill the memory.
+TEST_F(FileUtilTest, ReadsOnlyRegularFilesWithinTheLimit) {
+  const std::string fifo = (dir_ / "fifo").string();
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& path : {fifo, std::string("/dev/zero"), dir_.string()}) {
+    auto read = ReadFileToString(path);
+    ASSERT_FALSE(read.ok()) << path;
+    EXPECT_EQ(read.status().code(), StatusCode::kInvalidArgument) << path;
+    EXPECT_NE(read.status().message().find(path), std::string::npos) << read.status().message();
+  }
+  const std::string big = (dir_ / "big.txt").string();
+  ASSERT_TRUE(WriteFileAtomically(big, std::string(100, 'x')).ok());
+  EXPECT_TRUE(ReadFileToString(big, 100).ok());
+  auto too_big = ReadFileToString(big, 99);
+  ASSERT_FALSE(too_big.ok());
+  EXPECT_NE(too_big.status().message().find("100 bytes"), std::string::npos) << too_big.status().message();
 }
 
 TEST_F(FileUtilTest, WriteIntoMissingDirectoryFailsCleanly) {

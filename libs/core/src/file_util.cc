@@ -32,7 +32,23 @@ Status WriteWholeFile(const std::string& path, const std::string& contents) {
 
 }  // namespace
 
-Result<std::string> ReadFileToString(const std::string& path) {
+Result<std::string> ReadFileToString(const std::string& path, unsigned long long max_bytes) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  const fs::file_status status = fs::status(path, error);
+  if (error || !fs::exists(status)) {
+    return Status(StatusCode::kNotFound, path + ": cannot open: " +
+                                             (error ? error.message() : std::string("no such file or directory")));
+  }
+  if (fs::is_directory(status)) return Status::InvalidArgument(path + ": is a directory, not a file");
+  if (!fs::is_regular_file(status)) {
+    return Status::InvalidArgument(path + ": is not a regular file (a device, FIFO or socket)");
+  }
+  const auto size = fs::file_size(path, error);
+  if (!error && size > max_bytes) {
+    return Status::InvalidArgument(path + ": " + std::to_string(size) + " bytes, more than the " +
+                                   std::to_string(max_bytes) + " this file may have");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     return Status(errno == ENOENT ? StatusCode::kNotFound : StatusCode::kIoError,

@@ -10,6 +10,8 @@
 #include <iterator>
 #include <sstream>
 
+#include "quadhand/core/file_util.h"
+
 namespace quadhand::link {
 namespace {
 
@@ -68,10 +70,11 @@ uint16_t Crc16(const uint8_t* data, size_t length, uint16_t crc) {
 }
 
 core::Result<SigningKey> LoadSigningKey(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return core::Status::NotFound(path + ": cannot open signing key file");
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) return core::Status::IoError(path + ": cannot read signing key file");
+  // A key file is a few dozen bytes; anything that is not a small regular
+  // file is refused before it is opened.
+  auto read = core::ReadFileToString(path, 4096);
+  if (!read.ok()) return read.status().WithPrefix("signing key");
+  const std::string& bytes = *read;
   SigningKey key{};
   // Hex form first: 64 hex digits with any whitespace around or between.
   std::string hex;

@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "quadhand/core/file_util.h"
+#include "quadhand/core/yaml_text.h"
 #include "quadhand/link/frames.h"
 #include "quadhand/traj/flatness.h"
 
@@ -84,11 +86,12 @@ core::Result<StartPose> ParseStartPose(const std::string& text) {
 }
 
 core::Result<StartPose> LoadTaskStartPose(const std::string& task_path) {
+  auto text = core::ReadFileToString(task_path);
+  if (!text.ok()) return text.status();
+  QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(*text, task_path));
   YAML::Node root;
   try {
-    root = YAML::LoadFile(task_path);
-  } catch (const YAML::BadFile&) {
-    return core::Status::NotFound(task_path + ": cannot read the task file");
+    root = YAML::Load(*text);
   } catch (const YAML::Exception& e) {
     return core::Status::InvalidArgument(task_path + ": not valid YAML: " + e.what());
   }

@@ -9,8 +9,15 @@
 
 namespace quadhand::core {
 
-// Reads a whole file into memory.
-Result<std::string> ReadFileToString(const std::string& path);
+// Largest file ReadFileToString reads by default (tasks, configurations,
+// URDF, SRDF, SDF grids): far beyond any real one, far below the memory.
+inline constexpr unsigned long long kMaxReadBytes = 1ull << 30;
+
+// Reads a whole regular file into memory: NotFound if it is missing,
+// InvalidArgument for a directory, device or FIFO (checked before opening,
+// so a FIFO cannot block and /dev/zero cannot fill the memory) or a file
+// larger than `max_bytes`, each naming the path.
+Result<std::string> ReadFileToString(const std::string& path, unsigned long long max_bytes = kMaxReadBytes);
 
 // Writes `contents` to `path` atomically: to "<path>.tmp-<pid>" first, then
 // renamed. On failure nothing is left at `path` or at the temporary name.
