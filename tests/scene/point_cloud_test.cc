@@ -148,6 +148,38 @@ TEST_F(PointCloudTest, RejectsDataThatDisagreesWithTheHeader) {
   EXPECT_TRUE(LoadPcd(Path("newline.pcd")).ok());
 }
 
+// binary_compressed sizes that lie (PCL would allocate what they claim,
+// gigabytes for a tiny file, before failing) are refused from the file.
+TEST_F(PointCloudTest, RejectsCompressedDataWhoseSizesLie) {
+  const std::string path = Path("compressed.pcd");
+  ASSERT_TRUE(WritePcd(path, {Vec3(1, 2, 3), Vec3(4, 5, 6)}, PcdEncoding::kBinaryCompressed).ok());
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_TRUE(LoadPcd(path).ok());
+  const size_t data = bytes.find("DATA binary_compressed\n") + std::string("DATA binary_compressed\n").size();
+  auto expect_error = [&](const std::string& text, const std::string& fragment) {
+    WriteText("lying.pcd", text);
+    auto cloud = LoadPcd(Path("lying.pcd"));
+    ASSERT_FALSE(cloud.ok());
+    EXPECT_NE(cloud.status().message().find(fragment), std::string::npos) << cloud.status().message();
+  };
+  std::string huge_uncompressed = bytes;
+  const std::uint32_t four_gb = 4000000000u;
+  huge_uncompressed.replace(data + 4, 4, reinterpret_cast<const char*>(&four_gb), 4);
+  expect_error(huge_uncompressed, "unpacks to 4000000000");
+  std::string huge_compressed = bytes;
+  huge_compressed.replace(data, 4, reinterpret_cast<const char*>(&four_gb), 4);
+  expect_error(huge_compressed, "compressed bytes");
+  std::string more_points = bytes;
+  const std::string width = "WIDTH 2", points = "POINTS 2";
+  more_points.replace(more_points.find(width), width.size(), "WIDTH 200000000");
+  more_points.replace(more_points.find(points), points.size(), "POINTS 200000000");
+  expect_error(more_points, "unpacks to");
+}
+
 // A valid cloud whose coordinates are float64 or integers must be read as
 // those numbers: read as zeros, a wall would vanish and a plan through it
 // would pass its post-check.

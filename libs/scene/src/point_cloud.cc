@@ -171,7 +171,33 @@ core::Status CheckPcdData(const std::string& path, const pcl::PCLPointCloud2& he
     }
     return core::Status::Ok();
   }
-  if (data_type != 0) return core::Status::Ok();  // binary_compressed: PCL checks its sizes
+  if (data_type == 2) {
+    // binary_compressed: two uint32 sizes, then the LZF data. PCL allocates
+    // what the header and the uncompressed size claim before it notices a
+    // lie (4 GB for a 1 kB file), so both are checked against the file here.
+    std::error_code error;
+    const std::uint64_t size = std::filesystem::file_size(path, error);
+    std::ifstream in(path, std::ios::binary);
+    std::uint32_t sizes[2] = {0, 0};
+    if (error || size < static_cast<std::uint64_t>(data_offset) + 8 || !in.seekg(data_offset) ||
+        !in.read(reinterpret_cast<char*>(sizes), sizeof(sizes))) {
+      return core::Status::InvalidArgument(path + ": PCD binary_compressed data is missing its sizes");
+    }
+    const std::uint64_t compressed = sizes[0], uncompressed = sizes[1];
+    if (compressed > size - data_offset - 8) {
+      return core::Status::InvalidArgument(path + ": PCD binary_compressed data claims " + std::to_string(compressed) +
+                                           " compressed bytes, the file holds " +
+                                           std::to_string(size - data_offset - 8));
+    }
+    if (uncompressed != count * point_bytes) {
+      return core::Status::InvalidArgument(path + ": the PCD header says " + std::to_string(count) + " points (" +
+                                           std::to_string(count * point_bytes) +
+                                           " bytes) but the compressed data unpacks to " +
+                                           std::to_string(uncompressed));
+    }
+    return core::Status::Ok();
+  }
+  if (data_type != 0) return core::Status::Ok();
   std::ifstream in(path);
   in.seekg(data_offset);
   std::string line;
