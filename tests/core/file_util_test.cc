@@ -1,7 +1,9 @@
 #include "quadhand/core/file_util.h"
 
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -91,6 +93,24 @@ TEST_F(FileUtilTest, ReadsOnlyRegularFilesWithinTheLimit) {
   auto too_big = ReadFileToString(big, 99);
   ASSERT_FALSE(too_big.ok());
   EXPECT_NE(too_big.status().message().find("100 bytes"), std::string::npos) << too_big.status().message();
+}
+
+// A program killed between staging and committing leaves no temporary file.
+TEST_F(FileUtilTest, AKilledProgramLeavesNoTemporaryFile) {
+  const std::string path = (dir_ / "report.json").string();
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    AtomicFileSet set;
+    if (!set.Stage(path, "partial").ok()) _exit(3);
+    raise(SIGTERM);
+    _exit(4);  // not reached: SIGTERM's default action ends the process
+  }
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "exit status " << WEXITSTATUS(status);
+  EXPECT_EQ(WTERMSIG(status), SIGTERM);
+  EXPECT_TRUE(fs::is_empty(dir_));
 }
 
 TEST_F(FileUtilTest, WriteIntoMissingDirectoryFailsCleanly) {

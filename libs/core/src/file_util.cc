@@ -1,7 +1,9 @@
 #include "quadhand/core/file_util.h"
 
+#include <signal.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -12,6 +14,56 @@
 
 namespace quadhand::core {
 namespace {
+
+// Staged temporaries, for removal when the process is killed between
+// staging and committing (SIGINT, SIGTERM, SIGHUP). The handler may only
+// call async-signal-safe functions: it unlinks the registered names and
+// re-raises the signal with its default action. It is installed only where
+// the program keeps the default action (programs that stop gracefully on
+// these signals have their own handler and commit or clean up themselves).
+constexpr int kTemporarySlots = 64;
+std::atomic<const char*> g_temporaries[kTemporarySlots];
+
+void RemoveTemporariesAndDie(int signal_number) {
+  for (std::atomic<const char*>& slot : g_temporaries) {
+    if (const char* name = slot.load()) unlink(name);
+  }
+  ::signal(signal_number, SIG_DFL);
+  ::raise(signal_number);
+}
+
+void InstallCleanupOnSignals() {
+  static const bool installed = [] {
+    for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
+      struct sigaction current {};
+      if (sigaction(signal_number, nullptr, &current) != 0 || current.sa_handler != SIG_DFL) continue;
+      struct sigaction action {};
+      action.sa_handler = RemoveTemporariesAndDie;
+      sigemptyset(&action.sa_mask);
+      sigaction(signal_number, &action, nullptr);
+    }
+    return true;
+  }();
+  (void)installed;
+}
+
+// The slot holding `name` (a copy owned by the slot), or -1 when all are in use.
+int RegisterTemporary(const std::string& name) {
+  InstallCleanupOnSignals();
+  char* copy = new char[name.size() + 1];
+  std::memcpy(copy, name.c_str(), name.size() + 1);
+  for (int i = 0; i < kTemporarySlots; ++i) {
+    const char* expected = nullptr;
+    if (g_temporaries[i].compare_exchange_strong(expected, copy)) return i;
+  }
+  delete[] copy;
+  return -1;
+}
+
+void UnregisterTemporary(int slot) {
+  if (slot < 0) return;
+  delete[] g_temporaries[slot].exchange(nullptr);
+}
 
 std::string TemporaryNameFor(const std::string& path) {
   return path + ".tmp-" + std::to_string(static_cast<long>(getpid()));
@@ -95,6 +147,7 @@ bool SameFile(const std::string& a, const std::string& b) {
 
 AtomicFileSet::~AtomicFileSet() {
   for (const auto& [temporary, final_path] : staged_) std::remove(temporary.c_str());
+  for (int slot : slots_) UnregisterTemporary(slot);
 }
 
 Status AtomicFileSet::Stage(const std::string& path, const std::string& contents) {
@@ -108,6 +161,7 @@ Status AtomicFileSet::Stage(const std::string& path, const std::string& contents
     if (SameFile(path, input)) return Status::InvalidArgument(path + ": is an input of this run; refusing to overwrite it");
   }
   const std::string temporary = TemporaryNameFor(path);
+  slots_.push_back(RegisterTemporary(temporary));
   QUADHAND_RETURN_IF_ERROR(WriteWholeFile(temporary, contents));
   staged_.emplace_back(temporary, path);
   return Status::Ok();

@@ -34,9 +34,10 @@ bool SameFile(const std::string& a, const std::string& b);
 
 // Several outputs that appear together or not at all: Stage() writes each
 // under a temporary name, Commit() renames them all, and the destructor
-// removes whatever was staged but not committed. Stage() refuses a path that
-// CheckOutputPath() refuses, one staged already (two outputs given the same
-// path) and one that names a protected input.
+// removes whatever was staged but not committed; so does a SIGINT, SIGTERM
+// or SIGHUP that kills a program which keeps their default action. Stage()
+// refuses a path that CheckOutputPath() refuses, one staged already (two
+// outputs given the same path) and one that names a protected input.
 class AtomicFileSet {
  public:
   AtomicFileSet() = default;
@@ -52,6 +53,7 @@ class AtomicFileSet {
  private:
   std::vector<std::pair<std::string, std::string>> staged_;  // (temporary, final)
   std::vector<std::string> protected_;
+  std::vector<int> slots_;  // the temporaries' entries in the signal cleanup table
 };
 
 // Directory of `path` ("." if none), and `relative` resolved against `base_dir`

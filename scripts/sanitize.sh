@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Builds the whole project and its tests with AddressSanitizer and
+# UndefinedBehaviorSanitizer (gcc, -O1, frame pointers kept) into
+# build-sanitize/, then runs the test suite there: any report fails it.
+# The Python module is left out (an ASan library cannot be loaded into an
+# uninstrumented interpreter). Not part of CI (several times slower than the
+# normal suite); see
+# docs/reliability.md for what it costs and what it found.
+#
+# Usage: bash scripts/sanitize.sh [ctest arguments, e.g. -R PlanCli]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+jobs=$(nproc 2>/dev/null || echo 2)
+flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer -O1 -g"
+cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_C_FLAGS="$flags" \
+  -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
+  -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
+  -DCMAKE_INTERPROCEDURAL_OPTIMIZATION=OFF -DQUADHAND_BUILD_PYTHON=OFF > build-sanitize.configure.log 2>&1 ||
+  { cat build-sanitize.configure.log >&2; exit 1; }
+cmake --build build-sanitize -j "$jobs"
+# Leak reports from third-party singletons (PCL, OctoMap) are not ours to fix
+# here; every other error aborts the test that hit it.
+export ASAN_OPTIONS="detect_leaks=0:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+cd build-sanitize
+ctest --output-on-failure -j "$jobs" --timeout 3000 "$@"
