@@ -186,6 +186,13 @@ int main(int argc, char** argv) {
       }
     }
   }
+  const double representation_ms = (*context)->representations().front().build_ms;
+
+  const planner::PlannerOptions options = planner::RunPlannerOptions(config, dt, seed, verbose);
+  auto result = planner::Plan((*context)->Scene(), task, options, **solver);
+  if (!result.ok()) return Fail(result.status().message());
+  // Printed once the input is known to be good, so that bad input gives its
+  // error line alone.
   if ((*context)->dropped_non_finite_points() > 0) {
     core::LogInfo("%s: dropped %ld non-finite points", task.scene_path.c_str(),
                   (*context)->dropped_non_finite_points());
@@ -193,11 +200,6 @@ int main(int argc, char** argv) {
   core::LogInfo("quadhand-plan: %s, %zu scene points (%zu post-checked) loaded in %.0f ms, robot %s",
                 task_path.c_str(), (*context)->points().size(), (*context)->checked_points().size(),
                 (*context)->scene_load_seconds() * 1e3, robot.name().c_str());
-  const double representation_ms = (*context)->representations().front().build_ms;
-
-  const planner::PlannerOptions options = planner::RunPlannerOptions(config, dt, seed, verbose);
-  auto result = planner::Plan((*context)->Scene(), task, options, **solver);
-  if (!result.ok()) return Fail(result.status().message());
 
   const double total_ms = Ms(start_time);
   core::AtomicFileSet outputs;
