@@ -90,6 +90,19 @@ TEST_F(PlanCliTest, RejectsBadTasks) {
     std::ofstream(path) << "robot: [unclosed\n";
     ExpectBadInput(path, "broken.yaml");
   }
+  {
+    // A robot whose only mesh is one triangle: the message names the URDF.
+    std::ofstream(dir_ / "open.off") << "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    const std::string urdf = (dir_ / "open.urdf").string();
+    std::ofstream(urdf) << "<robot name=\"r\"><link name=\"base\"><collision><geometry><mesh filename=\"open.off\"/>"
+                           "</geometry></collision></link></robot>\n";
+    std::string text = testing::WindowCupTaskText({{"robot:", "robot: " + urdf}, {"  joints:", "  joints: []"},
+                                                   {"  tool:", ""}, {"    position: [-3.2", ""},
+                                                   {"    orientation:", ""}, {"    insertion:", ""}});
+    const std::string path = (dir_ / "open_robot.yaml").string();
+    std::ofstream(path) << text;
+    ExpectBadInput(path, urdf + ": link 'base'");
+  }
 }
 
 // A scan as its sensor wrote it: the default scene in a sensor frame (PLY,

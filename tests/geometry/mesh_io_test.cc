@@ -183,6 +183,14 @@ TEST(CheckMesh, OpenMesh) {
   EXPECT_NE(check.problem.find("not closed"), std::string::npos) << check.problem;
 }
 
+TEST(CheckMesh, ANonFiniteVertexIsCalledSoNotSelfIntersecting) {
+  TriangleMesh box = TessellateBox(Box{});
+  box.vertices[3].y() = std::nan("");
+  const MeshCheck check = CheckMesh(box);
+  EXPECT_FALSE(check.bounds_volume);
+  EXPECT_NE(check.problem.find("vertex 3 is not finite"), std::string::npos) << check.problem;
+}
+
 TEST(CheckMesh, OverlappingBoxesConcatenatedSelfIntersect) {
   const TriangleMesh a = TessellateBox(Box{Pose::Identity(), Vec3::Ones()});
   const TriangleMesh b =

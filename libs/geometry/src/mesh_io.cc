@@ -352,6 +352,12 @@ MeshCheck CheckMesh(const TriangleMesh& mesh) {
   }
   check.problem = IndexProblem(mesh);
   if (!check.problem.empty()) return check;
+  for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+    if (!mesh.vertices[v].allFinite()) {
+      check.problem = "vertex " + std::to_string(v) + " is not finite (NaN or infinity)";
+      return check;
+    }
+  }
 
   InexactMesh surface;
   if (!ToSurfaceMesh(mesh, &surface)) {

@@ -65,7 +65,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
   const bool same_points = context->checked_points_ == context->points_;
   auto index = same_points ? checked_index : nullptr;
   auto exact = env::ExactMeshModel::Create(context->robot_, checked_index);
-  if (!exact.ok()) return exact.status();
+  if (!exact.ok()) return exact.status().WithPrefix(t.robot_path);
   context->exact_ = std::move(*exact);
 
   std::optional<std::vector<std::pair<int, int>>> srdf_disabled;
