@@ -180,6 +180,30 @@ TEST_F(PointCloudTest, RejectsCompressedDataWhoseSizesLie) {
   expect_error(more_points, "unpacks to");
 }
 
+// Ascii PLY rows are checked as PCD rows are (PCL reads a word as a NaN,
+// which would be dropped: a wall would vanish); faces after the vertices
+// are fine.
+TEST_F(PointCloudTest, RejectsAsciiPlyRowsThatDisagreeWithTheHeader) {
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  WriteText("mesh.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  auto mesh = LoadPly(Path("mesh.ply"));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().message();
+  EXPECT_EQ(mesh->points.size(), 3u);
+  auto expect_error = [&](const std::string& name, const std::string& body, const std::string& fragment) {
+    WriteText(name, header + body);
+    auto cloud = LoadPly(Path(name));
+    ASSERT_FALSE(cloud.ok()) << name;
+    EXPECT_NE(cloud.status().message().find(Path(name)), std::string::npos) << cloud.status().message();
+    EXPECT_NE(cloud.status().message().find(fragment), std::string::npos) << cloud.status().message();
+  };
+  expect_error("word.ply", "0 0 0\nwall here 0\n0 1 0\n3 0 1 2\n", "not a number");
+  expect_error("short_row.ply", "0 0 0\n1 0\n0 1 0\n3 0 1 2\n", "has 2 values");
+  expect_error("fewer.ply", "0 0 0\n1 0 0\n", "holds");
+  expect_error("more.ply", "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n5 5 5\n", "more rows");
+}
+
 // A valid cloud whose coordinates are float64 or integers must be read as
 // those numbers: read as zeros, a wall would vanish and a plan through it
 // would pass its post-check.

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/console/print.h>
@@ -233,6 +234,83 @@ core::Status CheckPcdData(const std::string& path, const pcl::PCLPointCloud2& he
   return core::Status::Ok();
 }
 
+// PCL's PLY reader, like its PCD reader, reads a word in an ascii row as a
+// NaN (dropped later: a wall would vanish) and ignores extra rows. For ascii
+// PLY every element's rows are checked here: numbers only, exactly one per
+// scalar property (at least that many with list properties), and exactly
+// the counts the header declares. Binary PLY is left to PCL.
+core::Status CheckPlyAsciiData(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  bool ascii = false;
+  struct Element {
+    std::string name;
+    std::uint64_t count = 0;
+    std::uint64_t scalars = 0;
+    bool has_list = false;
+  };
+  std::vector<Element> elements;
+  while (std::getline(in, line)) {
+    std::istringstream words(line);
+    std::string keyword;
+    words >> keyword;
+    if (keyword == "format") {
+      std::string format;
+      words >> format;
+      ascii = format == "ascii";
+    } else if (keyword == "element") {
+      Element e;
+      words >> e.name >> e.count;
+      elements.push_back(e);
+    } else if (keyword == "property" && !elements.empty()) {
+      std::string type;
+      words >> type;
+      if (type == "list") {
+        elements.back().has_list = true;
+      } else {
+        ++elements.back().scalars;
+      }
+    } else if (keyword == "end_header") {
+      break;
+    }
+  }
+  if (!ascii) return core::Status::Ok();
+  for (const Element& e : elements) {
+    for (std::uint64_t row = 0; row < e.count; ++row) {
+      if (!std::getline(in, line)) {
+        return core::Status::InvalidArgument(path + ": the PLY header says " + std::to_string(e.count) + " " +
+                                             e.name + " rows but the data holds " + std::to_string(row));
+      }
+      std::uint64_t values = 0;
+      const char* cursor = line.c_str();
+      while (*cursor == ' ' || *cursor == '\t' || *cursor == '\r') ++cursor;
+      while (*cursor != '\0') {
+        char* end = nullptr;
+        std::strtod(cursor, &end);
+        if (end == cursor) {
+          return core::Status::InvalidArgument(path + ": PLY " + e.name + " row " + std::to_string(row + 1) +
+                                               " holds something that is not a number: '" + line.substr(0, 60) +
+                                               "'");
+        }
+        ++values;
+        cursor = end;
+        while (*cursor == ' ' || *cursor == '\t' || *cursor == '\r') ++cursor;
+      }
+      if (e.has_list ? values < e.scalars : values != e.scalars) {
+        return core::Status::InvalidArgument(path + ": PLY " + e.name + " row " + std::to_string(row + 1) + " has " +
+                                             std::to_string(values) + " values, the header's properties need " +
+                                             std::to_string(e.scalars));
+      }
+    }
+  }
+  while (std::getline(in, line)) {
+    if (line.find_first_not_of(" \t\r") != std::string::npos) {
+      return core::Status::InvalidArgument(path + ": the PLY data holds more rows than its header declares");
+    }
+  }
+  return core::Status::Ok();
+}
+
 core::Status CheckRegularFile(const std::string& path) {
   std::error_code error;
   const std::filesystem::file_status status = std::filesystem::status(path, error);
@@ -290,6 +368,7 @@ core::Result<PointCloud> LoadPcd(const std::string& path) {
 core::Result<PointCloud> LoadPly(const std::string& path) {
   SilencePcl();
   QUADHAND_RETURN_IF_ERROR(CheckRegularFile(path));
+  QUADHAND_RETURN_IF_ERROR(CheckPlyAsciiData(path));
   pcl::PCLPointCloud2 blob;
   pcl::PLYReader reader;
   int result = -1;
