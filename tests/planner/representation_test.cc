@@ -7,6 +7,7 @@
 
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
+#include "support/window_cup_task.h"
 
 namespace quadhand::planner {
 namespace {
@@ -96,7 +97,8 @@ TEST(RepresentationRegistryTest, ARegisteredRepresentationGetsItsOwnConfiguratio
 
   const robot::RobotModel robot = QuadHand();
   const std::vector<Vec3> points = Floor();
-  const std::string sdf_dir = std::string(QUADHAND_SOURCE_DIR) + "/data/sdf/quadhand";
+  // The test's own coarse SDFs: data/sdf is made by the quick start, not by a clean checkout.
+  const std::string sdf_dir = testing::CoarseSdfDir();
   auto built = MakeRepresentation("plugin_floor", robot, sdf_dir, points, config->representations);
   ASSERT_TRUE(built.ok()) << built.status().message();
   EXPECT_EQ(seen, "{radius: 0.2, levels: [1, 2]}");

@@ -89,11 +89,17 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
     const auto load_start = std::chrono::steady_clock::now();
     std::vector<int> links;
     std::vector<geometry::SdfGrid> grids;
-    QUADHAND_RETURN_IF_ERROR(env::LoadLinkSdfGrids(context->robot_, t.sdf_dir, &links, &grids));
-    sdf_grids = std::make_shared<const std::vector<geometry::SdfGrid>>(std::move(grids));
-    sdf_load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start).count();
-    if (!context->self_collision_->pairs().empty()) {
-      QUADHAND_RETURN_IF_ERROR(context->self_collision_->AttachSdfGrids(sdf_grids));
+    const core::Status loaded = env::LoadLinkSdfGrids(context->robot_, t.sdf_dir, &links, &grids);
+    // MRC-SDF cannot plan without them; the other representations can, and
+    // then the optimiser has no self-collision term (the post-check still
+    // keeps the pairs apart, with the exact meshes).
+    if (!loaded.ok() && mrc_sdf) return loaded;
+    if (loaded.ok()) {
+      sdf_grids = std::make_shared<const std::vector<geometry::SdfGrid>>(std::move(grids));
+      sdf_load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start).count();
+      if (!context->self_collision_->pairs().empty()) {
+        QUADHAND_RETURN_IF_ERROR(context->self_collision_->AttachSdfGrids(sdf_grids));
+      }
     }
   }
 
