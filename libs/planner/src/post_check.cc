@@ -79,9 +79,9 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   if (!(wanted_steps <= kMaxPostCheckSamples)) {  // also a non-finite duration
     report.checks.push_back({CheckKind::kSampling, -1, CheckKindName(CheckKind::kSampling), false, wanted_steps,
                              kMaxPostCheckSamples, 0.0,
-                             Format("a %.3g s trajectory needs %.3g samples at dt = %.3g s; at most %.0f are checked",
-                                    duration, wanted_steps, options.dt) +
-                                 Format(" (%.0f)", kMaxPostCheckSamples, 0, 0)});
+                             Format("a %.3g s trajectory needs %.3g samples at dt = %.3g s", duration, wanted_steps,
+                                    options.dt) +
+                                 Format("; at most %.0f are checked", kMaxPostCheckSamples, 0, 0)});
     report.passed = false;
     return report;
   }
