@@ -6,6 +6,27 @@
 
 namespace quadhand::planner {
 
+// Adds an integrated whole-body penalty at sample `s`: `penalty` returns
+// the value and, given a (zeroed) state gradient, adds its gradient there;
+// the value goes into the sums and lambda x gradient into *gradient.
+template <typename Penalty>
+void AddWholeBodyPenalty(int num_joints, double weight, const SampleState& s, SampleSums* sums,
+                         SampleGradient* gradient, Penalty&& penalty) {
+  env::StateGradient* state_gradient = nullptr;
+  if (gradient != nullptr) {
+    gradient->scratch.SetZero(num_joints);
+    state_gradient = &gradient->scratch;
+  }
+  const double c = penalty(state_gradient);
+  sums->breakdown += s.weight * c;
+  sums->sample += weight * c;
+  if (gradient != nullptr && c > 0.0) {
+    gradient->position += weight * state_gradient->position;
+    gradient->rotation += weight * state_gradient->rotation;
+    gradient->aux_value.tail(num_joints) += weight * state_gradient->joints;
+  }
+}
+
 CostTermDescriptor VelocityTerm();      // rate_limit_terms.cc
 CostTermDescriptor AccelerationTerm();  // rate_limit_terms.cc
 CostTermDescriptor YawRateTerm();       // rate_limit_terms.cc

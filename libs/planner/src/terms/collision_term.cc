@@ -15,21 +15,10 @@ class CollisionPenalty final : public CostTerm {
   bool NeedsKinematics() const override { return true; }
 
   void AddSample(const SampleState& s, SampleSums* sums, SampleGradient* gradient) const override {
-    const int n = robot_.num_actuated();
-    env::StateGradient* link_gradient = nullptr;
-    if (gradient != nullptr) {
-      gradient->scratch.SetZero(n);
-      link_gradient = &gradient->scratch;
-    }
-    const double c = env::WholeBodyPenalty(robot_, *s.kinematics, collision_, s.insertion_piece ? insertion_ : transit_,
-                                           env::QueryContext{s.piece, s.t}, link_gradient);
-    sums->breakdown += s.weight * c;
-    sums->sample += weight_ * c;
-    if (gradient != nullptr && c > 0.0) {
-      gradient->position += weight_ * link_gradient->position;
-      gradient->rotation += weight_ * link_gradient->rotation;
-      gradient->aux_value.tail(n) += weight_ * link_gradient->joints;
-    }
+    AddWholeBodyPenalty(robot_.num_actuated(), weight_, s, sums, gradient, [&](env::StateGradient* state_gradient) {
+      return env::WholeBodyPenalty(robot_, *s.kinematics, collision_, s.insertion_piece ? insertion_ : transit_,
+                                   env::QueryContext{s.piece, s.t}, state_gradient);
+    });
   }
 
  private:

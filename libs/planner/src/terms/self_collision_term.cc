@@ -15,20 +15,9 @@ class SelfCollisionPenalty final : public CostTerm {
   bool NeedsKinematics() const override { return true; }
 
   void AddSample(const SampleState& s, SampleSums* sums, SampleGradient* gradient) const override {
-    const int n = robot_.num_actuated();
-    env::StateGradient* link_gradient = nullptr;
-    if (gradient != nullptr) {
-      gradient->scratch.SetZero(n);
-      link_gradient = &gradient->scratch;
-    }
-    const double c = model_.Penalty(robot_, *s.kinematics, parameters_, link_gradient);
-    sums->breakdown += s.weight * c;
-    sums->sample += weight_ * c;
-    if (gradient != nullptr && c > 0.0) {
-      gradient->position += weight_ * link_gradient->position;
-      gradient->rotation += weight_ * link_gradient->rotation;
-      gradient->aux_value.tail(n) += weight_ * link_gradient->joints;
-    }
+    AddWholeBodyPenalty(robot_.num_actuated(), weight_, s, sums, gradient, [&](env::StateGradient* state_gradient) {
+      return model_.Penalty(robot_, *s.kinematics, parameters_, state_gradient);
+    });
   }
 
  private:
