@@ -264,6 +264,9 @@ int main(int argc, char** argv) {
           line["attempts"] = result->attempts.size();
           line["min_clearance_m"] = result->post_check.min_clearance_model;
           line["min_clearance_exact_m"] = result->post_check.min_clearance_exact;
+          line["certified"] = result->post_check.certified;
+          line["certified_clearance_m"] = result->post_check.certified_clearance;
+          line["certificate_samples"] = result->post_check.certificate_samples;
           line["duration_s"] = result->trajectory ? result->trajectory->duration() : 0.0;
           tally.front_ms.push_back(result->front_end_ms);
           if (result->success) {

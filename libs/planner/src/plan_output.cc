@@ -77,6 +77,10 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   report["min_clearance_m"] = result.post_check.min_clearance_model;
   report["min_clearance_exact_m"] = result.post_check.min_clearance_exact;
   report["closest_link"] = result.post_check.closest_link >= 0 ? robot.link(result.post_check.closest_link).name : "";
+  report["certified"] = result.post_check.certified;
+  report["certified_clearance_m"] = result.post_check.certified_clearance;
+  report["certified_margin_m"] = result.post_check.certified_margin;
+  report["certificate_samples"] = result.post_check.certificate_samples;
   if (info.self_collision != nullptr) {
     nlohmann::json checked = nlohmann::json::array(), excluded = nlohmann::json::array();
     for (const env::LinkPair& p : info.self_collision->pairs()) {
@@ -90,6 +94,7 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
     report["self_collision_excluded"] = excluded;
     report["self_safety_distance_m"] = info.self_collision->options().safety_distance;
     report["min_self_distance_m"] = result.post_check.min_self_distance;
+    report["certified_self_distance_m"] = result.post_check.certified_self_distance;
   }
   nlohmann::json violations = nlohmann::json::object();
   for (const auto& [name, ratio] : result.post_check.violations) violations[name] = ratio;

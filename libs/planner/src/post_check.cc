@@ -6,14 +6,16 @@
 #include <limits>
 #include <thread>
 
+#include "quadhand/planner/motion_bound.h"
 #include "quadhand/robot/kinematics.h"
 
 namespace quadhand::planner {
 namespace {
 
-std::string Format(const char* format, double a, double b, double t) {
-  char buffer[160];
-  std::snprintf(buffer, sizeof(buffer), format, a, b, t);
+template <typename... Numbers>
+std::string Format(const char* format, Numbers... numbers) {
+  char buffer[256];
+  std::snprintf(buffer, sizeof(buffer), format, numbers...);
   return buffer;
 }
 
@@ -81,7 +83,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
                              kMaxPostCheckSamples, 0.0,
                              Format("a %.3g s trajectory needs %.3g samples at dt = %.3g s", duration, wanted_steps,
                                     options.dt) +
-                                 Format("; at most %.0f are checked", kMaxPostCheckSamples, 0, 0)});
+                                 Format("; at most %.0f are checked", kMaxPostCheckSamples)});
     report.passed = false;
     return report;
   }
@@ -90,6 +92,9 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
 
   const bool check_self = self_collision != nullptr && !self_collision->pairs().empty();
   const double self_reach = task.self_safety_distance + 0.02;
+  const double clearance_bound = task.safety_distance - options.clearance_tolerance;
+  const double self_bound = task.self_safety_distance - options.clearance_tolerance;
+  const RobotMotionBound motion(robot, exact);
 
   // What one sample measures. The samples are measured on `threads` workers,
   // each writing only its own entries; the reduction below visits them in
@@ -101,64 +106,235 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     int link = -1, pair = -1;
     Vec3 tool = Vec3::Zero();
   };
+  auto measure_at = [&](double t, bool with_model, robot::KinematicsState* kinematics, Measured* m) {
+    m->t = t;
+    m->sample = trajectory.Sample(t);
+    robot::ComputeKinematics(robot, m->sample.BasePose(), m->sample.joints, kinematics);
+    m->d_exact = env::WholeBodyClearance(*kinematics, exact, reach, {}, &m->link);
+    m->d_self = self_reach;
+    if (check_self) m->d_self = self_collision->MinDistanceLowerBound(*kinematics, self_reach, &m->pair);
+    if (with_model) {
+      int piece = 0;
+      double local = 0;
+      trajectory.position().LocatePiece(t, &piece, &local);
+      m->d_model = env::WholeBodyClearance(*kinematics, model, reach, env::QueryContext{piece, local});
+      if (insertion.enabled) m->tool = kinematics->link_poses[insertion.tool_link].translation();
+    }
+  };
+  // Whether the clearance between two samples is judged by the recovery
+  // stretch's bound (PostCheckOptions::recovery_time); decided by sample 0.
+  bool recovery = false;
+  double stretch_bound = clearance_bound;
+  auto bound_between = [&](double t1) {
+    return recovery && t1 < options.recovery_time && t1 < duration ? stretch_bound : clearance_bound;
+  };
+
+  // The certificate of one interval between samples (docs/certificate.md):
+  // from the clearances at its ends and a bound S of how fast any point of
+  // the robot moves within it, no instant has less than
+  //   min(d0, d1, (d0 + d1 - S h) / 2);
+  // where that is not enough the interval is halved at a new sample, up to
+  // kMaxHalvings times. A sample already below its bound fails the check:
+  // nothing is refined there.
+  struct Certified {
+    double lower = 1e300, lower_time = 0.0, bound = 0.0;  // least slack interval
+    double self_lower = 1e300, self_time = 0.0;
+    bool undefined = false;  // the attitude is undefined somewhere (free fall, inverted)
+    double undefined_time = 0.0;
+    int added = 0;
+    // The added sample with the least exact clearance (link), and the one
+    // with the least self-distance (pair).
+    double closest = 1e300, closest_time = 0.0, closest_self = 1e300, closest_self_time = 0.0;
+    int closest_link = -1, closest_pair = -1;
+  };
+  constexpr int kMaxHalvings = 8;
+  auto certify = [&](const Measured& first, const Measured& last, robot::KinematicsState* kinematics, Certified* c) {
+    struct Piece {
+      double t0, d0, s0, t1, d1, s1;
+      int depth;
+    };
+    *c = Certified{};
+    std::vector<Piece> stack{{first.t, first.d_exact, first.d_self, last.t, last.d_exact, last.d_self, 0}};
+    Measured mid;
+    while (!stack.empty()) {
+      const Piece p = stack.back();
+      stack.pop_back();
+      const double h = p.t1 - p.t0;
+      const double bound = bound_between(p.t1);
+      const PointSpeedBound speed = motion.Over(trajectory, p.t0, p.t1);
+      auto lower_of = [h](double d0, double d1, double s, double t0, double* at) {
+        const double lower = std::min({d0, d1, 0.5 * (d0 + d1 - s * h)});
+        *at = t0 + (s > 0.0 ? std::clamp((d0 - d1 + s * h) / (2.0 * s), 0.0, h) : 0.0);
+        return lower;
+      };
+      double at = p.t0, self_at = p.t0;
+      const bool finite = std::isfinite(speed.world) && std::isfinite(speed.relative);
+      const double lower = finite ? lower_of(p.d0, p.d1, speed.world, p.t0, &at) : std::min(p.d0, p.d1);
+      const double self_lower =
+          !check_self ? 1e300 : finite ? lower_of(p.s0, p.s1, speed.relative, p.t0, &self_at) : std::min(p.s0, p.s1);
+      const bool holds = finite && lower >= bound && self_lower >= self_bound;
+      const bool sampled_fails = std::min(p.d0, p.d1) < bound || (check_self && std::min(p.s0, p.s1) < self_bound);
+      if (holds || sampled_fails || !finite || p.depth >= kMaxHalvings) {
+        if (!finite && !c->undefined) {
+          c->undefined = true;
+          c->undefined_time = p.t0;
+        }
+        if (lower - bound < c->lower - c->bound) {
+          c->lower = lower;
+          c->lower_time = at;
+          c->bound = bound;
+        }
+        if (self_lower < c->self_lower) {
+          c->self_lower = self_lower;
+          c->self_time = self_at;
+        }
+        continue;
+      }
+      measure_at(0.5 * (p.t0 + p.t1), false, kinematics, &mid);
+      ++c->added;
+      if (mid.d_exact < c->closest) {
+        c->closest = mid.d_exact;
+        c->closest_time = mid.t;
+        c->closest_link = mid.link;
+      }
+      if (mid.d_self < c->closest_self) {
+        c->closest_self = mid.d_self;
+        c->closest_self_time = mid.t;
+        c->closest_pair = mid.pair;
+      }
+      // Later half first on the stack: the earlier half is refined first.
+      stack.push_back({mid.t, mid.d_exact, mid.d_self, p.t1, p.d1, p.s1, p.depth + 1});
+      stack.push_back({p.t0, p.d0, p.s0, mid.t, mid.d_exact, mid.d_self, p.depth + 1});
+    }
+  };
+
   // Blocks of samples bound the memory; within a block, worker `first`
-  // takes every `stride`-th sample, so the costly samples (near the scene,
-  // at the end of a grasp) are spread over all workers.
+  // takes every `stride`-th sample (then every stride-th interval), so the
+  // costly ones (near the scene, at the end of a grasp) are spread over all
+  // workers.
   constexpr int kBlock = 4096;
   std::vector<Measured> measured(std::min(steps + 1, kBlock));
+  std::vector<Certified> certified(measured.size());
+  Measured previous;  // the sample before the block
   int block_begin = 0, block_end = 0;
   auto measure = [&](int first, int stride) {
     robot::KinematicsState kinematics;
     for (int step = block_begin + first; step < block_end; step += stride) {
-      Measured& m = measured[step - block_begin];
-      m.t = std::min(duration, step * duration / steps);
-      m.sample = trajectory.Sample(m.t);
-      robot::ComputeKinematics(robot, m.sample.BasePose(), m.sample.joints, &kinematics);
-      m.d_exact = env::WholeBodyClearance(kinematics, exact, reach, {}, &m.link);
-      if (check_self) m.d_self = self_collision->MinDistanceLowerBound(kinematics, self_reach, &m.pair);
-      int piece = 0;
-      double local = 0;
-      trajectory.position().LocatePiece(m.t, &piece, &local);
-      m.d_model = env::WholeBodyClearance(kinematics, model, reach, env::QueryContext{piece, local});
-      if (insertion.enabled) m.tool = kinematics.link_poses[insertion.tool_link].translation();
+      measure_at(std::min(duration, step * duration / steps), true, &kinematics, &measured[step - block_begin]);
+    }
+  };
+  auto certify_block = [&](int first, int stride) {
+    robot::KinematicsState kinematics;
+    for (int step = std::max(1, block_begin) + first; step < block_end; step += stride) {
+      const int index = step - block_begin;
+      certify(index == 0 ? previous : measured[index - 1], measured[index], &kinematics, &certified[index]);
     }
   };
   const int workers = std::clamp(options.threads > 0 ? options.threads
                                                      : static_cast<int>(std::thread::hardware_concurrency()),
                                  1, std::min(steps + 1, kBlock));
+  auto run_on_workers = [&](auto&& work) {
+    std::vector<std::thread> pool;
+    for (int w = 1; w < workers; ++w) pool.emplace_back(work, w, workers);
+    work(0, workers);
+    for (std::thread& worker : pool) worker.join();
+  };
 
-  Worst clearance_deficit, model_deficit, speed, acceleration, yaw_rate, body_rate, joint_excess;
+  Worst model_deficit, speed, acceleration, yaw_rate, body_rate, joint_excess;
   std::vector<Worst> joint_rate(n);
   double min_exact = reach, min_model = reach;
+  double min_exact_time = 0.0;
   int closest = -1;
   std::vector<std::pair<double, double>> tool_track;  // (along line, off line) per sample
   std::vector<double> times;
-  std::vector<std::pair<double, double>> exact_track;  // (t, exact clearance) per sample
-  double min_self = self_reach;
+  double min_self = self_reach, min_self_time = 0.0;
   int closest_self = -1;
-  Worst self_deficit;
+  // The certificate: the least slack over the intervals, and where.
+  double certified_slack = 1e300, certified_lower = 0.0, certified_time = 0.0, certified_against = clearance_bound;
+  double certified_self = self_reach, certified_self_time = 0.0;
+  bool undefined_motion = false;
+  double undefined_time = 0.0;
+  int added = 0;
+  auto take_exact = [&](double d, double t, int link) {
+    if (d < min_exact) {
+      min_exact = d;
+      min_exact_time = t;
+      closest = link;
+    }
+  };
+  auto take_self = [&](double d, double t, int pair) {
+    if (check_self && d < min_self) {
+      min_self = d;
+      min_self_time = t;
+      closest_self = pair;
+    }
+  };
   for (block_begin = 0; block_begin <= steps; block_begin = block_end) {
     block_end = std::min(steps + 1, block_begin + kBlock);
-    std::vector<std::thread> pool;
-    for (int w = 1; w < workers; ++w) pool.emplace_back(measure, w, workers);
-    measure(0, workers);
-    for (std::thread& worker : pool) worker.join();
+    run_on_workers(measure);
+    if (block_begin == 0) {
+      report.start_clearance_exact = measured[0].d_exact;
+      recovery = options.recovery_time > 0.0 && report.start_clearance_exact < clearance_bound;
+      if (recovery) {
+        // A start moving towards the obstacle cannot stop at once: the
+        // stretch also allows the distance braking at the acceleration limit
+        // takes, v^2 / (2 a_max), v the rate at which the start's own motion
+        // closes its clearance (over the first millisecond the plan cannot
+        // change that motion: it starts with the measured velocity).
+        robot::KinematicsState kinematics;
+        Measured soon;
+        const double epsilon = std::min(1e-3, duration);
+        if (epsilon > 0.0) measure_at(epsilon, false, &kinematics, &soon);
+        const double closing = epsilon > 0.0 ? std::max(0.0, (report.start_clearance_exact - soon.d_exact) / epsilon) : 0.0;
+        report.recovery_braking_allowance = closing * closing / (2.0 * limits.a_max);
+      }
+      stretch_bound = report.start_clearance_exact - options.clearance_tolerance - report.recovery_braking_allowance;
+    }
+    // More added samples than the regular ones over the whole trajectory
+    // means a plan grazing the scene nearly everywhere: the rest is not
+    // refined (it fails unless the unrefined bound holds) rather than
+    // multiplying the work.
+    if (added <= 4 * (steps + 1)) run_on_workers(certify_block);
+    else {
+      for (int step = std::max(1, block_begin); step < block_end; ++step) {
+        const int index = step - block_begin;
+        const Measured& a = index == 0 ? previous : measured[index - 1];
+        const Measured& b = measured[index];
+        certified[index] = Certified{};
+        certified[index].lower = std::min(a.d_exact, b.d_exact) - 1e3;  // not certified
+        certified[index].lower_time = a.t;
+        certified[index].bound = bound_between(b.t);
+        certified[index].self_lower = std::min(a.d_self, b.d_self);
+        certified[index].self_time = a.t;
+      }
+    }
   for (int index = 0; index < block_end - block_begin; ++index) {
     const Measured& m = measured[index];
     const double t = m.t;
     const WholeBodySample& s = m.sample;
-    if (m.d_exact < min_exact) {
-      min_exact = m.d_exact;
-      closest = m.link;
-    }
-    clearance_deficit.Update(-m.d_exact, t);
-    exact_track.emplace_back(t, m.d_exact);
-    if (check_self) {
-      if (m.d_self < min_self) {
-        min_self = m.d_self;
-        closest_self = m.pair;
+    take_exact(m.d_exact, t, m.link);
+    take_self(m.d_self, t, m.pair);
+    if (block_begin + index > 0) {
+      const Certified& c = certified[index];
+      if (c.added > 0) {
+        take_exact(c.closest, c.closest_time, c.closest_link);
+        take_self(c.closest_self, c.closest_self_time, c.closest_pair);
       }
-      self_deficit.Update(-m.d_self, t);
+      added += c.added;
+      if (c.lower - c.bound < certified_slack) {
+        certified_slack = c.lower - c.bound;
+        certified_lower = c.lower;
+        certified_time = c.lower_time;
+        certified_against = c.bound;
+      }
+      if (c.self_lower < certified_self) {
+        certified_self = c.self_lower;
+        certified_self_time = c.self_time;
+      }
+      if (c.undefined && !undefined_motion) {
+        undefined_motion = true;
+        undefined_time = c.undefined_time;
+      }
     }
     min_model = std::min(min_model, m.d_model);
     model_deficit.Update(-m.d_model, t);
@@ -177,47 +353,56 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       times.push_back(t);
     }
   }
+    previous = measured[block_end - block_begin - 1];
+  }
+  if (steps + 1 == 1) {  // one sample: nothing between samples to certify
+    certified_slack = min_exact - clearance_bound;
+    certified_lower = min_exact;
+    certified_self = min_self;
   }
   report.min_clearance_exact = min_exact;
   report.min_clearance_model = min_model;
   report.closest_link = closest;
+  report.recovery = recovery;
+  report.certificate_samples = added;
+  report.certified_clearance = certified_lower;
+  report.certified_self_distance = check_self ? certified_self : self_reach;
 
   auto add = [&report](CheckKind kind, int joint, std::string name, bool passed, double value, double bound,
                         double time, std::string detail) {
     report.checks.push_back({kind, joint, std::move(name), passed, value, bound, time, std::move(detail)});
   };
-  const double clearance_bound = task.safety_distance - options.clearance_tolerance;
-  report.start_clearance_exact = exact_track.front().second;
-  report.recovery = options.recovery_time > 0.0 && report.start_clearance_exact < clearance_bound;
-  if (!report.recovery) {
-    add(CheckKind::kClearance, -1, "clearance", min_exact >= clearance_bound, min_exact, task.safety_distance, clearance_deficit.time,
-        Format("exact clearance %.4f m (safety distance %.4f m) at t = %.2f s", min_exact, task.safety_distance,
-               clearance_deficit.time) +
-            (closest >= 0 ? ", link " + robot.link(closest).name : ""));
+  const std::string closest_name = closest >= 0 ? ", link " + robot.link(closest).name : "";
+  const std::string sampled = Format("; sampled minimum %.4f m at t = %.3f s", min_exact, min_exact_time) +
+                              closest_name;
+  if (undefined_motion) {
+    add(CheckKind::kClearance, -1, "clearance", false, min_exact, task.safety_distance, undefined_time,
+        Format("no clearance certificate from t = %.3f s: the attitude is not defined by the flat outputs there "
+               "(free fall or inverted)",
+               undefined_time) +
+            sampled);
+  } else if (!recovery) {
+    add(CheckKind::kClearance, -1, "clearance", certified_slack >= 0.0, certified_lower, task.safety_distance,
+        certified_time,
+        Format("certified exact clearance %.4f m at every instant (safety distance %.4f m, accepted down to %.4f m)",
+               certified_lower, task.safety_distance, clearance_bound) +
+            Format(", least at t = %.3f s", certified_time) + sampled);
   } else {
-    // The recovery rule (PostCheckOptions::recovery_time): each sample has
-    // its own bound, the start's clearance during the stretch and the safety
-    // distance after it; the check reports the sample with the least slack.
+    // The recovery rule (PostCheckOptions::recovery_time): the start's
+    // clearance during the stretch and the safety distance after it; the
+    // check reports the interval with the least slack.
     const double start = report.start_clearance_exact;
-    const double stretch_bound = start - options.clearance_tolerance;
-    double worst_slack = 1e300, worst_value = 0.0, worst_bound = 0.0, worst_time = 0.0;
-    for (size_t i = 0; i < exact_track.size(); ++i) {
-      const auto& [t, d] = exact_track[i];
-      const bool in_stretch = t < options.recovery_time && i + 1 < exact_track.size();
-      const double bound = in_stretch ? stretch_bound : clearance_bound;
-      if (d - bound < worst_slack) {
-        worst_slack = d - bound;
-        worst_value = d;
-        worst_bound = bound;
-        worst_time = t;
-      }
-    }
-    add(CheckKind::kClearance, -1, "clearance", worst_slack >= 0.0, worst_value, worst_bound + options.clearance_tolerance, worst_time,
-        Format("recovery from %.4f m at the start (within %.2f s: ", start, options.recovery_time, 0) +
+    add(CheckKind::kClearance, -1, "clearance", certified_slack >= 0.0, certified_lower,
+        certified_against + options.clearance_tolerance, certified_time,
+        Format("recovery from %.4f m at the start (within %.2f s: ", start, options.recovery_time) +
+            (report.recovery_braking_allowance > 0.0
+                 ? Format("braking allowance %.4f m, ", report.recovery_braking_allowance)
+                 : std::string()) +
             Format("no lower than %.4f m, then the safety distance %.4f m): ", stretch_bound + options.clearance_tolerance,
-                   task.safety_distance, 0) +
-            Format("exact clearance %.4f m at t = %.2f s, accepted down to %.4f m", worst_value, worst_time,
-                   worst_bound));
+                   task.safety_distance) +
+            Format("certified exact clearance %.4f m at t = %.3f s, accepted down to %.4f m", certified_lower,
+                   certified_time, certified_against) +
+            sampled);
   }
   report.min_self_distance = min_self;
   report.closest_self_pair = closest_self;
@@ -227,13 +412,15 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       const env::LinkPair& pair = self_collision->pairs()[closest_self];
       pair_names = ", links " + robot.link(pair.sampled_link).name + " and " + robot.link(pair.queried_link).name;
     }
-    add(CheckKind::kSelfClearance, -1, "self_clearance",
-        min_self >= task.self_safety_distance - options.clearance_tolerance, min_self, task.self_safety_distance,
-        self_deficit.time,
-        Format("robot links %.4f m apart (self-safety distance %.4f m) at t = %.2f s", min_self,
-               task.self_safety_distance, self_deficit.time) +
-            pair_names);
+    add(CheckKind::kSelfClearance, -1, "self_clearance", !undefined_motion && certified_self >= self_bound,
+        certified_self, task.self_safety_distance, certified_self_time,
+        Format("robot links certified %.4f m apart at every instant (self-safety distance %.4f m), least at t = %.3f s",
+               certified_self, task.self_safety_distance, certified_self_time) +
+            Format("; sampled minimum %.4f m at t = %.3f s", min_self, min_self_time) + pair_names);
   }
+  report.certified_margin = certified_slack - options.clearance_tolerance;
+  report.certified = true;
+  for (const CheckResult& check : report.checks) report.certified = report.certified && check.passed;
   const double ratio_bound = 1.0 + options.limit_tolerance;
   auto add_limit = [&](CheckKind kind, int joint, const std::string& name, const Worst& w) {
     report.violations.emplace_back(name, w.value);
@@ -259,7 +446,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   const double end_error = (last.position - terminal.position).norm();
   const double end_rate = std::max({last.velocity.norm(), std::abs(last.yaw_rate), last.joint_rates.cwiseAbs().maxCoeff()});
   add(CheckKind::kStartState, -1, "start_state", start_error <= options.position_tolerance && start_angle <= options.angle_tolerance, start_error,
-      options.position_tolerance, 0.0, Format("position error %.4f m, angle error %.4f rad", start_error, start_angle, 0));
+      options.position_tolerance, 0.0, Format("position error %.4f m, angle error %.4f rad", start_error, start_angle));
   add(CheckKind::kEndState, -1, "end_state",
       end_error <= options.position_tolerance && end_angle <= options.angle_tolerance && end_rate <= options.rate_tolerance,
       end_error, options.position_tolerance, duration,
@@ -278,7 +465,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     if (approach_start < 0) {
       add(CheckKind::kInsertion, -1, "insertion", false, 0.0, insertion.length, 0.0,
           Format("the tool never backs off %.3f m along the insertion line (closest approach start %.3f m)",
-                 insertion.length, -tool_track.front().first, 0));
+                 insertion.length, -tool_track.front().first));
     } else {
       Worst off_line;
       for (size_t i = approach_start; i < tool_track.size(); ++i) off_line.Update(tool_track[i].second, times[i]);
@@ -287,7 +474,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
           off_line.value, options.insertion_tolerance, off_line.time,
           Format("tool up to %.4f m off the insertion line (accepted %.4f m), ends %.4f m from the goal",
                  off_line.value, options.insertion_tolerance, tool_end_error) +
-              Format(", over the approach from t = %.2f s", times[approach_start], 0, 0));
+              Format(", over the approach from t = %.2f s", times[approach_start]));
     }
   }
   report.passed = true;

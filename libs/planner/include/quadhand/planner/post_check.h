@@ -1,8 +1,9 @@
-// The planner's own verdict on a trajectory (docs/post_check.md): sampled
-// densely, it must keep the safety distance from every obstacle point (exact
-// link meshes), the robot's links apart from each other, every limit, the
-// joint limits, the start and end states, and a straight tool approach over
-// the insertion. "Success" means all hold.
+// The planner's own verdict on a trajectory: it must keep the safety
+// distance from every obstacle point (exact link meshes) and the robot's
+// links apart from each other at every instant - certified between the
+// samples, not only at them (docs/certificate.md) - and, at the samples,
+// every limit, the joint limits, the start and end states, and a straight
+// tool approach over the insertion. "Success" means all hold.
 #pragma once
 
 #include <memory>
@@ -32,7 +33,9 @@ struct PostCheckOptions {
   // the trajectory STARTS closer than the safety distance (minus
   // clearance_tolerance), the clearance check becomes: over [0,
   // recovery_time) the clearance never falls below the start's own clearance
-  // minus clearance_tolerance (never worse than where it starts), and from
+  // minus clearance_tolerance (never worse than where it starts, except for
+  // the braking a start moving towards the obstacle needs:
+  // PostCheckReport::recovery_braking_allowance), and from
   // recovery_time on (the last sample always) it is back at the safety
   // distance minus clearance_tolerance. A start outside the margin is checked
   // exactly as without it.
@@ -60,7 +63,7 @@ struct CheckResult {
 struct PostCheckReport {
   bool passed = false;
   std::vector<CheckResult> checks;
-  double min_clearance_exact = 0.0;   // link meshes vs raw points
+  double min_clearance_exact = 0.0;   // link meshes vs raw points, least over the samples
   double min_clearance_model = 0.0;   // as the planner's collision model measures it
   int closest_link = -1;
   // Lower bound of the smallest distance between checked robot link pairs
@@ -69,7 +72,22 @@ struct PostCheckReport {
   double min_self_distance = 0.0;
   int closest_self_pair = -1;
   double start_clearance_exact = 0.0; // at t = 0
+  // The continuous-time certificate (docs/certificate.md): lower bounds of
+  // the exact clearance and of the links' self-distance at every instant of
+  // the trajectory (capped like the sampled values), and how many samples it
+  // added between the regular ones. The clearance and self_clearance checks
+  // judge these, so "passed" means certified.
+  bool certified = false;             // both hold at every instant (within the tolerance)
+  double certified_clearance = 0.0;
+  double certified_margin = 0.0;      // certified_clearance less the distance it had to keep (negative: within the tolerance)
+  double certified_self_distance = 0.0;
+  int certificate_samples = 0;
   bool recovery = false;              // the recovery rule judged the clearance (see recovery_time)
+  // Under the recovery rule: how much lower than the start's clearance (less
+  // the tolerance) the stretch may go because the start is moving towards
+  // the obstacle: v^2 / (2 a_max), v the rate at which the start's own
+  // motion closes its clearance. 0 for a start moving away.
+  double recovery_braking_allowance = 0.0;
   // Worst ratio of each limit (1.0 = at the bound): v, a, yaw_rate, body_rate_xy, joint rates.
   std::vector<std::pair<std::string, double>> violations;
   std::string FirstFailure() const;   // "clearance: 0.021 m < 0.028 m at t = 3.2 s", or empty

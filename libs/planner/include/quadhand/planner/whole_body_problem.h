@@ -165,6 +165,7 @@ class WholeBodyTrajectory {
   WholeBodySample Sample(double t) const;
   const traj::Minco& position() const { return position_; }
   const traj::Minco& aux() const { return aux_; }
+  const traj::FlatnessOptions& flatness() const { return flatness_; }
 
  private:
   traj::Minco position_;

@@ -1,0 +1,212 @@
+// The post-check's continuous-time certificate (docs/certificate.md): the
+// motion bound against the robot's real motion, the certified clearance
+// against a brute-force check at 1 ms, and a plan whose links graze an
+// obstacle point between two samples (the certificate must reject it where
+// the samples alone would not).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "quadhand/planner/motion_bound.h"
+#include "quadhand/planner/post_check.h"
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/robot/link_meshes.h"
+#include "quadhand/solvers/lbfgs_solver.h"
+#include "support/window_cup_scene.h"
+
+namespace quadhand::planner {
+namespace {
+
+using testing::WindowCup;
+
+const PlanResult& DefaultPlan() {
+  static const PlanResult plan = [] {
+    solvers::LbfgsSolver solver;
+    auto result = Plan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), solver);
+    EXPECT_TRUE(result.ok()) << result.status().message();
+    EXPECT_TRUE(result->success) << result->message;
+    return *result;
+  }();
+  return plan;
+}
+
+robot::KinematicsState KinematicsAt(const WholeBodyTrajectory& trajectory, double t) {
+  const WholeBodySample s = trajectory.Sample(t);
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(WindowCup().robot(), s.BasePose(), s.joints, &kinematics);
+  return kinematics;
+}
+
+// Every collision vertex of the robot in the world frame, tagged with its link.
+std::vector<std::pair<int, Vec3>> WorldVertices(const robot::KinematicsState& kinematics) {
+  static const std::vector<std::pair<int, std::vector<Vec3>>> local = [] {
+    std::vector<std::pair<int, std::vector<Vec3>>> out;
+    for (int link : WindowCup().robot().CollisionLinks()) {
+      out.emplace_back(link, robot::LinkCollisionMesh(WindowCup().robot(), link)->vertices);
+    }
+    return out;
+  }();
+  std::vector<std::pair<int, Vec3>> world;
+  for (const auto& [link, vertices] : local) {
+    for (const Vec3& v : vertices) world.emplace_back(link, kinematics.link_poses[link] * v);
+  }
+  return world;
+}
+
+PostCheckReport Check(const env::ExactMeshModel& exact, double dt) {
+  const PlanResult& plan = DefaultPlan();
+  PostCheckOptions options = DefaultPlannerOptions().post_check;
+  options.dt = dt;
+  return PostCheck(*plan.trajectory, WindowCup().robot(), WindowCup().task, plan.terminal, plan.insertion,
+                   *WindowCup().model, exact, nullptr, options);
+}
+
+// The smallest exact clearance over samples every `step` seconds.
+double SampledClearance(const env::ExactMeshModel& exact, double step, double* at = nullptr) {
+  const WholeBodyTrajectory& trajectory = *DefaultPlan().trajectory;
+  const int n = static_cast<int>(std::ceil(trajectory.duration() / step));
+  double least = 1e9;
+  for (int i = 0; i <= n; ++i) {
+    const double t = std::min(trajectory.duration(), i * trajectory.duration() / n);
+    const double d = env::WholeBodyClearance(KinematicsAt(trajectory, t), exact, 0.2, {});
+    if (d < least) {
+      least = d;
+      if (at != nullptr) *at = t;
+    }
+  }
+  return least;
+}
+
+TEST(MotionBoundTest, NoPointOfTheRobotMovesFasterThanTheBound) {
+  const WholeBodyTrajectory& trajectory = *DefaultPlan().trajectory;
+  const RobotMotionBound bound(WindowCup().robot(), *WindowCup().exact);
+  double tightest = 0.0;  // the largest displacement / bound ratio seen
+  for (double h : {0.01, 0.1}) {
+    for (double t0 = 0.0; t0 + h <= trajectory.duration(); t0 += 0.37) {
+      const PointSpeedBound speed = bound.Over(trajectory, t0, t0 + h);
+      ASSERT_TRUE(std::isfinite(speed.world) && std::isfinite(speed.relative)) << t0;
+      const auto start = WorldVertices(KinematicsAt(trajectory, t0));
+      for (int k = 1; k <= 10; ++k) {
+        const double t = t0 + k * h / 10;
+        const auto now = WorldVertices(KinematicsAt(trajectory, t));
+        double moved = 0.0, moved_apart = 0.0;
+        for (size_t i = 0; i < now.size(); ++i) moved = std::max(moved, (now[i].second - start[i].second).norm());
+        // Relative motion of two vertices on different links.
+        for (size_t i = 0; i < now.size(); i += 97) {
+          for (size_t j = 0; j < now.size(); j += 89) {
+            if (now[i].first == now[j].first) continue;
+            moved_apart = std::max(moved_apart, ((now[i].second - now[j].second) -
+                                                 (start[i].second - start[j].second)).norm());
+          }
+        }
+        EXPECT_LE(moved, speed.world * (t - t0)) << "t0 " << t0 << ", t " << t;
+        EXPECT_LE(moved_apart, speed.relative * (t - t0)) << "t0 " << t0 << ", t " << t;
+        tightest = std::max(tightest, moved / (speed.world * (t - t0)));
+      }
+    }
+  }
+  // A bound a hundred times the motion would make the certificate useless.
+  EXPECT_GT(tightest, 0.05);
+}
+
+TEST(CertificateTest, IsNeverAboveABruteForceCheckAtOneMillisecond) {
+  const double truth = SampledClearance(*WindowCup().exact, 0.001);
+  const double bound = WindowCup().task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance;
+  for (double dt : {0.01, 0.1, 0.3}) {
+    const PostCheckReport report = Check(*WindowCup().exact, dt);
+    SCOPED_TRACE(dt);
+    EXPECT_LE(report.certified_clearance, truth);
+    // A certified plan keeps the bound at every millisecond too.
+    EXPECT_TRUE(report.certified) << report.FirstFailure();
+    EXPECT_GE(truth, bound);
+    EXPECT_LE(report.certified_clearance, report.min_clearance_exact);
+    if (dt >= 0.1) EXPECT_GT(report.certificate_samples, 0);  // coarse samples need refining near the cup
+  }
+}
+
+TEST(CertificateTest, TheSelfDistanceIsNeverAboveABruteForceCheckAtOneMillisecond) {
+  const WholeBodyTrajectory& trajectory = *DefaultPlan().trajectory;
+  env::SelfCollisionOptions self_options;
+  self_options.safety_distance = WindowCup().task.self_safety_distance;
+  const auto self = env::SelfCollisionModel::Create(WindowCup().robot(), *WindowCup().exact, std::nullopt, self_options);
+  ASSERT_TRUE(self.ok()) << self.status().message();
+  ASSERT_FALSE((*self)->pairs().empty());
+  const double reach = WindowCup().task.self_safety_distance + 0.02;
+  double truth = reach;
+  for (double t = 0.0; t <= trajectory.duration(); t += 0.001) {
+    truth = std::min(truth, (*self)->MinDistanceLowerBound(KinematicsAt(trajectory, t), reach));
+  }
+  const PlanResult& plan = DefaultPlan();
+  for (double dt : {0.01, 0.3}) {
+    PostCheckOptions options = DefaultPlannerOptions().post_check;
+    options.dt = dt;
+    const PostCheckReport report = PostCheck(trajectory, WindowCup().robot(), WindowCup().task, plan.terminal,
+                                             plan.insertion, *WindowCup().model, *WindowCup().exact, self->get(),
+                                             options);
+    SCOPED_TRACE(dt);
+    EXPECT_LE(report.certified_self_distance, truth);
+    EXPECT_LE(report.certified_self_distance, report.min_self_distance);
+    EXPECT_TRUE(report.certified) << report.FirstFailure();
+  }
+}
+
+// An obstacle point the robot passes 1 cm from between two samples 0.2 s
+// apart, while both samples keep the safety distance from it: placed beside
+// the robot's outermost vertex, perpendicular to its motion, at the middle of
+// a sample interval.
+TEST(CertificateTest, RejectsAPlanThatGrazesAPointBetweenSamples) {
+  const WholeBodyTrajectory& trajectory = *DefaultPlan().trajectory;
+  const double dt = 0.2, graze = 0.01;
+  const double bound = WindowCup().task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance;
+  const int n = static_cast<int>(std::ceil(trajectory.duration() / dt));
+  const double step = trajectory.duration() / n;
+  bool found = false;
+  for (int i = 0; i < n && !found; ++i) {
+    const double mid = (i + 0.5) * step;
+    const WholeBodySample s = trajectory.Sample(mid);
+    Vec3 across = Vec3::UnitZ().cross(s.velocity);
+    if (across.norm() < 0.3) continue;  // moving too slowly to pass by far between samples
+    across.normalize();
+    for (double side : {1.0, -1.0}) {
+      const Vec3 direction = side * across;
+      Vec3 outermost = Vec3::Zero();
+      double extent = -1e9;
+      for (const auto& [link, v] : WorldVertices(KinematicsAt(trajectory, mid))) {
+        if (v.dot(direction) > extent) {
+          extent = v.dot(direction);
+          outermost = v;
+        }
+      }
+      const Vec3 point = outermost + graze * direction;
+      const auto lone = env::ExactMeshModel::Create(WindowCup().robot(), std::vector<Vec3>{point});
+      ASSERT_TRUE(lone.ok());
+      auto clearance_at = [&](double t) { return env::WholeBodyClearance(KinematicsAt(trajectory, t), **lone, 0.2, {}); };
+      if (clearance_at(i * step) < bound + 0.005 || clearance_at((i + 1) * step) < bound + 0.005) continue;
+      if (SampledClearance(**lone, dt) < bound + 0.005) continue;  // another sample comes close: not a graze
+      // The scene and the point: the samples keep the distance, the motion does not.
+      std::vector<Vec3> points = WindowCup().points;
+      points.push_back(point);
+      const auto grazed = env::ExactMeshModel::Create(WindowCup().robot(), points);
+      ASSERT_TRUE(grazed.ok());
+      double at = 0.0;
+      const double truth = SampledClearance(**grazed, 0.001, &at);
+      ASSERT_LT(truth, bound) << "the point is not grazed";
+      if (SampledClearance(**grazed, step) < bound) continue;
+      found = true;
+      const PostCheckReport report = Check(**grazed, dt);
+      EXPECT_FALSE(report.passed);
+      EXPECT_FALSE(report.certified);
+      EXPECT_LE(report.certified_clearance, truth);
+      ASSERT_FALSE(report.checks.empty());
+      EXPECT_EQ(report.checks[0].kind, CheckKind::kClearance);
+      EXPECT_FALSE(report.checks[0].passed) << report.checks[0].detail;
+      // The refinement found the graze itself, near where it is.
+      EXPECT_LT(report.min_clearance_exact, bound);
+      EXPECT_NEAR(report.checks[0].time, at, step / 2);
+    }
+  }
+  EXPECT_TRUE(found) << "no place for a graze between samples on this plan: the test proves nothing";
+}
+
+}  // namespace
+}  // namespace quadhand::planner
