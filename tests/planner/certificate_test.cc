@@ -53,10 +53,11 @@ std::vector<std::pair<int, Vec3>> WorldVertices(const robot::KinematicsState& ki
   return world;
 }
 
-PostCheckReport Check(const env::ExactMeshModel& exact, double dt) {
+PostCheckReport Check(const env::ExactMeshModel& exact, double dt, double clearance_dt) {
   const PlanResult& plan = DefaultPlan();
   PostCheckOptions options = DefaultPlannerOptions().post_check;
   options.dt = dt;
+  options.clearance_dt = clearance_dt;
   return PostCheck(*plan.trajectory, WindowCup().robot(), WindowCup().task, plan.terminal, plan.insertion,
                    *WindowCup().model, exact, nullptr, options);
 }
@@ -112,15 +113,17 @@ TEST(MotionBoundTest, NoPointOfTheRobotMovesFasterThanTheBound) {
 TEST(CertificateTest, IsNeverAboveABruteForceCheckAtOneMillisecond) {
   const double truth = SampledClearance(*WindowCup().exact, 0.001);
   const double bound = WindowCup().task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance;
-  for (double dt : {0.01, 0.1, 0.3}) {
-    const PostCheckReport report = Check(*WindowCup().exact, dt);
-    SCOPED_TRACE(dt);
+  // (regular spacing, clearance spacing)
+  for (const auto& [dt, clearance_dt] : std::vector<std::pair<double, double>>{
+           {0.01, 0.01}, {0.01, 0.04}, {0.01, 0.3}, {0.1, 0.1}, {0.3, 0.3}}) {
+    const PostCheckReport report = Check(*WindowCup().exact, dt, clearance_dt);
+    SCOPED_TRACE(::testing::Message() << dt << ", " << clearance_dt);
     EXPECT_LE(report.certified_clearance, truth);
     // A certified plan keeps the bound at every millisecond too.
     EXPECT_TRUE(report.certified) << report.FirstFailure();
     EXPECT_GE(truth, bound);
     EXPECT_LE(report.certified_clearance, report.min_clearance_exact);
-    if (dt >= 0.1) EXPECT_GT(report.certificate_samples, 0);  // coarse samples need refining near the cup
+    if (clearance_dt >= 0.1) EXPECT_GT(report.certificate_samples, 0);  // coarse samples need refining near the cup
   }
 }
 
@@ -139,7 +142,7 @@ TEST(CertificateTest, TheSelfDistanceIsNeverAboveABruteForceCheckAtOneMillisecon
   const PlanResult& plan = DefaultPlan();
   for (double dt : {0.01, 0.3}) {
     PostCheckOptions options = DefaultPlannerOptions().post_check;
-    options.dt = dt;
+    options.dt = options.clearance_dt = dt;
     const PostCheckReport report = PostCheck(trajectory, WindowCup().robot(), WindowCup().task, plan.terminal,
                                              plan.insertion, *WindowCup().model, *WindowCup().exact, self->get(),
                                              options);
@@ -193,7 +196,10 @@ TEST(CertificateTest, RejectsAPlanThatGrazesAPointBetweenSamples) {
       ASSERT_LT(truth, bound) << "the point is not grazed";
       if (SampledClearance(**grazed, step) < bound) continue;
       found = true;
-      const PostCheckReport report = Check(**grazed, dt);
+      // Clearance samples 0.2 s apart, whether the limits are checked as
+      // often or every 10 ms.
+      const PostCheckReport report = Check(**grazed, dt, dt);
+      EXPECT_EQ(Check(**grazed, 0.01, dt).checks[0].passed, false);
       EXPECT_FALSE(report.passed);
       EXPECT_FALSE(report.certified);
       EXPECT_LE(report.certified_clearance, truth);

@@ -84,6 +84,7 @@ void Visit(Config& c, Visitor&& v) {
 
   auto& pc = p.post_check;
   v("post_check.dt", pc.dt);
+  v("post_check.clearance_dt", pc.clearance_dt);
   v("post_check.clearance_tolerance", pc.clearance_tolerance);
   v("post_check.limit_tolerance", pc.limit_tolerance);
   v("post_check.position_tolerance", pc.position_tolerance);

@@ -41,7 +41,7 @@ constexpr double kMaxPostCheckSamples = 1e6;
 }  // namespace
 
 bool PostCheckOptions::IsValid(std::string* why) const {
-  for (double v : {dt, clearance_tolerance, limit_tolerance, position_tolerance, angle_tolerance, rate_tolerance,
+  for (double v : {dt, clearance_dt, clearance_tolerance, limit_tolerance, position_tolerance, angle_tolerance, rate_tolerance,
                    insertion_tolerance, recovery_time}) {
     if (!(std::isfinite(v) && v >= 0.0)) {
       if (why != nullptr) *why = "post-check tolerances must be finite and non-negative";
@@ -50,6 +50,10 @@ bool PostCheckOptions::IsValid(std::string* why) const {
   }
   if (!(dt >= 1e-4)) {
     if (why != nullptr) *why = "post-check dt must be at least 0.0001 s";
+    return false;
+  }
+  if (!(clearance_dt >= 1e-4 && clearance_dt <= 10.0)) {
+    if (why != nullptr) *why = "post-check clearance_dt must be in [0.0001, 10] s";
     return false;
   }
   if (threads < 0 || threads > 256) {
@@ -99,26 +103,41 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   // What one sample measures. The samples are measured on `threads` workers,
   // each writing only its own entries; the reduction below visits them in
   // time order, so the verdict is the same to the last bit for any count.
+  // Every regular sample is checked against the limits (and the insertion
+  // line); the clearances are measured at every `clearance_every`-th one and
+  // the last, and certified in between (refined where needed): the
+  // certificate, not the spacing, makes them hold at every instant, so the
+  // spacing only trades measurements against refinements.
+  const int clearance_every = std::max(1, static_cast<int>(std::floor(options.clearance_dt / options.dt + 1e-9)));
+  auto is_clearance_step = [&](int step) { return step % clearance_every == 0 || step == steps; };
+  auto previous_clearance_step = [&](int step) {
+    return step % clearance_every == 0 ? step - clearance_every : step - step % clearance_every;
+  };
   struct Measured {
     double t = 0.0;
     WholeBodySample sample;
+    bool has_clearance = false;
     double d_exact = 0.0, d_self = 0.0, d_model = 0.0;
     int link = -1, pair = -1;
     Vec3 tool = Vec3::Zero();
   };
-  auto measure_at = [&](double t, bool with_model, robot::KinematicsState* kinematics, Measured* m) {
+  enum class Measure { kLimits, kRegular, kRefinement };
+  auto measure_at = [&](double t, Measure what, robot::KinematicsState* kinematics, Measured* m) {
     m->t = t;
     m->sample = trajectory.Sample(t);
+    m->has_clearance = what != Measure::kLimits;
+    if (what == Measure::kLimits && !insertion.enabled) return;
     robot::ComputeKinematics(robot, m->sample.BasePose(), m->sample.joints, kinematics);
+    if (insertion.enabled) m->tool = kinematics->link_poses[insertion.tool_link].translation();
+    if (what == Measure::kLimits) return;
     m->d_exact = env::WholeBodyClearance(*kinematics, exact, reach, {}, &m->link);
     m->d_self = self_reach;
     if (check_self) m->d_self = self_collision->MinDistanceLowerBound(*kinematics, self_reach, &m->pair);
-    if (with_model) {
+    if (what == Measure::kRegular) {
       int piece = 0;
       double local = 0;
       trajectory.position().LocatePiece(t, &piece, &local);
       m->d_model = env::WholeBodyClearance(*kinematics, model, reach, env::QueryContext{piece, local});
-      if (insertion.enabled) m->tool = kinematics->link_poses[insertion.tool_link].translation();
     }
   };
   // Whether the clearance between two samples is judged by the recovery
@@ -148,7 +167,8 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     int closest_link = -1, closest_pair = -1;
   };
   constexpr int kMaxHalvings = 8;
-  auto certify = [&](const Measured& first, const Measured& last, robot::KinematicsState* kinematics, Certified* c) {
+  auto certify = [&](const Measured& first, const Measured& last, int max_halvings, robot::KinematicsState* kinematics,
+                     Certified* c) {
     struct Piece {
       double t0, d0, s0, t1, d1, s1;
       int depth;
@@ -174,7 +194,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
           !check_self ? 1e300 : finite ? lower_of(p.s0, p.s1, speed.relative, p.t0, &self_at) : std::min(p.s0, p.s1);
       const bool holds = finite && lower >= bound && self_lower >= self_bound;
       const bool sampled_fails = std::min(p.d0, p.d1) < bound || (check_self && std::min(p.s0, p.s1) < self_bound);
-      if (holds || sampled_fails || !finite || p.depth >= kMaxHalvings) {
+      if (holds || sampled_fails || !finite || p.depth >= max_halvings) {
         if (!finite && !c->undefined) {
           c->undefined = true;
           c->undefined_time = p.t0;
@@ -190,7 +210,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
         }
         continue;
       }
-      measure_at(0.5 * (p.t0 + p.t1), false, kinematics, &mid);
+      measure_at(0.5 * (p.t0 + p.t1), Measure::kRefinement, kinematics, &mid);
       ++c->added;
       if (mid.d_exact < c->closest) {
         c->closest = mid.d_exact;
@@ -215,20 +235,27 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   constexpr int kBlock = 4096;
   std::vector<Measured> measured(std::min(steps + 1, kBlock));
   std::vector<Certified> certified(measured.size());
-  Measured previous;  // the sample before the block
+  Measured previous;  // the last clearance sample before the block
   int block_begin = 0, block_end = 0;
+  std::vector<int> to_certify;  // the block's clearance steps after the first of all
+  std::vector<int> measure_order;  // the block's clearance steps, then the others: spread evenly over the workers
   auto measure = [&](int first, int stride) {
     robot::KinematicsState kinematics;
-    for (int step = block_begin + first; step < block_end; step += stride) {
-      measure_at(std::min(duration, step * duration / steps), true, &kinematics, &measured[step - block_begin]);
+    for (size_t i = first; i < measure_order.size(); i += stride) {
+      const int step = measure_order[i];
+      measure_at(std::min(duration, step * duration / steps),
+                 is_clearance_step(step) ? Measure::kRegular : Measure::kLimits, &kinematics,
+                 &measured[step - block_begin]);
     }
+  };
+  auto certify_interval = [&](int step, int max_halvings, robot::KinematicsState* kinematics) {
+    const int before = previous_clearance_step(step);
+    certify(before >= block_begin ? measured[before - block_begin] : previous, measured[step - block_begin],
+            max_halvings, kinematics, &certified[step - block_begin]);
   };
   auto certify_block = [&](int first, int stride) {
     robot::KinematicsState kinematics;
-    for (int step = std::max(1, block_begin) + first; step < block_end; step += stride) {
-      const int index = step - block_begin;
-      certify(index == 0 ? previous : measured[index - 1], measured[index], &kinematics, &certified[index]);
-    }
+    for (size_t i = first; i < to_certify.size(); i += stride) certify_interval(to_certify[i], kMaxHalvings, &kinematics);
   };
   const int workers = std::clamp(options.threads > 0 ? options.threads
                                                      : static_cast<int>(std::thread::hardware_concurrency()),
@@ -240,7 +267,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     for (std::thread& worker : pool) worker.join();
   };
 
-  Worst model_deficit, speed, acceleration, yaw_rate, body_rate, joint_excess;
+  Worst speed, acceleration, yaw_rate, body_rate, joint_excess;
   std::vector<Worst> joint_rate(n);
   double min_exact = reach, min_model = reach;
   double min_exact_time = 0.0;
@@ -271,7 +298,18 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   };
   for (block_begin = 0; block_begin <= steps; block_begin = block_end) {
     block_end = std::min(steps + 1, block_begin + kBlock);
+    measure_order.clear();
+    for (int step = block_begin; step < block_end; ++step) {
+      if (is_clearance_step(step)) measure_order.push_back(step);
+    }
+    for (int step = block_begin; step < block_end; ++step) {
+      if (!is_clearance_step(step)) measure_order.push_back(step);
+    }
     run_on_workers(measure);
+    to_certify.clear();
+    for (int step = std::max(1, block_begin); step < block_end; ++step) {
+      if (is_clearance_step(step)) to_certify.push_back(step);
+    }
     if (block_begin == 0) {
       report.start_clearance_exact = measured[0].d_exact;
       recovery = options.recovery_time > 0.0 && report.start_clearance_exact < clearance_bound;
@@ -284,7 +322,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
         robot::KinematicsState kinematics;
         Measured soon;
         const double epsilon = std::min(1e-3, duration);
-        if (epsilon > 0.0) measure_at(epsilon, false, &kinematics, &soon);
+        if (epsilon > 0.0) measure_at(epsilon, Measure::kRefinement, &kinematics, &soon);
         const double closing = epsilon > 0.0 ? std::max(0.0, (report.start_clearance_exact - soon.d_exact) / epsilon) : 0.0;
         report.recovery_braking_allowance = closing * closing / (2.0 * limits.a_max);
       }
@@ -294,27 +332,22 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     // means a plan grazing the scene nearly everywhere: the rest is not
     // refined (it fails unless the unrefined bound holds) rather than
     // multiplying the work.
-    if (added <= 4 * (steps + 1)) run_on_workers(certify_block);
-    else {
-      for (int step = std::max(1, block_begin); step < block_end; ++step) {
-        const int index = step - block_begin;
-        const Measured& a = index == 0 ? previous : measured[index - 1];
-        const Measured& b = measured[index];
-        certified[index] = Certified{};
-        certified[index].lower = std::min(a.d_exact, b.d_exact) - 1e3;  // not certified
-        certified[index].lower_time = a.t;
-        certified[index].bound = bound_between(b.t);
-        certified[index].self_lower = std::min(a.d_self, b.d_self);
-        certified[index].self_time = a.t;
-      }
+    if (added <= 4 * (steps + 1)) {
+      run_on_workers(certify_block);
+    } else {
+      robot::KinematicsState kinematics;
+      for (int step : to_certify) certify_interval(step, 0, &kinematics);
     }
   for (int index = 0; index < block_end - block_begin; ++index) {
     const Measured& m = measured[index];
     const double t = m.t;
     const WholeBodySample& s = m.sample;
-    take_exact(m.d_exact, t, m.link);
-    take_self(m.d_self, t, m.pair);
-    if (block_begin + index > 0) {
+    if (m.has_clearance) {
+      take_exact(m.d_exact, t, m.link);
+      take_self(m.d_self, t, m.pair);
+      min_model = std::min(min_model, m.d_model);
+    }
+    if (m.has_clearance && block_begin + index > 0) {
       const Certified& c = certified[index];
       if (c.added > 0) {
         take_exact(c.closest, c.closest_time, c.closest_link);
@@ -336,8 +369,6 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
         undefined_time = c.undefined_time;
       }
     }
-    min_model = std::min(min_model, m.d_model);
-    model_deficit.Update(-m.d_model, t);
     speed.Update(s.velocity.norm() / limits.v_max, t);
     acceleration.Update(s.acceleration.norm() / limits.a_max, t);
     yaw_rate.Update(std::abs(s.yaw_rate) / limits.yaw_rate_max, t);
@@ -353,12 +384,9 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       times.push_back(t);
     }
   }
-    previous = measured[block_end - block_begin - 1];
-  }
-  if (steps + 1 == 1) {  // one sample: nothing between samples to certify
-    certified_slack = min_exact - clearance_bound;
-    certified_lower = min_exact;
-    certified_self = min_self;
+    if (previous_clearance_step(block_end) >= block_begin) {
+      previous = measured[previous_clearance_step(block_end) - block_begin];
+    }
   }
   report.min_clearance_exact = min_exact;
   report.min_clearance_model = min_model;

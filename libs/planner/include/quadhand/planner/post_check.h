@@ -22,6 +22,11 @@ namespace quadhand::planner {
 
 struct PostCheckOptions {
   double dt = 0.01;                        // sampling step, seconds (at most the plan's --dt)
+  // Spacing of the clearance samples, seconds: every regular sample within
+  // it is checked against the limits, and the clearances measured here are
+  // certified in between, refined where needed (docs/certificate.md). At
+  // most dt is the same as dt.
+  double clearance_dt = 0.04;
   double clearance_tolerance = 0.002;      // metres below the safety distance still accepted
   double limit_tolerance = 0.02;           // relative excess over a limit still accepted
   double position_tolerance = 0.01;        // start/end position, metres
