@@ -122,8 +122,8 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingDirectory);
   int threads = -1;
   app.add_option("--threads", threads,
-                 "Workers for the post-check's samples (0: one per core; default: the configuration's\n"
-                 "post_check.threads, 0). The result does not depend on it")
+                 "Workers for the cost's and the post-check's samples (0: one per core; default: the\n"
+                 "configuration's cost.threads and post_check.threads, 0). The result does not depend on it")
       ->check(CLI::Range(0, 256));
   app.add_flag("-v,--verbose", verbose, "Print solver progress");
   app.add_flag("--keep-failed-plan", keep_failed_plan,
@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
   auto loaded_config = planner::LoadPlannerConfigOrDefaults(config_path);
   if (!loaded_config.ok()) return Fail(loaded_config.status().message());
   planner::PlannerConfig& config = *loaded_config;
-  if (threads >= 0) config.planner.post_check.threads = threads;
+  if (threads >= 0) config.planner.post_check.threads = config.planner.cost.threads = threads;
   if (print_config) {
     std::printf("%s", planner::PlannerConfigYaml(config).c_str());
     return 0;

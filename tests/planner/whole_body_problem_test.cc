@@ -218,6 +218,40 @@ TEST(WholeBodyProblemTest, WholeObjectiveGradientAtRandomPoints) {
   EXPECT_LE(skipped, 6);
 }
 
+// The samples are evaluated piece by piece on `threads` workers; the cost,
+// every term and the gradient must not depend on how many.
+TEST(WholeBodyProblemTest, TheCostAndGradientDoNotDependOnTheThreads) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.03);
+  WholeBodyCostOptions options = AllTerms();
+  options.threads = 1;
+  ProblemSetup one = MakeSetup(options, /*insertion=*/true);
+  for (int trial = 0; trial < 3; ++trial) {
+    VecX x = one.x0;
+    for (int i = 0; i < x.size(); ++i) x[i] += noise(rng);
+    double cost_one = 0;
+    VecX grad_one;
+    ASSERT_TRUE(one.problem->Evaluate(x, &cost_one, &grad_one));
+    const CostBreakdown breakdown_one = *one.problem->Breakdown(x);
+    for (int threads : {2, 3, 7}) {
+      options.threads = threads;
+      ProblemSetup many = MakeSetup(options, /*insertion=*/true);
+      double cost = 0;
+      VecX grad;
+      ASSERT_TRUE(many.problem->Evaluate(x, &cost, &grad));
+      EXPECT_EQ(cost, cost_one) << threads;
+      EXPECT_TRUE(grad == grad_one) << threads << ": largest difference " << (grad - grad_one).cwiseAbs().maxCoeff();
+      const CostBreakdown breakdown = *many.problem->Breakdown(x);
+      ASSERT_EQ(breakdown.terms.size(), breakdown_one.terms.size());
+      for (size_t i = 0; i < breakdown.terms.size(); ++i) {
+        EXPECT_EQ(breakdown.terms[i].second, breakdown_one.terms[i].second) << breakdown.terms[i].first << ", " << threads;
+      }
+    }
+  }
+  options.threads = -1;
+  EXPECT_FALSE(options.IsValid(nullptr));
+}
+
 // Points on a vertical ring of radius `radius` around the robot's tool at the goal.
 std::vector<Vec3> RingAroundGoalTool(double radius) {
   const auto& fx = CoarseQuadHand();

@@ -41,6 +41,7 @@ void Visit(Config& c, Visitor&& v) {
   auto& k = p.cost;
   v("cost.samples_per_piece", k.samples_per_piece);
   v("cost.insertion_samples", k.insertion_samples);
+  v("cost.threads", k.threads);
   v("cost.time_weight", k.time_weight);
   v("cost.energy_weight_position", k.energy_weight_position);
   v("cost.energy_weight_aux", k.energy_weight_aux);

@@ -1,7 +1,9 @@
 #include "quadhand/planner/whole_body_problem.h"
 
+#include <atomic>
 #include <cmath>
 
+#include "quadhand/core/worker_pool.h"
 #include "quadhand/planner/cost_term.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/traj/time_map.h"
@@ -35,6 +37,7 @@ bool WholeBodyCostOptions::IsValid(std::string* why) const {
     return false;
   };
   if (samples_per_piece < 1 || samples_per_piece > 1000) return fail("samples_per_piece must be in [1, 1000]");
+  if (threads < 0 || threads > 256) return fail("threads must be in [0, 256] (0: all cores)");
   if (insertion_samples < 0 || insertion_samples > 1000) return fail("insertion_samples must be in [0, 1000]");
   for (double w : {time_weight, energy_weight_position, energy_weight_aux, weight_collision, weight_insertion,
                    weight_velocity, weight_acceleration, weight_yaw_rate, weight_joint_rate, weight_body_rate,
@@ -83,6 +86,14 @@ WholeBodySample WholeBodyTrajectory::Sample(double t) const {
 
 // ------------------------------------------------------------------- problem
 
+// What one worker needs to evaluate samples.
+struct SampleScratch {
+  robot::KinematicsState kinematics;
+  VecX aux_value, aux_rate;
+  VecX joints;  // the joint part of aux_value (ComputeKinematics takes a VecX: no temporary per sample)
+  SampleGradient gradient;  // what the terms leave at one sample
+};
+
 struct WholeBodyProblem::Workspace {
   traj::Minco position, aux;
   VecX taus, durations;
@@ -93,11 +104,15 @@ struct WholeBodyProblem::Workspace {
   // Total gradients after the adjoint step.
   MatX total_position_waypoints, total_aux_waypoints;
   VecX total_durations_position, total_durations_aux, grad_taus;
-  robot::KinematicsState kinematics;
-  VecX aux_value, aux_rate;
-  VecX joints;  // the joint part of aux_value (ComputeKinematics takes a VecX: no temporary per sample)
-  SampleGradient gradient;          // what the terms leave at one sample
-  std::vector<double> term_values;  // each term's running value (CostBreakdown)
+  // The samples are evaluated piece by piece: each piece writes only its own
+  // rows of the partial gradients and its own sums below, which are added
+  // in piece order, so the result is the same for any number of workers.
+  std::vector<SampleScratch> scratch;  // one per worker
+  VecX piece_totals;                   // per piece: its samples' share of the objective
+  MatX piece_term_values;              // terms x pieces (CostBreakdown)
+  std::vector<double> term_values;     // each term's value (CostBreakdown)
+  std::unique_ptr<core::WorkerPool> pool;
+  std::atomic<int> next_piece{0};
 };
 
 WholeBodyProblem::WholeBodyProblem(const robot::RobotModel& robot, const env::CollisionModel& collision)
@@ -169,13 +184,18 @@ core::Result<std::unique_ptr<WholeBodyProblem>> WholeBodyProblem::Create(
   w.grad_aux_coeffs.resize(2 * kAuxOrder * num_pieces, 1 + n);
   w.grad_durations_position.resize(num_pieces);
   w.grad_durations_aux.resize(num_pieces);
-  w.aux_value.resize(1 + n);
-  w.aux_rate.resize(1 + n);
-  w.joints.resize(n);
-  w.gradient.aux_value.resize(1 + n);
-  w.gradient.aux_rate.resize(1 + n);
-  w.gradient.point.SetZero(n);
-  w.gradient.scratch.SetZero(n);
+  w.pool = std::make_unique<core::WorkerPool>(core::WorkerCount(options.threads, num_pieces));
+  w.scratch.resize(w.pool->size());
+  for (SampleScratch& scratch : w.scratch) {
+    scratch.aux_value.resize(1 + n);
+    scratch.aux_rate.resize(1 + n);
+    scratch.joints.resize(n);
+    scratch.gradient.aux_value.resize(1 + n);
+    scratch.gradient.aux_rate.resize(1 + n);
+    scratch.gradient.point.SetZero(n);
+    scratch.gradient.scratch.SetZero(n);
+  }
+  w.piece_totals.resize(num_pieces);
   return problem;
 }
 
@@ -190,6 +210,7 @@ core::Status WholeBodyProblem::SetOptions(const WholeBodyCostOptions& options) {
     if (terms_.back() != nullptr) needs_kinematics_ = needs_kinematics_ || terms_.back()->NeedsKinematics();
   }
   work_->term_values.assign(terms_.size(), 0.0);
+  work_->piece_term_values.setZero(static_cast<Eigen::Index>(terms_.size()), num_pieces_);
   return core::Status::Ok();
 }
 
@@ -230,33 +251,18 @@ bool WholeBodyProblem::Generate(const VecX& x) const {
          w.aux.Generate(w.aux_waypoints, w.durations).ok();
 }
 
-double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient) const {
+void WholeBodyProblem::AccumulatePiece(int piece, bool with_gradient, SampleScratch* scratch) const {
   Workspace& w = *work_;
   const WholeBodyCostOptions& o = options_;
   const int n = num_joints_;
-  if (with_gradient) {
-    w.grad_position_coeffs.setZero();
-    w.grad_aux_coeffs.setZero();
-    w.grad_durations_position.setZero();
-    w.grad_durations_aux.setZero();
-    w.position.AddEnergyGradient(w.grad_position_coeffs, w.grad_durations_position);
-    w.grad_position_coeffs *= o.energy_weight_position;
-    w.grad_durations_position *= o.energy_weight_position;
-    w.aux.AddEnergyGradient(w.grad_aux_coeffs, w.grad_durations_aux);
-    w.grad_aux_coeffs *= o.energy_weight_aux;
-    w.grad_durations_aux *= o.energy_weight_aux;
-    w.grad_durations_position.array() += o.time_weight;
-  }
-  const double energy = o.energy_weight_position * w.position.Energy() + o.energy_weight_aux * w.aux.Energy();
-  const double time = w.durations.sum();
-  double total = energy + o.time_weight * time;
-  std::fill(w.term_values.begin(), w.term_values.end(), 0.0);
-
-  SampleGradient& g = w.gradient;
+  SampleGradient& g = scratch->gradient;
   SampleState s;
-  s.aux_value = &w.aux_value;
-  s.aux_rate = &w.aux_rate;
-  for (int piece = 0; piece < num_pieces_; ++piece) {
+  s.aux_value = &scratch->aux_value;
+  s.aux_rate = &scratch->aux_rate;
+  double& total = w.piece_totals[piece];
+  total = 0.0;
+  for (size_t i = 0; i < terms_.size(); ++i) w.piece_term_values(i, piece) = 0.0;
+  {
     const double duration = w.durations[piece];
     s.piece = piece;
     s.insertion_piece = insertion_.enabled && piece == num_pieces_ - 1;
@@ -274,17 +280,17 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
       w.position.Evaluate(piece, t, 1, s.velocity);
       w.position.Evaluate(piece, t, 2, s.acceleration);
       w.position.Evaluate(piece, t, 3, s.jerk);
-      w.aux.Evaluate(piece, t, 0, w.aux_value);
-      w.aux.Evaluate(piece, t, 1, w.aux_rate);
-      s.yaw = w.aux_value[0];
-      s.yaw_rate = w.aux_rate[0];
+      w.aux.Evaluate(piece, t, 0, scratch->aux_value);
+      w.aux.Evaluate(piece, t, 1, scratch->aux_rate);
+      s.yaw = scratch->aux_value[0];
+      s.yaw_rate = scratch->aux_rate[0];
       const traj::FlatState flat =
           traj::FlatForward(s.velocity, s.acceleration, s.jerk, s.yaw, s.yaw_rate, o.flatness);
       s.flat = &flat;
       if (needs_kinematics_) {
-        w.joints = w.aux_value.tail(n);
-        robot::ComputeKinematics(robot_, MakePose(s.position, flat.rotation()), w.joints, &w.kinematics);
-        s.kinematics = &w.kinematics;
+        scratch->joints = scratch->aux_value.tail(n);
+        robot::ComputeKinematics(robot_, MakePose(s.position, flat.rotation()), scratch->joints, &scratch->kinematics);
+        s.kinematics = &scratch->kinematics;
       }
 
       // Every term adds its value and its gradient w.r.t. this sample's state.
@@ -301,7 +307,7 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
       }
       double sample = 0.0;  // lambda-weighted integrand at this sample
       for (size_t i = 0; i < terms_.size(); ++i) {
-        SampleSums sums{w.term_values[i], sample, total};
+        SampleSums sums{w.piece_term_values(i, piece), sample, total};
         if (terms_[i] != nullptr) terms_[i]->AddSample(s, &sums, with_gradient ? &g : nullptr);
       }
       total += weight * sample;
@@ -335,6 +341,38 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
       w.aux.AddSampleGradient(piece, t, 0, g.aux_value, fraction, w.grad_aux_coeffs, w.grad_durations_aux);
       w.aux.AddSampleGradient(piece, t, 1, g.aux_rate, fraction, w.grad_aux_coeffs, w.grad_durations_aux);
     }
+  }
+}
+
+double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient) const {
+  Workspace& w = *work_;
+  const WholeBodyCostOptions& o = options_;
+  if (with_gradient) {
+    w.grad_position_coeffs.setZero();
+    w.grad_aux_coeffs.setZero();
+    w.grad_durations_position.setZero();
+    w.grad_durations_aux.setZero();
+    w.position.AddEnergyGradient(w.grad_position_coeffs, w.grad_durations_position);
+    w.grad_position_coeffs *= o.energy_weight_position;
+    w.grad_durations_position *= o.energy_weight_position;
+    w.aux.AddEnergyGradient(w.grad_aux_coeffs, w.grad_durations_aux);
+    w.grad_aux_coeffs *= o.energy_weight_aux;
+    w.grad_durations_aux *= o.energy_weight_aux;
+    w.grad_durations_position.array() += o.time_weight;
+  }
+  const double energy = o.energy_weight_position * w.position.Energy() + o.energy_weight_aux * w.aux.Energy();
+  const double time = w.durations.sum();
+  w.next_piece.store(0, std::memory_order_relaxed);
+  w.pool->Run([&](int worker) {
+    for (int piece = w.next_piece.fetch_add(1); piece < num_pieces_; piece = w.next_piece.fetch_add(1)) {
+      AccumulatePiece(piece, with_gradient, &w.scratch[worker]);
+    }
+  });
+  double total = energy + o.time_weight * time;
+  for (int piece = 0; piece < num_pieces_; ++piece) total += w.piece_totals[piece];
+  for (size_t i = 0; i < terms_.size(); ++i) {
+    w.term_values[i] = 0.0;
+    for (int piece = 0; piece < num_pieces_; ++piece) w.term_values[i] += w.piece_term_values(i, piece);
   }
   if (breakdown != nullptr) {
     breakdown->energy = energy;

@@ -77,6 +77,11 @@ struct WholeBodyCostOptions {
   // gripper's collision queries see the whole target object (half of the
   // collision time of an evaluation on the benchmark with 16).
   int insertion_samples = 8;
+  // Workers evaluating the samples, piece by piece (0: one per core, at
+  // most one per piece). The cost and its gradient do not depend on it: each
+  // piece is summed on its own and the pieces in order. Fixed when the
+  // problem is created (SetOptions keeps the workers).
+  int threads = 0;
   double time_weight = 20.0;   // rho, per second of total duration
   double energy_weight_position = 1.0;  // on integral ||snap||^2
   double energy_weight_aux = 1.0;       // on integral ||(yaw, joints) accel||^2
@@ -173,6 +178,8 @@ class WholeBodyTrajectory {
   traj::FlatnessOptions flatness_;
 };
 
+struct SampleScratch;  // one worker's buffers (whole_body_problem.cc)
+
 class WholeBodyProblem final : public opt::Objective {
  public:
   // `robot` and `collision` (and `self_collision`, whose pairs the
@@ -208,6 +215,8 @@ class WholeBodyProblem final : public opt::Objective {
   WholeBodyProblem(const robot::RobotModel& robot, const env::CollisionModel& collision);
   bool Generate(const VecX& x) const;
   double Accumulate(CostBreakdown* breakdown, bool with_gradient) const;
+  // The samples of one piece, into the piece's own sums and gradient rows.
+  void AccumulatePiece(int piece, bool with_gradient, SampleScratch* scratch) const;
 
   const robot::RobotModel& robot_;
   const env::CollisionModel& collision_;
