@@ -122,7 +122,29 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     Vec3 tool = Vec3::Zero();
   };
   enum class Measure { kLimits, kRegular, kRefinement };
-  auto measure_at = [&](double t, Measure what, robot::KinematicsState* kinematics, Measured* m) {
+  // How far a sample's clearance searches look. A value capped at
+  // bound + S h / 2 still certifies an interval of length h and speed bound S
+  // (docs/certificate.md), so the search of a sample stops there for the
+  // longer reach of its two intervals: near the scene the robot is slow and
+  // the search is short. A capped value is still a lower bound, so nothing
+  // else changes. Clearances below the safety distance + 1 cm are always
+  // measured exactly (the report's sampled minimum), none beyond `reach`.
+  constexpr double kRadiusMargin = 0.002, kExactBelow = 0.01;
+  auto search_radii = [&](double t, double h_before, double h_after) {
+    double world = 0.0, relative = 0.0;
+    for (const auto& [t0, t1] : {std::pair{t - h_before, t}, std::pair{t, t + h_after}}) {
+      if (!(t1 > t0)) continue;
+      const PointSpeedBound speed = motion.Over(trajectory, t0, t1);
+      world = std::max(world, speed.world * (t1 - t0));
+      relative = std::max(relative, speed.relative * (t1 - t0));
+    }
+    return std::pair{
+        std::min(reach, std::max(task.safety_distance + kExactBelow, clearance_bound + 0.5 * world + kRadiusMargin)),
+        std::min(self_reach, std::max(task.self_safety_distance + kExactBelow,
+                                      self_bound + 0.5 * relative + kRadiusMargin))};
+  };
+  auto measure_at = [&](double t, Measure what, robot::KinematicsState* kinematics, Measured* m,
+                        std::pair<double, double> radii = {}) {
     m->t = t;
     m->sample = trajectory.Sample(t);
     m->has_clearance = what != Measure::kLimits;
@@ -130,9 +152,9 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     robot::ComputeKinematics(robot, m->sample.BasePose(), m->sample.joints, kinematics);
     if (insertion.enabled) m->tool = kinematics->link_poses[insertion.tool_link].translation();
     if (what == Measure::kLimits) return;
-    m->d_exact = env::WholeBodyClearance(*kinematics, exact, reach, {}, &m->link);
-    m->d_self = self_reach;
-    if (check_self) m->d_self = self_collision->MinDistanceLowerBound(*kinematics, self_reach, &m->pair);
+    m->d_exact = env::WholeBodyClearance(*kinematics, exact, radii.first, {}, &m->link);
+    m->d_self = radii.second;
+    if (check_self) m->d_self = self_collision->MinDistanceLowerBound(*kinematics, radii.second, &m->pair);
     if (what == Measure::kRegular) {
       int piece = 0;
       double local = 0;
@@ -210,7 +232,8 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
         }
         continue;
       }
-      measure_at(0.5 * (p.t0 + p.t1), Measure::kRefinement, kinematics, &mid);
+      measure_at(0.5 * (p.t0 + p.t1), Measure::kRefinement, kinematics, &mid,
+                 search_radii(0.5 * (p.t0 + p.t1), 0.5 * h, 0.5 * h));
       ++c->added;
       if (mid.d_exact < c->closest) {
         c->closest = mid.d_exact;
@@ -238,14 +261,20 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   Measured previous;  // the last clearance sample before the block
   int block_begin = 0, block_end = 0;
   std::vector<int> to_certify;  // the block's clearance steps after the first of all
+  auto time_of = [&](int step) { return std::min(duration, step * duration / steps); };
   std::vector<int> measure_order;  // the block's clearance steps, then the others: spread evenly over the workers
   auto measure = [&](int first, int stride) {
     robot::KinematicsState kinematics;
     for (size_t i = first; i < measure_order.size(); i += stride) {
       const int step = measure_order[i];
-      measure_at(std::min(duration, step * duration / steps),
-                 is_clearance_step(step) ? Measure::kRegular : Measure::kLimits, &kinematics,
-                 &measured[step - block_begin]);
+      const double t = time_of(step);
+      if (!is_clearance_step(step)) {
+        measure_at(t, Measure::kLimits, &kinematics, &measured[step - block_begin]);
+        continue;
+      }
+      const double before = step > 0 ? t - time_of(previous_clearance_step(step)) : 0.0;
+      const double after = step < steps ? time_of(std::min(steps, step + clearance_every)) - t : 0.0;
+      measure_at(t, Measure::kRegular, &kinematics, &measured[step - block_begin], search_radii(t, before, after));
     }
   };
   auto certify_interval = [&](int step, int max_halvings, robot::KinematicsState* kinematics) {
@@ -322,7 +351,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
         robot::KinematicsState kinematics;
         Measured soon;
         const double epsilon = std::min(1e-3, duration);
-        if (epsilon > 0.0) measure_at(epsilon, Measure::kRefinement, &kinematics, &soon);
+        if (epsilon > 0.0) measure_at(epsilon, Measure::kRefinement, &kinematics, &soon, {reach, self_reach});
         const double closing = epsilon > 0.0 ? std::max(0.0, (report.start_clearance_exact - soon.d_exact) / epsilon) : 0.0;
         report.recovery_braking_allowance = closing * closing / (2.0 * limits.a_max);
       }
