@@ -110,14 +110,23 @@ double ExactMeshModel::LinkClearance(int link, const Pose& X_WL, double search_r
   hints.closest.assign(g.elements.size(), Vec3::Zero());
   hints.have.assign(g.elements.size(), false);
   queried.clear();
+  int last_pruner = -1;
   for (const auto& [bound, local] : candidates) {
     if (bound >= clearance) break;
     // The signed distance is 1-Lipschitz (so is a minimum of such): d(q) >=
     // d(p) - |q - p| for every point p queried already, which prunes the
-    // dense cloud's neighbours.
+    // dense cloud's neighbours. The point that pruned last is tried first (a
+    // far one prunes whole clusters), points no farther than the minimum
+    // cannot prune, and the test is squared (no root per pair).
+    auto prunes = [&](const std::pair<double, Vec3>& p) {
+      const double room = p.first - clearance;
+      return room > 0.0 && (local - p.second).squaredNorm() <= room * room;
+    };
+    if (last_pruner >= 0 && prunes(queried[last_pruner])) continue;
     bool pruned = false;
-    for (const auto& [d_p, p] : queried) {
-      if (d_p - (local - p).norm() >= clearance) {
+    for (int i = static_cast<int>(queried.size()) - 1; i >= 0; --i) {
+      if (prunes(queried[i])) {
+        last_pruner = i;
         pruned = true;
         break;
       }
