@@ -200,8 +200,9 @@ core::Result<bool> ResolveGoal(const PlanningScene& scene, const Task& task, con
     if (tool_link < 0) {
       return core::Status::InvalidArgument(task.file + ": tool_link: the robot has no link named '" + task.tool_link + "'");
     }
-    auto found = FindTerminalState(robot, scene.collision, scene.exact, task, *task.tool, tool_link,
-                                   options.terminal_state, solver);
+    TerminalStateOptions search = options.terminal_state;
+    search.clearance_tolerance = options.post_check.clearance_tolerance;
+    auto found = FindTerminalState(robot, scene.collision, scene.exact, task, *task.tool, tool_link, search, solver);
     if (!found.ok()) {
       if (found.status().code() != core::StatusCode::kInfeasible) return found.status();
       result->status = PlanStatus::kTerminalStateFailed;

@@ -154,7 +154,7 @@ bool TerminalStateOptions::IsValid(std::string* why) const {
     return false;
   };
   if (restarts < 1) return fail("restarts must be at least 1");
-  for (double v : {position_tolerance, angle_tolerance, collision_margin, joint_limit_margin, weight_position,
+  for (double v : {position_tolerance, angle_tolerance, collision_margin, clearance_tolerance, joint_limit_margin, weight_position,
                    weight_rotation, weight_collision, weight_joint_limits, collision_mu, joint_limit_mu}) {
     if (!(std::isfinite(v) && v >= 0.0)) return fail("tolerances, margins and weights must be finite and >= 0");
   }
@@ -216,7 +216,7 @@ core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& rob
       best_clearance = clearance;
     }
     if (position_error <= options.position_tolerance && angle_error <= options.angle_tolerance &&
-        clearance >= task.safety_distance && within_limits) {
+        clearance >= task.safety_distance - options.clearance_tolerance && within_limits) {
       TerminalStateResult result;
       result.state.position = y.head<3>();
       result.state.yaw = y[3];
@@ -232,7 +232,7 @@ core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& rob
   }
   char message[256];
   std::snprintf(message, sizeof(message),
-                "no collision-free whole-body state puts the tool at its goal pose (%d restarts; best: "
+                "no whole-body state keeping the safety distance puts the tool at its goal pose (%d restarts; best: "
                 "position error %.4f m, angle error %.4f rad, clearance %.4f m)",
                 options.restarts, best_position, best_angle, best_clearance);
   return core::Status::Infeasible(message);

@@ -24,6 +24,10 @@ struct TerminalStateOptions {
   double position_tolerance = 0.002;   // tool position error accepted, metres
   double angle_tolerance = 0.01;       // tool rotation error accepted, radians
   double collision_margin = 0.0;       // penalised below safety distance + margin (the goal itself may sit at the safety distance: fingers around a cup)
+  // Metres below the safety distance a found state may be, as the
+  // post-check accepts a plan (Plan() sets it to post_check.clearance_tolerance:
+  // a goal the post-check would accept is not refused here).
+  double clearance_tolerance = 0.0;
   double joint_limit_margin = 0.05;    // rad kept from every joint limit
   double weight_position = 1e4;        // per m^2
   double weight_rotation = 1e3;        // per unit of d_R = (3 - tr(R_e R_g^T)) / 2
