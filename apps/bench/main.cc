@@ -262,6 +262,7 @@ int main(int argc, char** argv) {
           line["iterations"] = result->iterations;
           line["cost_evaluations"] = result->evaluations;
           line["attempts"] = result->attempts.size();
+          line["initial_guess"] = result->initial_guess;
           line["min_clearance_m"] = result->post_check.min_clearance_model;
           line["min_clearance_exact_m"] = result->post_check.min_clearance_exact;
           line["certified"] = result->post_check.certified;

@@ -19,6 +19,7 @@ using testing::WindowCup;
 PlanResult InitialGuess(PlannerOptions options) {
   options.solver.max_iterations = 0;
   options.max_attempts = 1;
+  options.alternative_guesses = 0;
   solvers::LbfgsSolver solver;
   Task task = WindowCup().task;
   task.start.yaw = -2.0;  // far from the goal yaw (pi), the other way round
@@ -117,10 +118,53 @@ TEST(PlanTest, ClearanceFailureResolvesWithMoreSamples) {
   EXPECT_TRUE(doubled->success) << doubled->message;
 
   options.resolve_sample_factor = 1;  // weights only
+  options.alternative_guesses = 0;
   auto weights_only = Plan(WindowCup().Scene(), WindowCup().task, options, solver);
   ASSERT_TRUE(weights_only.ok());
   EXPECT_FALSE(weights_only->success);
   EXPECT_EQ(weights_only->message.rfind("clearance", 0), 0u) << weights_only->message;
+}
+
+// A plan whose every solve fails its post-check tries the other initial
+// guesses in their fixed order, each with the same solves, and keeps the
+// times and attempts of all (here nothing can pass: no collision cost).
+TEST(PlanTest, AFailedGuessTriesTheAlternativesInOrder) {
+  PlannerOptions options = DefaultPlannerOptions();
+  options.cost.weight_collision = 0.0;
+  options.max_attempts = 1;
+  solvers::LbfgsSolver solver;
+  auto result = Plan(WindowCup().Scene(), WindowCup().task, options, solver);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  EXPECT_FALSE(result->success);
+  EXPECT_EQ(result->status, PlanStatus::kPostCheckFailed) << result->message;
+  EXPECT_EQ(result->alternatives_tried, 3);
+  EXPECT_EQ(result->attempts.size(), 4u);
+  EXPECT_EQ(result->initial_guess, "front_end");
+  options.alternative_guesses = 1;
+  auto one = Plan(WindowCup().Scene(), WindowCup().task, options, solver);
+  ASSERT_TRUE(one.ok());
+  EXPECT_EQ(one->alternatives_tried, 1);
+  EXPECT_EQ(one->attempts.size(), 2u);
+  options.alternative_guesses = 4;
+  EXPECT_FALSE(options.IsValid(nullptr));
+}
+
+// The weights-only re-solves of ClearanceFailureResolvesWithMoreSamples
+// fail from the front end's guess; another guess passes.
+TEST(PlanTest, AnAlternativeGuessPassesWhereTheFirstFails) {
+  PlannerOptions options = DefaultPlannerOptions();
+  options.cost.samples_per_piece = 4;
+  options.cost.insertion_samples = 4;
+  options.max_attempts = 3;
+  options.resolve_sample_factor = 1;
+  solvers::LbfgsSolver solver;
+  auto result = Plan(WindowCup().Scene(), WindowCup().task, options, solver);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  EXPECT_TRUE(result->success) << result->message;
+  EXPECT_NE(result->initial_guess, "front_end");
+  EXPECT_GE(result->alternatives_tried, 1);
+  EXPECT_GT(result->attempts.size(), 3u);
+  EXPECT_TRUE(result->post_check.certified);
 }
 
 // The end effector is the link the task names: the default task with the

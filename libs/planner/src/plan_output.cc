@@ -56,6 +56,8 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   report["iterations"] = result.iterations;
   report["cost_evaluations"] = result.evaluations;
   report["num_pieces"] = result.num_pieces;
+  report["initial_guess"] = result.initial_guess;
+  report["alternatives_tried"] = result.alternatives_tried;
   report["terminal_state"] = {{"position", {result.terminal.position.x(), result.terminal.position.y(),
                                             result.terminal.position.z()}},
                               {"yaw", result.terminal.yaw},

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <iterator>
 
 #include "quadhand/planner/cost_term.h"
 #include "plan_stages.h"
@@ -39,6 +41,7 @@ bool PlannerOptions::IsValid(std::string* why) const {
   if (!(cruise_speed > 0.0 && cruise_acceleration > 0.0)) return fail("cruise speed and acceleration must be positive");
   if (!(stow_margin >= 0.0 && stow_lead >= 0.0 && std::isfinite(stow_lead))) return fail("stow_margin and stow_lead must be >= 0");
   if (max_attempts < 1) return fail("max_attempts must be at least 1");
+  if (alternative_guesses < 0 || alternative_guesses > 3) return fail("alternative_guesses must be in [0, 3]");
   if (!(weight_raise_factor >= 1.0)) return fail("weight_raise_factor must be at least 1");
   if (resolve_sample_factor < 1) return fail("resolve_sample_factor must be at least 1");
   if (max_samples_per_piece < 1 || max_samples_per_piece > 1000) {
@@ -347,6 +350,60 @@ core::Result<InitialGuess> GuessFromPath(const robot::RobotModel& robot, const T
   return guess;
 }
 
+// Stage "alternatives" (PlannerOptions::alternative_guesses): other initial
+// guesses from the same front-end path, in a fixed order, while the plan has
+// failed its post-check or its solver; the first that passes is kept. The
+// times, counts and attempts of every try add up in the result.
+core::Status TryAlternativeGuesses(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                                   const SolveSchedule& schedule, const std::vector<Vec3>& corners,
+                                   PlanResult* result) {
+  struct Alternative {
+    const char* name;
+    std::function<void(PlannerOptions*)> change;
+  };
+  const Alternative alternatives[] = {
+      {"slower", [](PlannerOptions* o) { o->cruise_speed *= 0.6; }},
+      {"arm", [](PlannerOptions* o) { o->stow_joints_in_transit = !o->stow_joints_in_transit; }},
+      {"finer", [](PlannerOptions* o) { o->piece_length *= 0.5; }},
+  };
+  const int count = std::min<int>(options.alternative_guesses, static_cast<int>(std::size(alternatives)));
+  for (int i = 0; i < count && !result->success; ++i) {
+    if (result->status != PlanStatus::kPostCheckFailed && result->status != PlanStatus::kSolverFailed) break;
+    PlannerOptions changed = options;
+    alternatives[i].change(&changed);
+    auto guess = GuessFromPath(scene.robot, task, changed, corners, *result);
+    if (!guess.ok()) return guess.status();
+    PlanResult trial;
+    trial.terminal = result->terminal;
+    trial.insertion = result->insertion;
+    trial.path = result->path;
+    trial.num_pieces = static_cast<int>(guess->durations.size());
+    PlanCollision collision;
+    auto built = BuildPlanCollision(scene, corners, task.start.position, *guess, result->terminal.position,
+                                    &collision, &trial);
+    if (!built.ok()) return built.status();
+    ++result->alternatives_tried;
+    result->per_plan_collision_ms += trial.per_plan_collision_ms;
+    if (!*built) continue;
+    QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, task, *guess, changed, schedule, &trial));
+    result->solve_ms += trial.solve_ms;
+    result->post_check_ms += trial.post_check_ms;
+    result->iterations += trial.iterations;
+    result->evaluations += trial.evaluations;
+    result->attempts.insert(result->attempts.end(), trial.attempts.begin(), trial.attempts.end());
+    if (!trial.success) continue;
+    result->success = true;
+    result->status = trial.status;
+    result->message = trial.message;
+    result->trajectory = std::move(trial.trajectory);
+    result->post_check = std::move(trial.post_check);
+    result->final_cost = std::move(trial.final_cost);
+    result->num_pieces = trial.num_pieces;
+    result->initial_guess = alternatives[i].name;
+  }
+  return core::Status::Ok();
+}
+
 }  // namespace
 
 core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
@@ -373,6 +430,7 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
   if (!*built) return result;
   const SolveSchedule schedule{solver, options.solver, options.solver, options.max_attempts};
   QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, task, *guess, options, schedule, &result));
+  QUADHAND_RETURN_IF_ERROR(TryAlternativeGuesses(scene, task, options, schedule, corners, &result));
   return result;
 }
 

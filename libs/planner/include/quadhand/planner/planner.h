@@ -68,6 +68,13 @@ struct PlannerOptions {
   // obstacle, too late to still be folding the arm.
   double stow_lead = 0.5;
   int max_attempts = 4;         // solves per plan (the first plus re-solves with raised weights)
+  // When every solve from the front end's guess fails its post-check (or
+  // the solver fails), other initial guesses are tried in this fixed order,
+  // each with the same solves, and the first that passes is kept: "slower"
+  // (cruise_speed x 0.6: another time allocation), "arm" (the arm moved
+  // the other way: stow_joints_in_transit toggled), "finer" (piece_length x
+  // 0.5: more waypoints). At most this many (0..3; 0 = none).
+  int alternative_guesses = 3;
   double weight_raise_factor = 5.0;
   // A failed clearance check also multiplies the samples per piece of the
   // re-solve (and those of the insertion piece) by this, up to
@@ -109,6 +116,10 @@ struct PlanResult {
   int iterations = 0;
   int evaluations = 0;
   int num_pieces = 0;
+  // The initial guess the plan came from: "front_end", or an alternative
+  // (PlannerOptions::alternative_guesses), and how many were tried.
+  std::string initial_guess = "front_end";
+  int alternatives_tried = 0;
 };
 
 // Builds a collision model for one plan from the front-end path (its corner
