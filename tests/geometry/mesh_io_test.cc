@@ -88,6 +88,26 @@ TEST_F(MeshIoTest, TriangulatesPolygonFaces) {
   EXPECT_EQ(read->num_triangles(), 2);
 }
 
+// Found by fuzzing (scripts/fuzz.sh, target mesh): CGAL's PLY reader takes a
+// property before any element as undefined behaviour; such headers, and
+// element counts no file could hold, are refused before it reads.
+TEST_F(MeshIoTest, MalformedPlyHeadersAreRefusedBeforeCgalReadsThem) {
+  const std::pair<const char*, const char*> cases[] = {
+      {"ply\nformat ascii 1.0\nproperty float x\nelement vertex 1\nend_header\n0\n", "property before any element"},
+      {"ply\nformat ascii 1.0\nelement vertex 99999999999\nproperty float x\nend_header\n", "bad element count"},
+      {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "no end_header"},
+      {"ply\nformat weird 1.0\nelement vertex 1\nend_header\n", "not ascii or binary"},
+      {"ply\nelement vertex 1\nproperty float x\nend_header\n0\n", "no format line"},
+  };
+  for (const auto& [text, fragment] : cases) {
+    WriteText("bad.ply", text);
+    auto mesh = ReadMesh(Path("bad.ply"));
+    ASSERT_FALSE(mesh.ok()) << text;
+    EXPECT_NE(mesh.status().message().find(fragment), std::string::npos) << mesh.status().message();
+    EXPECT_NE(mesh.status().message().find(Path("bad.ply")), std::string::npos) << mesh.status().message();
+  }
+}
+
 TEST_F(MeshIoTest, MissingFileIsNotFoundAndNamesTheFile) {
   const std::string path = Path("missing.stl");
   const auto read = ReadMesh(path);

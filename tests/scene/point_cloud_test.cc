@@ -177,7 +177,30 @@ TEST_F(PointCloudTest, RejectsCompressedDataWhoseSizesLie) {
   const std::string width = "WIDTH 2", points = "POINTS 2";
   more_points.replace(more_points.find(width), width.size(), "WIDTH 200000000");
   more_points.replace(more_points.find(points), points.size(), "POINTS 200000000");
-  expect_error(more_points, "unpacks to");
+  expect_error(more_points, "more than 1 GiB");
+}
+
+// Found by fuzzing (scripts/fuzz.sh, target point_cloud): PCL's header
+// reader sized its buffer from a SIZE of 4999999999999999999 (a 6 GB
+// allocation for a 200-byte file). The header is checked before PCL sees it.
+TEST_F(PointCloudTest, RefusesHeadersThatClaimMoreThanTheFileHolds) {
+  const std::string tail = "TYPE F F F\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA binary\n" + std::string(36, '\0');
+  const std::pair<std::string, std::string> cases[] = {
+      {"VERSION 0.7\nFIELDS x y z\nSIZE 4999999999999999999 8 8\n" + tail, "SIZE of field 'x'"},
+      {"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F Q\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\nDATA binary\n", "TYPE of field 'z'"},
+      {"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 999999\nWIDTH 3\nHEIGHT 1\nDATA binary\n", "COUNT of field 'z'"},
+      {"VERSION 0.7\nFIELDS x y z\nSIZE 4 4\nTYPE F F F\nWIDTH 3\nHEIGHT 1\nDATA binary\n", "one entry per field"},
+      {"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 3000\nHEIGHT 1\nDATA binary\n" + std::string(36, '\0'), "more points than the binary data holds"},
+      {"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1e9\nHEIGHT 1\nDATA ascii\n", "WIDTH is not a whole number"},
+      {"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 3\nHEIGHT 1\n", "no DATA line"},
+  };
+  for (const auto& [text, fragment] : cases) {
+    WriteText("claims.pcd", text);
+    auto cloud = LoadPcd(Path("claims.pcd"));
+    ASSERT_FALSE(cloud.ok()) << text;
+    EXPECT_NE(cloud.status().message().find(fragment), std::string::npos) << cloud.status().message();
+    EXPECT_NE(cloud.status().message().find(Path("claims.pcd")), std::string::npos) << cloud.status().message();
+  }
 }
 
 // Ascii PLY rows are checked as PCD rows are (PCL reads a word as a NaN,

@@ -111,7 +111,11 @@ double ExactMeshModel::LinkClearance(int link, const Pose& X_WL, double search_r
   hints.have.assign(g.elements.size(), false);
   queried.clear();
   int last_pruner = -1;
-  for (const auto& [bound, local] : candidates) {
+  for (const auto& candidate : candidates) {
+    // Named, not a structured binding: the lambda below captures it (C++17
+    // lambdas cannot capture structured bindings; clang refuses them).
+    const double bound = candidate.first;
+    const Vec3& local = candidate.second;
     if (bound >= clearance) break;
     // The signed distance is 1-Lipschitz (so is a minimum of such): d(q) >=
     // d(p) - |q - p| for every point p queried already, which prunes the

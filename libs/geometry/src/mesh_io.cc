@@ -11,6 +11,7 @@
 #include <cstring>
 #include <exception>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <mutex>
 #include <sstream>
@@ -258,6 +259,50 @@ class CerrCapture {
   std::streambuf* previous_;
 };
 
+// CGAL's PLY reader trusts the header: a "property" before any "element"
+// is undefined behaviour there (found by fuzzing), and element counts size
+// its buffers. The header is checked here first: "ply", a format line, each
+// property after an element, counts no larger than the file could hold, and
+// an end_header within the first 64 KiB.
+std::string PlyHeaderProblem(const std::string& path, std::uintmax_t file_size) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::size_t read = 0;
+  bool in_element = false, format = false;
+  for (int number = 0; std::getline(in, line); ++number) {
+    read += line.size() + 1;
+    if (read > 65536) return "PLY header longer than 64 KiB";
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream words(line);
+    std::string keyword;
+    words >> keyword;
+    if (number == 0) {
+      if (keyword != "ply") return "not a PLY file (no 'ply' first line)";
+      continue;
+    }
+    if (keyword == "format") {
+      std::string kind, version;
+      words >> kind >> version;
+      if (kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian") {
+        return "PLY format '" + kind + "' is not ascii or binary";
+      }
+      format = true;
+    } else if (keyword == "element") {
+      std::string name;
+      long long count = -1;
+      if (!(words >> name >> count) || count < 0 || static_cast<std::uintmax_t>(count) > file_size) {
+        return "PLY line " + std::to_string(number + 1) + ": bad element count";
+      }
+      in_element = true;
+    } else if (keyword == "property") {
+      if (!in_element) return "PLY line " + std::to_string(number + 1) + ": property before any element";
+    } else if (keyword == "end_header") {
+      return format ? "" : "PLY header has no format line";
+    }
+  }
+  return "PLY header has no end_header";
+}
+
 }  // namespace
 
 core::Result<TriangleMesh> ReadMesh(const std::string& path) {
@@ -299,6 +344,10 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
       read = true;
     }
   } else {
+    if (extension == ".ply") {
+      const std::string problem = PlyHeaderProblem(path, std::filesystem::file_size(path, error));
+      if (!problem.empty()) return core::Status::InvalidArgument(path + ": " + problem);
+    }
     const CerrCapture capture;
     try {
       // Reads a soup, merges duplicate points, drops degenerate and duplicate

@@ -122,7 +122,9 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   if (info.front_end_inflation >= 0.0) report["front_end_inflation_m"] = info.front_end_inflation;
   if (info.config != nullptr) {
     nlohmann::json values = nlohmann::json::object();
-    for (const auto& [key, value] : PlannerConfigEntries(*info.config)) {
+    for (const auto& entry : PlannerConfigEntries(*info.config)) {
+      const std::string& key = entry.first;  // named: the lambda below captures it
+      const auto& value = entry.second;
       nlohmann::json* section = &values;  // "cost.flatness.gravity" -> values["cost"]["flatness"]["gravity"]
       size_t begin = 0;
       for (size_t dot = key.find('.'); dot != std::string::npos; begin = dot + 1, dot = key.find('.', begin)) {

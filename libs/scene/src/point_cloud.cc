@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -322,6 +323,87 @@ core::Status CheckRegularFile(const std::string& path) {
   return core::Status::Ok();
 }
 
+// PCL's header reader sizes the cloud's buffer from the header alone (a
+// SIZE of 4999999999999999999 made it allocate 6 GB; found by fuzzing), so
+// the header text is checked first: SIZE 1, 2, 4 or 8, TYPE F, I or U, COUNT
+// 1..4096, as many of each as FIELDS, a WIDTH and HEIGHT whose data the file
+// can hold (binary: the bytes; ascii: at least a byte a point; compressed:
+// 256 times the file), at most 1 GiB of point data, and a DATA line within
+// the first 64 KiB.
+std::string PcdHeaderProblem(const std::string& path) {
+  std::error_code error;
+  const std::uintmax_t file_size = std::filesystem::file_size(path, error);
+  if (error) return "cannot read the file's size";
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::size_t read = 0;
+  std::vector<std::string> fields, sizes, types, counts;
+  std::uint64_t width = 0, height = 1;
+  bool have_width = false;
+  auto words_of = [](std::istringstream& words) {
+    std::vector<std::string> out;
+    for (std::string w; words >> w;) out.push_back(w);
+    return out;
+  };
+  auto whole_number = [](const std::string& text, std::uint64_t limit, std::uint64_t* value) {
+    if (text.empty() || text.size() > 20 || text.find_first_not_of("0123456789") != std::string::npos) return false;
+    errno = 0;
+    const unsigned long long parsed = std::strtoull(text.c_str(), nullptr, 10);
+    if (errno != 0 || parsed > limit) return false;
+    *value = parsed;
+    return true;
+  };
+  while (std::getline(in, line)) {
+    read += line.size() + 1;
+    if (read > 65536) return "PCD header longer than 64 KiB";
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream words(line);
+    std::string keyword;
+    words >> keyword;
+    const std::vector<std::string> values = words_of(words);
+    if (keyword == "FIELDS" || keyword == "COLUMNS") fields = values;
+    else if (keyword == "SIZE") sizes = values;
+    else if (keyword == "TYPE") types = values;
+    else if (keyword == "COUNT") counts = values;
+    else if (keyword == "WIDTH" || keyword == "HEIGHT") {
+      std::uint64_t value = 0;
+      if (values.size() != 1 || !whole_number(values[0], 0xffffffffULL, &value)) return keyword + " is not a whole number below 2^32";
+      (keyword == "WIDTH" ? width : height) = value;
+      have_width = have_width || keyword == "WIDTH";
+    } else if (keyword == "DATA") {
+      const std::string kind = values.empty() ? "" : values[0];
+      if (fields.empty() || !have_width) return "header without FIELDS or WIDTH before DATA";
+      if (types.empty()) types.assign(fields.size(), "F");  // PCL's default
+      if (sizes.size() != fields.size() || types.size() != fields.size() ||
+          (!counts.empty() && counts.size() != fields.size())) {
+        return "SIZE, TYPE and COUNT must have one entry per field";
+      }
+      std::uint64_t point_step = 0;
+      for (size_t i = 0; i < fields.size(); ++i) {
+        std::uint64_t size = 0, count = 1;
+        if (!whole_number(sizes[i], 8, &size) || (size != 1 && size != 2 && size != 4 && size != 8)) {
+          return "SIZE of field '" + fields[i] + "' is not 1, 2, 4 or 8";
+        }
+        if (types[i] != "F" && types[i] != "I" && types[i] != "U") return "TYPE of field '" + fields[i] + "' is not F, I or U";
+        if (!counts.empty() && (!whole_number(counts[i], 4096, &count) || count == 0)) {
+          return "COUNT of field '" + fields[i] + "' is not in 1..4096";
+        }
+        point_step += size * count;
+      }
+      const std::uint64_t points = width * height;  // both below 2^32: no overflow
+      const long double bytes = static_cast<long double>(points) * point_step;
+      if (bytes > static_cast<long double>(1ULL << 30)) return "header claims more than 1 GiB of point data";
+      const std::uintmax_t rest = file_size > read ? file_size - read : 0;
+      if (kind == "binary" && bytes > rest) return "header claims more points than the binary data holds";
+      if (kind == "ascii" && points > rest) return "header claims more points than the file holds";
+      if (kind == "binary_compressed" && bytes > 256.0L * file_size) return "header claims more points than compressed data can hold";
+      return "";
+    }
+  }
+  return "no DATA line in the header";
+}
+
 std::string LowerExtension(const std::string& path) {
   std::string extension = std::filesystem::path(path).extension().string();
   for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -333,6 +415,9 @@ std::string LowerExtension(const std::string& path) {
 core::Result<PointCloud> LoadPcd(const std::string& path) {
   SilencePcl();
   QUADHAND_RETURN_IF_ERROR(CheckRegularFile(path));
+  if (const std::string problem = PcdHeaderProblem(path); !problem.empty()) {
+    return core::Status::InvalidArgument(path + ": not a readable PCD file (" + problem + ")");
+  }
   pcl::PCLPointCloud2 blob;
   pcl::PCDReader reader;
   // PCL 1.13 accepts a header-less file in readHeader and then crashes in

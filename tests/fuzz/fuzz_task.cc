@@ -1,0 +1,11 @@
+// Task YAML (docs/task_format.md), as quadhand-plan reads it.
+#include <string>
+
+#include "quadhand/planner/task.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  auto task = quadhand::planner::ParseTaskText(text, "fuzz.yaml", "/nonexistent-quadhand-fuzz", {});
+  (void)task;
+  return 0;
+}
