@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -98,6 +99,8 @@ TEST_F(MeshIoTest, MalformedPlyHeadersAreRefusedBeforeCgalReadsThem) {
       {"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "no end_header"},
       {"ply\nformat weird 1.0\nelement vertex 1\nend_header\n", "not ascii or binary"},
       {"ply\nelement vertex 1\nproperty float x\nend_header\n0\n", "no format line"},
+      {"ply\nformat ascii 1.0\nelement vertex 1\nproperty int32 x\nproperty float y\nproperty float z\nend_header\n0 0 0\n",
+       "of type 'int32'"},
   };
   for (const auto& [text, fragment] : cases) {
     WriteText("bad.ply", text);
@@ -105,6 +108,57 @@ TEST_F(MeshIoTest, MalformedPlyHeadersAreRefusedBeforeCgalReadsThem) {
     ASSERT_FALSE(mesh.ok()) << text;
     EXPECT_NE(mesh.status().message().find(fragment), std::string::npos) << mesh.status().message();
     EXPECT_NE(mesh.status().message().find(Path("bad.ply")), std::string::npos) << mesh.status().message();
+  }
+}
+
+// Found by fuzzing (target mesh): CGAL's OBJ reader keeps face indices it
+// never checked (0, or past the last vertex), and its soup repair then read
+// out of bounds. Every format's faces are checked after reading.
+TEST_F(MeshIoTest, FacesNamingMissingVerticesAreRefused) {
+  const std::string vertices = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\n";
+  const std::pair<std::string, std::string> cases[] = {
+      {vertices + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 0 3\n", ""},  // CGAL refuses index 0 itself
+      {vertices + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 9\n", ""},  // and one past the last
+  };
+  for (const auto& [text, fragment] : cases) {
+    WriteText("bad.obj", text);
+    auto mesh = ReadMesh(Path("bad.obj"));
+    ASSERT_FALSE(mesh.ok()) << text;
+    EXPECT_NE(mesh.status().message().find(fragment), std::string::npos) << mesh.status().message();
+    EXPECT_NE(mesh.status().message().find(Path("bad.obj")), std::string::npos) << mesh.status().message();
+    // The crashing input itself (a control character where an index was).
+  }
+  {
+    WriteText("bad.obj", vertices + "f 1 \x15" "3 2\nf 1 2 4\nf 1 4 3\nf 2 0.1 ");
+    auto mesh = ReadMesh(Path("bad.obj"));
+    EXPECT_FALSE(mesh.ok());
+  }
+  WriteText("good.obj", vertices + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+  EXPECT_TRUE(ReadMesh(Path("good.obj")).ok());
+}
+
+// Found by fuzzing (target mesh): a '=' in a Collada index list made
+// Assimp allocate 2.4 GB for a 1.7 KB file. Index lists and counts are
+// checked before Assimp reads the file.
+TEST_F(MeshIoTest, ColladaIndexListsAndCountsAreCheckedFirst) {
+  std::string palm;
+  {
+    std::ifstream in(std::string(QUADHAND_SOURCE_DIR) + "/meshes/longarm/gripper_palm.dae");
+    palm.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_NE(palm.find("4 6 7</p>"), std::string::npos);
+  WriteText("good.dae", palm);
+  ASSERT_TRUE(ReadMesh(Path("good.dae")).ok());
+  const std::pair<std::string, std::string> cases[] = {
+      {std::string(palm).replace(palm.find("4 6 7</p>"), 9, "4 6 =</p>"), "not a whole number"},
+      {std::string(palm).replace(palm.find("count=\"") + 7, 1, "99999999999"), "count"},
+  };
+  for (const auto& [text, fragment] : cases) {
+    WriteText("bad.dae", text);
+    auto mesh = ReadMesh(Path("bad.dae"));
+    ASSERT_FALSE(mesh.ok());
+    EXPECT_NE(mesh.status().message().find(fragment), std::string::npos) << mesh.status().message();
+    EXPECT_NE(mesh.status().message().find(Path("bad.dae")), std::string::npos) << mesh.status().message();
   }
 }
 

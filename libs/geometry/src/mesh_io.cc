@@ -7,6 +7,7 @@
 #include <array>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <exception>
@@ -26,6 +27,7 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/IO/polygon_soup_io.h>
 #include <CGAL/Polygon_mesh_processing/IO/polygon_mesh_io.h>
 #include <CGAL/Polygon_mesh_processing/corefinement.h>
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
@@ -263,12 +265,13 @@ class CerrCapture {
 // is undefined behaviour there (found by fuzzing), and element counts size
 // its buffers. The header is checked here first: "ply", a format line, each
 // property after an element, counts no larger than the file could hold, and
-// an end_header within the first 64 KiB.
+// an end_header within the first 64 KiB, vertex coordinates float or double.
 std::string PlyHeaderProblem(const std::string& path, std::uintmax_t file_size) {
   std::ifstream in(path, std::ios::binary);
   std::string line;
   std::size_t read = 0;
   bool in_element = false, format = false;
+  std::string element;
   for (int number = 0; std::getline(in, line); ++number) {
     read += line.size() + 1;
     if (read > 65536) return "PLY header longer than 64 KiB";
@@ -288,14 +291,21 @@ std::string PlyHeaderProblem(const std::string& path, std::uintmax_t file_size) 
       }
       format = true;
     } else if (keyword == "element") {
-      std::string name;
       long long count = -1;
-      if (!(words >> name >> count) || count < 0 || static_cast<std::uintmax_t>(count) > file_size) {
+      if (!(words >> element >> count) || count < 0 || static_cast<std::uintmax_t>(count) > file_size) {
         return "PLY line " + std::to_string(number + 1) + ": bad element count";
       }
       in_element = true;
     } else if (keyword == "property") {
       if (!in_element) return "PLY line " + std::to_string(number + 1) + ": property before any element";
+      // CGAL reads vertex coordinates as float or double only (any other
+      // type was a null dereference there; found by fuzzing).
+      std::string type, name;
+      words >> type >> name;
+      if (element == "vertex" && (name == "x" || name == "y" || name == "z") && type != "float" &&
+          type != "float32" && type != "double" && type != "float64") {
+        return "PLY vertex coordinate '" + name + "' of type '" + type + "' (expected float or double)";
+      }
     } else if (keyword == "end_header") {
       return format ? "" : "PLY header has no format line";
     }
@@ -321,42 +331,62 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
   if (std::filesystem::file_size(path, error) == 0 || error) {
     return core::Status::InvalidArgument(path + ": empty mesh file");
   }
-  InexactMesh mesh;
-  bool read = false;
+  // Every format is read as a polygon soup first and checked here: CGAL's
+  // readers do not check face indices (an OBJ face naming vertex 0 or one
+  // past the last made the repair read out of bounds; found by fuzzing).
+  std::vector<InexactKernel::Point_3> points;
+  std::vector<std::vector<std::size_t>> polygons;
   std::string reader_message;
   if (extension == ".dae") {
-    // The same repair as read_polygon_mesh gives the other formats.
     auto soup = ReadAssimpSoup(path);
     if (!soup.ok()) return soup.status();
-    std::vector<InexactKernel::Point_3> points;
     points.reserve(soup->vertices.size());
-    for (const Vec3& v : soup->vertices) {
-      if (!v.allFinite()) return core::Status::InvalidArgument(path + ": mesh has a non-finite vertex");
-      points.emplace_back(v.x(), v.y(), v.z());
-    }
-    std::vector<std::vector<std::size_t>> polygons;
+    for (const Vec3& v : soup->vertices) points.emplace_back(v.x(), v.y(), v.z());
     polygons.reserve(soup->triangles.size());
     for (const auto& t : soup->triangles) polygons.push_back({t[0], t[1], t[2]});
-    PMP::repair_polygon_soup(points, polygons);
-    PMP::orient_polygon_soup(points, polygons);
-    if (!polygons.empty() && PMP::is_polygon_soup_a_polygon_mesh(polygons)) {
-      PMP::polygon_soup_to_polygon_mesh(points, polygons, mesh);
-      read = true;
-    }
   } else {
     if (extension == ".ply") {
       const std::string problem = PlyHeaderProblem(path, std::filesystem::file_size(path, error));
       if (!problem.empty()) return core::Status::InvalidArgument(path + ": " + problem);
     }
     const CerrCapture capture;
+    bool soup_read = false;
     try {
-      // Reads a soup, merges duplicate points, drops degenerate and duplicate
-      // faces and orients the soup consistently before building the mesh.
-      read = PMP::IO::read_polygon_mesh(path, mesh);
+      soup_read = CGAL::IO::read_polygon_soup(path, points, polygons);
     } catch (const std::exception& e) {
       reader_message = e.what();
     }
     if (reader_message.empty()) reader_message = capture.FirstLine();
+    if (!soup_read) {
+      return core::Status::InvalidArgument(path + ": cannot read mesh (malformed " + extension.substr(1) + " file)" +
+                                           (reader_message.empty() ? std::string() : ": " + reader_message));
+    }
+  }
+  for (const auto& p : points) {
+    if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z())) {
+      return core::Status::InvalidArgument(path + ": mesh has a non-finite vertex");
+    }
+  }
+  for (size_t f = 0; f < polygons.size(); ++f) {
+    if (polygons[f].size() < 3) {
+      return core::Status::InvalidArgument(path + ": face " + std::to_string(f + 1) + " has fewer than 3 vertices");
+    }
+    for (std::size_t index : polygons[f]) {
+      if (index >= points.size()) {
+        return core::Status::InvalidArgument(path + ": face " + std::to_string(f + 1) +
+                                             " names a vertex the file does not have");
+      }
+    }
+  }
+  // What read_polygon_mesh does after reading: merge duplicate points, drop
+  // degenerate and duplicate faces, orient the soup, build the mesh.
+  InexactMesh mesh;
+  bool read = false;
+  PMP::repair_polygon_soup(points, polygons);
+  PMP::orient_polygon_soup(points, polygons);
+  if (!polygons.empty() && PMP::is_polygon_soup_a_polygon_mesh(polygons)) {
+    PMP::polygon_soup_to_polygon_mesh(points, polygons, mesh);
+    read = true;
   }
   if (!read) {
     return core::Status::InvalidArgument(
