@@ -135,6 +135,19 @@ TEST_F(MeshIoTest, FacesNamingMissingVerticesAreRefused) {
   }
   WriteText("good.obj", vertices + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
   EXPECT_TRUE(ReadMesh(Path("good.obj")).ok());
+  // OFF: a face index written as a huge number (converted without a check
+  // inside CGAL) and one past the last vertex.
+  const std::string off = "OFF\n4 4 0\n0 0 0\n0.1 0 0\n0 0.1 0\n0 0 0.1\n";
+  for (const std::string& faces : {std::string("3 099999999999999999999999 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"),
+                                   std::string("3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 4\n")}) {
+    WriteText("bad.off", off + faces);
+    auto mesh = ReadMesh(Path("bad.off"));
+    ASSERT_FALSE(mesh.ok()) << faces;
+    EXPECT_NE(mesh.status().message().find("names a vertex the file does not have"), std::string::npos)
+        << mesh.status().message();
+  }
+  WriteText("good.off", off + "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+  EXPECT_TRUE(ReadMesh(Path("good.off")).ok());
 }
 
 // Found by fuzzing (target mesh): a '=' in a Collada index list made
@@ -152,6 +165,7 @@ TEST_F(MeshIoTest, ColladaIndexListsAndCountsAreCheckedFirst) {
   const std::pair<std::string, std::string> cases[] = {
       {std::string(palm).replace(palm.find("4 6 7</p>"), 9, "4 6 =</p>"), "not a whole number"},
       {std::string(palm).replace(palm.find("count=\"") + 7, 1, "99999999999"), "count"},
+      {std::string(palm).replace(palm.find("count=\""), 5, "kount"), "without a count"},
   };
   for (const auto& [text, fragment] : cases) {
     WriteText("bad.dae", text);

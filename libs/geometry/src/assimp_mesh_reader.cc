@@ -15,8 +15,8 @@ namespace {
 // Assimp's Collada importer trusts index lists and counts: a '=' in a <p>
 // list made it allocate 2.4 GB for a 1.7 KB file (found by fuzzing). The
 // text is checked first: index lists (<p>, <v>, <vcount>, <h>, <int_array>)
-// hold whole numbers only, and no count="N" exceeds the file's size (every
-// element takes at least a byte).
+// hold whole numbers only, every array and accessor has a count, and no
+// count="N" exceeds the file's size (every element takes at least a byte).
 std::string ColladaTextProblem(const std::string& text) {
   for (const char* tag : {"p", "v", "vcount", "h", "int_array"}) {
     const std::string open = std::string("<") + tag, close = std::string("</") + tag + ">";
@@ -36,6 +36,19 @@ std::string ColladaTextProblem(const std::string& text) {
         if (!(c >= '0' && c <= '9') && c != ' ' && c != '\t' && c != '\n' && c != '\r' && c != '-') {
           return std::string("<") + tag + "> holds something that is not a whole number";
         }
+      }
+    }
+  }
+  // Every array says how many values it holds (without it Assimp read
+  // through a null pointer; found by fuzzing).
+  for (const char* tag : {"<float_array", "<int_array", "<accessor"}) {
+    for (std::size_t at = text.find(tag); at != std::string::npos; at = text.find(tag, at + 1)) {
+      const std::size_t end = text.find('>', at);
+      if (end == std::string::npos) return std::string("unterminated ") + tag + ">";
+      const std::string element = text.substr(at, end - at);
+      if (element.find(" count=\"") == std::string::npos && element.find("\tcount=\"") == std::string::npos &&
+          element.find("\ncount=\"") == std::string::npos) {
+        return std::string(tag + 1) + " without a count";
       }
     }
   }

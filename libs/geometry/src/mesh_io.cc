@@ -313,6 +313,57 @@ std::string PlyHeaderProblem(const std::string& path, std::uintmax_t file_size) 
   return "PLY header has no end_header";
 }
 
+// CGAL's OFF scanner converts a face index written as a huge number to an
+// integer without a check (undefined behaviour; found by fuzzing). For the
+// plain ascii "OFF" form, the face lines are checked first: whole-number
+// indices below the vertex count. (Variants such as COFF or binary OFF are
+// left to CGAL.)
+std::string OffTextProblem(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<std::vector<std::string>> lines;
+  std::string line;
+  while (std::getline(in, line)) {
+    const std::size_t hash = line.find('#');
+    if (hash != std::string::npos) line.erase(hash);
+    std::istringstream words(line);
+    std::vector<std::string> row;
+    for (std::string w; words >> w;) row.push_back(w);
+    if (!row.empty()) lines.push_back(std::move(row));
+  }
+  if (lines.empty() || lines[0][0] != "OFF") return "";
+  std::size_t next = 0;
+  std::vector<std::string> counts(lines[0].begin() + 1, lines[0].end());
+  if (counts.empty()) {
+    if (lines.size() < 2) return "OFF file without vertex and face counts";
+    counts = lines[1];
+    next = 2;
+  } else {
+    next = 1;
+  }
+  auto whole = [](const std::string& text, unsigned long long* value) {
+    if (text.empty() || text.size() > 18 || text.find_first_not_of("0123456789") != std::string::npos) return false;
+    *value = std::stoull(text);
+    return true;
+  };
+  unsigned long long vertices = 0, faces = 0;
+  if (counts.size() < 2 || !whole(counts[0], &vertices) || !whole(counts[1], &faces)) {
+    return "OFF counts are not whole numbers";
+  }
+  if (next + vertices + faces > lines.size()) return "OFF file has fewer lines than its counts say";
+  for (std::size_t f = 0; f < faces; ++f) {
+    const std::vector<std::string>& row = lines[next + vertices + f];
+    unsigned long long k = 0;
+    if (!whole(row[0], &k) || k + 1 > row.size()) return "OFF face " + std::to_string(f + 1) + ": bad vertex count";
+    for (std::size_t i = 1; i <= k; ++i) {
+      unsigned long long index = 0;
+      if (!whole(row[i], &index) || index >= vertices) {
+        return "OFF face " + std::to_string(f + 1) + " names a vertex the file does not have";
+      }
+    }
+  }
+  return "";
+}
+
 }  // namespace
 
 core::Result<TriangleMesh> ReadMesh(const std::string& path) {
@@ -347,6 +398,10 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
   } else {
     if (extension == ".ply") {
       const std::string problem = PlyHeaderProblem(path, std::filesystem::file_size(path, error));
+      if (!problem.empty()) return core::Status::InvalidArgument(path + ": " + problem);
+    }
+    if (extension == ".off") {
+      const std::string problem = OffTextProblem(path);
       if (!problem.empty()) return core::Status::InvalidArgument(path + ": " + problem);
     }
     const CerrCapture capture;
