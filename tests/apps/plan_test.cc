@@ -230,6 +230,52 @@ TEST_F(PlanCliTest, RefusesOutputsThatWouldDestroySomething) {
   EXPECT_EQ(planned.exit_code, 0) << planned.err;
 }
 
+// Every class of bad scan file found so far, through the program as a user
+// runs it: exit 2, one stderr line naming the scan file given, no output
+// file left in the folder; then a real plan still works.
+TEST_F(PlanCliTest, RejectsEveryKnownClassOfBadScan) {
+  const std::string xyz3 = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
+  const std::string one = "WIDTH 1\nHEIGHT 1\nPOINTS 1\n";
+  std::string float_row(12, '\0');
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      // Read as zeros or dropped before (a "successful" plan through a wall).
+      {"VERSION 0.7\n" + xyz3 + "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n1 2 3\n4 five 6\n", "scene.pcd"},
+      {"VERSION 0.7\n" + xyz3 + "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n1 2 3\n4 5\n", "scene.pcd"},
+      {"VERSION 0.7\n" + xyz3 + "WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n4 5 6\n", "scene.pcd"},
+      {"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 2 1 1\n" + one + "DATA ascii\n1 1 2 3\n", "scene.pcd"},
+      {"VERSION 0.7\n" + xyz3 + one, "scene.pcd"},
+      {"VERSION 0.7\n" + xyz3 + one + "DATA lzma\n" + float_row, "scene.pcd"},
+      {"VERSION 0.7\n" + xyz3 + "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA binary\n" + float_row, "scene.pcd"},
+      // Crashed, hung or allocated gigabytes before.
+      {"VERSION 0.7\n" + xyz3 + "WIDTH -5\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n", "scene.pcd"},
+      {"VERSION 0.7\n" + xyz3 + "WIDTH 4000000000\nHEIGHT 1\nPOINTS 1\nDATA binary\n" + float_row, "scene.pcd"},
+      {"VERSION 0.7\nFIELDS x y z\nSIZE 4999999999999999999 8 8\nTYPE F F F\nCOUNT 1 1 1\n" + one + "DATA binary\n" +
+           float_row, "scene.pcd"},
+      {"", "scene.pcd"},
+      {"not a point cloud at all\n", "scene.pcd"},
+  };
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const std::string scene = (dir_ / "scene.pcd").string();
+  const std::string task = WriteTask({{"scene:", "scene: " + scene}});
+  for (size_t i = 0; i < cases.size(); ++i) {
+    std::ofstream(scene, std::ios::binary) << cases[i].first;
+    const auto r = RunCommand(kPlan + " " + task + " --out " + out + " --report " + report + " --html " +
+                              (dir_ / "view.html").string());
+    EXPECT_EQ(r.exit_code, 2) << "case " << i << "\n" << r.err;
+    EXPECT_EQ(CountLines(r.err), 1) << "case " << i << "\n" << r.err;
+    EXPECT_NE(r.err.find(cases[i].second), std::string::npos) << "case " << i << "\n" << r.err;
+    for (const auto& entry : fs::directory_iterator(dir_)) {
+      const std::string name = entry.path().filename().string();
+      EXPECT_TRUE(name == "task.yaml" || name == "scene.pcd") << "case " << i << " left " << name;
+    }
+  }
+  fs::remove(scene);
+  fs::copy_file(std::string(QUADHAND_SOURCE_DIR) + "/data/scenes/window_cup.pcd", scene);
+  const auto planned = RunCommand(kPlan + " " + task + " --out " + out + " --report " + report);
+  EXPECT_EQ(planned.exit_code, 0) << planned.err;
+  EXPECT_TRUE(fs::exists(out));
+}
+
 TEST_F(PlanCliTest, RejectsBadOptions) {
   const std::string task = WriteTask({});
   const std::string outputs = " --out " + (dir_ / "p.csv").string() + " --report " + (dir_ / "r.json").string();
