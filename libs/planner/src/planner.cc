@@ -350,6 +350,24 @@ core::Result<InitialGuess> GuessFromPath(const robot::RobotModel& robot, const T
   return guess;
 }
 
+// Stages "initial guess", "plan collision" and "optimise" from the
+// front-end path's corners: false, with result->status set, when the
+// representation cannot be built for this guess.
+core::Result<bool> SolveFromPath(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                                 const SolveSchedule& schedule, const std::vector<Vec3>& corners,
+                                 PlanResult* result) {
+  auto guess = GuessFromPath(scene.robot, task, options, corners, *result);
+  if (!guess.ok()) return guess.status();
+  result->num_pieces = static_cast<int>(guess->durations.size());
+  PlanCollision collision;
+  auto built = BuildPlanCollision(scene, corners, task.start.position, *guess, result->terminal.position, &collision,
+                                  result);
+  if (!built.ok()) return built.status();
+  if (!*built) return false;
+  QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, task, *guess, options, schedule, result));
+  return true;
+}
+
 // Stage "alternatives" (PlannerOptions::alternative_guesses): other initial
 // guesses from the same front-end path, in a fixed order, while the plan has
 // failed its post-check or its solver; the first that passes is kept. The
@@ -371,21 +389,15 @@ core::Status TryAlternativeGuesses(const PlanningScene& scene, const Task& task,
     if (result->status != PlanStatus::kPostCheckFailed && result->status != PlanStatus::kSolverFailed) break;
     PlannerOptions changed = options;
     alternatives[i].change(&changed);
-    auto guess = GuessFromPath(scene.robot, task, changed, corners, *result);
-    if (!guess.ok()) return guess.status();
     PlanResult trial;
     trial.terminal = result->terminal;
     trial.insertion = result->insertion;
     trial.path = result->path;
-    trial.num_pieces = static_cast<int>(guess->durations.size());
-    PlanCollision collision;
-    auto built = BuildPlanCollision(scene, corners, task.start.position, *guess, result->terminal.position,
-                                    &collision, &trial);
-    if (!built.ok()) return built.status();
+    auto solved = SolveFromPath(scene, task, changed, schedule, corners, &trial);
+    if (!solved.ok()) return solved.status();
     ++result->alternatives_tried;
     result->per_plan_collision_ms += trial.per_plan_collision_ms;
-    if (!*built) continue;
-    QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, task, *guess, changed, schedule, &trial));
+    if (!*solved) continue;
     result->solve_ms += trial.solve_ms;
     result->post_check_ms += trial.post_check_ms;
     result->iterations += trial.iterations;
@@ -420,16 +432,10 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
   if (!*found) return result;
   std::vector<Vec3> corners = result.path.shortcut;
   if (result.insertion.enabled) corners.push_back(result.terminal.position);
-  auto guess = GuessFromPath(scene.robot, task, options, corners, result);
-  if (!guess.ok()) return guess.status();
-  result.num_pieces = static_cast<int>(guess->durations.size());
-  PlanCollision collision;
-  auto built = BuildPlanCollision(scene, corners, task.start.position, *guess, result.terminal.position, &collision,
-                                  &result);
-  if (!built.ok()) return built.status();
-  if (!*built) return result;
   const SolveSchedule schedule{solver, options.solver, options.solver, options.max_attempts};
-  QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, task, *guess, options, schedule, &result));
+  auto solved = SolveFromPath(scene, task, options, schedule, corners, &result);
+  if (!solved.ok()) return solved.status();
+  if (!*solved) return result;
   QUADHAND_RETURN_IF_ERROR(TryAlternativeGuesses(scene, task, options, schedule, corners, &result));
   return result;
 }
