@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <thread>
 
+#include "quadhand/core/worker_pool.h"
 #include "quadhand/planner/motion_bound.h"
 #include "quadhand/robot/kinematics.h"
 
@@ -27,6 +27,21 @@ struct Worst {
     if (v > value) {
       value = v;
       time = t;
+    }
+  }
+};
+
+// Tracks the least value of one quantity, when and where (a link or pair
+// index) it occurred; the first of equal values is kept.
+struct Least {
+  double value = 1e300;
+  double time = 0.0;
+  int index = -1;
+  void Take(double v, double t, int i) {
+    if (v < value) {
+      value = v;
+      time = t;
+      index = i;
     }
   }
 };
@@ -185,8 +200,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     int added = 0;
     // The added sample with the least exact clearance (link), and the one
     // with the least self-distance (pair).
-    double closest = 1e300, closest_time = 0.0, closest_self = 1e300, closest_self_time = 0.0;
-    int closest_link = -1, closest_pair = -1;
+    Least closest, closest_self;
   };
   constexpr int kMaxHalvings = 8;
   auto certify = [&](const Measured& first, const Measured& last, int max_halvings, robot::KinematicsState* kinematics,
@@ -235,16 +249,8 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       measure_at(0.5 * (p.t0 + p.t1), Measure::kRefinement, kinematics, &mid,
                  search_radii(0.5 * (p.t0 + p.t1), 0.5 * h, 0.5 * h));
       ++c->added;
-      if (mid.d_exact < c->closest) {
-        c->closest = mid.d_exact;
-        c->closest_time = mid.t;
-        c->closest_link = mid.link;
-      }
-      if (mid.d_self < c->closest_self) {
-        c->closest_self = mid.d_self;
-        c->closest_self_time = mid.t;
-        c->closest_pair = mid.pair;
-      }
+      c->closest.Take(mid.d_exact, mid.t, mid.link);
+      c->closest_self.Take(mid.d_self, mid.t, mid.pair);
       // Later half first on the stack: the earlier half is refined first.
       stack.push_back({mid.t, mid.d_exact, mid.d_self, p.t1, p.d1, p.s1, p.depth + 1});
       stack.push_back({p.t0, p.d0, p.s0, mid.t, mid.d_exact, mid.d_self, p.depth + 1});
@@ -286,44 +292,25 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     robot::KinematicsState kinematics;
     for (size_t i = first; i < to_certify.size(); i += stride) certify_interval(to_certify[i], kMaxHalvings, &kinematics);
   };
-  const int workers = std::clamp(options.threads > 0 ? options.threads
-                                                     : static_cast<int>(std::thread::hardware_concurrency()),
-                                 1, std::min(steps + 1, kBlock));
-  auto run_on_workers = [&](auto&& work) {
-    std::vector<std::thread> pool;
-    for (int w = 1; w < workers; ++w) pool.emplace_back(work, w, workers);
-    work(0, workers);
-    for (std::thread& worker : pool) worker.join();
-  };
+  // One pool for every block's two passes (measure, then certify).
+  core::WorkerPool pool(core::WorkerCount(options.threads, std::min(steps + 1, kBlock)));
+  auto run_on_workers = [&](auto&& work) { pool.Run([&](int worker) { work(worker, pool.size()); }); };
 
   Worst speed, acceleration, yaw_rate, body_rate, joint_excess;
   std::vector<Worst> joint_rate(n);
-  double min_exact = reach, min_model = reach;
-  double min_exact_time = 0.0;
-  int closest = -1;
+  Least exact_least{reach};  // over every sample measured, regular and added
+  double min_model = reach;
   std::vector<std::pair<double, double>> tool_track;  // (along line, off line) per sample
   std::vector<double> times;
-  double min_self = self_reach, min_self_time = 0.0;
-  int closest_self = -1;
+  Least self_least{self_reach};
   // The certificate: the least slack over the intervals, and where.
   double certified_slack = 1e300, certified_lower = 0.0, certified_time = 0.0, certified_against = clearance_bound;
   double certified_self = self_reach, certified_self_time = 0.0;
   bool undefined_motion = false;
   double undefined_time = 0.0;
   int added = 0;
-  auto take_exact = [&](double d, double t, int link) {
-    if (d < min_exact) {
-      min_exact = d;
-      min_exact_time = t;
-      closest = link;
-    }
-  };
   auto take_self = [&](double d, double t, int pair) {
-    if (check_self && d < min_self) {
-      min_self = d;
-      min_self_time = t;
-      closest_self = pair;
-    }
+    if (check_self) self_least.Take(d, t, pair);
   };
   for (block_begin = 0; block_begin <= steps; block_begin = block_end) {
     block_end = std::min(steps + 1, block_begin + kBlock);
@@ -372,16 +359,14 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     const double t = m.t;
     const WholeBodySample& s = m.sample;
     if (m.has_clearance) {
-      take_exact(m.d_exact, t, m.link);
+      exact_least.Take(m.d_exact, t, m.link);
       take_self(m.d_self, t, m.pair);
       min_model = std::min(min_model, m.d_model);
     }
     if (m.has_clearance && block_begin + index > 0) {
       const Certified& c = certified[index];
-      if (c.added > 0) {
-        take_exact(c.closest, c.closest_time, c.closest_link);
-        take_self(c.closest_self, c.closest_self_time, c.closest_pair);
-      }
+      exact_least.Take(c.closest.value, c.closest.time, c.closest.index);
+      take_self(c.closest_self.value, c.closest_self.time, c.closest_self.index);
       added += c.added;
       if (c.lower - c.bound < certified_slack) {
         certified_slack = c.lower - c.bound;
@@ -417,6 +402,10 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       previous = measured[previous_clearance_step(block_end) - block_begin];
     }
   }
+  const double min_exact = exact_least.value, min_exact_time = exact_least.time;
+  const int closest = exact_least.index;
+  const double min_self = self_least.value, min_self_time = self_least.time;
+  const int closest_self = self_least.index;
   report.min_clearance_exact = min_exact;
   report.min_clearance_model = min_model;
   report.closest_link = closest;
