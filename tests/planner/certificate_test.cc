@@ -11,24 +11,14 @@
 #include "quadhand/planner/post_check.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/link_meshes.h"
-#include "quadhand/solvers/lbfgs_solver.h"
-#include "support/window_cup_scene.h"
+#include "support/window_cup_plan.h"
 
 namespace quadhand::planner {
 namespace {
 
 using testing::WindowCup;
 
-const PlanResult& DefaultPlan() {
-  static const PlanResult plan = [] {
-    solvers::LbfgsSolver solver;
-    auto result = Plan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), solver);
-    EXPECT_TRUE(result.ok()) << result.status().message();
-    EXPECT_TRUE(result->success) << result->message;
-    return *result;
-  }();
-  return plan;
-}
+const PlanResult& DefaultPlan() { return testing::WindowCupPlan(); }
 
 robot::KinematicsState KinematicsAt(const WholeBodyTrajectory& trajectory, double t) {
   const WholeBodySample s = trajectory.Sample(t);

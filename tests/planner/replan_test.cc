@@ -5,24 +5,14 @@
 
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/solvers/lbfgs_solver.h"
-#include "support/window_cup_scene.h"
+#include "support/window_cup_plan.h"
 
 namespace quadhand::planner {
 namespace {
 
 using testing::WindowCup;
 
-// One cold plan of the default task, shared by the tests.
-const PlanResult& DefaultPlan() {
-  static const PlanResult plan = [] {
-    solvers::LbfgsSolver solver;
-    auto result = Plan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), solver);
-    EXPECT_TRUE(result.ok()) << result.status().message();
-    EXPECT_TRUE(result->success) << result->message;
-    return *result;
-  }();
-  return plan;
-}
+const PlanResult& DefaultPlan() { return testing::WindowCupPlan(); }
 
 // The plan's state at t (a measured state with no error).
 BoundaryState StateOnPlan(const WholeBodyTrajectory& trajectory, double t) {
