@@ -32,6 +32,14 @@ class MeshIoTest : public ::testing::Test {
   void WriteText(const std::string& name, const std::string& contents) const {
     std::ofstream(Path(name), std::ios::binary) << contents;
   }
+  // Writes `text` as `name`; reading it must fail with `fragment` and the path in the message.
+  void ExpectRefused(const std::string& name, const std::string& text, const std::string& fragment) const {
+    WriteText(name, text);
+    const auto mesh = ReadMesh(Path(name));
+    ASSERT_FALSE(mesh.ok()) << text;
+    EXPECT_NE(mesh.status().message().find(fragment), std::string::npos) << mesh.status().message();
+    EXPECT_NE(mesh.status().message().find(Path(name)), std::string::npos) << mesh.status().message();
+  }
 
   fs::path dir_;
 };
@@ -102,13 +110,7 @@ TEST_F(MeshIoTest, MalformedPlyHeadersAreRefusedBeforeCgalReadsThem) {
       {"ply\nformat ascii 1.0\nelement vertex 1\nproperty int32 x\nproperty float y\nproperty float z\nend_header\n0 0 0\n",
        "of type 'int32'"},
   };
-  for (const auto& [text, fragment] : cases) {
-    WriteText("bad.ply", text);
-    auto mesh = ReadMesh(Path("bad.ply"));
-    ASSERT_FALSE(mesh.ok()) << text;
-    EXPECT_NE(mesh.status().message().find(fragment), std::string::npos) << mesh.status().message();
-    EXPECT_NE(mesh.status().message().find(Path("bad.ply")), std::string::npos) << mesh.status().message();
-  }
+  for (const auto& [text, fragment] : cases) ExpectRefused("bad.ply", text, fragment);
 }
 
 // Found by fuzzing (target mesh): CGAL's OBJ reader keeps face indices it
@@ -120,19 +122,9 @@ TEST_F(MeshIoTest, FacesNamingMissingVerticesAreRefused) {
       {vertices + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 0 3\n", ""},  // CGAL refuses index 0 itself
       {vertices + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 9\n", ""},  // and one past the last
   };
-  for (const auto& [text, fragment] : cases) {
-    WriteText("bad.obj", text);
-    auto mesh = ReadMesh(Path("bad.obj"));
-    ASSERT_FALSE(mesh.ok()) << text;
-    EXPECT_NE(mesh.status().message().find(fragment), std::string::npos) << mesh.status().message();
-    EXPECT_NE(mesh.status().message().find(Path("bad.obj")), std::string::npos) << mesh.status().message();
-    // The crashing input itself (a control character where an index was).
-  }
-  {
-    WriteText("bad.obj", vertices + "f 1 \x15" "3 2\nf 1 2 4\nf 1 4 3\nf 2 0.1 ");
-    auto mesh = ReadMesh(Path("bad.obj"));
-    EXPECT_FALSE(mesh.ok());
-  }
+  for (const auto& [text, fragment] : cases) ExpectRefused("bad.obj", text, fragment);
+  // The crashing input itself (a control character where an index was).
+  ExpectRefused("bad.obj", vertices + "f 1 \x15" "3 2\nf 1 2 4\nf 1 4 3\nf 2 0.1 ", "");
   WriteText("good.obj", vertices + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
   EXPECT_TRUE(ReadMesh(Path("good.obj")).ok());
   // OFF: a face index written as a huge number (converted without a check
@@ -140,11 +132,7 @@ TEST_F(MeshIoTest, FacesNamingMissingVerticesAreRefused) {
   const std::string off = "OFF\n4 4 0\n0 0 0\n0.1 0 0\n0 0.1 0\n0 0 0.1\n";
   for (const std::string& faces : {std::string("3 099999999999999999999999 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"),
                                    std::string("3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 4\n")}) {
-    WriteText("bad.off", off + faces);
-    auto mesh = ReadMesh(Path("bad.off"));
-    ASSERT_FALSE(mesh.ok()) << faces;
-    EXPECT_NE(mesh.status().message().find("names a vertex the file does not have"), std::string::npos)
-        << mesh.status().message();
+    ExpectRefused("bad.off", off + faces, "names a vertex the file does not have");
   }
   WriteText("good.off", off + "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
   EXPECT_TRUE(ReadMesh(Path("good.off")).ok());
@@ -167,13 +155,7 @@ TEST_F(MeshIoTest, ColladaIndexListsAndCountsAreCheckedFirst) {
       {std::string(palm).replace(palm.find("count=\"") + 7, 1, "99999999999"), "count"},
       {std::string(palm).replace(palm.find("count=\""), 5, "kount"), "without a count"},
   };
-  for (const auto& [text, fragment] : cases) {
-    WriteText("bad.dae", text);
-    auto mesh = ReadMesh(Path("bad.dae"));
-    ASSERT_FALSE(mesh.ok());
-    EXPECT_NE(mesh.status().message().find(fragment), std::string::npos) << mesh.status().message();
-    EXPECT_NE(mesh.status().message().find(Path("bad.dae")), std::string::npos) << mesh.status().message();
-  }
+  for (const auto& [text, fragment] : cases) ExpectRefused("bad.dae", text, fragment);
 }
 
 TEST_F(MeshIoTest, MissingFileIsNotFoundAndNamesTheFile) {
