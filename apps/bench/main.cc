@@ -17,12 +17,10 @@
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
-#include <yaml-cpp/yaml.h>
-
-#include "quadhand/core/yaml_text.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/bench_config.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
@@ -39,65 +37,9 @@ int Fail(const std::string& message) {
   return 2;
 }
 
-struct BenchConfig {
-  std::string task_path;
-  Vec3 box_min, box_max;
-  double yaw_min = -M_PI, yaw_max = M_PI;
-};
-
-core::Result<BenchConfig> LoadConfig(const std::string& path) {
-  auto text = core::ReadFileToString(path);
-  if (!text.ok()) return text.status();
-  QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(*text, path));
-  BenchConfig config;
-  auto fail = [&path](const std::string& what) { return core::Status::InvalidArgument(path + ": " + what); };
-  try {
-    const YAML::Node root = YAML::Load(*text);
-    if (!root.IsMap()) return fail("expected a mapping with task, start_box and optionally yaw");
-    for (auto it = root.begin(); it != root.end(); ++it) {
-      const std::string key = it->first.as<std::string>();
-      if (key != "task" && key != "start_box" && key != "yaw") {
-        return fail(key + ": unknown key (expected task, start_box, yaw)");
-      }
-    }
-    if (!root["task"] || !root["task"].IsScalar()) return fail("task: expected the task file's path");
-    config.task_path = core::ResolvePath(core::DirectoryOf(path), root["task"].as<std::string>());
-    const YAML::Node box = root["start_box"];
-    if (!box || !box.IsMap()) return fail("start_box: expected {min: [x, y, z], max: [x, y, z]}");
-    for (auto it = box.begin(); it != box.end(); ++it) {
-      const std::string key = it->first.as<std::string>();
-      if (key != "min" && key != "max") return fail("start_box." + key + ": unknown key (expected min, max)");
-    }
-    for (const char* key : {"min", "max"}) {
-      if (!box[key] || !box[key].IsSequence() || box[key].size() != 3) {
-        return fail(std::string("start_box.") + key + ": expected three numbers");
-      }
-    }
-    for (int i = 0; i < 3; ++i) {
-      config.box_min[i] = box["min"][i].as<double>();
-      config.box_max[i] = box["max"][i].as<double>();
-    }
-    if (const YAML::Node yaw = root["yaw"]) {
-      if (!yaw.IsSequence() || yaw.size() != 2) return fail("yaw: expected [min, max] in radians");
-      config.yaw_min = yaw[0].as<double>();
-      config.yaw_max = yaw[1].as<double>();
-    }
-  } catch (const YAML::Exception& e) {
-    return fail("malformed benchmark config: " + e.msg);
-  }
-  if (!(config.box_min.allFinite() && config.box_max.allFinite() &&
-        (config.box_min.array() <= config.box_max.array()).all())) {
-    return fail("start_box: min and max must be finite, with min <= max");
-  }
-  if (!(std::isfinite(config.yaw_min) && std::isfinite(config.yaw_max) && config.yaw_min <= config.yaw_max)) {
-    return fail("yaw: min and max must be finite, with min <= max");
-  }
-  return config;
-}
-
 // Trial k's start: uniform in the box, yaw and joint ranges, redrawn (same
 // generator) while the robot is within the safety distance of the scene.
-bool DrawStart(unsigned seed, const BenchConfig& config, const robot::RobotModel& robot,
+bool DrawStart(unsigned seed, const planner::BenchConfig& config, const robot::RobotModel& robot,
                const env::ExactMeshModel& exact, double safety, planner::BoundaryState* start) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -202,7 +144,7 @@ int main(int argc, char** argv) {
   for (const std::string& name : representations) {
     if (core::Status s = planner::CheckRepresentationName(name); !s.ok()) return Fail("--representations: " + s.message());
   }
-  auto config = LoadConfig(config_path);
+  auto config = planner::LoadBenchConfig(config_path);
   if (!config.ok()) return Fail(config.status().message());
   auto planner_config = planner::LoadPlannerConfigOrDefaults(planner_config_path);
   if (!planner_config.ok()) return Fail(planner_config.status().message());
