@@ -330,7 +330,16 @@ std::string OffTextProblem(const std::string& path) {
     for (std::string w; words >> w;) row.push_back(w);
     if (!row.empty()) lines.push_back(std::move(row));
   }
-  if (lines.empty() || lines[0][0] != "OFF") return "";
+  if (lines.empty()) return "empty OFF file";
+  // CGAL also reads variants it matches loosely ("OFF-", 4OFF, nOFF,
+  // binary): only the text forms whose vertex and face lines are checked
+  // below are handed to it.
+  const std::string& magic = lines[0][0];
+  if (magic != "OFF" && magic != "COFF" && magic != "NOFF" && magic != "CNOFF") {
+    std::string shown;
+    for (char c : magic.substr(0, 16)) shown += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
+    return "OFF header '" + shown + "' is not supported (expected OFF, COFF, NOFF or CNOFF)";
+  }
   std::size_t next = 0;
   std::vector<std::string> counts(lines[0].begin() + 1, lines[0].end());
   if (counts.empty()) {

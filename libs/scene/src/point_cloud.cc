@@ -330,19 +330,45 @@ core::Status CheckRegularFile(const std::string& path) {
 // can hold (binary: the bytes; ascii: at least a byte a point; compressed:
 // 256 times the file), at most 1 GiB of point data, and a DATA line within
 // the first 64 KiB.
+// PCL's header reader matches keywords by prefix ("TYPEx" is TYPE), splits
+// on spaces, tabs and carriage returns only, keeps reading keyword lines
+// after DATA, and allocates POINTS x point step as soon as it reads POINTS.
+// So the header is held to the PCD specification here before PCL sees it:
+// the keywords exactly, each at most once and in the specification's order,
+// no control characters, POINTS = WIDTH x HEIGHT, and nothing after DATA
+// that PCL would still take for a header line.
 std::string PcdHeaderProblem(const std::string& path) {
+  static const char* const kKeywords[] = {"VERSION", "FIELDS", "SIZE",      "TYPE",   "COUNT",
+                                          "WIDTH",   "HEIGHT", "VIEWPOINT", "POINTS", "DATA"};
+  constexpr int kKeywordCount = sizeof(kKeywords) / sizeof(kKeywords[0]);
   std::error_code error;
   const std::uintmax_t file_size = std::filesystem::file_size(path, error);
   if (error) return "cannot read the file's size";
   std::ifstream in(path, std::ios::binary);
   std::string line;
   std::size_t read = 0;
+  int line_number = 0;
   std::vector<std::string> fields, sizes, types, counts;
-  std::uint64_t width = 0, height = 1;
-  bool have_width = false;
-  auto words_of = [](std::istringstream& words) {
+  std::uint64_t width = 0, height = 1, points = 0;
+  bool have_width = false, have_points = false;
+  int last_keyword = -1;
+  auto tokens_of = [](const std::string& text) {  // split as PCL does
     std::vector<std::string> out;
-    for (std::string w; words >> w;) out.push_back(w);
+    std::string word;
+    for (char c : text) {
+      if (c == ' ' || c == '\t' || c == '\r') {
+        if (!word.empty()) out.push_back(word);
+        word.clear();
+      } else {
+        word += c;
+      }
+    }
+    if (!word.empty()) out.push_back(word);
+    return out;
+  };
+  auto printable = [](const std::string& word) {
+    std::string out;
+    for (char c : word.substr(0, 24)) out += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
     return out;
   };
   auto whole_number = [](const std::string& text, std::uint64_t limit, std::uint64_t* value) {
@@ -353,26 +379,60 @@ std::string PcdHeaderProblem(const std::string& path) {
     *value = parsed;
     return true;
   };
+  auto keyword_prefix = [&](const std::string& token) {
+    for (const char* keyword : kKeywords) {
+      if (token.compare(0, std::strlen(keyword), keyword) == 0) return true;
+    }
+    return token.compare(0, 7, "COLUMNS") == 0;
+  };
   while (std::getline(in, line)) {
     read += line.size() + 1;
+    ++line_number;
     if (read > 65536) return "PCD header longer than 64 KiB";
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty() || line[0] == '#') continue;
-    std::istringstream words(line);
-    std::string keyword;
-    words >> keyword;
-    const std::vector<std::string> values = words_of(words);
-    if (keyword == "FIELDS" || keyword == "COLUMNS") fields = values;
+    for (char c : line) {
+      if (static_cast<unsigned char>(c) < 0x20 && c != '\t') {
+        return "control character in header line " + std::to_string(line_number);
+      }
+    }
+    std::vector<std::string> values = tokens_of(line);
+    if (values.empty()) continue;
+    std::string keyword = values.front();
+    values.erase(values.begin());
+    if (keyword == "COLUMNS") keyword = "FIELDS";  // the older name
+    int index = -1;
+    for (int k = 0; k < kKeywordCount; ++k) {
+      if (keyword == kKeywords[k]) index = k;
+    }
+    if (index < 0 && keyword.find_first_of("0123456789") == 0) {
+      return "no DATA line in the header (line " + std::to_string(line_number) + " is data)";
+    }
+    if (index < 0) return "unknown header keyword '" + printable(keyword) + "' on line " + std::to_string(line_number);
+    if (index <= last_keyword) {
+      return keyword + " on line " + std::to_string(line_number) +
+             " is repeated or out of the PCD order (VERSION FIELDS SIZE TYPE COUNT WIDTH HEIGHT VIEWPOINT POINTS DATA)";
+    }
+    last_keyword = index;
+    if (keyword == "FIELDS") fields = values;
     else if (keyword == "SIZE") sizes = values;
     else if (keyword == "TYPE") types = values;
     else if (keyword == "COUNT") counts = values;
-    else if (keyword == "WIDTH" || keyword == "HEIGHT") {
+    else if (keyword == "WIDTH" || keyword == "HEIGHT" || keyword == "POINTS") {
       std::uint64_t value = 0;
       if (values.size() != 1 || !whole_number(values[0], 0xffffffffULL, &value)) return keyword + " is not a whole number below 2^32";
-      (keyword == "WIDTH" ? width : height) = value;
-      have_width = have_width || keyword == "WIDTH";
+      if (keyword == "POINTS") {
+        points = value;
+        have_points = true;
+      } else {
+        (keyword == "WIDTH" ? width : height) = value;
+        have_width = have_width || keyword == "WIDTH";
+      }
     } else if (keyword == "DATA") {
       const std::string kind = values.empty() ? "" : values[0];
+      if (values.size() != 1 || (kind != "ascii" && kind != "binary" && kind != "binary_compressed")) {
+        return "unknown PCD encoding 'DATA " + printable(kind) + "' (ascii, binary or binary_compressed)";
+      }
       if (fields.empty() || !have_width) return "header without FIELDS or WIDTH before DATA";
       if (types.empty()) types.assign(fields.size(), "F");  // PCL's default
       if (sizes.size() != fields.size() || types.size() != fields.size() ||
@@ -383,21 +443,36 @@ std::string PcdHeaderProblem(const std::string& path) {
       for (size_t i = 0; i < fields.size(); ++i) {
         std::uint64_t size = 0, count = 1;
         if (!whole_number(sizes[i], 8, &size) || (size != 1 && size != 2 && size != 4 && size != 8)) {
-          return "SIZE of field '" + fields[i] + "' is not 1, 2, 4 or 8";
+          return "SIZE of field '" + printable(fields[i]) + "' is not 1, 2, 4 or 8";
         }
-        if (types[i] != "F" && types[i] != "I" && types[i] != "U") return "TYPE of field '" + fields[i] + "' is not F, I or U";
+        if (types[i] != "F" && types[i] != "I" && types[i] != "U") {
+          return "TYPE of field '" + printable(fields[i]) + "' is not F, I or U";
+        }
         if (!counts.empty() && (!whole_number(counts[i], 4096, &count) || count == 0)) {
-          return "COUNT of field '" + fields[i] + "' is not in 1..4096";
+          return "COUNT of field '" + printable(fields[i]) + "' is not in 1..4096";
         }
         point_step += size * count;
       }
-      const std::uint64_t points = width * height;  // both below 2^32: no overflow
-      const long double bytes = static_cast<long double>(points) * point_step;
+      const std::uint64_t cloud_points = width * height;  // both below 2^32: no overflow
+      if (have_points && points != cloud_points) {
+        return "POINTS " + std::to_string(points) + " is not WIDTH x HEIGHT = " + std::to_string(cloud_points);
+      }
+      const long double bytes = static_cast<long double>(cloud_points) * point_step;
       if (bytes > static_cast<long double>(1ULL << 30)) return "header claims more than 1 GiB of point data";
       const std::uintmax_t rest = file_size > read ? file_size - read : 0;
       if (kind == "binary" && bytes > rest) return "header claims more points than the binary data holds";
-      if (kind == "ascii" && points > rest) return "header claims more points than the file holds";
+      if (kind == "ascii" && cloud_points > rest) return "header claims more points than the file holds";
       if (kind == "binary_compressed" && bytes > 256.0L * file_size) return "header claims more points than compressed data can hold";
+      // PCL reads on past DATA while lines look like header lines (blank,
+      // comments, keywords): a keyword there would change the header it uses.
+      std::size_t looked = 0;
+      while (looked < 65536 && std::getline(in, line)) {
+        looked += line.size() + 1;
+        const std::vector<std::string> words = tokens_of(line);
+        if (words.empty() || words[0][0] == '#') continue;
+        if (keyword_prefix(words[0])) return "a header keyword follows the DATA line";
+        break;
+      }
       return "";
     }
   }
