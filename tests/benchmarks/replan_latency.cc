@@ -53,7 +53,8 @@ int main(int argc, char** argv) {
   int trials = 50, max_iterations = -1, cold_trials = 5, attempts = -1;
   unsigned seed = 1;
   double min_offset = 0.05, max_offset = 0.20, velocity_noise = 0.1;
-  double relative_tolerance = -1.0;
+  double relative_tolerance = -1.0, horizon = -1.0;
+  int horizon_attempts = -1;
   bool profile_post_check = false;
   app.add_option("--task", task_path, "Task file")->capture_default_str();
   app.add_option("--trials", trials, "Replans to time")->capture_default_str();
@@ -65,6 +66,8 @@ int main(int argc, char** argv) {
   app.add_option("--max-iterations", max_iterations, "Override the replan solver's max_iterations");
   app.add_option("--relative-tolerance", relative_tolerance, "Override the replan solver's relative cost tolerance");
   app.add_option("--attempts", attempts, "Override the replan's max_attempts (solves with post-checks)");
+  app.add_option("--horizon", horizon, "Override the replan's rejoining horizon, s (0: never rejoin)");
+  app.add_option("--horizon-attempts", horizon_attempts, "Override the solves of the new part before the fallback");
   app.add_flag("--profile-post-check", profile_post_check, "Also time the parts of the post-check over the initial plan");
   CLI11_PARSE(app, argc, argv);
 
@@ -85,6 +88,8 @@ int main(int argc, char** argv) {
   if (max_iterations >= 0) replan.solver.max_iterations = max_iterations;
   if (relative_tolerance >= 0) replan.solver.relative_cost_tolerance = relative_tolerance;
   if (attempts >= 1) replan.max_attempts = attempts;
+  if (horizon >= 0) replan.horizon = horizon;
+  if (horizon_attempts >= 1) replan.horizon_attempts = horizon_attempts;
 
   const auto plan_start = Clock::now();
   auto plan = planner::Plan(scene, task, options, **solver);
@@ -126,6 +131,8 @@ int main(int argc, char** argv) {
     return Vec3(d.normalized());
   };
 
+  int rejoined = 0;
+  std::vector<double> rejoined_ms;
   std::vector<double> replan_ms, solve_ms, post_check_ms, other_ms, iterations, attempts_used;
   std::vector<planner::BoundaryState> starts;
   std::vector<double> times;
@@ -163,6 +170,10 @@ int main(int argc, char** argv) {
     attempts_used.push_back(static_cast<double>(result->attempts.size()));
     iterations.push_back(result->iterations);
     successes += result->success;
+    if (result->rejoined_at >= 0.0) {
+      ++rejoined;
+      rejoined_ms.push_back(ms);
+    }
     if (!result->success) std::printf("  t = %.2f s: %s\n", t, result->message.c_str());
   }
   std::printf("replan options: max_iterations %d, relative cost tolerance %g (window %d), memory %d, attempts %d\n",
@@ -174,6 +185,9 @@ int main(int argc, char** argv) {
   PrintStats("  of which solve", solve_ms, successes, static_cast<int>(replan_ms.size()));
   PrintStats("  of which post-check", post_check_ms, successes, static_cast<int>(replan_ms.size()));
   PrintStats("  of which the rest", other_ms, successes, static_cast<int>(replan_ms.size()));
+  PrintStats("  rejoined the plan", rejoined_ms, rejoined, rejoined);
+  std::printf("rejoined the current plan %d times (horizon %.2f s, %d attempts before the whole remainder)\n",
+              rejoined, replan.horizon, replan.horizon_attempts);
   std::printf("attempts (solves with a post-check): median %.0f, max %.0f\n", Quantile(attempts_used, 0.5),
               Quantile(attempts_used, 1.0));
   std::printf("iterations: median %.0f, max %.0f\n", Quantile(iterations, 0.5), Quantile(iterations, 1.0));

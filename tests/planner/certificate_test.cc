@@ -117,6 +117,39 @@ TEST(CertificateTest, IsNeverAboveABruteForceCheckAtOneMillisecond) {
   }
 }
 
+// The per-stretch certificate a rejoining replan keeps (replan.h): the
+// stretches tile the trajectory in order, and each one's bound holds at
+// every millisecond inside it.
+TEST(CertificateTest, EachCertifiedIntervalBoundsTheClearanceWithinIt) {
+  const WholeBodyTrajectory& trajectory = *DefaultPlan().trajectory;
+  const PostCheckReport report = Check(*WindowCup().exact, 0.01, 0.04);
+  const std::vector<CertifiedInterval>& intervals = report.certified_intervals;
+  ASSERT_FALSE(intervals.empty());
+  EXPECT_EQ(intervals.front().t0, 0.0);
+  EXPECT_NEAR(intervals.back().t1, trajectory.duration(), 1e-12);
+  for (size_t i = 0; i < intervals.size(); ++i) {
+    EXPECT_LT(intervals[i].t0, intervals[i].t1);
+    if (i > 0) {
+      EXPECT_EQ(intervals[i].t0, intervals[i - 1].t1);
+    }
+  }
+  const int n = static_cast<int>(std::ceil(trajectory.duration() / 0.001));
+  size_t interval = 0;
+  double least_margin = 1e9;
+  for (int i = 0; i <= n; ++i) {
+    const double t = std::min(trajectory.duration(), i * trajectory.duration() / n);
+    while (interval + 1 < intervals.size() && intervals[interval].t1 < t) ++interval;
+    const double d = env::WholeBodyClearance(KinematicsAt(trajectory, t), *WindowCup().exact, 0.2, {});
+    EXPECT_LE(intervals[interval].clearance_lower, d + 1e-12) << "t = " << t;
+    least_margin = std::min(least_margin, d - intervals[interval].clearance_lower);
+  }
+  EXPECT_LT(least_margin, 0.01);  // tight somewhere, not a vacuous bound
+  for (const CertifiedInterval& c : intervals) {
+    EXPECT_LE(c.clearance_lower, c.clearance_sampled);
+    EXPECT_LE(c.clearance_sampled, c.clearance_at_t1);
+  }
+}
+
 TEST(CertificateTest, TheSelfDistanceIsNeverAboveABruteForceCheckAtOneMillisecond) {
   const WholeBodyTrajectory& trajectory = *DefaultPlan().trajectory;
   env::SelfCollisionOptions self_options;

@@ -318,5 +318,121 @@ TEST(ReplanTest, TheRecoveryRuleKeepsTheVerdictOfAStartOutsideTheMargin) {
   EXPECT_EQ(report.min_clearance_exact, plan.post_check.min_clearance_exact);
 }
 
+
+// The least exact clearance of `trajectory` over samples every `step` s.
+double BruteForceClearance(const WholeBodyTrajectory& trajectory, double step) {
+  const int n = static_cast<int>(std::ceil(trajectory.duration() / step));
+  robot::KinematicsState kinematics;
+  double least = 1e9;
+  for (int i = 0; i <= n; ++i) {
+    const WholeBodySample s = trajectory.Sample(std::min(trajectory.duration(), i * trajectory.duration() / n));
+    robot::ComputeKinematics(WindowCup().robot(), s.BasePose(), s.joints, &kinematics);
+    least = std::min(least, env::WholeBodyClearance(kinematics, *WindowCup().exact, 0.2, {}));
+  }
+  return least;
+}
+
+// A replan from an offset state early in the plan solves only the next
+// `horizon` seconds and keeps the rest of the plan as it is: the kept part is
+// the plan's own, the seam is continuous up to the jerk (and the joint
+// rates), and the report's certificate - the new part's and the kept part's
+// - holds at every millisecond of the joined trajectory.
+TEST(ReplanTest, RejoinsThePlanAfterTheHorizonAndKeepsItsCertificate) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& old = *plan.trajectory;
+  const Task& task = WindowCup().task;
+  solvers::LbfgsSolver solver;
+  const double t_from = 0.15 * InsertionStart(plan);
+  BoundaryState start = StateOnPlan(old, t_from);
+  start.position += Vec3(0.06, -0.04, 0.03);
+  const ReplanOptions replan = DefaultReplanOptions();
+  ASSERT_GT(replan.horizon, 0.0);
+  auto result = Replan(WindowCup().Scene(), task, DefaultPlannerOptions(), replan, solver, plan, t_from, start);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  ASSERT_TRUE(result->success) << result->message;
+  ASSERT_GT(result->rejoined_at, 0.0) << "not rejoined";
+  const WholeBodyTrajectory& fresh = *result->trajectory;
+  EXPECT_LT(result->rejoined_at, fresh.duration());
+  EXPECT_LT(fresh.num_pieces(), old.num_pieces() + 1);
+
+  // The kept part is the plan's own.
+  const double kept = fresh.duration() - result->rejoined_at;
+  const double old_join = old.duration() - kept;
+  EXPECT_GE(old_join, t_from + 0.5 * replan.horizon);
+  for (int k = 0; k <= 40; ++k) {
+    const double tau = kept * k / 40.0;
+    const WholeBodySample a = fresh.Sample(result->rejoined_at + tau), b = old.Sample(old_join + tau);
+    EXPECT_LT((a.position - b.position).norm(), 1e-9) << tau;
+    EXPECT_LT((a.joints - b.joints).cwiseAbs().maxCoeff(), 1e-9) << tau;
+  }
+  // The seam.
+  const WholeBodySample before = fresh.Sample(result->rejoined_at - 1e-7), after = fresh.Sample(result->rejoined_at + 1e-7);
+  EXPECT_LT((before.position - after.position).norm(), 1e-5);
+  EXPECT_LT((before.velocity - after.velocity).norm(), 1e-4);
+  EXPECT_LT((before.acceleration - after.acceleration).norm(), 1e-3);
+  EXPECT_LT((before.jerk - after.jerk).norm(), 1e-2);
+  EXPECT_LT(std::abs(before.yaw_rate - after.yaw_rate), 1e-4);
+  EXPECT_LT((before.joint_rates - after.joint_rates).cwiseAbs().maxCoeff(), 1e-4);
+  EXPECT_LT((before.body_rate - after.body_rate).norm(), 1e-2);
+
+  // The joined report: the stretches tile [0, duration], and the certified
+  // clearance holds at every millisecond.
+  const PostCheckReport& report = result->post_check;
+  EXPECT_TRUE(report.certified) << report.FirstFailure();
+  ASSERT_FALSE(report.certified_intervals.empty());
+  EXPECT_EQ(report.certified_intervals.front().t0, 0.0);
+  EXPECT_NEAR(report.certified_intervals.back().t1, fresh.duration(), 1e-9);
+  const double truth = BruteForceClearance(fresh, 0.001);
+  EXPECT_LE(report.certified_clearance, truth);
+  EXPECT_GE(truth, task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance);
+  EXPECT_LE(report.min_clearance_exact, plan.post_check.min_clearance_exact + 1e-12);  // the grasp is in the kept part
+  bool end_checked = false;
+  for (const CheckResult& check : report.checks) {
+    if (check.kind == CheckKind::kEndState) end_checked = check.passed && std::abs(check.time - fresh.duration()) < 1e-6;
+  }
+  EXPECT_TRUE(end_checked) << "the kept end-state check, moved to the new clock";
+  const WholeBodySample last = fresh.Sample(1e9);
+  EXPECT_LT((last.position - plan.terminal.position).norm(), 0.01);
+
+  // A replan of the joined plan rejoins it in turn.
+  const double t_next = 0.5 * result->rejoined_at;
+  BoundaryState next = StateOnPlan(fresh, t_next);
+  next.position += Vec3(-0.03, 0.03, 0.0);
+  auto again = Replan(WindowCup().Scene(), task, DefaultPlannerOptions(), replan, solver, *result, t_next, next);
+  ASSERT_TRUE(again.ok()) << again.status().message();
+  ASSERT_TRUE(again->success) << again->message;
+  EXPECT_GT(again->rejoined_at, 0.0);
+  EXPECT_LE(again->post_check.certified_clearance, BruteForceClearance(*again->trajectory, 0.002));
+}
+
+// The kept part must carry the full safety distance in the current plan's
+// certificate; where it does not (here: a stretch marked below it), or with
+// the horizon off, the whole remainder is replanned and checked.
+TEST(ReplanTest, ReplansTheWholeRemainderWhereTheKeptPartIsNotCertified) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& old = *plan.trajectory;
+  solvers::LbfgsSolver solver;
+  const double t_from = 0.15 * InsertionStart(plan);
+  BoundaryState start = StateOnPlan(old, t_from);
+  start.position += Vec3(0.06, -0.04, 0.03);
+  PlanResult weak = plan;
+  ASSERT_FALSE(weak.post_check.certified_intervals.empty());
+  weak.post_check.certified_intervals.back().clearance_lower = 0.0;
+  auto result = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(), solver,
+                       weak, t_from, start);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  EXPECT_TRUE(result->success) << result->message;
+  EXPECT_LT(result->rejoined_at, 0.0);
+
+  ReplanOptions no_horizon = DefaultReplanOptions();
+  no_horizon.horizon = 0.0;
+  auto whole = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), no_horizon, solver, plan, t_from,
+                      start);
+  ASSERT_TRUE(whole.ok()) << whole.status().message();
+  EXPECT_TRUE(whole->success) << whole->message;
+  EXPECT_LT(whole->rejoined_at, 0.0);
+  EXPECT_EQ(whole->trajectory->duration() > 0.0, true);
+}
+
 }  // namespace
 }  // namespace quadhand::planner

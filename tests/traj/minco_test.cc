@@ -288,6 +288,51 @@ TEST(MincoTest, LocatePieceClampsAndSplits) {
   EXPECT_NEAR(minco.total_duration(), p.durations.sum(), 1e-15);
 }
 
+// A replan that rejoins a plan (planner/replan.h) joins its new pieces to
+// the plan's last ones: every derivative of every piece is the part's own,
+// the head is the first part's and the tail the second's.
+TEST(MincoTest, JoinedKeepsEachPartsPiecesAndTimes) {
+  const Problem a = RandomProblem(4, 3, 3, 11u), b = RandomProblem(4, 3, 5, 12u);
+  Minco first, second;
+  Build(&first, 4, 3, a);
+  Build(&second, 4, 3, b);
+  auto joined = Minco::Joined(first, second, 2);
+  ASSERT_TRUE(joined.ok()) << joined.status().message();
+  ASSERT_EQ(joined->num_pieces(), 3 + 3);
+  EXPECT_NEAR(joined->total_duration(), a.durations.sum() + b.durations.tail(3).sum(), 1e-12);
+  EXPECT_EQ(joined->head(), first.head());
+  EXPECT_EQ(joined->tail(), second.tail());
+  for (int piece = 0; piece < joined->num_pieces(); ++piece) {
+    const Minco& source = piece < 3 ? first : second;
+    const int source_piece = piece < 3 ? piece : piece - 3 + 2;
+    for (double f : {0.0, 0.3, 1.0}) {
+      const double t = f * joined->durations()[piece];
+      for (int d = 0; d < 8; ++d) {
+        EXPECT_EQ(joined->Evaluate(piece, t, d), source.Evaluate(source_piece, t, d)) << piece << " " << d;
+      }
+    }
+  }
+  int piece = -1;
+  double local = 0.0;
+  joined->LocatePiece(a.durations.sum() + b.durations[2] + 0.5 * b.durations[3], &piece, &local);
+  EXPECT_EQ(piece, 4);
+  EXPECT_NEAR(local, 0.5 * b.durations[3], 1e-12);
+}
+
+TEST(MincoTest, JoinedRefusesMismatchedParts) {
+  const Problem a = RandomProblem(4, 3, 3, 13u), b = RandomProblem(2, 3, 3, 14u), c = RandomProblem(4, 2, 3, 15u);
+  Minco first, other_order, other_dims, unset;
+  Build(&first, 4, 3, a);
+  Build(&other_order, 2, 3, b);
+  Build(&other_dims, 4, 2, c);
+  EXPECT_FALSE(Minco::Joined(first, other_order, 0).ok());
+  EXPECT_FALSE(Minco::Joined(first, other_dims, 0).ok());
+  EXPECT_FALSE(Minco::Joined(first, unset, 0).ok());
+  EXPECT_FALSE(Minco::Joined(first, first, 3).ok());
+  EXPECT_FALSE(Minco::Joined(first, first, -1).ok());
+  EXPECT_TRUE(Minco::Joined(first, first, 2).ok());
+}
+
 TEST(MincoTest, ResetWithSameSizesKeepsBuffers) {
   Minco minco;
   ASSERT_TRUE(minco.Reset(4, 3, 10).ok());

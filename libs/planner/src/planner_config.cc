@@ -126,6 +126,8 @@ void Visit(Config& c, Visitor&& v) {
   v("replan.min_piece_duration", r.min_piece_duration);
   v("replan.max_start_penetration", r.max_start_penetration);
   v("replan.recovery_time", r.recovery_time);
+  v("replan.horizon", r.horizon);
+  v("replan.horizon_attempts", r.horizon_attempts);
   solver("replan.solver.", r.solver);
 
   auto& m = c.representations;

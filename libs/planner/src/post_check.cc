@@ -194,6 +194,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   // nothing is refined there.
   struct Certified {
     double lower = 1e300, lower_time = 0.0, bound = 0.0;  // least slack interval
+    double least_lower = 1e300;                            // least bound over its parts
     double self_lower = 1e300, self_time = 0.0;
     bool undefined = false;  // the attitude is undefined somewhere (free fall, inverted)
     double undefined_time = 0.0;
@@ -235,6 +236,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
           c->undefined = true;
           c->undefined_time = p.t0;
         }
+        c->least_lower = std::min(c->least_lower, lower);
         if (lower - bound < c->lower - c->bound) {
           c->lower = lower;
           c->lower_time = at;
@@ -309,6 +311,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   bool undefined_motion = false;
   double undefined_time = 0.0;
   int added = 0;
+  double previous_clearance_time = 0.0, previous_clearance_value = 0.0;
   auto take_self = [&](double d, double t, int pair) {
     if (check_self) self_least.Take(d, t, pair);
   };
@@ -365,6 +368,8 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     }
     if (m.has_clearance && block_begin + index > 0) {
       const Certified& c = certified[index];
+      report.certified_intervals.push_back({previous_clearance_time, t, c.least_lower, std::min(c.self_lower, self_reach),
+                                            std::min({previous_clearance_value, m.d_exact, c.closest.value}), m.d_exact});
       exact_least.Take(c.closest.value, c.closest.time, c.closest.index);
       take_self(c.closest_self.value, c.closest_self.time, c.closest_self.index);
       added += c.added;
@@ -382,6 +387,10 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
         undefined_motion = true;
         undefined_time = c.undefined_time;
       }
+    }
+    if (m.has_clearance) {
+      previous_clearance_time = t;
+      previous_clearance_value = m.d_exact;
     }
     speed.Update(s.velocity.norm() / limits.v_max, t);
     acceleration.Update(s.acceleration.norm() / limits.a_max, t);
@@ -490,7 +499,10 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   start_angle = std::max(start_angle, (first.joints - task.start.joints).cwiseAbs().maxCoeff());
   end_angle = std::max(end_angle, (last.joints - terminal.joints).cwiseAbs().maxCoeff());
   const double end_error = (last.position - terminal.position).norm();
-  const double end_rate = std::max({last.velocity.norm(), std::abs(last.yaw_rate), last.joint_rates.cwiseAbs().maxCoeff()});
+  const VecX terminal_joint_rates =
+      terminal.joint_rates.size() == n ? terminal.joint_rates : VecX::Zero(n);
+  const double end_rate = std::max({(last.velocity - terminal.velocity).norm(), std::abs(last.yaw_rate - terminal.yaw_rate),
+                                    (last.joint_rates - terminal_joint_rates).cwiseAbs().maxCoeff()});
   add(CheckKind::kStartState, -1, "start_state", start_error <= options.position_tolerance && start_angle <= options.angle_tolerance, start_error,
       options.position_tolerance, 0.0, Format("position error %.4f m, angle error %.4f rad", start_error, start_angle));
   add(CheckKind::kEndState, -1, "end_state",

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
+#include <optional>
 
 #include "quadhand/robot/kinematics.h"
 
@@ -30,6 +32,14 @@ bool ReplanOptions::IsValid(std::string* why) const {
   }
   if (!(std::isfinite(recovery_time) && recovery_time > 0.0)) {
     if (why != nullptr) *why = "replan recovery_time must be positive";
+    return false;
+  }
+  if (!(std::isfinite(horizon) && horizon >= 0.0)) {
+    if (why != nullptr) *why = "replan horizon must be finite and non-negative (0: never rejoin)";
+    return false;
+  }
+  if (horizon_attempts < 1) {
+    if (why != nullptr) *why = "replan horizon_attempts must be at least 1";
     return false;
   }
   return true;
@@ -85,6 +95,194 @@ core::Status RemainderGuess(const WholeBodyTrajectory& trajectory, double t_from
   if (first_piece != nullptr) *first_piece = piece;
   return core::Status::Ok();
 }
+
+
+namespace {
+
+// Where a replan rejoins the current plan (replan.h): the new part is the
+// first `new_pieces` pieces of the remainder guess and ends at the end of
+// the current plan's piece `junction_piece`, at `old_time` on its clock, in
+// its full state there.
+struct Rejoin {
+  int junction_piece = -1;
+  int new_pieces = 0;
+  double old_time = 0.0;
+  BoundaryState state;
+};
+
+// The rejoin point for `guess` (the remainder from t_from), or nothing when
+// the remainder is not longer than the horizon or the current plan's
+// certificate does not carry the rest at the full safety distance.
+std::optional<Rejoin> FindRejoin(const PlanResult& current, const Task& task, const PostCheckOptions& check,
+                                 const VecX& guess_durations, double t_from, double horizon) {
+  if (horizon <= 0.0 || !current.success || !current.trajectory) return std::nullopt;
+  const WholeBodyTrajectory& trajectory = *current.trajectory;
+  const int old_pieces = trajectory.num_pieces();
+  const int remaining = static_cast<int>(guess_durations.size());
+  const int last_merged = old_pieces - remaining;  // old piece ending the guess's first piece
+  Rejoin rejoin;
+  double planned = 0.0;
+  for (int k = 1; k < remaining; ++k) {  // k < remaining: at least one piece is kept
+    planned += guess_durations[k - 1];
+    if (planned >= horizon) {
+      rejoin.new_pieces = k;
+      rejoin.junction_piece = last_merged + k - 1;
+      break;
+    }
+  }
+  if (rejoin.new_pieces == 0) return std::nullopt;
+  rejoin.old_time = t_from + planned;
+  const std::vector<CertifiedInterval>& intervals = current.post_check.certified_intervals;
+  if (intervals.empty() || intervals.back().t1 < trajectory.duration() - 1e-9) return std::nullopt;
+  const double clearance_bound = task.safety_distance - check.clearance_tolerance;
+  const double self_bound = task.self_safety_distance - check.clearance_tolerance;
+  for (const CertifiedInterval& interval : intervals) {
+    if (interval.t1 <= rejoin.old_time) continue;
+    if (interval.clearance_lower < clearance_bound || interval.self_distance_lower < self_bound) return std::nullopt;
+  }
+  const traj::Minco& position = trajectory.position();
+  const traj::Minco& aux = trajectory.aux();
+  const int j = rejoin.junction_piece;
+  const double end = position.durations()[j];
+  rejoin.state.position = position.Evaluate(j, end, 0);
+  rejoin.state.velocity = position.Evaluate(j, end, 1);
+  rejoin.state.acceleration = position.Evaluate(j, end, 2);
+  rejoin.state.jerk = position.Evaluate(j, end, 3);
+  const VecX value = aux.Evaluate(j, end, 0), rate = aux.Evaluate(j, end, 1);
+  rejoin.state.yaw = value[0];
+  rejoin.state.yaw_rate = rate[0];
+  rejoin.state.joints = value.tail(value.size() - 1);
+  rejoin.state.joint_rates = rate.tail(rate.size() - 1);
+  return rejoin;
+}
+
+// The report of a rejoined plan: the new part's checks, and for the kept
+// pieces (from new_time on, old_time on the current plan's clock) the
+// current plan's certificate, end-state and insertion checks, shifted to
+// the new clock. Figures are the least of both parts.
+PostCheckReport RejoinedReport(const PostCheckReport& part, const PostCheckReport& kept, double old_time,
+                               double new_time, double safety_distance) {
+  PostCheckReport report = part;
+  const double shift = new_time - old_time;
+  double kept_lower = 1e300, kept_lower_time = 0.0, kept_self = 1e300, kept_self_time = 0.0;
+  double kept_sampled = 1e300;
+  for (const CertifiedInterval& interval : kept.certified_intervals) {
+    if (interval.t1 <= old_time) continue;
+    CertifiedInterval moved = interval;
+    if (moved.t0 < old_time) {  // cut at the rejoin point: its bound still holds on the rest
+      moved.t0 = old_time;
+      moved.clearance_sampled = interval.clearance_at_t1;
+    }
+    kept_sampled = std::min(kept_sampled, moved.clearance_sampled);
+    moved.t0 += shift;
+    moved.t1 += shift;
+    if (moved.clearance_lower < kept_lower) {
+      kept_lower = moved.clearance_lower;
+      kept_lower_time = moved.t0;
+    }
+    if (moved.self_distance_lower < kept_self) {
+      kept_self = moved.self_distance_lower;
+      kept_self_time = moved.t0;
+    }
+    report.certified_intervals.push_back(moved);
+  }
+  if (kept_sampled < report.min_clearance_exact) {
+    report.min_clearance_exact = kept_sampled;
+    report.closest_link = -1;  // the kept stretches do not record their link
+  }
+  char note[160];
+  std::snprintf(note, sizeof(note), "; kept from t = %.3f s (the current plan, certified): least %.4f m", new_time,
+                kept_lower);
+  for (CheckResult& check : report.checks) {
+    if (check.kind == CheckKind::kClearance) {
+      if (kept_lower < check.value) {
+        check.value = kept_lower;
+        check.time = kept_lower_time;
+      }
+      check.detail += note;
+    } else if (check.kind == CheckKind::kSelfClearance && kept_self < check.value) {
+      check.value = kept_self;
+      check.time = kept_self_time;
+    }
+  }
+  report.certified_clearance = std::min(report.certified_clearance, kept_lower);
+  report.certified_margin = std::min(report.certified_margin, kept_lower - safety_distance);
+  report.certified_self_distance = std::min(report.certified_self_distance, kept_self);
+  // The new part ends at the rejoin state (its own end-state check, kept
+  // when it fails); the plan's real end and insertion are the kept ones.
+  for (const CheckResult& old_check : kept.checks) {
+    if (old_check.kind != CheckKind::kEndState && old_check.kind != CheckKind::kInsertion) continue;
+    CheckResult moved = old_check;
+    moved.time += shift;
+    auto same = std::find_if(report.checks.begin(), report.checks.end(),
+                             [&](const CheckResult& c) { return c.kind == old_check.kind; });
+    if (same == report.checks.end()) {
+      report.checks.push_back(moved);
+    } else if (same->passed) {
+      *same = moved;
+    }
+  }
+  for (auto& [name, ratio] : report.violations) {
+    for (const auto& [old_name, old_ratio] : kept.violations) {
+      if (old_name == name) ratio = std::max(ratio, old_ratio);
+    }
+  }
+  report.passed = true;
+  for (const CheckResult& check : report.checks) report.passed = report.passed && check.passed;
+  report.certified = report.certified && report.passed;
+  return report;
+}
+
+// Solves and checks the new part up to `rejoin` and joins the kept pieces to
+// it. True with `result` a successful plan, false with `result` the failed
+// new part's figures (times, attempts) for the fallback to add.
+core::Result<bool> SolveRejoining(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                                  const ReplanOptions& replan, const opt::Solver& solver, const PlanResult& current,
+                                  const InitialGuess& remainder, const Rejoin& rejoin, PlanResult* result) {
+  InitialGuess guess;
+  const int k = rejoin.new_pieces;
+  guess.durations = remainder.durations.head(k);
+  guess.position_waypoints = remainder.position_waypoints.leftCols(k - 1);
+  guess.aux_waypoints = remainder.aux_waypoints.leftCols(k - 1);
+  PlanResult part;
+  part.terminal = rejoin.state;
+  part.insertion = InsertionGoal{};  // the insertion lies in the kept pieces
+  PlanCollision collision;
+  auto built = BuildPlanCollision(scene, {}, task.start.position, guess, rejoin.state.position, &collision, &part);
+  if (!built.ok()) return built.status();
+  if (*built) {
+    const SolveSchedule schedule{solver, replan.solver, options.solver,
+                                 std::min(replan.horizon_attempts, replan.max_attempts)};
+    QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, task, guess, options, schedule, &part));
+  }
+  result->solve_ms += part.solve_ms;
+  result->post_check_ms += part.post_check_ms;
+  result->per_plan_collision_ms += part.per_plan_collision_ms;
+  result->iterations += part.iterations;
+  result->evaluations += part.evaluations;
+  result->attempts.insert(result->attempts.end(), part.attempts.begin(), part.attempts.end());
+  if (!part.success) return false;
+  const WholeBodyTrajectory& kept = *current.trajectory;
+  auto position = traj::Minco::Joined(part.trajectory->position(), kept.position(), rejoin.junction_piece + 1);
+  if (!position.ok()) return position.status();
+  auto aux = traj::Minco::Joined(part.trajectory->aux(), kept.aux(), rejoin.junction_piece + 1);
+  if (!aux.ok()) return aux.status();
+  const double new_time = part.trajectory->duration();
+  result->trajectory.emplace(std::move(*position), std::move(*aux), kept.flatness());
+  result->post_check = RejoinedReport(part.post_check, current.post_check, rejoin.old_time, new_time,
+                                      task.safety_distance);
+  result->final_cost = part.final_cost;
+  result->num_pieces = result->trajectory->num_pieces();
+  result->rejoined_at = new_time;
+  result->success = result->post_check.passed;
+  result->status = result->success ? PlanStatus::kSuccess : PlanStatus::kPostCheckFailed;
+  result->message = result->success ? "plan passed the post-check (the current plan is rejoined at t = " +
+                                          std::to_string(new_time) + " s)"
+                                    : result->post_check.FirstFailure();
+  return result->success;
+}
+
+}  // namespace
 
 core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
                                 const ReplanOptions& replan, const opt::Solver& solver, const PlanResult& current,
@@ -151,13 +349,6 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
     }
   }
 
-  result.num_pieces = static_cast<int>(guess.durations.size());
-  // Corridors (sfc) along the remaining piece boundaries: there is no front-end path.
-  PlanCollision collision;
-  auto built = BuildPlanCollision(scene, {}, replan_task.start.position, guess, result.terminal.position, &collision,
-                                  &result);
-  if (!built.ok()) return built.status();
-  if (!*built) return result;
   // The post-check of Plan() plus the recovery rule, which changes nothing
   // for a start outside the safety margin.
   PlannerOptions checked = options;
@@ -165,6 +356,22 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   // Re-solves of a replan raise weights only; they keep the sample count
   // (measured with that rule: docs/online.md).
   checked.resolve_sample_factor = 1;
+
+  if (auto rejoin = FindRejoin(current, task, checked.post_check, guess.durations, t_from, replan.horizon)) {
+    auto rejoined = SolveRejoining(scene, replan_task, checked, replan, solver, current, guess, *rejoin, &result);
+    if (!rejoined.ok()) return rejoined.status();
+    if (*rejoined) return result;
+    result.trajectory.reset();
+    result.post_check = PostCheckReport{};
+  }
+
+  result.num_pieces = static_cast<int>(guess.durations.size());
+  // Corridors (sfc) along the remaining piece boundaries: there is no front-end path.
+  PlanCollision collision;
+  auto built = BuildPlanCollision(scene, {}, replan_task.start.position, guess, result.terminal.position, &collision,
+                                  &result);
+  if (!built.ok()) return built.status();
+  if (!*built) return result;
   const SolveSchedule schedule{solver, replan.solver, options.solver, replan.max_attempts};
   QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, replan_task, guess, checked, schedule, &result));
   return result;

@@ -149,6 +149,27 @@ core::Status Minco::Generate(const Eigen::Ref<const Eigen::MatrixXd>& waypoints,
   return core::Status::Ok();
 }
 
+core::Result<Minco> Minco::Joined(const Minco& first, const Minco& second, int second_from) {
+  if (!first.valid_ || !second.valid_) return core::Status::InvalidArgument("joining an invalid MINCO trajectory");
+  if (first.s_ != second.s_ || first.m_ != second.m_) {
+    return core::Status::InvalidArgument("joining MINCO trajectories of different orders or columns");
+  }
+  if (second_from < 0 || second_from >= second.n_) {
+    return core::Status::InvalidArgument("joining from piece " + std::to_string(second_from) + " of " +
+                                         std::to_string(second.n_));
+  }
+  const int kept = second.n_ - second_from;
+  const int nc = 2 * first.s_;
+  Minco joined;
+  QUADHAND_RETURN_IF_ERROR(joined.Reset(first.s_, first.m_, first.n_ + kept));
+  joined.head_ = first.head_;
+  joined.tail_ = second.tail_;
+  joined.durations_ << first.durations_, second.durations_.tail(kept);
+  joined.coeffs_ << first.coeffs_, second.coeffs_.bottomRows(nc * kept);
+  joined.valid_ = true;
+  return joined;
+}
+
 void Minco::Evaluate(int piece, double t, int deriv, Eigen::Ref<Eigen::VectorXd> out) const {
   assert(piece >= 0 && piece < n_ && deriv >= 0 && out.size() == m_);
   const int nc = 2 * s_;

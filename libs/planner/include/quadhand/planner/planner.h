@@ -120,6 +120,10 @@ struct PlanResult {
   // (PlannerOptions::alternative_guesses), and how many were tried.
   std::string initial_guess = "front_end";
   int alternatives_tried = 0;
+  // A replan that rejoined the current plan (replan.h): the time from which
+  // the trajectory is the current plan's unchanged pieces; negative when the
+  // whole trajectory is new.
+  double rejoined_at = -1.0;
 };
 
 // Builds a collision model for one plan from the front-end path (its corner

@@ -31,7 +31,7 @@ struct PostCheckOptions {
   double limit_tolerance = 0.02;           // relative excess over a limit still accepted
   double position_tolerance = 0.01;        // start/end position, metres
   double angle_tolerance = 0.02;           // start/end yaw and joints, radians
-  double rate_tolerance = 0.05;            // end velocity (m/s) and rates (rad/s): "at rest"
+  double rate_tolerance = 0.05;            // end velocity (m/s) and rates (rad/s) against the terminal's (at rest: zero)
   double insertion_tolerance = 0.01;       // tool distance from the insertion line, metres
   // Recovery stretch, seconds (0 = off; Plan() leaves it off, replans from a
   // measured state set it: ReplanOptions::recovery_time). When it is on and
@@ -50,6 +50,19 @@ struct PostCheckOptions {
   int threads = 0;
 
   bool IsValid(std::string* why) const;
+};
+
+// The certificate of one stretch between two clearance samples: lower bounds
+// of the exact clearance and of the checked links' self-distance at every
+// instant of [t0, t1] (capped like the report's values), the least exact
+// clearance measured in it (its ends and any samples the certificate added)
+// and the one measured at t1. A replan that rejoins this trajectory keeps these
+// for the pieces it leaves unchanged (replan.h).
+struct CertifiedInterval {
+  double t0 = 0.0, t1 = 0.0;
+  double clearance_lower = 0.0;
+  double self_distance_lower = 0.0;
+  double clearance_sampled = 0.0, clearance_at_t1 = 0.0;
 };
 
 // One check: `value` measured against `bound`; `ratio` = value / bound for
@@ -87,6 +100,8 @@ struct PostCheckReport {
   double certified_margin = 0.0;      // certified_clearance less the distance it had to keep (negative: within the tolerance)
   double certified_self_distance = 0.0;
   int certificate_samples = 0;
+  // Per stretch between clearance samples, in time order, covering [0, duration].
+  std::vector<CertifiedInterval> certified_intervals;
   bool recovery = false;              // the recovery rule judged the clearance (see recovery_time)
   // Under the recovery rule: how much lower than the start's clearance (less
   // the tolerance) the stretch may go because the start is moving towards

@@ -21,6 +21,21 @@
 // safety distance. A start deeper than that is refused (start_in_collision).
 // A start outside the margin is checked exactly as Plan() checks.
 //
+// Rejoining: only the next `horizon` seconds are planned anew when the
+// current plan goes on for longer. The new part ends at the first junction
+// of the current plan at least `horizon` after the start, in the current
+// plan's full state there (position to jerk, yaw, joints and their rates),
+// and the current plan's pieces after that junction are kept as they are.
+// Only the new part is solved and post-checked; the kept pieces keep the
+// current plan's certificate (PostCheckReport::certified_intervals, and its
+// end-state and insertion checks), which is sound because they are the same
+// polynomials in the same scene: the current plan must have been checked in
+// `scene`. The kept stretch must certify the full safety distance (not a
+// recovery stretch). A new part that fails its attempts falls back to a
+// replan of the whole remainder (the usual path above); the result's times
+// and attempts include both. result.rejoined_at says where the kept pieces
+// start (negative: not rejoined).
+//
 // The result's time 0 is the start state's time (t_from on the old clock).
 // World ENU, metres, radians, seconds.
 #pragma once
@@ -56,6 +71,14 @@ struct ReplanOptions {
   // stops a 1 m/s drift towards the obstacle at a quarter of a_max (4 m/s^2)
   // and leaves room to back off the margin's 3 cm.
   double recovery_time = 1.0;
+  // Rejoining (see the header comment): seconds planned anew before the
+  // current plan is rejoined at its next junction; 0 never rejoins. Solves
+  // of the new part before falling back to the whole remainder. Measured
+  // (docs/online.md): from 5-20 cm off the default plan, 1 s rejoins 3 of 4
+  // replans; a second solve of the new part rarely passes where the first
+  // failed, so a failure goes straight to the whole remainder.
+  double horizon = 1.0;
+  int horizon_attempts = 1;
 
   bool IsValid(std::string* why) const;
 };

@@ -59,6 +59,16 @@ class Minco {
   core::Status Generate(const Eigen::Ref<const Eigen::MatrixXd>& waypoints,
                         const Eigen::Ref<const Eigen::VectorXd>& durations);
 
+  // The pieces of `first` followed by the pieces of `second` from piece
+  // `second_from` on: one piecewise polynomial (head of `first`, tail of
+  // `second`) that is no longer the minimiser of any waypoints - it is as
+  // smooth at the seam as the caller made the two agree there. Evaluation,
+  // LocatePiece and Energy work on it; Generate() replaces it by a MINCO
+  // again, and PropagateGradient() needs a Generate() first. InvalidArgument
+  // when the orders or columns differ, a part is not valid, or second_from is
+  // not a piece of `second`.
+  static core::Result<Minco> Joined(const Minco& first, const Minco& second, int second_from);
+
   int order() const { return s_; }
   int dims() const { return m_; }
   int num_pieces() const { return n_; }
