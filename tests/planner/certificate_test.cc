@@ -113,7 +113,9 @@ TEST(CertificateTest, IsNeverAboveABruteForceCheckAtOneMillisecond) {
     EXPECT_TRUE(report.certified) << report.FirstFailure();
     EXPECT_GE(truth, bound);
     EXPECT_LE(report.certified_clearance, report.min_clearance_exact);
-    if (clearance_dt >= 0.1) EXPECT_GT(report.certificate_samples, 0);  // coarse samples need refining near the cup
+    if (clearance_dt >= 0.1) {  // coarse samples need refining near the cup
+      EXPECT_GT(report.certificate_samples, 0);
+    }
   }
 }
 
