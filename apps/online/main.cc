@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
       "Exit codes: 0 flown to the end of the plan; 1 planning failed (vehicle left holding); 2 bad input;\n"
       "3 vehicle silent for --vehicle-timeout; 4 vehicle refused or left OFFBOARD/arming; 5 interrupted."};
   std::string task_path, vehicle_url, bind_url = "udp://0.0.0.0:0", key_path, log_path;
-  double rate = 50.0, vehicle_timeout = 1.0, replan_threshold = 0.10, hold_time = 1.2, max_duration = 0.0;
+  double rate = 50.0, vehicle_timeout = 1.0, replan_threshold = 0.10, replan_period = 1.0, hold_time = 1.2, max_duration = 0.0;
   double arrival_hold = online::OnlineOptions{}.arrival_hold;
   int target_system = 1, target_component = 1, system_id = 1, component_id = 191;
   bool require_signing = false, dry_run = false, quiet = false, no_replan = false;
@@ -141,6 +141,9 @@ int main(int argc, char** argv) {
                  "Seconds without LOCAL_POSITION_NED before streaming stops and the program exits with 3")
       ->capture_default_str();
   app.add_option("--replan-threshold", replan_threshold, "3-D tracking error (m) that triggers a warm-started replan")
+      ->capture_default_str();
+  app.add_option("--replan-period", replan_period,
+                 "Seconds between replans while on track (continuous replanning; 0: only above the threshold)")
       ->capture_default_str();
   app.add_flag("--no-replan", no_replan, "Never replan (fly the first plan only)");
   app.add_option("--hold-time", hold_time, "Seconds of hold setpoints before OFFBOARD is requested (>= 1, PX4's rule)")
@@ -167,6 +170,7 @@ int main(int argc, char** argv) {
   if (!(std::isfinite(rate) && rate >= 1.0 && rate <= 500.0)) return Fail("--rate must be in [1, 500] Hz");
   if (!(std::isfinite(vehicle_timeout) && vehicle_timeout > 0.0)) return Fail("--vehicle-timeout must be positive");
   if (!(std::isfinite(replan_threshold) && replan_threshold > 0.0)) return Fail("--replan-threshold must be positive");
+  if (!(std::isfinite(replan_period) && replan_period >= 0.0)) return Fail("--replan-period must be >= 0 (0: off)");
   if (!(std::isfinite(hold_time) && hold_time >= 1.0)) return Fail("--hold-time must be at least 1 s");
   if (!(std::isfinite(max_duration) && max_duration >= 0.0)) return Fail("--max-duration must be >= 0");
   if (!(std::isfinite(arrival_hold) && arrival_hold >= 0.0)) return Fail("--arrival-hold must be >= 0");
@@ -214,6 +218,7 @@ int main(int argc, char** argv) {
   options.hold_time = hold_time;
   options.vehicle_timeout = vehicle_timeout;
   options.replan_threshold = replan_threshold;
+  options.replan_period = replan_period;
   options.replanning = !no_replan;
   options.arrival_hold = arrival_hold;
   auto controller_or = online::OnlineController::Create(setup, options);
@@ -322,8 +327,8 @@ int main(int argc, char** argv) {
     replan_failures += !r.success && r.status != planner::PlanStatus::kInsertionInProgress;
     fallbacks += r.cold_fallback;
   }
-  std::printf("  replans: %d triggered, %d spliced, %d failed, %d cold fallbacks", stats.replans_triggered,
-              stats.splices, replan_failures, fallbacks);
+  std::printf("  replans: %d triggered (%d periodic), %d spliced, %d failed, %d cold fallbacks",
+              stats.replans_triggered, stats.periodic_replans, stats.splices, replan_failures, fallbacks);
   if (!replan_ms.empty()) {
     std::printf("; latency median %.1f ms, p95 %.1f ms (warm start alone: median %.1f ms)", Quantile(replan_ms, 0.5),
                 Quantile(replan_ms, 0.95), Quantile(warm_ms, 0.5));

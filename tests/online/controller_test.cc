@@ -3,6 +3,10 @@
 // autopilot), a push that triggers a replan spliced in smoothly, a replan
 // that fails and leaves the vehicle holding, a silent vehicle, and the
 // offboard handshake's retries and refusals.
+#include <algorithm>
+#include <atomic>
+#include <limits>
+
 #include <gtest/gtest.h>
 
 #include "online/online_test_util.h"
@@ -183,11 +187,14 @@ TEST(OnlineControllerTest, AReplanFromInsideTheSafetyMarginGetsOutAndReachesTheC
   ASSERT_GE(stats.splices, 1) << plans;
   EXPECT_EQ(controller->phase(), Phase::kArrived) << plans;
   for (const PlanRecord& record : stats.plans) EXPECT_TRUE(record.success) << plans;
-  EXPECT_FALSE(stats.plans[1].cold_fallback);
-  // The first replan (plans[0] is the first plan) was a recovery.
-  EXPECT_TRUE(stats.plans[1].replan);
-  EXPECT_TRUE(stats.plans[1].recovery) << plans;
-  EXPECT_NEAR(stats.plans[1].start_clearance, start_clearance, 2e-3);
+  // The first replan the push triggered (plans[0] is the first plan; the
+  // periodic ones on track come before it) was a recovery.
+  auto pushed = std::find_if(stats.plans.begin() + 1, stats.plans.end(),
+                             [](const PlanRecord& r) { return r.replan && !r.periodic; });
+  ASSERT_NE(pushed, stats.plans.end()) << plans;
+  EXPECT_FALSE(pushed->cold_fallback);
+  EXPECT_TRUE(pushed->recovery) << plans;
+  EXPECT_NEAR(pushed->start_clearance, start_clearance, 2e-3);
   const FlightMetrics metrics = Metrics(flight.log(), *controller);
   EXPECT_LT(metrics.final_tool_error, 0.02);
   EXPECT_GT(metrics.min_clearance, 0.0) << "closest link " << metrics.closest_link;
@@ -238,6 +245,91 @@ TEST(OnlineControllerTest, AFailedReplanHoldsAtTheLastSafeSetpoint) {
   EXPECT_LT((out.setpoint->position - before->position).norm(), WindowCup().task.limits.v_max * 0.1);
   // The vehicle flew back to it.
   EXPECT_LT((flight.simulator().state().position - out.setpoint->position).norm(), 0.05);
+}
+
+// Continuous replanning: on track (no disturbance), a replan every
+// replan_period s, each spliced in, and the flight still reaches the cup
+// with the setpoints moving no faster than the plans and blends allow.
+TEST(OnlineControllerTest, ReplansPeriodicallyOnTrackAndSplicesEachPlan) {
+  OnlineOptions options;
+  ASSERT_GT(options.replan_period, 0.0);
+  auto controller = MakeController(options);
+  DirectFlight flight(controller.get());
+  flight.Run(40.0);
+  const OnlineStats& stats = controller->stats();
+  std::string plans;
+  for (const PlanRecord& r : stats.plans) plans += std::string(planner::PlanStatusName(r.status)) + ": " + r.message + "\n";
+  EXPECT_EQ(controller->phase(), Phase::kArrived) << plans;
+  EXPECT_GE(stats.periodic_replans, 2) << plans;
+  EXPECT_EQ(stats.periodic_replans, stats.replans_triggered) << "on track: no threshold replans";
+  EXPECT_GE(stats.splices, 2) << plans;
+  for (const PlanRecord& record : stats.plans) EXPECT_TRUE(record.success) << plans;
+  const double bound = BlendStepBound(WindowCup().task.limits.v_max, options.replan_threshold, options.blend_window, 0.02);
+  EXPECT_LE(stats.max_setpoint_step, bound);
+  const FlightMetrics metrics = Metrics(flight.log(), *controller);
+  EXPECT_LT(metrics.final_tool_error, 0.02);
+  EXPECT_GT(metrics.min_clearance, 0.0) << "closest link " << metrics.closest_link;
+
+  // Off, nothing is replanned on track.
+  options.replan_period = 0.0;
+  auto quiet = MakeController(options);
+  DirectFlight quiet_flight(quiet.get());
+  quiet_flight.Run(40.0);
+  EXPECT_EQ(quiet->phase(), Phase::kArrived);
+  EXPECT_EQ(quiet->stats().periodic_replans, 0);
+}
+
+// Our L-BFGS until told to fail; then every solve returns no usable point,
+// so a replan fails without a contrived scene.
+class FailingOnRequestSolver final : public opt::Solver {
+ public:
+  std::string name() const override { return "lbfgs, failing on request"; }
+  bool available() const override { return true; }
+  std::atomic<bool> fail{false};
+
+ protected:
+  void DoSolve(const opt::Objective& objective, const VecX& x0, const opt::SolverOptions& options,
+               opt::SolveResult* result) const override {
+    if (fail) {
+      result->status = opt::SolveStatus::kEvaluationFailed;
+      result->cost = std::numeric_limits<double>::quiet_NaN();
+      result->message = "failing on request";
+      return;
+    }
+    *result = inner_.Solve(objective, x0, options);
+  }
+
+ private:
+  solvers::LbfgsSolver inner_;
+};
+
+// A periodic replan starts on track, so when it fails the current plan -
+// certified, and still being flown - is kept: no hold, no cold plan.
+TEST(OnlineControllerTest, AFailedPeriodicReplanKeepsFlyingTheCurrentPlan) {
+  FailingOnRequestSolver solver;
+  PlanningSetup setup = testing::Setup();
+  setup.solver = &solver;
+  auto created = OnlineController::Create(setup, OnlineOptions{});
+  ASSERT_TRUE(created.ok()) << created.status().message();
+  OnlineController* controller = created->get();
+  DirectFlight flight(controller);
+  flight.Run(40.0, [&](double, sim::Simulator*) {
+    if (controller->phase() == Phase::kFlying) solver.fail = true;
+  });
+  const OnlineStats& stats = controller->stats();
+  EXPECT_EQ(controller->phase(), Phase::kArrived);
+  EXPECT_GE(stats.periodic_replans, 2);
+  EXPECT_EQ(stats.splices, 0);
+  int failed = 0;
+  for (const PlanRecord& record : stats.plans) {
+    if (!record.replan) continue;
+    EXPECT_TRUE(record.periodic);
+    EXPECT_FALSE(record.success);
+    EXPECT_FALSE(record.cold_fallback);
+    ++failed;
+  }
+  EXPECT_EQ(failed, stats.periodic_replans);
+  EXPECT_LT(Metrics(flight.log(), *controller).final_tool_error, 0.02);
 }
 
 TEST(OnlineControllerTest, ASilentVehicleStopsTheStream) {

@@ -56,6 +56,7 @@ bool OnlineOptions::IsValid(std::string* why) const {
   if (!positive(replan_threshold)) return fail("replan_threshold must be positive");
   if (!(std::isfinite(min_replan_interval) && min_replan_interval >= 0.0)) return fail("min_replan_interval must be >= 0");
   if (!(std::isfinite(replan_lead) && replan_lead >= 0.0)) return fail("replan_lead must be >= 0");
+  if (!(std::isfinite(replan_period) && replan_period >= 0.0)) return fail("replan_period must be >= 0 (0: off)");
   if (!positive(blend_window)) return fail("blend_window must be positive");
   if (!positive(start_tolerance)) return fail("start_tolerance must be positive");
   if (!(std::isfinite(settle_timeout) && settle_timeout >= 0.0)) return fail("settle_timeout must be >= 0");
@@ -76,6 +77,7 @@ class OnlineController::Worker {
     std::shared_ptr<const planner::PlanResult> base;  // replans: the plan to warm-start from
     double t_from = 0.0;                              // replans: on base's clock
     double requested_at = 0.0;
+    bool periodic = false;  // replans: a failure keeps the current plan (no cold fallback)
   };
   struct Done {
     PlanRecord record;
@@ -152,6 +154,7 @@ class OnlineController::Worker {
     Done done;
     done.record.requested_at = job.requested_at;
     done.record.replan = job.replan;
+    done.record.periodic = job.periodic;
     const auto begin = std::chrono::steady_clock::now();
     auto cold_plan = [&]() {
       planner::Task task = *setup_.task;
@@ -173,7 +176,7 @@ class OnlineController::Worker {
         done.record.recovery = true;
         done.record.start_clearance = result->post_check.start_clearance_exact;
       }
-      if (warm_failed && cold_fallback_ && !recovering) {
+      if (warm_failed && cold_fallback_ && !recovering && !job.periodic) {
         done.record.cold_fallback = true;
         result = cold_plan();
       }
@@ -266,7 +269,11 @@ void OnlineController::OnPosition(double t, const Vec3& position, const Vec3& ve
   stats_.sum_tracking_error += error;
   stats_.sum_squared_tracking_error += error * error;
   ++stats_.tracking_samples;
-  if (error > options_.replan_threshold) MaybeReplan(t);
+  if (error > options_.replan_threshold) {
+    MaybeReplan(t, false, error);
+  } else if (options_.replan_period > 0.0 && t - std::max(last_trigger_, to_.start) >= options_.replan_period) {
+    MaybeReplan(t, true, error);
+  }
 }
 
 void OnlineController::OnAttitude(double t, const Quat& attitude, const Vec3& body_rate) {
@@ -345,9 +352,9 @@ planner::BoundaryState OnlineController::MeasuredBoundaryState() const {
   return s;
 }
 
-void OnlineController::MaybeReplan(double t) {
+void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   if (!options_.replanning || phase_ != Phase::kFlying || blending_ || replan_pending_ || !to_.plan) return;
-  if (t - last_trigger_ < options_.min_replan_interval) return;
+  if (!periodic && t - last_trigger_ < options_.min_replan_interval) return;
   const planner::WholeBodyTrajectory& trajectory = *to_.plan->trajectory;
   const double t_splice = t + options_.replan_lead;
   const double plan_time = t_splice - to_.start;
@@ -366,6 +373,7 @@ void OnlineController::MaybeReplan(double t) {
   job.base = to_.plan;
   job.t_from = plan_time;
   job.requested_at = t;
+  job.periodic = periodic;
   planner::BoundaryState& s = job.start;
   s.position = measured.position + (then.position - now.position);
   s.velocity = measured.velocity + (then.velocity - now.velocity);
@@ -375,13 +383,17 @@ void OnlineController::MaybeReplan(double t) {
   s.yaw_rate = then.yaw_rate;
   s.joints = measured.joints + (then.joints - now.joints);
   s.joint_rates = then.joint_rates;
-  const double error = (measured.position - now.position).norm();
   worker_->Submit(std::move(job));
   replan_pending_ = true;
   pending_splice_time_ = t_splice;
   last_trigger_ = t;
   ++stats_.replans_triggered;
-  Event(Format("tracking error %.3f m > %.3f m: replanning from the measured state", error, options_.replan_threshold));
+  if (periodic) {
+    ++stats_.periodic_replans;
+    Event(Format("periodic replan (tracking error %.3f m)", error));
+  } else {
+    Event(Format("tracking error %.3f m > %.3f m: replanning from the measured state", error, options_.replan_threshold));
+  }
 }
 
 void OnlineController::CollectPlan(double t) {
@@ -417,6 +429,10 @@ void OnlineController::CollectPlan(double t) {
                            : std::string()));
   } else if (record.status == planner::PlanStatus::kInsertionInProgress) {
     Event("not replanned: the insertion has begun");
+  } else if (record.periodic) {
+    // On track when it started: the current plan is still certified.
+    Event(std::string("the periodic replan failed (") + planner::PlanStatusName(record.status) + ": " +
+          record.message + "); flying on with the current plan");
   } else {
     Fail(Phase::kHoldingAfterFailure,
          std::string("the replan failed (") + planner::PlanStatusName(record.status) + ": " + record.message + ")");

@@ -33,7 +33,11 @@
 // t_splice = now + replan_lead (the tracking error is taken as constant over
 // the lead: measured + (reference(t_splice) - reference(now)) for position,
 // velocity, yaw and joints; acceleration, jerk and rates of the reference at
-// t_splice). The new plan's time 0 is t_splice; it is blended in over
+// t_splice). Also every replan_period s while on track (continuous
+// replanning, the same way but with the tracking error below the threshold):
+// such a replan corrects the drift before it grows, usually rejoining the
+// current plan after replan_options.horizon (replan.h); when it fails, the
+// current plan (still certified) is kept and flown on. The new plan's time 0 is t_splice; it is blended in over
 // blend_window s from t_splice (or from its arrival, when it comes late) as
 // setpoint.h describes. A replan that fails, or fails the post-check, is
 // never streamed: the controller holds at the last setpoint streamed. A start
@@ -73,6 +77,9 @@ struct OnlineOptions {
   double replan_threshold = 0.10;    // m of 3-D tracking error that triggers a replan
   double min_replan_interval = 1.0;  // s between two triggers
   double replan_lead = 0.25;         // s between a trigger and the new plan's start
+  // s between periodic replans while on track (0: replan only above the
+  // threshold). A periodic replan that fails keeps the current plan.
+  double replan_period = 1.0;
   double blend_window = 0.5;         // s of old -> new blending
   // When the warm-started replan fails (solver or post-check), plan again from
   // the same start with the full pipeline (front end, cold solve): slower
@@ -137,6 +144,7 @@ struct PlanningSetup {
 struct PlanRecord {
   double requested_at = 0.0;  // controller time
   bool replan = false;
+  bool periodic = false;      // replans: started by replan_period, not by the threshold
   bool success = false;
   planner::PlanStatus status = planner::PlanStatus::kInvalidInput;  // kInvalidInput: Plan()/Replan() refused the request
   std::string message;
@@ -156,7 +164,8 @@ struct OnlineStats {
   long setpoints = 0;
   long position_measurements = 0;
   std::vector<PlanRecord> plans;       // every plan and replan, in order
-  int replans_triggered = 0;
+  int replans_triggered = 0;          // by the threshold and periodic
+  int periodic_replans = 0;
   int splices = 0;
   double max_tracking_error = 0.0;     // m, while flying
   double sum_tracking_error = 0.0;     // over flying measurements (mean = sum / count)
@@ -228,7 +237,9 @@ class OnlineController {
   bool HaveState() const;
   void Event(std::string text);
   void CollectPlan(double t);
-  void MaybeReplan(double t);
+  // A replan from the measured state at t; `periodic`: started by
+  // replan_period with the tracking error below the threshold.
+  void MaybeReplan(double t, bool periodic, double error);
   void Fail(Phase phase, const std::string& why);
   planner::BoundaryState MeasuredBoundaryState() const;
   void RunHandshake(double t, ControllerOutput* out);
