@@ -87,9 +87,14 @@ TEST(PlannerConfigTest, KeysLeftOutKeepTheirDefaults) {
   expected.planner.cost.weight_collision = 250000.0;
   expected.representations.esdf.resolution = 0.03;
   EXPECT_EQ(PlannerConfigYaml(*config), PlannerConfigYaml(expected));
-  auto empty = ParsePlannerConfig("", "empty.yaml");
-  ASSERT_TRUE(empty.ok());
-  EXPECT_EQ(PlannerConfigYaml(*empty), PlannerConfigYaml(DefaultPlannerConfig()));
+  auto commented = ParsePlannerConfig("# cost:\n#   weight_collision: 1\n", "commented.yaml");
+  ASSERT_TRUE(commented.ok()) << commented.status().message();
+  EXPECT_EQ(PlannerConfigYaml(*commented), PlannerConfigYaml(DefaultPlannerConfig()));
+  for (const std::string empty : {"", "\n  \n"}) {
+    auto refused = ParsePlannerConfig(empty, "empty.yaml");
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.status().message().rfind("empty.yaml: the planner configuration is empty", 0), 0u);
+  }
 }
 
 TEST(PlannerConfigTest, ErrorsNameTheFileAndTheKey) {

@@ -343,6 +343,13 @@ core::Result<PlannerConfig> LoadPlannerConfigOrDefaults(const std::string& path)
 }
 
 core::Result<PlannerConfig> ParsePlannerConfig(const std::string& text, const std::string& name) {
+  // A file with nothing in it is more likely a failed copy or a wrong path
+  // than a wish for the defaults (leaving --planner-config out gives those);
+  // one whose keys are all commented out says what it means.
+  if (text.find_first_not_of(" \t\r\n") == std::string::npos) {
+    return core::Status::InvalidArgument(name + ": the planner configuration is empty (leave the option out for the "
+                                                "defaults, or write the keys to change)");
+  }
   QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(text, name));
   YAML::Node root;
   try {
@@ -351,7 +358,7 @@ core::Result<PlannerConfig> ParsePlannerConfig(const std::string& text, const st
     return core::Status::InvalidArgument(name + ": not valid YAML: line " + std::to_string(e.mark.line + 1) + ": " +
                                          e.msg);
   }
-  if (root.IsNull()) return DefaultPlannerConfig();  // an empty file: all defaults
+  if (root.IsNull()) return DefaultPlannerConfig();  // only comments: all defaults
   if (!root.IsMap()) return core::Status::InvalidArgument(name + ": expected a YAML mapping of configuration keys");
   PlannerConfig config = DefaultPlannerConfig();
   try {
