@@ -254,11 +254,13 @@ int main(int argc, char** argv) {
   long send_errors = 0;
   std::string first_send_error;
   bool interrupted = false;
+  unsigned long long from_other_systems = 0;  // accepted frames the controller ignored for their sender
   for (;;) {
     const double wait = next_tick - now();
     if (wait > 0.0) connection.WaitReadable(std::min(wait, 0.05));
     for (const link::ReceivedMessage& r : connection.Poll()) {
       const double t = now();
+      if (r.frame.system_id != targets.vehicle_system) ++from_other_systems;
       const bool used = online::DeliverToController(r.message, r.frame.system_id, t, targets, &controller);
       if (used && std::holds_alternative<link::LocalPositionNed>(r.message) && controller.has_measured_state()) {
         log.Record(controller.measured(), controller.last_setpoint(), controller.phase());
@@ -345,6 +347,17 @@ int main(int argc, char** argv) {
                 "from the plan's terminal state\n",
                 m.min_clearance, m.closest_link.c_str(), m.min_clearance_time, m.final_tool_error, m.final_base_error);
   }
+  const link::ParserStats& link_stats = connection.stats();
+  std::printf("  link: %llu frames accepted (%llu from other systems, ignored), %llu sent; dropped: %llu bad CRC, "
+              "%llu unsigned, %llu bad signature, %llu replayed, %llu unknown message; %llu bytes skipped\n",
+              static_cast<unsigned long long>(link_stats.frames_accepted), from_other_systems,
+              static_cast<unsigned long long>(connection.frames_sent()),
+              static_cast<unsigned long long>(link_stats.bad_checksum),
+              static_cast<unsigned long long>(link_stats.unsigned_rejected),
+              static_cast<unsigned long long>(link_stats.bad_signature),
+              static_cast<unsigned long long>(link_stats.replayed),
+              static_cast<unsigned long long>(link_stats.unknown_message),
+              static_cast<unsigned long long>(link_stats.bytes_skipped));
   if (!log_path.empty()) {
     core::AtomicFileSet files;
     core::Status s = files.Stage(log_path, log.Csv(ctx.robot().ActuatedJointNames()));

@@ -19,9 +19,11 @@ core::Status Connection::Send(const Message& message) {
   return core::Status::Ok();
 }
 
-std::vector<ReceivedMessage> Connection::Poll() {
+std::vector<ReceivedMessage> Connection::Poll(size_t max_datagrams) {
   std::vector<ReceivedMessage> received;
-  while (std::optional<Datagram> datagram = socket_.Receive()) {
+  for (size_t read = 0; read < max_datagrams; ++read) {
+    std::optional<Datagram> datagram = socket_.Receive();
+    if (!datagram) break;
     // One parser for all datagrams: a datagram normally holds whole frames,
     // and a frame split across datagrams (rare, but legal on a stream
     // transport) is still reassembled.

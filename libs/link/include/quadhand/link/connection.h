@@ -27,10 +27,13 @@ class Connection {
 
   // Sends to the remote; FailedPrecondition-like InvalidArgument when no remote is known yet.
   core::Status Send(const Message& message);
-  // Drains every waiting datagram; returns the decoded messages of accepted
-  // frames (unknown ids are counted by the parser and skipped). With no fixed
-  // remote, the sender of the first accepted frame becomes the remote.
-  std::vector<ReceivedMessage> Poll();
+  // Reads the waiting datagrams, at most `max_datagrams` of them (a flood
+  // must not keep the caller from its own work: the rest wait for the next
+  // call, or are dropped by the kernel when its buffer is full); returns the
+  // decoded messages of accepted frames (unknown ids are counted by the
+  // parser and skipped). With no fixed remote, the sender of the first
+  // accepted frame becomes the remote.
+  std::vector<ReceivedMessage> Poll(size_t max_datagrams = 256);
   // Waits up to timeout_s for input (then call Poll()).
   bool WaitReadable(double timeout_s) { return socket_.WaitReadable(timeout_s); }
 
