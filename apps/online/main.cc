@@ -168,12 +168,18 @@ int main(int argc, char** argv) {
 
   // Options first: every bad value is reported before anything is loaded.
   if (!(std::isfinite(rate) && rate >= 1.0 && rate <= 500.0)) return Fail("--rate must be in [1, 500] Hz");
-  if (!(std::isfinite(vehicle_timeout) && vehicle_timeout > 0.0)) return Fail("--vehicle-timeout must be positive");
+  // Upper bounds: a minute of silence, of holding before OFFBOARD or of
+  // holding at the goal is already far beyond any use; more is a typo.
+  if (!(std::isfinite(vehicle_timeout) && vehicle_timeout > 0.0 && vehicle_timeout <= 60.0)) {
+    return Fail("--vehicle-timeout must be in (0, 60] s");
+  }
   if (!(std::isfinite(replan_threshold) && replan_threshold > 0.0)) return Fail("--replan-threshold must be positive");
   if (!(std::isfinite(replan_period) && replan_period >= 0.0)) return Fail("--replan-period must be >= 0 (0: off)");
-  if (!(std::isfinite(hold_time) && hold_time >= 1.0)) return Fail("--hold-time must be at least 1 s");
+  if (!(std::isfinite(hold_time) && hold_time >= 1.0 && hold_time <= 60.0)) return Fail("--hold-time must be in [1, 60] s");
   if (!(std::isfinite(max_duration) && max_duration >= 0.0)) return Fail("--max-duration must be >= 0");
-  if (!(std::isfinite(arrival_hold) && arrival_hold >= 0.0)) return Fail("--arrival-hold must be >= 0");
+  if (!(std::isfinite(arrival_hold) && arrival_hold >= 0.0 && arrival_hold <= 60.0)) {
+    return Fail("--arrival-hold must be in [0, 60] s");
+  }
   const std::pair<int, const char*> ids[] = {{target_system, "--target-system"},
                                              {target_component, "--target-component"},
                                              {system_id, "--system-id"},

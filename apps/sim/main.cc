@@ -121,6 +121,8 @@ int main(int argc, char** argv) {
     }
   }
 
+  if (payload > 100.0) return Fail("--payload must be in [0, 100] kg");
+  if (settle > sim::kMaxSimulatedSeconds) return Fail("--settle must be in [0, 3600] s");
   auto config = sim::LoadSimConfig(config_path);
   if (!config.ok()) return Fail(config.status().message());
   if (!pcgc.empty()) config->pcgc = pcgc == "on";

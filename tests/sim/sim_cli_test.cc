@@ -116,6 +116,18 @@ TEST_F(SimCliTest, RejectsBadInput) {
   ExpectBadInput("--track " + plan + " --config " + Write("typo.yaml", "noise: {enabld: true}\n"),
                  "typo.yaml: noise.enabld: unknown key");
   ExpectBadInput("--track " + plan + " --config " + (dir_ / "none.yaml").string(), "none.yaml");
+  // Sizes that crashed (bad_alloc, length_error) or ran for ever: refused
+  // before anything is simulated or allocated.
+  ExpectBadInput("--figure8 --dt 1e-12", "at most 1e7 rows");
+  ExpectBadInput("--figure8 --loops 2000000000", "at most 1e7 rows");
+  ExpectBadInput("--figure8 --period 1e300", "at most 1e7 rows");
+  ExpectBadInput("--track " + plan + " --settle 1e12", "--settle must be in [0, 3600] s");
+  ExpectBadInput("--track " + plan + " --payload 1e300", "--payload must be in [0, 100] kg");
+  ExpectBadInput("--track " + Write("years.csv", std::string(kHeader) + "\n0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.3,0.1,0,0,0,0\n"
+                                                 "1e9,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.3,0.1,0,0,0,0\n"),
+                 "at most 3600 s are simulated");
+  ExpectBadInput("--track " + plan + " --config " + Write("heavy.yaml", "payload: {mass: 1e6}\n"),
+                 "payload.mass must be in [0, 100] kg");
   // An unwritable output is bad input too, and leaves nothing behind.
   const auto r = RunCommand(kSim + " --config " + kConfig + " --track " + plan + " --out /nonexistent/dir/out.csv");
   EXPECT_EQ(r.exit_code, 2);

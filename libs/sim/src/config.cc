@@ -196,7 +196,9 @@ bool SimConfig::IsValid(std::string* why) const {
   for (double v : servo.max_acceleration) {
     if (!(v > 0.0)) return Fail(why, "servo.max_acceleration entries must be > 0");
   }
-  if (!(payload.mass >= 0.0)) return Fail(why, "payload.mass must be >= 0");
+  // 100 kg is far beyond what an aerial manipulator carries: a larger value
+  // is a typo or a unit error (grams), not a payload.
+  if (!(payload.mass >= 0.0 && payload.mass <= 100.0)) return Fail(why, "payload.mass must be in [0, 100] kg");
   const ControllerConfig& k = controller;
   if (!(k.mass >= 0.0) || !NonNegative(k.inertia)) return Fail(why, "controller mass and inertia must be >= 0");
   if (!NonNegative(k.position_gain) || !NonNegative(k.velocity_gain) || !NonNegative(k.position_integral_gain) ||

@@ -73,6 +73,12 @@ bool FigureEightOptions::IsValid(std::string* why) const {
   if (loops < 1) return Fail(why, "loops must be >= 1");
   if (!(ramp >= 0.0 && ramp <= loops * period)) return Fail(why, "ramp must be in [0, loops * period]");
   if (!(dt > 0.0 && dt <= 0.1)) return Fail(why, "dt must be in (0, 0.1]");
+  // The plan is held in memory and written as one row per dt (a bound also
+  // keeps the products below finite).
+  const double rows = (static_cast<double>(loops) * period + ramp) / dt;
+  if (!(rows <= kMaxFigureEightRows)) {
+    return Fail(why, "(loops x period + ramp) / dt must be at most 1e7 rows");
+  }
   if (!std::isfinite(yaw)) return Fail(why, "yaw must be finite");
   const size_t n = joint_center.size();
   if (joint_amplitude.size() != n || joint_period.size() != n || joint_phase.size() != n) {

@@ -130,7 +130,16 @@ core::Result<TrackResult> TrackPlan(Simulator* sim, const Plan& plan, const Trac
     return core::Status::InvalidArgument("the plan's joints do not match the robot's actuated joints");
   }
   if (plan.rows.size() < 2) return core::Status::InvalidArgument("a plan needs at least 2 rows");
-  if (!(options.settle >= 0.0)) return core::Status::InvalidArgument("settle time must be >= 0");
+  if (!(options.settle >= 0.0 && options.settle <= kMaxSimulatedSeconds)) {
+    return core::Status::InvalidArgument("settle time must be in [0, " + std::to_string(int(kMaxSimulatedSeconds)) +
+                                         "] s");
+  }
+  // A plan of a few rows can still span years: the time simulated is bounded.
+  const double span = plan.rows.back().t - plan.rows.front().t;
+  if (!(span <= kMaxSimulatedSeconds)) {
+    return core::Status::InvalidArgument("the plan spans " + std::to_string(span) + " s; at most " +
+                                         std::to_string(int(kMaxSimulatedSeconds)) + " s are simulated");
+  }
 
   const PlanRow& first = plan.rows.front();
   VehicleState initial = VehicleState::AtRest(model, first.position, first.joints);

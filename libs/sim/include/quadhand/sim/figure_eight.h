@@ -15,6 +15,9 @@
 
 namespace quadhand::sim {
 
+// Most rows a figure-eight plan may have ((loops x period + ramp) / dt).
+constexpr double kMaxFigureEightRows = 1e7;
+
 struct FigureEightOptions {
   double length = 3.6;     // x extent, m
   double width = 2.0;      // y extent, m

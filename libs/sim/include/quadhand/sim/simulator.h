@@ -17,6 +17,10 @@
 
 namespace quadhand::sim {
 
+// Most seconds TrackPlan() simulates (settle plus the plan's span): an hour,
+// far beyond any flight a plan describes, so that a bad input cannot run for days.
+constexpr double kMaxSimulatedSeconds = 3600.0;
+
 // The arm pose the controller's inertia is taken at: controller.nominal_joints,
 // or the middle of each joint's limits.
 VecX NominalJoints(const VehicleModel& model);
@@ -72,6 +76,7 @@ struct FlownSample {
 struct TrackOptions {
   // Seconds of hovering at the plan's first setpoint (velocities zeroed)
   // before t0, not recorded, so integrators settle; meant for plans that start at rest.
+  // At most kMaxSimulatedSeconds.
   double settle = 0.0;
 };
 
