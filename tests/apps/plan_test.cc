@@ -85,6 +85,9 @@ TEST_F(PlanCliTest, RejectsBadTasks) {
                  "duplicate key 'safety_distance'");
   // Start inside the first wall.
   ExpectBadInput(WriteTask({{"  position: [0.5, 0.2, 1.2]", "  position: [-1.0, 1.0, 1.2]"}}), "in collision");
+  // A start far outside the scene: the task is named, not only the scan.
+  ExpectBadInput(WriteTask({{"  position: [0.5, 0.2, 1.2]", "  position: [1e30, 0.2, 1.2]"}}),
+                 "task.yaml: the start and goal with the scene");
   {
     const std::string path = (dir_ / "broken.yaml").string();
     std::ofstream(path) << "robot: [unclosed\n";

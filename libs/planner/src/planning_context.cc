@@ -128,7 +128,11 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
   }
   context->front_end_inflation_ = front_end_options.inflation_radius;
   auto front_end = FrontEndMap::Build(context->points(), front_end_options, contain);
-  if (!front_end.ok()) return front_end.status().WithPrefix(t.scene_path);
+  // The search box spans the scene and the task's start and goal: a far-off
+  // start in the task is as likely the cause as a wide scene.
+  if (!front_end.ok()) {
+    return front_end.status().WithPrefix(t.file + ": the start and goal with the scene " + t.scene_path);
+  }
   context->front_end_ = std::make_unique<FrontEndMap>(std::move(*front_end));
 
   for (const std::string& name : options.representations) {
