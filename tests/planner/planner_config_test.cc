@@ -98,6 +98,8 @@ TEST(PlannerConfigTest, KeysLeftOutKeepTheirDefaults) {
 }
 
 TEST(PlannerConfigTest, ErrorsNameTheFileAndTheKey) {
+  // A memory of 10^8 pairs allocated gigabytes and aborted (found by probing).
+  EXPECT_NE(Error("solver: {memory_size: 100000000}\n").find("memory_size must be in [1, 1000]"), std::string::npos);
   EXPECT_EQ(Error("cost:\n  weight_colision: 1\n"),
             "cfg.yaml: cost.weight_colision: unknown key (docs/configuration.md lists every key)");
   EXPECT_EQ(Error("colour: red\n"), "cfg.yaml: colour: unknown key (docs/configuration.md lists every key)");
