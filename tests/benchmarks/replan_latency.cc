@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
   double min_offset = 0.05, max_offset = 0.20, velocity_noise = 0.1;
   double relative_tolerance = -1.0, horizon = -1.0;
   int horizon_attempts = -1;
-  bool profile_post_check = false;
+  bool profile_post_check = false, each = false;
   app.add_option("--task", task_path, "Task file")->capture_default_str();
   app.add_option("--trials", trials, "Replans to time")->capture_default_str();
   app.add_option("--cold-trials", cold_trials, "Cold plans from the same states, for comparison")->capture_default_str();
@@ -68,6 +68,7 @@ int main(int argc, char** argv) {
   app.add_option("--attempts", attempts, "Override the replan's max_attempts (solves with post-checks)");
   app.add_option("--horizon", horizon, "Override the replan's rejoining horizon, s (0: never rejoin)");
   app.add_option("--horizon-attempts", horizon_attempts, "Override the solves of the new part before the fallback");
+  app.add_flag("--each", each, "Print one line per replan (time, offset, rejoined, attempts, outcome, ms)");
   app.add_flag("--profile-post-check", profile_post_check, "Also time the parts of the post-check over the initial plan");
   CLI11_PARSE(app, argc, argv);
 
@@ -173,6 +174,11 @@ int main(int argc, char** argv) {
     if (result->rejoined_at >= 0.0) {
       ++rejoined;
       rejoined_ms.push_back(ms);
+    }
+    if (each) {
+      std::printf("  trial %3d  t = %5.2f s  %-9s  attempts %d  %-8s %7.2f ms (solve %.2f, post-check %.2f)\n", trial,
+                  t, result->rejoined_at >= 0.0 ? "rejoined" : "remainder", static_cast<int>(result->attempts.size()),
+                  result->success ? "success" : "failed", ms, result->solve_ms, result->post_check_ms);
     }
     if (!result->success) std::printf("  t = %.2f s: %s\n", t, result->message.c_str());
   }
