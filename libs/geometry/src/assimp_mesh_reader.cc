@@ -5,9 +5,13 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include <cstdint>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <string>
+
+#include "quadhand/core/isolated.h"
 
 namespace quadhand::geometry {
 namespace {
@@ -66,14 +70,9 @@ std::string ColladaTextProblem(const std::string& text) {
 
 }  // namespace
 
-core::Result<TriangleSoup> ReadAssimpSoup(const std::string& path) {
-  {
-    std::ifstream in(path, std::ios::binary);
-    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (const std::string problem = ColladaTextProblem(text); !problem.empty()) {
-      return core::Status::InvalidArgument(path + ": cannot read mesh (" + problem + ")");
-    }
-  }
+namespace {
+
+core::Result<TriangleSoup> ImportSoup(const std::string& path) {
   Assimp::Importer importer;
   importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
   // Points and lines are not surfaces: drop them rather than fail.
@@ -99,6 +98,74 @@ core::Result<TriangleSoup> ReadAssimpSoup(const std::string& path) {
     }
   }
   return soup;
+}
+
+// The soup as bytes for the trip out of the child process and back: the
+// counts, then the vertices' doubles and the triangles' indices.
+std::string Serialize(const TriangleSoup& soup) {
+  const std::uint64_t counts[2] = {soup.vertices.size(), soup.triangles.size()};
+  std::string bytes(reinterpret_cast<const char*>(counts), sizeof(counts));
+  for (const Vec3& v : soup.vertices) bytes.append(reinterpret_cast<const char*>(v.data()), 3 * sizeof(double));
+  for (const auto& t : soup.triangles) {
+    const std::uint64_t indices[3] = {t[0], t[1], t[2]};
+    bytes.append(reinterpret_cast<const char*>(indices), sizeof(indices));
+  }
+  return bytes;
+}
+
+core::Result<TriangleSoup> Deserialize(const std::string& bytes, const std::string& path) {
+  std::uint64_t counts[2] = {0, 0};
+  if (bytes.size() < sizeof(counts)) return core::Status::Internal(path + ": the mesh reader returned too little");
+  std::memcpy(counts, bytes.data(), sizeof(counts));
+  const long double expected = sizeof(counts) + static_cast<long double>(counts[0]) * 3 * sizeof(double) +
+                               static_cast<long double>(counts[1]) * 3 * sizeof(std::uint64_t);
+  if (expected != static_cast<long double>(bytes.size())) {
+    return core::Status::Internal(path + ": the mesh reader returned a result of the wrong size");
+  }
+  TriangleSoup soup;
+  soup.vertices.resize(counts[0]);
+  soup.triangles.resize(counts[1]);
+  const char* at = bytes.data() + sizeof(counts);
+  for (Vec3& v : soup.vertices) {
+    std::memcpy(v.data(), at, 3 * sizeof(double));
+    at += 3 * sizeof(double);
+  }
+  for (auto& t : soup.triangles) {
+    std::uint64_t indices[3];
+    std::memcpy(indices, at, sizeof(indices));
+    at += sizeof(indices);
+    t = {indices[0], indices[1], indices[2]};
+  }
+  return soup;
+}
+
+}  // namespace
+
+core::Result<TriangleSoup> ReadAssimpSoup(const std::string& path) {
+  {
+    std::ifstream in(path, std::ios::binary);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (const std::string problem = ColladaTextProblem(text); !problem.empty()) {
+      return core::Status::InvalidArgument(path + ": cannot read mesh (" + problem + ")");
+    }
+  }
+#ifdef QUADHAND_ASSIMP_IN_PROCESS
+  // Fuzzing builds import in process, so that the fuzzer sees Assimp's code.
+  return ImportSoup(path);
+#else
+  // Assimp's importers have crashed, hung and allocated gigabytes on
+  // malformed files (docs/reliability.md): the import runs in a child process
+  // with a memory and time limit, so whatever it does is an error here.
+  auto bytes = core::RunIsolated(
+      [&path]() -> core::Result<std::string> {
+        auto soup = ImportSoup(path);
+        if (!soup.ok()) return soup.status();
+        return Serialize(*soup);
+      },
+      path + ": cannot read mesh: the Collada importer");
+  if (!bytes.ok()) return bytes.status();
+  return Deserialize(*bytes, path);
+#endif
 }
 
 }  // namespace quadhand::geometry
