@@ -127,6 +127,14 @@ TEST_F(SdfgenTest, RejectsBadInputWithOneLineAndNoFiles) {
   ExpectBadInput("probe /nonexistent.qhsdf 0 0 0", "/nonexistent.qhsdf");
   ExpectBadInput("probe " + cube + " 0 0", "three");
   ExpectBadInput("info " + cube, "cube.off");
+  // A grid too large is refused before the first line of progress (it came
+  // after the info line, two lines in all), naming the URDF and the link.
+  {
+    std::ofstream urdf(Path("huge.urdf"));
+    urdf << "<robot name='r'><link name='a'><collision><geometry><box size='900 1 1'/></geometry></collision>"
+            "</link></robot>";
+  }
+  ExpectBadInput("--urdf " + Path("huge.urdf") + " --out " + out, "huge.urdf#a: the grid would have more", out);
 }
 
 TEST_F(SdfgenTest, OpenMeshNeedsUnsigned) {

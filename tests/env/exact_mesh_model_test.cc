@@ -248,8 +248,12 @@ TEST(ExactMeshModelTest, ALinkOfOverlappingPrimitivesIsTheirUnion) {
         const Vec3 p = info.origin + info.resolution * Vec3(i, j, k);
         const double exact = RotorGuardsDistance(p);
         const double value = grid->NodeValue(i, j, k);
-        if (exact > tolerance) EXPECT_NEAR(value, exact, tolerance + 1e-6) << p.transpose();
-        if (exact < -tolerance) EXPECT_LT(value, 0.0) << p.transpose();
+        if (exact > tolerance) {
+          EXPECT_NEAR(value, exact, tolerance + 1e-6) << p.transpose();
+        }
+        if (exact < -tolerance) {
+          EXPECT_LT(value, 0.0) << p.transpose();
+        }
         ++nodes;
       }
     }

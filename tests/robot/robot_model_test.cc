@@ -387,6 +387,29 @@ TEST(RobotModelTest, StructuralErrors) {
             std::string::npos);
 }
 
+// Lengths no robot has (found by probing: a collision origin 1e300 m away
+// reached the mesh check as "self-intersecting"): each refused with its reason.
+TEST(RobotModelTest, AbsurdLengthsAreRefused) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"<link name='a'><collision><origin xyz='1e300 0 0'/><geometry><sphere radius='0.1'/></geometry></collision>"
+       "</link>",
+       "collision origin xyz must be finite and within 1000 m"},
+      {"<link name='a'><collision><geometry><sphere radius='1e9'/></geometry></collision></link>",
+       "sphere radius must be positive and at most 1000 m"},
+      {"<link name='a'><collision><geometry><box size='1e9 1 1'/></geometry></collision></link>",
+       "box size must be positive and at most 1000 m"},
+      {"<link name='a'><collision><geometry><cylinder radius='0.1' length='1e300'/></geometry></collision></link>",
+       "cylinder radius and length must be positive and at most 1000 m"},
+      {"<link name='a'/><link name='b'/><joint name='j' type='fixed'><origin xyz='0 0 -5e3'/><parent link='a'/>"
+       "<child link='b'/></joint>",
+       "joint 'j': origin xyz must be finite and within 1000 m"},
+  };
+  for (const auto& [body, fragment] : cases) {
+    const core::Status status = LoadFailure("<robot name='r'>" + body + "</robot>", StatusCode::kInvalidArgument);
+    EXPECT_NE(status.message().find(fragment), std::string::npos) << status.message();
+  }
+}
+
 TEST(RobotModelTest, UnsupportedJointTypes) {
   for (const std::string type : {"floating", "planar"}) {
     const std::string xml = "<robot name='r'><link name='base'/><link name='a'/><joint name='j' "

@@ -123,6 +123,44 @@ bool SdfGenerationOptions::IsValid(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// Nodes along each axis of the grid over `box` plus the padding.
+core::Result<Eigen::Vector3i> GridDims(const AxisAlignedBox& box, const SdfGenerationOptions& options) {
+  const Vec3 extent = box.size() + Vec3::Constant(2.0 * options.padding);
+  Eigen::Vector3i dims;
+  double num_nodes = 1.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    // The relative slack keeps an extent that is an exact multiple of the
+    // resolution from gaining a node through rounding.
+    const double cells = std::ceil(extent[axis] / options.resolution * (1.0 - 1e-12));
+    num_nodes *= cells + 1.0;
+    if (!(num_nodes <= kMaxNodes)) {
+      return core::Status::InvalidArgument("the grid would have more than " + Format(kMaxNodes) +
+                                           " nodes; use a coarser resolution or less padding");
+    }
+    dims[axis] = static_cast<int>(cells) + 1;
+  }
+  return dims;
+}
+
+}  // namespace
+
+core::Result<Eigen::Vector3i> SdfGridDims(const std::vector<TriangleMesh>& meshes,
+                                          const SdfGenerationOptions& options) {
+  AxisAlignedBox box;
+  bool any = false;
+  for (const TriangleMesh& mesh : meshes) {
+    if (mesh.vertices.empty()) continue;
+    const AxisAlignedBox element = BoundingBox(mesh);
+    box.min = any ? box.min.cwiseMin(element.min) : element.min;
+    box.max = any ? box.max.cwiseMax(element.max) : element.max;
+    any = true;
+  }
+  if (!any) return core::Status::InvalidArgument("no collision geometry");
+  return GridDims(box, options);
+}
+
 core::Result<SdfGrid> GenerateSdf(const TriangleMesh& mesh, const std::string& link_name,
                                   const std::string& source, const SdfGenerationOptions& options,
                                   const ProgressCallback& progress) {
@@ -180,20 +218,9 @@ core::Result<SdfGrid> GenerateSdf(const std::vector<TriangleMesh>& meshes, const
   info.is_signed = all_signed;
   info.geometry_min = box.min;
   info.geometry_max = box.max;
-  const Vec3 extent = box.size() + Vec3::Constant(2.0 * options.padding);
-  double num_nodes = 1.0;
-  for (int axis = 0; axis < 3; ++axis) {
-    // The relative slack keeps an extent that is an exact multiple of the
-    // resolution from gaining a node through rounding.
-    const double cells = std::ceil(extent[axis] / options.resolution * (1.0 - 1e-12));
-    num_nodes *= cells + 1.0;
-    if (num_nodes > kMaxNodes) {
-      return core::Status::InvalidArgument(
-          what + ": the grid would have more than " + Format(kMaxNodes) +
-          " nodes; use a coarser resolution or less padding");
-    }
-    info.dims[axis] = static_cast<int>(cells) + 1;
-  }
+  auto dims = GridDims(box, options);
+  if (!dims.ok()) return dims.status().WithPrefix(what);
+  info.dims = *dims;
 
   const long total = info.NumNodes();
   std::vector<float> values(static_cast<size_t>(total));

@@ -38,6 +38,11 @@ core::Result<std::vector<LinkSdfJob>> LinkSdfJobsFromUrdf(const std::string& urd
 core::Status CheckLinkSdfJobs(const std::vector<LinkSdfJob>& jobs, const geometry::SdfGenerationOptions& options) {
   for (const LinkSdfJob& job : jobs) {
     if (auto path = LinkSdfPath(".", job.link_name); !path.ok()) return path.status().WithPrefix(job.source);
+    // Every grid's size before the first is made (an absurd mesh scale in
+    // the last link must not fail after minutes of work).
+    if (auto dims = geometry::SdfGridDims(job.elements, options); !dims.ok()) {
+      return dims.status().WithPrefix(job.source);
+    }
   }
   if (options.allow_unsigned) return core::Status::Ok();
   for (const LinkSdfJob& job : jobs) {

@@ -117,6 +117,23 @@ Pose ToPose(const urdf::Pose& pose) {
 
 Vec3 ToVec3(const urdf::Vector3& v) { return Vec3(v.x, v.y, v.z); }
 
+// No part of a robot is a kilometre from its parent or a kilometre wide: a
+// larger length is a unit error or a corrupted file, and lengths near the
+// limits of a double make every later distance meaningless.
+constexpr double kMaxLength = 1000.0;
+
+// Empty when the origin is finite, within kMaxLength and has a usable
+// rotation; else what is wrong with it.
+std::string OriginProblem(const urdf::Pose& pose) {
+  const Vec3 position(pose.position.x, pose.position.y, pose.position.z);
+  if (!position.allFinite() || position.cwiseAbs().maxCoeff() > kMaxLength) {
+    return "origin xyz must be finite and within " + std::to_string(int(kMaxLength)) + " m";
+  }
+  const Eigen::Vector4d q(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z);
+  if (!q.allFinite() || !(q.norm() > 1e-9)) return "origin rpy must be finite";
+  return "";
+}
+
 // ---------------------------------------------------------------------------
 // package:// resolution
 
@@ -227,22 +244,25 @@ Result<std::string> ResolveMeshPath(const std::string& filename, const std::stri
 Result<CollisionGeometry> ConvertCollision(const urdf::Collision& collision,
                                            const std::string& base_dir) {
   CollisionGeometry geometry;
+  if (const std::string problem = OriginProblem(collision.origin); !problem.empty()) {
+    return Status::InvalidArgument("collision " + problem);
+  }
   geometry.origin = ToPose(collision.origin);
   const urdf::Geometry& shape = *collision.geometry;
   switch (shape.type) {
     case urdf::Geometry::SPHERE: {
       geometry.type = GeometryType::kSphere;
       geometry.radius = static_cast<const urdf::Sphere&>(shape).radius;
-      if (!(geometry.radius > 0.0)) {
-        return Status::InvalidArgument("sphere radius must be positive");
+      if (!(geometry.radius > 0.0 && geometry.radius <= kMaxLength)) {
+        return Status::InvalidArgument("sphere radius must be positive and at most 1000 m");
       }
       break;
     }
     case urdf::Geometry::BOX: {
       geometry.type = GeometryType::kBox;
       geometry.box_size = ToVec3(static_cast<const urdf::Box&>(shape).dim);
-      if (!(geometry.box_size.array() > 0.0).all()) {
-        return Status::InvalidArgument("box size must be positive");
+      if (!(geometry.box_size.array() > 0.0).all() || !(geometry.box_size.array() <= kMaxLength).all()) {
+        return Status::InvalidArgument("box size must be positive and at most 1000 m");
       }
       break;
     }
@@ -251,8 +271,9 @@ Result<CollisionGeometry> ConvertCollision(const urdf::Collision& collision,
       geometry.type = GeometryType::kCylinder;
       geometry.radius = cylinder.radius;
       geometry.length = cylinder.length;
-      if (!(geometry.radius > 0.0 && geometry.length > 0.0)) {
-        return Status::InvalidArgument("cylinder radius and length must be positive");
+      if (!(geometry.radius > 0.0 && geometry.length > 0.0 && geometry.radius <= kMaxLength &&
+            geometry.length <= kMaxLength)) {
+        return Status::InvalidArgument("cylinder radius and length must be positive and at most 1000 m");
       }
       break;
     }
@@ -320,6 +341,9 @@ Result<Joint> ConvertJoint(const urdf::Joint& source) {
       return Status::InvalidArgument(where + "unsupported joint type 'planar'");
     default:
       return Status::InvalidArgument(where + "unknown joint type");
+  }
+  if (const std::string problem = OriginProblem(source.parent_to_joint_origin_transform); !problem.empty()) {
+    return Status::InvalidArgument(where + problem);
   }
   joint.origin = ToPose(source.parent_to_joint_origin_transform);
   const Vec3 axis = ToVec3(source.axis);

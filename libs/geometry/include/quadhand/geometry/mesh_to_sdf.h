@@ -21,6 +21,12 @@ struct SdfGenerationOptions {
   bool IsValid(std::string* why) const;
 };
 
+// Nodes along x, y and z of the grid GenerateSdf() makes for `meshes` (their
+// union's bounding box plus the padding), without making it: InvalidArgument
+// when there is no geometry or the grid would have more than 2e8 nodes, so a
+// caller can refuse every link's size before it starts on the first.
+core::Result<Eigen::Vector3i> SdfGridDims(const std::vector<TriangleMesh>& meshes, const SdfGenerationOptions& options);
+
 // (nodes done, nodes total); called from the generating threads, serialised.
 using ProgressCallback = std::function<void(long done, long total)>;
 
