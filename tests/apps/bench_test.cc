@@ -113,6 +113,8 @@ TEST_F(BenchCliTest, BadInputExitsWithTwoAndOneLine) {
   ExpectBadInput("--config " + Path("typo.yaml"), "yaww: unknown key");
   std::ofstream(Path("infinite.yaml")) << "task: task.yaml\nstart_box: {min: [0, 0, 1], max: [1, 1, .inf]}\n";
   ExpectBadInput("--config " + Path("infinite.yaml"), "finite");
+  std::ofstream(Path("huge.yaml")) << "task: task.yaml\nstart_box: {min: [-1e300, 0, 1], max: [1e300, 1, 1.5]}\n";
+  ExpectBadInput("--config " + Path("huge.yaml"), "huge.yaml: start_box: min and max must be finite and within 1000 m");
   std::ofstream(Path("twice.yaml")) << "task: task.yaml\nstart_box: {min: [0, 0, 1], max: [1, 1, 1.5]}\ntask: x.yaml\n";
   ExpectBadInput("--config " + Path("twice.yaml"), "duplicate key 'task'");
   // Found before any trial runs (2^31 - 1 - 600 + 1000 overflows an int).

@@ -58,9 +58,12 @@ core::Result<BenchConfig> ParseBenchConfig(const std::string& text, const std::s
   } catch (const YAML::Exception& e) {
     return fail("malformed benchmark config: " + e.msg);
   }
+  // Starts are drawn in the box and the planner's search covers it: a box a
+  // kilometre across is a typo, not a benchmark.
   if (!(config.box_min.allFinite() && config.box_max.allFinite() &&
-        (config.box_min.array() <= config.box_max.array()).all())) {
-    return fail("start_box: min and max must be finite, with min <= max");
+        (config.box_min.array() <= config.box_max.array()).all() && config.box_min.cwiseAbs().maxCoeff() <= 1000.0 &&
+        config.box_max.cwiseAbs().maxCoeff() <= 1000.0)) {
+    return fail("start_box: min and max must be finite and within 1000 m, with min <= max");
   }
   if (!(std::isfinite(config.yaw_min) && std::isfinite(config.yaw_max) && config.yaw_min <= config.yaw_max)) {
     return fail("yaw: min and max must be finite, with min <= max");
