@@ -42,6 +42,7 @@
 
 #include "assimp_mesh_reader.h"
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/numbers.h"
 
 namespace quadhand::geometry {
 namespace {
@@ -349,22 +350,20 @@ std::string OffTextProblem(const std::string& path) {
   } else {
     next = 1;
   }
-  auto whole = [](const std::string& text, unsigned long long* value) {
-    if (text.empty() || text.size() > 18 || text.find_first_not_of("0123456789") != std::string::npos) return false;
-    *value = std::stoull(text);
-    return true;
+  auto whole = [](const std::string& text, std::uint64_t* value) {
+    return core::ParseWholeNumber(text, 999999999999999999ULL, value);
   };
-  unsigned long long vertices = 0, faces = 0;
+  std::uint64_t vertices = 0, faces = 0;
   if (counts.size() < 2 || !whole(counts[0], &vertices) || !whole(counts[1], &faces)) {
     return "OFF counts are not whole numbers";
   }
   if (next + vertices + faces > lines.size()) return "OFF file has fewer lines than its counts say";
   for (std::size_t f = 0; f < faces; ++f) {
     const std::vector<std::string>& row = lines[next + vertices + f];
-    unsigned long long k = 0;
+    std::uint64_t k = 0;
     if (!whole(row[0], &k) || k + 1 > row.size()) return "OFF face " + std::to_string(f + 1) + ": bad vertex count";
     for (std::size_t i = 1; i <= k; ++i) {
-      unsigned long long index = 0;
+      std::uint64_t index = 0;
       if (!whole(row[i], &index) || index >= vertices) {
         return "OFF face " + std::to_string(f + 1) + " names a vertex the file does not have";
       }

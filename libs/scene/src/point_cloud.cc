@@ -22,6 +22,8 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include "quadhand/core/numbers.h"
+
 namespace quadhand::scene {
 namespace {
 
@@ -371,14 +373,7 @@ std::string PcdHeaderProblem(const std::string& path) {
     for (char c : word.substr(0, 24)) out += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
     return out;
   };
-  auto whole_number = [](const std::string& text, std::uint64_t limit, std::uint64_t* value) {
-    if (text.empty() || text.size() > 20 || text.find_first_not_of("0123456789") != std::string::npos) return false;
-    errno = 0;
-    const unsigned long long parsed = std::strtoull(text.c_str(), nullptr, 10);
-    if (errno != 0 || parsed > limit) return false;
-    *value = parsed;
-    return true;
-  };
+  const auto whole_number = core::ParseWholeNumber;
   auto keyword_prefix = [&](const std::string& token) {
     for (const char* keyword : kKeywords) {
       if (token.compare(0, std::strlen(keyword), keyword) == 0) return true;
