@@ -72,7 +72,7 @@ TEST(SecondRobotTest, PlansEachOfItsTasksAndFliesThem) {
     EXPECT_EQ(flew.exit_code, 0) << flew.err;
     EXPECT_NE(flew.out.find("PCGC off"), std::string::npos) << flew.out;
     EXPECT_TRUE(fs::exists(flown));
-    for (const fs::path& file : {plan, report, html, flown}) fs::remove(file);
+    for (const std::string& file : {plan, report, html, flown}) fs::remove(file);
   }
   fs::remove_all(dir);
 }
