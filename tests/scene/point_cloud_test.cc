@@ -142,6 +142,26 @@ TEST_F(PointCloudTest, HoldsTheHeaderToThePcdSpecification) {
   EXPECT_EQ(cloud->points.size(), 2u);
 }
 
+// A binary PLY scan whose header PCL read loosely: a negative vertex count it
+// turned into a 34 GB allocation, and misspelt property lines (fuzz_point_cloud,
+// 600 s run). The header is read strictly first (core::ParsePlyHeader).
+TEST_F(PointCloudTest, APlyHeaderIsReadStrictlyBeforePcl) {
+  std::string data(26, '\0');
+  WriteText("bad.ply", "ply\nformat binary_little_endian 1.0\nelement vertex -2\np\x1fropertye x\npr y\n"
+                       "property double z\nend_header\n" + data);
+  auto cloud = LoadPly(Path("bad.ply"));
+  ASSERT_FALSE(cloud.ok());
+  EXPECT_EQ(cloud.status().message().rfind(Path("bad.ply") + ": not a readable PLY file: PLY header line 3", 0), 0u)
+      << cloud.status().message();
+  std::string twelve(12, '\0');
+  WriteText("short.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\n"
+                         "property float y\nproperty float z\nend_header\n" + twelve);
+  auto short_data = LoadPly(Path("short.ply"));
+  ASSERT_FALSE(short_data.ok());
+  EXPECT_NE(short_data.status().message().find("need more data than the file holds"), std::string::npos)
+      << short_data.status().message();
+}
+
 // Data that disagrees with the header: PCL would read a word as 0, pad a
 // short row and ignore rows beyond the count, each a silently wrong scene.
 TEST_F(PointCloudTest, RejectsDataThatDisagreesWithTheHeader) {

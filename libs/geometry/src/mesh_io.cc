@@ -43,6 +43,7 @@
 #include "assimp_mesh_reader.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/numbers.h"
+#include "quadhand/core/ply_header.h"
 
 namespace quadhand::geometry {
 namespace {
@@ -264,54 +265,26 @@ class CerrCapture {
 
 // CGAL's PLY reader trusts the header: a "property" before any "element"
 // is undefined behaviour there (found by fuzzing), and element counts size
-// its buffers. The header is checked here first: "ply", a format line, each
-// property after an element, counts no larger than the file could hold, and
-// an end_header within the first 64 KiB, vertex coordinates float or double.
+// its buffers. The header is read strictly first (core::ParsePlyHeader),
+// and vertex coordinates must be float or double (any other type was a null
+// dereference in CGAL; found by fuzzing).
 std::string PlyHeaderProblem(const std::string& path, std::uintmax_t file_size) {
   std::ifstream in(path, std::ios::binary);
-  std::string line;
-  std::size_t read = 0;
-  bool in_element = false, format = false;
-  std::string element;
-  for (int number = 0; std::getline(in, line); ++number) {
-    read += line.size() + 1;
-    if (read > 65536) return "PLY header longer than 64 KiB";
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    std::istringstream words(line);
-    std::string keyword;
-    words >> keyword;
-    if (number == 0) {
-      if (keyword != "ply") return "not a PLY file (no 'ply' first line)";
-      continue;
-    }
-    if (keyword == "format") {
-      std::string kind, version;
-      words >> kind >> version;
-      if (kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian") {
-        return "PLY format '" + kind + "' is not ascii or binary";
+  std::string start(65536, '\0');
+  in.read(start.data(), static_cast<std::streamsize>(start.size()));
+  start.resize(static_cast<std::size_t>(in.gcount()));
+  auto header = core::ParsePlyHeader(start, file_size);
+  if (!header.ok()) return header.status().message();
+  for (const core::PlyElement& element : header->elements) {
+    if (element.name != "vertex") continue;
+    for (const core::PlyProperty& p : element.properties) {
+      const bool coordinate = p.name == "x" || p.name == "y" || p.name == "z";
+      if (coordinate && (p.is_list || core::PlyTypeSize(p.type) < 4 || p.type.find("int") != std::string::npos)) {
+        return "PLY vertex coordinate '" + p.name + "' of type '" + p.type + "' (expected float or double)";
       }
-      format = true;
-    } else if (keyword == "element") {
-      long long count = -1;
-      if (!(words >> element >> count) || count < 0 || static_cast<std::uintmax_t>(count) > file_size) {
-        return "PLY line " + std::to_string(number + 1) + ": bad element count";
-      }
-      in_element = true;
-    } else if (keyword == "property") {
-      if (!in_element) return "PLY line " + std::to_string(number + 1) + ": property before any element";
-      // CGAL reads vertex coordinates as float or double only (any other
-      // type was a null dereference there; found by fuzzing).
-      std::string type, name;
-      words >> type >> name;
-      if (element == "vertex" && (name == "x" || name == "y" || name == "z") && type != "float" &&
-          type != "float32" && type != "double" && type != "float64") {
-        return "PLY vertex coordinate '" + name + "' of type '" + type + "' (expected float or double)";
-      }
-    } else if (keyword == "end_header") {
-      return format ? "" : "PLY header has no format line";
     }
   }
-  return "PLY header has no end_header";
+  return "";
 }
 
 // CGAL's OFF scanner converts a face index written as a huge number to an

@@ -23,6 +23,7 @@
 #include <pcl/point_types.h>
 
 #include "quadhand/core/numbers.h"
+#include "quadhand/core/ply_header.h"
 
 namespace quadhand::scene {
 namespace {
@@ -523,6 +524,17 @@ core::Result<PointCloud> LoadPcd(const std::string& path) {
 core::Result<PointCloud> LoadPly(const std::string& path) {
   SilencePcl();
   QUADHAND_RETURN_IF_ERROR(CheckRegularFile(path));
+  {
+    // PCL sizes its buffers from the header and reads its lines loosely.
+    std::error_code error;
+    const std::uintmax_t size = std::filesystem::file_size(path, error);
+    std::ifstream in(path, std::ios::binary);
+    std::string start(65536, '\0');
+    in.read(start.data(), static_cast<std::streamsize>(start.size()));
+    start.resize(static_cast<std::size_t>(in.gcount()));
+    auto header = core::ParsePlyHeader(start, error ? 0 : size);
+    if (!header.ok()) return header.status().WithPrefix(path + ": not a readable PLY file");
+  }
   QUADHAND_RETURN_IF_ERROR(CheckPlyAsciiData(path));
   pcl::PCLPointCloud2 blob;
   pcl::PLYReader reader;
