@@ -25,6 +25,11 @@
 // CGAL's headers, where the warning is located.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// Faces of more than three vertices are triangulated by hole filling, not
+// by a 2-D constrained Delaunay triangulation of their projection: the CDT
+// followed a null pointer on a degenerate face (found by fuzzing), hole
+// filling triangulates any closed polygon.
+#define CGAL_TRIANGULATE_FACES_DO_NOT_USE_CDT2
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/IO/polygon_soup_io.h>
@@ -419,6 +424,16 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
   InexactMesh mesh;
   bool read = false;
   PMP::repair_polygon_soup(points, polygons);
+  // A face that visits a vertex twice (as written, or once duplicate points
+  // are merged) is not a simple polygon: CGAL's face triangulation followed
+  // a null pointer on one (found by fuzzing).
+  for (size_t f = 0; f < polygons.size(); ++f) {
+    std::vector<std::size_t> sorted = polygons[f];
+    std::sort(sorted.begin(), sorted.end());
+    if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
+      return core::Status::InvalidArgument(path + ": a face visits one vertex twice (not a simple polygon)");
+    }
+  }
   PMP::orient_polygon_soup(points, polygons);
   if (!polygons.empty() && PMP::is_polygon_soup_a_polygon_mesh(polygons)) {
     PMP::polygon_soup_to_polygon_mesh(points, polygons, mesh);
@@ -433,7 +448,9 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
   if (mesh.number_of_faces() == 0) {
     return core::Status::InvalidArgument(path + ": mesh has no faces");
   }
-  if (!CGAL::is_triangle_mesh(mesh)) PMP::triangulate_faces(mesh);
+  if (!CGAL::is_triangle_mesh(mesh) && !PMP::triangulate_faces(mesh)) {
+    return core::Status::InvalidArgument(path + ": a face could not be triangulated (not a simple polygon)");
+  }
   return FromSurfaceMesh(mesh);
 }
 
