@@ -313,11 +313,15 @@ std::string OffTextProblem(const std::string& path) {
   // CGAL also reads variants it matches loosely ("OFF-", 4OFF, nOFF,
   // binary): only the text forms whose vertex and face lines are checked
   // below are handed to it.
+  // CGAL's scanner also reads colours and normals (COFF, NOFF, per-face
+  // colours) without checking them (a heap overflow in its colour scanner;
+  // found by fuzzing): only plain OFF, with three coordinates per vertex
+  // line and nothing after a face's indices, is handed to it.
   const std::string& magic = lines[0][0];
-  if (magic != "OFF" && magic != "COFF" && magic != "NOFF" && magic != "CNOFF") {
+  if (magic != "OFF") {
     std::string shown;
     for (char c : magic.substr(0, 16)) shown += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
-    return "OFF header '" + shown + "' is not supported (expected OFF, COFF, NOFF or CNOFF)";
+    return "OFF header '" + shown + "' is not supported (plain OFF only, without colours or normals)";
   }
   std::size_t next = 0;
   std::vector<std::string> counts(lines[0].begin() + 1, lines[0].end());
@@ -336,10 +340,22 @@ std::string OffTextProblem(const std::string& path) {
     return "OFF counts are not whole numbers";
   }
   if (next + vertices + faces > lines.size()) return "OFF file has fewer lines than its counts say";
+  for (std::size_t v = 0; v < vertices; ++v) {
+    const std::vector<std::string>& row = lines[next + v];
+    bool numbers = row.size() == 3;
+    for (const std::string& word : row) {
+      char* end = nullptr;
+      const double value = std::strtod(word.c_str(), &end);
+      numbers = numbers && end == word.c_str() + word.size() && std::isfinite(value);
+    }
+    if (!numbers) return "OFF vertex " + std::to_string(v + 1) + " is not three finite numbers";
+  }
   for (std::size_t f = 0; f < faces; ++f) {
     const std::vector<std::string>& row = lines[next + vertices + f];
     std::uint64_t k = 0;
-    if (!whole(row[0], &k) || k + 1 > row.size()) return "OFF face " + std::to_string(f + 1) + ": bad vertex count";
+    if (!whole(row[0], &k) || k + 1 != row.size()) {
+      return "OFF face " + std::to_string(f + 1) + ": bad vertex count (or a colour after the indices)";
+    }
     for (std::size_t i = 1; i <= k; ++i) {
       std::uint64_t index = 0;
       if (!whole(row[i], &index) || index >= vertices) {
