@@ -165,6 +165,10 @@ TEST_F(MeshIoTest, FacesNamingMissingVerticesAreRefused) {
   ExpectRefused("bad.off", "4OFF\n1 1 0\n0 0 0 0\n1 0 0 0\n", "is not supported");
   ExpectRefused("bad.off", "OFF BINARY\n", "");
   ExpectRefused("bad.off", "", "empty");
+  // A counts line of two numbers: CGAL took the next line's for the edges,
+  // then a face of 1.7e9 vertices (13 GB; fuzz_mesh, 600 s run).
+  const char kShortCounts[] = "OFF\n0 1 \n0#\0\0\0\0\0\0" "8 \n \n\n\n 1666666666 2 4";
+  ExpectRefused("bad.off", std::string(kShortCounts, sizeof(kShortCounts)), "three whole numbers");
   // Colours: CGAL's colour scanner read past its buffer on a COFF file
   // (fuzz_mesh, 600 s run); only plain OFF reaches it.
   ExpectRefused("bad.off", "COFF\n4 4 0\n0 0 0 1 0 0 1\n0.1 0 0 1 0 0 1\n0 0.1 0 1 0 0 1\n0 0 0.1 1 0 0 1\n"

@@ -336,8 +336,12 @@ std::string OffTextProblem(const std::string& path) {
     return core::ParseWholeNumber(text, 999999999999999999ULL, value);
   };
   std::uint64_t vertices = 0, faces = 0;
-  if (counts.size() < 2 || !whole(counts[0], &vertices) || !whole(counts[1], &faces)) {
-    return "OFF counts are not whole numbers";
+  // Exactly "vertices faces edges" on one line: CGAL reads tokens, not
+  // lines, so a short counts line made it take the next line's number as
+  // the edge count and then a face of 1.7e9 vertices (found by fuzzing).
+  std::uint64_t edges = 0;
+  if (counts.size() != 3 || !whole(counts[0], &vertices) || !whole(counts[1], &faces) || !whole(counts[2], &edges)) {
+    return "OFF counts line must be three whole numbers (vertices, faces, edges)";
   }
   if (next + vertices + faces > lines.size()) return "OFF file has fewer lines than its counts say";
   for (std::size_t v = 0; v < vertices; ++v) {
@@ -353,7 +357,7 @@ std::string OffTextProblem(const std::string& path) {
   for (std::size_t f = 0; f < faces; ++f) {
     const std::vector<std::string>& row = lines[next + vertices + f];
     std::uint64_t k = 0;
-    if (!whole(row[0], &k) || k + 1 != row.size()) {
+    if (!whole(row[0], &k) || k < 3 || k + 1 != row.size()) {
       return "OFF face " + std::to_string(f + 1) + ": bad vertex count (or a colour after the indices)";
     }
     for (std::size_t i = 1; i <= k; ++i) {
