@@ -14,17 +14,7 @@
 namespace quadhand::core {
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAddressSanitizer = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAddressSanitizer = true;
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
+const bool kAddressSanitizer = BuiltWithAddressSanitizer();
 
 TEST(RunIsolatedTest, ReturnsTheBytesOfTheWorkAndItsOwnErrors) {
   std::string big(3 << 20, '\0');  // larger than a pipe's buffer, with zero bytes

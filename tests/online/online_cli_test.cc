@@ -19,6 +19,7 @@
 
 #include <gtest/gtest.h>
 
+#include "quadhand/core/isolated.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/robot_model.h"
 #include "quadhand/sim/plan_io.h"
@@ -40,11 +41,7 @@ const std::string kRoot = QUADHAND_SOURCE_DIR;
 const std::string kOnline = std::string(QUADHAND_BIN_DIR) + "/quadhand-online";
 const std::string kSim = std::string(QUADHAND_BIN_DIR) + "/quadhand-sim";
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitizedBuild = true;
-#else
-constexpr bool kSanitizedBuild = false;
-#endif
+const bool kSanitizedBuild = core::BuiltWithAddressSanitizer();
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 

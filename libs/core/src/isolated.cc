@@ -16,17 +16,6 @@
 namespace quadhand::core {
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAddressSanitizer = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAddressSanitizer = true;
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
 
 bool WriteAll(int fd, const char* data, std::size_t size) {
   while (size > 0) {
@@ -43,7 +32,7 @@ bool WriteAll(int fd, const char* data, std::size_t size) {
 // bytes, then _exit (no destructors or atexit handlers of the parent's state).
 [[noreturn]] void RunChild(int fd, const std::function<Result<std::string>()>& work, const std::string& what,
                            const IsolationLimits& limits) {
-  if (!kAddressSanitizer) {
+  if (!BuiltWithAddressSanitizer()) {
     const rlimit memory{static_cast<rlim_t>(limits.memory_bytes), static_cast<rlim_t>(limits.memory_bytes)};
     setrlimit(RLIMIT_AS, &memory);
   }
@@ -62,6 +51,20 @@ bool WriteAll(int fd, const char* data, std::size_t size) {
 }
 
 }  // namespace
+
+bool BuiltWithAddressSanitizer() {
+#if defined(__SANITIZE_ADDRESS__)
+  return true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+  return true;
+#else
+  return false;
+#endif
+#else
+  return false;
+#endif
+}
 
 Result<std::string> RunIsolated(const std::function<Result<std::string>()>& work, const std::string& what,
                                 const IsolationLimits& limits) {

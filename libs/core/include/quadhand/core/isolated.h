@@ -22,6 +22,10 @@ struct IsolationLimits {
 // exception it threw, running out of memory within the limit, a crash (the
 // signal's name), the time limit, or a failure to start the child. The child only runs `work` and
 // writes its result; it never returns into the caller's code.
+// Whether this build runs under AddressSanitizer (its shadow memory rules out
+// an address-space limit, and it runs several times slower; tests adapt).
+bool BuiltWithAddressSanitizer();
+
 Result<std::string> RunIsolated(const std::function<Result<std::string>()>& work, const std::string& what,
                                 const IsolationLimits& limits = {});
 
