@@ -118,6 +118,8 @@ int main(int argc, char** argv) {
   std::string task_path, vehicle_url, bind_url = "udp://0.0.0.0:0", key_path, log_path;
   double rate = 50.0, vehicle_timeout = 1.0, replan_threshold = 0.10, replan_period = 1.0, hold_time = 1.2, max_duration = 0.0;
   double arrival_hold = online::OnlineOptions{}.arrival_hold;
+  double arrival_tolerance = online::OnlineOptions{}.arrival_tolerance;
+  double arrival_timeout = online::OnlineOptions{}.arrival_timeout;
   int target_system = 1, target_component = 1, system_id = 1, component_id = 191;
   bool require_signing = false, dry_run = false, quiet = false, no_replan = false;
   app.add_option("task", task_path, "Task file (YAML, docs/task_format.md)")->required();
@@ -148,7 +150,14 @@ int main(int argc, char** argv) {
   app.add_flag("--no-replan", no_replan, "Never replan (fly the first plan only)");
   app.add_option("--hold-time", hold_time, "Seconds of hold setpoints before OFFBOARD is requested (>= 1, PX4's rule)")
       ->capture_default_str();
-  app.add_option("--arrival-hold", arrival_hold, "Seconds of holding at the goal after the plan ends, before exiting")
+  app.add_option("--arrival-hold", arrival_hold, "Least seconds of holding at the goal after the plan ends")
+      ->capture_default_str();
+  app.add_option("--arrival-tolerance", arrival_tolerance,
+                 "After --arrival-hold, hold on until the tool is this close (m) to its goal (no tool goal: the base\n"
+                 "to the plan's end) and the base slower than 1 cm/s")
+      ->capture_default_str();
+  app.add_option("--arrival-timeout", arrival_timeout,
+                 "Most seconds of holding at the goal, settled or not (equal to --arrival-hold: a fixed hold)")
       ->capture_default_str();
   app.add_option("--max-duration", max_duration, "Stop streaming and exit after this many seconds (0: no limit)")
       ->capture_default_str();
@@ -179,6 +188,12 @@ int main(int argc, char** argv) {
   if (!(std::isfinite(max_duration) && max_duration >= 0.0)) return Fail("--max-duration must be >= 0");
   if (!(std::isfinite(arrival_hold) && arrival_hold >= 0.0 && arrival_hold <= 60.0)) {
     return Fail("--arrival-hold must be in [0, 60] s");
+  }
+  if (!(std::isfinite(arrival_tolerance) && arrival_tolerance > 0.0 && arrival_tolerance <= 1.0)) {
+    return Fail("--arrival-tolerance must be in (0, 1] m");
+  }
+  if (!(std::isfinite(arrival_timeout) && arrival_timeout >= arrival_hold && arrival_timeout <= 60.0)) {
+    return Fail("--arrival-timeout must be in [--arrival-hold, 60] s");
   }
   const std::pair<int, const char*> ids[] = {{target_system, "--target-system"},
                                              {target_component, "--target-component"},
@@ -227,6 +242,8 @@ int main(int argc, char** argv) {
   options.replan_period = replan_period;
   options.replanning = !no_replan;
   options.arrival_hold = arrival_hold;
+  options.arrival_tolerance = arrival_tolerance;
+  options.arrival_timeout = arrival_timeout;
   auto controller_or = online::OnlineController::Create(setup, options);
   if (!controller_or.ok()) return Fail(controller_or.status().message());
   online::OnlineController& controller = **controller_or;
@@ -310,6 +327,9 @@ int main(int argc, char** argv) {
   } else if (interrupted && !controller.finished()) {
     code = kExitInterrupted;
     outcome = "INTERRUPTED";
+  }
+  if (code == kExitSuccess && phase == online::Phase::kArrived && !controller.arrival_settled()) {
+    outcome = "arrived (not settled at the goal)";
   }
 
   const online::OnlineStats& stats = controller.stats();

@@ -70,6 +70,7 @@ TEST(OnlineControllerTest, FliesTheDefaultTaskToTheCupThroughTheAutopilot) {
   }
   ASSERT_TRUE(controller->finished()) << PhaseName(controller->phase()) << " at t = " << t;
   EXPECT_EQ(controller->phase(), Phase::kArrived);
+  EXPECT_TRUE(controller->arrival_settled());
   EXPECT_TRUE(saw_offboard_ack);
   EXPECT_TRUE(saw_arm_ack);
   EXPECT_EQ(autopilot->mode(), sim::FlightMode::kOffboard);
@@ -127,6 +128,63 @@ TEST(OnlineControllerTest, APushTriggersAReplanThatIsSplicedWithoutAJump) {
   const FlightMetrics metrics = Metrics(flight.log(), *controller);
   EXPECT_LT(metrics.final_tool_error, 0.02);
   EXPECT_GT(metrics.min_clearance, 0.0);
+}
+
+// At the goal the controller holds until the vehicle has settled, not for a
+// fixed time: a gust at the start of the arrival hold keeps the vehicle
+// moving past arrival_hold, and the flight ends only once the tool is back
+// within arrival_tolerance of the cup and the base is slow; with arrival_timeout == arrival_hold the
+// same gust ends a fixed hold with the vehicle still off.
+TEST(OnlineControllerTest, HoldsAtTheGoalUntilTheVehicleHasSettled) {
+  {
+    OnlineOptions bad;
+    bad.arrival_timeout = bad.arrival_hold - 0.1;
+    std::string why;
+    EXPECT_FALSE(bad.IsValid(&why));
+    EXPECT_NE(why.find("arrival_timeout"), std::string::npos) << why;
+    EXPECT_FALSE(OnlineController::Create(testing::Setup(), bad).ok());
+  }
+  for (const bool fixed_hold : {false, true}) {
+    SCOPED_TRACE(fixed_hold ? "fixed hold" : "hold until settled");
+    OnlineOptions options;
+    options.replanning = false;
+    options.arrival_hold = 0.2;
+    if (fixed_hold) options.arrival_timeout = options.arrival_hold;
+    auto controller = MakeController(options);
+    DirectFlight flight(controller.get());
+    double arrived_at = -1.0;
+    flight.Run(60.0, [&](double t, sim::Simulator* sim) {
+      if (arrived_at < 0.0 && controller->phase() == Phase::kArrived) {
+        arrived_at = t;
+        sim::VehicleState s = sim->state();
+        s.velocity += Vec3(0.3, 0.0, 0.0);
+        sim->Reset(s, sim->time());
+      }
+    });
+    ASSERT_GE(arrived_at, 0.0);
+    ASSERT_TRUE(controller->finished());
+    EXPECT_EQ(controller->phase(), Phase::kArrived);
+    const MeasuredState last = controller->measured();
+    robot::KinematicsState kinematics;
+    robot::ComputeKinematics(WindowCup().robot(), MakePose(last.position, last.attitude.toRotationMatrix()),
+                             last.joints, &kinematics);
+    const Vec3 tool = kinematics.link_poses[WindowCup().robot().LinkIndex(WindowCup().task.tool_link)].translation();
+    const double offset = (tool - CupPosition()).norm();
+    // Tick() runs before the period's step: the finishing tick saw the state
+    // one 20 ms period before the flight's end.
+    const double held = flight.time() - 0.02 - arrived_at;
+    if (fixed_hold) {
+      EXPECT_FALSE(controller->arrival_settled());
+      EXPECT_NEAR(held, options.arrival_hold, 0.021);
+      EXPECT_GT(offset, options.arrival_tolerance);
+    } else {
+      EXPECT_TRUE(controller->arrival_settled());
+      EXPECT_GT(held, options.arrival_hold + 0.1);
+      EXPECT_LT(held, options.arrival_timeout);
+      EXPECT_LE(offset, options.arrival_tolerance);
+      EXPECT_LE(last.velocity.norm(), options.arrival_settle_speed);
+    }
+  }
 }
 
 // Exact clearance of the robot at a planning start state (as Replan measures it).

@@ -273,6 +273,9 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {task + vehicle + " --vehicle-timeout 1e300", "--vehicle-timeout must be in (0, 60] s"},
       {task + vehicle + " --hold-time 1e300 --log " + log, "--hold-time must be in [1, 60] s"},
       {task + vehicle + " --arrival-hold 1e9", "--arrival-hold must be in [0, 60] s"},
+      {task + vehicle + " --arrival-tolerance 0", "--arrival-tolerance must be in (0, 1] m"},
+      {task + vehicle + " --arrival-tolerance nan", "--arrival-tolerance"},
+      {task + vehicle + " --arrival-hold 2 --arrival-timeout 1", "--arrival-timeout must be in [--arrival-hold, 60] s"},
       {task + vehicle + " --replan-period -1", "--replan-period"},
       {task + vehicle + " --replan-threshold 0", "--replan-threshold"},
       {task + " --vehicle localhost:14999", "udp://"},
@@ -301,7 +304,7 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
   EXPECT_EQ(r.exit_code, 0);
   for (const char* option : {"--vehicle", "--bind", "--rate", "--signing-key", "--require-signing", "--log",
                              "--dry-run", "--vehicle-timeout", "--replan-threshold", "--hold-time", "--quiet",
-                             "--max-duration", "--arrival-hold", "--no-replan", "--target-system", "--system-id", "Exit codes"}) {
+                             "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "Exit codes"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }

@@ -1,4 +1,5 @@
 #include "quadhand/online/controller.h"
+#include "quadhand/robot/kinematics.h"
 #include "quadhand/traj/flatness.h"
 
 #include <algorithm>
@@ -61,6 +62,11 @@ bool OnlineOptions::IsValid(std::string* why) const {
   if (!positive(start_tolerance)) return fail("start_tolerance must be positive");
   if (!(std::isfinite(settle_timeout) && settle_timeout >= 0.0)) return fail("settle_timeout must be >= 0");
   if (!(std::isfinite(arrival_hold) && arrival_hold >= 0.0)) return fail("arrival_hold must be >= 0");
+  if (!positive(arrival_tolerance)) return fail("arrival_tolerance must be positive");
+  if (!positive(arrival_settle_speed)) return fail("arrival_settle_speed must be positive");
+  if (!(std::isfinite(arrival_timeout) && arrival_timeout >= arrival_hold)) {
+    return fail("arrival_timeout must be finite and >= arrival_hold");
+  }
   if (!positive(heartbeat_period)) return fail("heartbeat_period must be positive");
   return true;
 }
@@ -480,6 +486,19 @@ void OnlineController::RunHandshake(double t, ControllerOutput* out) {
   }
 }
 
+double OnlineController::ArrivalOffset() const {
+  const planner::Task& task = *setup_.task;
+  const robot::RobotModel& robot = setup_.scene.robot;
+  const int tool = robot.LinkIndex(task.tool_link);
+  if (task.tool && tool >= 0 && joints_.size() == robot.num_actuated()) {
+    robot::KinematicsState kinematics;
+    robot::ComputeKinematics(robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, &kinematics);
+    return (kinematics.link_poses[tool].translation() - task.tool->position).norm();
+  }
+  const planner::WholeBodyTrajectory& plan = *to_.plan->trajectory;
+  return (position_ - plan.Sample(plan.duration()).position).norm();
+}
+
 ControllerOutput OnlineController::Tick(double t) {
   ControllerOutput out;
   if (!ticked_) {
@@ -552,8 +571,15 @@ ControllerOutput OnlineController::Tick(double t) {
     }
   }
   if (phase_ == Phase::kArrived && !arrival_done_ && t - arrival_time_ >= options_.arrival_hold) {
-    arrival_done_ = true;
-    Event("done");
+    const double offset = ArrivalOffset();
+    const double speed = velocity_.norm();
+    arrival_settled_ = offset <= options_.arrival_tolerance && speed <= options_.arrival_settle_speed;
+    if (arrival_settled_ || t - arrival_time_ >= options_.arrival_timeout) {
+      arrival_done_ = true;
+      Event(Format(arrival_settled_ ? "settled at the goal after %.2f s of holding" : "not settled after %.2f s of holding",
+                   t - arrival_time_) +
+            Format(" (%.4f m off, ", offset) + Format("%.4f m/s): done", speed));
+    }
   }
 
   std::optional<Setpoint> setpoint;

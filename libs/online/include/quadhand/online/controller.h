@@ -15,7 +15,10 @@
 //                        that followed its own hold until now starts on the plan
 //   flying               streaming the plan (replanning when off track)
 //   arrived              the plan has ended: a hold at its last setpoint for
-//                        arrival_hold s, then finished() is true
+//                        at least arrival_hold s and until the vehicle has
+//                        settled there (the tool within arrival_tolerance of
+//                        its goal, the base slower than arrival_settle_speed)
+//                        or arrival_timeout s have passed, then finished()
 //   holding_after_failure a plan failed (or failed the post-check): a hold at
 //                        the last setpoint streamed, until the caller stops
 //   vehicle_lost         no position for vehicle_timeout s: nothing streamed
@@ -88,11 +91,19 @@ struct OnlineOptions {
   bool cold_fallback = true;
   double start_tolerance = 0.02;     // m from the hold at which the flight may start
   double settle_timeout = 3.0;       // s after arming after which it starts anyway
-  // s of holding at the goal before finished(): the arm's last motion leaves
-  // the base a few cm off (the autopilot does not know the arm), which the
-  // simulated vehicle's position loop removes in about a second (and then
-  // overshoots by about a centimetre with its slow integral term).
+  // Holding at the goal before finished(): at least arrival_hold s, then
+  // until the tool frame (measured base pose and joints) is within
+  // arrival_tolerance m of the task's tool goal (tasks without one: the base
+  // within that distance of the plan's last setpoint) and the base is slower
+  // than arrival_settle_speed m/s, at most arrival_timeout s after the plan's
+  // end. The arm's last motion leaves the base a few cm off (the
+  // autopilot does not know the arm); the position loop brings it back in
+  // about a second and may overshoot with its integral term, so a fixed
+  // hold would end the flight with the tool still moving.
   double arrival_hold = 1.0;
+  double arrival_tolerance = 0.003;
+  double arrival_settle_speed = 0.01;
+  double arrival_timeout = 10.0;  // >= arrival_hold; equal: a fixed hold
   double heartbeat_period = 1.0;     // s between our own heartbeats
 
   bool IsValid(std::string* why) const;
@@ -209,6 +220,9 @@ class OnlineController {
   Phase phase() const { return phase_; }
   int num_joints() const { return setup_.scene.robot.num_actuated(); }
   bool finished() const;  // arrived and held, or a phase that ends the flight
+  // After finished() in the arrived phase: whether the vehicle settled at the
+  // goal (false: arrival_timeout passed first).
+  bool arrival_settled() const { return arrival_settled_; }
   const OnlineStats& stats() const { return stats_; }
   // The plan being flown (null before the first plan).
   std::shared_ptr<const planner::PlanResult> current_plan() const { return to_.plan; }
@@ -235,6 +249,9 @@ class OnlineController {
 
   OnlineController(const PlanningSetup& setup, const OnlineOptions& options);
   bool HaveState() const;
+  // Distance of the measured tool frame from the task's tool goal (no tool
+  // goal: of the base from the plan's last setpoint).
+  double ArrivalOffset() const;
   void Event(std::string text);
   void CollectPlan(double t);
   // A replan from the measured state at t; `periodic`: started by
@@ -282,6 +299,7 @@ class OnlineController {
   double pending_splice_time_ = 0.0;
   std::shared_ptr<const planner::PlanResult> pending_base_;  // the plan the pending replan started from
   double arrival_time_ = 0.0;
+  bool arrival_settled_ = false;
   std::optional<Setpoint> last_setpoint_;
   double last_setpoint_time_ = 0.0;
   bool last_setpoint_in_blend_ = false;
