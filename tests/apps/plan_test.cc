@@ -83,6 +83,22 @@ TEST_F(PlanCliTest, RejectsBadTasks) {
   ExpectBadInput(WriteTask({{"safety_distance:", "tool_link: [a, b]"}}), "tool_link: expected a link name");
   ExpectBadInput(WriteTask({{"safety_distance:", "safety_distance: 0.03\nsafety_distance: 0.3"}}),
                  "duplicate key 'safety_distance'");
+  // Numbers out of their documented ranges (docs/task_format.md): a typo or
+  // a unit mix-up is refused before anything is loaded, not planned for.
+  ExpectBadInput(WriteTask({{"  v_max:", "  v_max: 1e300"}}), "limits.v_max: must be in [0.01, 100] m/s");
+  ExpectBadInput(WriteTask({{"  a_max:", "  a_max: 0"}}), "limits.a_max: must be in [0.01, 200] m/s^2");
+  ExpectBadInput(WriteTask({{"  body_rate_xy_max:", "  body_rate_xy_max: 1e-300"}}), "limits.body_rate_xy_max");
+  ExpectBadInput(WriteTask({{"  yaw_rate_max:", "  yaw_rate_max: 3000"}}), "limits.yaw_rate_max");
+  ExpectBadInput(WriteTask({{"safety_distance:", "safety_distance: 1e300"}}), "safety_distance: must be in [0, 1] m");
+  ExpectBadInput(WriteTask({{"  yaw: 3.14159265", "  yaw: 1e300"}}), "start.yaw: must be within +-1000 rad");
+  ExpectBadInput(WriteTask({{"    insertion:", "    insertion: {direction: [0, 0, -1], length: 1e300}"}}),
+                 "goal.tool.insertion.length: must be in (0, 10] m");
+  ExpectBadInput(WriteTask({{"scene:", "scene: [{file: " + std::string(QUADHAND_SOURCE_DIR) +
+                                          "/data/scenes/window_cup.pcd, voxel: 1e-9}]"}}),
+                 "window_cup.pcd: voxel: leaf 1e-09 m is too small");
+  // A start faster than the task's own limits: no plan can keep them.
+  ExpectBadInput(WriteTask({{"  velocity:", "  velocity: [3, 0, 0]"}}), "start.velocity: its speed 3.0");
+  ExpectBadInput(WriteTask({{"  acceleration:", "  acceleration: [0, 0, 1e300]"}}), "start.acceleration");
   // Start inside the first wall.
   ExpectBadInput(WriteTask({{"  position: [0.5, 0.2, 1.2]", "  position: [-1.0, 1.0, 1.2]"}}), "in collision");
   // A start far outside the scene: the task is named, not only the scan.

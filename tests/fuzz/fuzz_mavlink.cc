@@ -1,6 +1,9 @@
 // The MAVLink v2 stream parser, unsigned and with a signing key (signing
 // required): the first byte picks which; the rest is fed in chunks whose
-// sizes the following bytes choose, and every accepted frame is taken.
+// sizes the following bytes choose, and every accepted frame is taken and
+// decoded (what quadhand-online and quadhand-sim do with it). The seeds hold
+// a frame of every message the project knows, unsigned and signed with the
+// key below.
 #include <cstddef>
 #include <cstdint>
 
@@ -22,7 +25,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const size_t length = std::min(chunk, size - at);
     parser.Feed(data + at, length);
     at += length;
-    while (parser.Next()) {
+    while (const auto frame = parser.Next()) {
+      const auto message = quadhand::link::Decode(*frame);
+      (void)message;
     }
   }
   return 0;

@@ -75,6 +75,8 @@ class Reader {
   std::string base_dir_;
 };
 
+constexpr double kMaxYaw = 1000.0;
+
 core::Status ReadState(const Reader& r, const YAML::Node& node, const std::string& where, bool with_rates,
                        BoundaryState* state) {
   QUADHAND_RETURN_IF_ERROR(r.Vector3(node["position"], where + ".position", &state->position));
@@ -83,6 +85,9 @@ core::Status ReadState(const Reader& r, const YAML::Node& node, const std::strin
     QUADHAND_RETURN_IF_ERROR(r.Vector3(node["acceleration"], where + ".acceleration", &state->acceleration));
   }
   QUADHAND_RETURN_IF_ERROR(r.Number(node["yaw"], where + ".yaw", &state->yaw));
+  // Beyond this a yaw is a typo, and the terminal yaw, unwrapped next to the
+  // start's, would lose its precision.
+  if (std::abs(state->yaw) > kMaxYaw) return r.Error(where + ".yaw", "must be within +-1000 rad");
   QUADHAND_RETURN_IF_ERROR(r.Vector(node["joints"], where + ".joints", -1, &state->joints));
   return core::Status::Ok();
 }
@@ -151,7 +156,9 @@ core::Status ReadTool(const Reader& r, const YAML::Node& node, ToolGoal* tool) {
     QUADHAND_RETURN_IF_ERROR(r.Vector3(insertion["direction"], "goal.tool.insertion.direction", &tool->insertion_direction));
     QUADHAND_RETURN_IF_ERROR(r.Number(insertion["length"], "goal.tool.insertion.length", &tool->insertion_length));
     if (tool->insertion_direction.norm() < 1e-9) return r.Error("goal.tool.insertion.direction", "must not be zero");
-    if (tool->insertion_length <= 0.0) return r.Error("goal.tool.insertion.length", "must be positive");
+    if (!(tool->insertion_length > 0.0 && tool->insertion_length <= 10.0)) {
+      return r.Error("goal.tool.insertion.length", "must be in (0, 10] m");
+    }
     tool->insertion_direction.normalize();
     tool->has_insertion = true;
   }
@@ -201,14 +208,26 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
 
   if (const YAML::Node limits = root["limits"]) {
     QUADHAND_RETURN_IF_ERROR(r.CheckKeys(limits, "limits", {"v_max", "a_max", "yaw_rate_max", "body_rate_xy_max"}));
-    const std::pair<const char*, double*> fields[] = {{"v_max", &task.limits.v_max},
-                                                      {"a_max", &task.limits.a_max},
-                                                      {"yaw_rate_max", &task.limits.yaw_rate_max},
-                                                      {"body_rate_xy_max", &task.limits.body_rate_xy_max}};
-    for (const auto& [key, value] : fields) {
-      if (!limits[key]) continue;
-      QUADHAND_RETURN_IF_ERROR(r.Number(limits[key], std::string("limits.") + key, value));
-      if (*value <= 0.0) return r.Error(std::string("limits.") + key, "must be positive");
+    // The ranges hold every multirotor from a slow indoor one to a racing
+    // one (tens of m/s, several g, ~30 rad/s); outside them a value is a
+    // typo or a unit mix-up, and would only make a plan fail after seconds.
+    struct Field {
+      const char* key;
+      double* value;
+      double low, high;
+      const char* range;
+    };
+    const Field fields[] = {{"v_max", &task.limits.v_max, 0.01, 100.0, "in [0.01, 100] m/s"},
+                            {"a_max", &task.limits.a_max, 0.01, 200.0, "in [0.01, 200] m/s^2"},
+                            {"yaw_rate_max", &task.limits.yaw_rate_max, 0.01, 50.0, "in [0.01, 50] rad/s"},
+                            {"body_rate_xy_max", &task.limits.body_rate_xy_max, 0.01, 50.0, "in [0.01, 50] rad/s"}};
+    for (const Field& field : fields) {
+      if (!limits[field.key]) continue;
+      const std::string key = std::string("limits.") + field.key;
+      QUADHAND_RETURN_IF_ERROR(r.Number(limits[field.key], key, field.value));
+      if (!(*field.value >= field.low && *field.value <= field.high)) {
+        return r.Error(key, std::string("must be ") + field.range);
+      }
     }
   }
   if (const YAML::Node tool_link = root["tool_link"]) {
@@ -218,7 +237,9 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
   }
   if (root["safety_distance"]) {
     QUADHAND_RETURN_IF_ERROR(r.Number(root["safety_distance"], "safety_distance", &task.safety_distance));
-    if (task.safety_distance < 0.0) return r.Error("safety_distance", "must not be negative");
+    if (!(task.safety_distance >= 0.0 && task.safety_distance <= 1.0)) {
+      return r.Error("safety_distance", "must be in [0, 1] m");
+    }
   }
   if (root["self_safety_distance"]) {
     QUADHAND_RETURN_IF_ERROR(r.Number(root["self_safety_distance"], "self_safety_distance", &task.self_safety_distance));
@@ -227,6 +248,17 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
     }
   }
   if (root["srdf"]) QUADHAND_RETURN_IF_ERROR(r.Path(root["srdf"], "srdf", &task.srdf_path));
+  // A start faster than the limits allow cannot begin a plan that keeps them.
+  if (task.start.velocity.norm() > task.limits.v_max) {
+    return r.Error("start.velocity", "its speed " + std::to_string(task.start.velocity.norm()) +
+                                         " m/s is above limits.v_max (" + std::to_string(task.limits.v_max) +
+                                         " m/s): no plan from it keeps the limit");
+  }
+  if (task.start.acceleration.norm() > task.limits.a_max) {
+    return r.Error("start.acceleration", "its norm " + std::to_string(task.start.acceleration.norm()) +
+                                             " m/s^2 is above limits.a_max (" + std::to_string(task.limits.a_max) +
+                                             " m/s^2): no plan from it keeps the limit");
+  }
   return task;
 }
 

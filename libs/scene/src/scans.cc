@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include <pcl/filters/crop_box.h>
@@ -53,7 +54,9 @@ core::Result<std::vector<Vec3>> Voxelise(const std::vector<Vec3>& points, double
   // cloud unfiltered with a console warning: refuse instead.
   const Vec3 cells = ((hi - lo) / leaf).array().floor() + 1.0;
   if (cells.x() * cells.y() * cells.z() > static_cast<double>(std::numeric_limits<std::int32_t>::max())) {
-    return core::Status::InvalidArgument(path + ": voxel: leaf " + std::to_string(leaf) +
+    char leaf_text[32];
+    std::snprintf(leaf_text, sizeof(leaf_text), "%g", leaf);
+    return core::Status::InvalidArgument(path + ": voxel: leaf " + leaf_text +
                                          " m is too small for the scan's extent (PCL's voxel indices would overflow)");
   }
   pcl::VoxelGrid<pcl::PointXYZ> filter;
