@@ -41,6 +41,8 @@ function(quadhand_app name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   add_executable(quadhand-${name} ${ARG_SOURCES})
   target_link_libraries(quadhand-${name} PRIVATE ${ARG_DEPS})
+  # Where core::FindBundledFile looks last for a default data file.
+  target_compile_definitions(quadhand-${name} PRIVATE QUADHAND_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
   quadhand_target_settings(quadhand-${name})
   install(TARGETS quadhand-${name} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT programs)
 endfunction()

@@ -93,7 +93,7 @@ bool ParseShard(const std::string& text, int* index, int* count) {
 int main(int argc, char** argv) {
   CLI::App app{"quadhand-bench: seeded trials of the window-and-cup benchmark, one JSON line per\n"
                "(trial, representation, solver); trial k uses seed k. See docs/benchmark.md."};
-  std::string config_path = "data/bench/window_cup.yaml", out_path, shard_text = "0/1";
+  std::string config_path = core::FindBundledFile("data/bench/window_cup.yaml", QUADHAND_SOURCE_DIR), out_path, shard_text = "0/1";
   std::vector<std::string> representations = {"mrc_sdf"}, solver_names = {"lbfgs"};
   int trials = 100, first = 0;
   app.add_option("--config", config_path, "Benchmark config (YAML): the task and how trials draw their starts")
@@ -102,7 +102,7 @@ int main(int argc, char** argv) {
   app.add_option("--planner-config", planner_config_path,
                  "Planner configuration (YAML, docs/configuration.md); keys left out keep their defaults");
   app.add_option("--trials", trials, "Number of trials")->capture_default_str()->check(CLI::Range(1, 1000000));
-  app.add_option("--first", first, "Index (= seed) of the first trial")->capture_default_str()->check(CLI::NonNegativeNumber);
+  app.add_option("--first", first, "Index (= seed) of the first trial")->capture_default_str();
   app.add_option("--solvers,--solver", solver_names,
                  "Optimiser back-ends, comma separated: lbfgs, ceres, ipopt, nlopt[:ALGORITHM] (docs/solvers.md)")
       ->delimiter(',')->capture_default_str();
@@ -120,6 +120,7 @@ int main(int argc, char** argv) {
   }
   int shard = 0, shards = 1;
   if (!ParseShard(shard_text, &shard, &shards)) return Fail("--shard '" + shard_text + "': expected K/N with 0 <= K < N");
+  if (first < 0) return Fail("--first must be >= 0");
   if (static_cast<long long>(first) + trials > std::numeric_limits<int>::max()) {
     return Fail("--first + --trials must stay below 2^31 (trial indices are seeds)");
   }

@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
       "  quadhand-sim --udp udp://127.0.0.1:14540 [--realtime] [--duration S] [--start X,Y,Z[,YAW] | --start-task\n"
       "               TASK] [--log flown.csv] [--signing-key FILE [--require-signing]] [--system-id N]\n"
       "Exit codes: 0 success, 1 the simulation diverged, 2 bad input."};
-  std::string track_path, out_path, config_path = "data/sim/quadhand_sim.yaml", pcgc, noise;
+  std::string track_path, out_path, config_path = core::FindBundledFile("data/sim/quadhand_sim.yaml", QUADHAND_SOURCE_DIR), pcgc, noise;
   bool figure8 = false, quiet = false;
   double payload = -1.0, settle = 0.0;
   uint64_t seed = 0;
@@ -59,17 +59,15 @@ int main(int argc, char** argv) {
   app.add_option("--config", config_path, "Simulator configuration (YAML, docs/sim.md)")->capture_default_str();
   app.add_option("--pcgc", pcgc, "Passive CoG compensation: on (battery on its mimic joint) or off (battery locked)")
       ->check(CLI::IsMember({"on", "off"}));
-  app.add_option("--payload", payload, "Payload at the tool frame, kg (0: none; default: the configuration's)")
-      ->check(CLI::NonNegativeNumber);
+  app.add_option("--payload", payload, "Payload at the tool frame, kg, in [0, 100] (0: none; default: the configuration's)");
   app.add_option("--seed", seed, "Seed of the sensor noise")->capture_default_str();
   app.add_option("--noise", noise, "Sensor noise: on or off (default: the configuration's)")
       ->check(CLI::IsMember({"on", "off"}));
   app.add_option("--settle", settle, "Seconds of hover at the first setpoint before the plan starts (not recorded)")
-      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  app.add_option("--loops", eight.loops, "--figure8: loops")->check(CLI::PositiveNumber)->capture_default_str();
-  app.add_option("--period", eight.period, "--figure8: seconds per loop")->check(CLI::PositiveNumber)->capture_default_str();
-  app.add_option("--dt", eight.dt, "--figure8: row spacing, s")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--loops", eight.loops, "--figure8: loops")->capture_default_str();
+  app.add_option("--period", eight.period, "--figure8: seconds per loop")->capture_default_str();
+  app.add_option("--dt", eight.dt, "--figure8: row spacing, s, in (0, 0.1]")->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "Print nothing on success (--udp: no status lines)");
   // MAVLink mode (docs/sim.md, "MAVLink mode").
   std::string udp_url, remote_url, start_text, start_task, log_path, key_path;
@@ -83,8 +81,8 @@ int main(int argc, char** argv) {
   app.add_flag("--realtime", realtime,
                "--udp: pace simulated time to the wall clock (default: lockstep, 20 ms of simulated time per "
                "SET_POSITION_TARGET_LOCAL_NED, the wall clock while none arrive)");
-  app.add_option("--duration", duration, "--udp: exit after this many simulated seconds (0: until SIGINT/SIGTERM)")
-      ->check(CLI::NonNegativeNumber)
+  app.add_option("--duration", duration,
+                 "--udp: exit after this many simulated seconds, at most 1e6 (0: until SIGINT/SIGTERM)")
       ->capture_default_str();
   app.add_option("--start", start_text, "--udp: hover start X,Y,Z[,YAW] (ENU m, rad; joints at mid-range; default 0,0,1)");
   app.add_option("--start-task", start_task, "--udp: start at a task file's start state (position, yaw, joints)");
@@ -121,8 +119,13 @@ int main(int argc, char** argv) {
     }
   }
 
-  if (payload > 100.0) return Fail("--payload must be in [0, 100] kg");
-  if (settle > sim::kMaxSimulatedSeconds) return Fail("--settle must be in [0, 3600] s");
+  // One message per option, with its range (CLI11's own range checks print
+  // the largest double in full).
+  if (app.count("--payload") > 0 && !(payload >= 0.0 && payload <= 100.0)) {
+    return Fail("--payload must be in [0, 100] kg");
+  }
+  if (!(settle >= 0.0 && settle <= sim::kMaxSimulatedSeconds)) return Fail("--settle must be in [0, 3600] s");
+  if (!(duration >= 0.0 && duration <= 1e6)) return Fail("--duration must be in [0, 1e6] s");
   auto config = sim::LoadSimConfig(config_path);
   if (!config.ok()) return Fail(config.status().message());
   if (!pcgc.empty()) config->pcgc = pcgc == "on";

@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 
 namespace quadhand::core {
 namespace {
@@ -130,6 +131,27 @@ TEST(PathTest, ResolvesRelativeToTheBaseDirectory) {
   EXPECT_EQ(ResolvePath("a/b", "../x.pcd"), "a/b/../x.pcd");
   EXPECT_EQ(ResolvePath("a/b", "/abs.pcd"), "/abs.pcd");
   EXPECT_EQ(ResolvePath(".", "x.pcd"), "x.pcd");
+}
+
+// A program's default data file is found from any working directory: in it
+// first, then in the installed tree beside the program, then in the source
+// tree; otherwise the name is returned as given, for the error to name.
+TEST_F(FileUtilTest, FindsABundledFileFromAnyWorkingDirectory) {
+  const fs::path source = dir_ / "source";
+  fs::create_directories(source / "data" / "bench");
+  std::ofstream(source / "data" / "bench" / "config.yaml") << "task: t.yaml\n";
+  const fs::path previous = fs::current_path();
+  fs::create_directories(dir_ / "elsewhere");
+  fs::current_path(dir_ / "elsewhere");
+  EXPECT_EQ(FindBundledFile("data/bench/config.yaml", source.string()),
+            (source / "data" / "bench" / "config.yaml").string());
+  EXPECT_EQ(FindBundledFile("data/bench/missing.yaml", source.string()), "data/bench/missing.yaml");
+  EXPECT_EQ(FindBundledFile("data/bench/config.yaml", ""), "data/bench/config.yaml");
+  // The working directory wins (a repository checkout's own data).
+  fs::create_directories(dir_ / "elsewhere" / "data" / "bench");
+  std::ofstream(dir_ / "elsewhere" / "data" / "bench" / "config.yaml") << "task: u.yaml\n";
+  EXPECT_EQ(FindBundledFile("data/bench/config.yaml", source.string()), "data/bench/config.yaml");
+  fs::current_path(previous);
 }
 
 }  // namespace

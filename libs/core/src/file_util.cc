@@ -195,4 +195,21 @@ std::string ResolvePath(const std::string& base_dir, const std::string& relative
   return base_dir + "/" + relative;
 }
 
+std::string FindBundledFile(const std::string& relative, const std::string& source_dir) {
+  auto exists = [](const std::string& path) { return access(path.c_str(), F_OK) == 0; };
+  if (exists(relative)) return relative;
+  std::vector<std::string> candidates;
+  char exe[4096];
+  const ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+  if (n > 0) {
+    exe[n] = '\0';
+    candidates.push_back(DirectoryOf(DirectoryOf(exe)) + "/share/quadhand/" + relative);
+  }
+  if (!source_dir.empty()) candidates.push_back(source_dir + "/" + relative);
+  for (const std::string& candidate : candidates) {
+    if (exists(candidate)) return candidate;
+  }
+  return relative;
+}
+
 }  // namespace quadhand::core

@@ -61,4 +61,11 @@ class AtomicFileSet {
 std::string DirectoryOf(const std::string& path);
 std::string ResolvePath(const std::string& base_dir, const std::string& relative);
 
+// A bundled data file that a program uses by default (e.g.
+// "data/bench/window_cup.yaml"): relative to the working directory when it is
+// there (the repository root), else in the installed tree beside the program
+// (<bin>/../share/quadhand/), else in the source tree the program was built
+// from; `relative` itself when none has it (the caller's error names it).
+std::string FindBundledFile(const std::string& relative, const std::string& source_dir);
+
 }  // namespace quadhand::core
