@@ -121,6 +121,11 @@ TEST_F(SdfgenTest, RejectsBadInputWithOneLineAndNoFiles) {
   const std::string cube = WriteCube();
   ExpectBadInput("--mesh " + cube + " --link x --out " + out + " --resolution -1", "resolution", out);
   ExpectBadInput("--mesh " + cube + " --link x --out " + out + " --resolution nan", "resolution", out);
+  // A resolution of 1e300 put the grid's nodes at infinity, and CGAL's exact
+  // distance predicates abort the process (SIGFPE) on an infinite point.
+  ExpectBadInput("--mesh " + cube + " --link x --out " + out + " --resolution 1e300", "resolution must be in (0, 1] m", out);
+  ExpectBadInput("--mesh " + cube + " --link x --out " + out + " --padding 1e300", "padding must be in [0, 10] m", out);
+  ExpectBadInput("--mesh " + cube + " --link x --out " + out + " --threads 100000", "num_threads must be in [0, 256]", out);
   ExpectBadInput("--mesh " + cube + " --out " + out, "--link", out);
   ExpectBadInput("--out " + out, "--urdf", out);
   ExpectBadInput("--mesh " + cube + " --link x --out " + out + " --bogus", "bogus", out);

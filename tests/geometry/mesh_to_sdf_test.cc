@@ -74,6 +74,27 @@ TEST(MeshDistanceQuery, MatchesExactBoxDistances) {
   }
 }
 
+// CGAL's exact predicates abort the process on an infinite or NaN
+// coordinate: such a point has no distance, and nothing crashes.
+TEST(MeshDistanceQuery, ANonFinitePointHasNoDistance) {
+  const Box box{Pose::Identity(), Vec3(0.2, 0.1, 0.06)};
+  auto query = MeshDistanceQuery::Create(TessellateBox(box), /*is_signed=*/true);
+  ASSERT_TRUE(query.ok()) << query.status().message();
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  for (const Vec3& p : {Vec3(inf, 0, 0), Vec3(0, -inf, 0), Vec3(0, 0, nan), Vec3(Vec3(1e300, 1e300, 1e300) * 1e10)}) {
+    Vec3 closest;
+    EXPECT_TRUE(std::isnan((*query)->UnsignedDistance(p, &closest)));
+    EXPECT_TRUE(closest.array().isNaN().all());
+    EXPECT_TRUE(std::isnan((*query)->SignedDistance(p)));
+    EXPECT_FALSE((*query)->IsInside(p));
+    EXPECT_TRUE(std::isnan((*query)->UnsignedDistanceWithHint(p, Vec3::Zero(), &closest)));
+  }
+  // A finite point with a non-finite hint is answered without the hint.
+  Vec3 closest;
+  EXPECT_NEAR((*query)->UnsignedDistanceWithHint(Vec3(0.3, 0, 0), Vec3(nan, 0, 0), &closest),
+              SignedDistance(box, Vec3(0.3, 0, 0)), 1e-12);
+}
+
 TEST(MeshDistanceQuery, ConcurrentQueriesAgreeWithSerialOnes) {
   const Sphere sphere{Vec3::Zero(), 0.05};
   auto query = MeshDistanceQuery::Create(TessellateSphere(sphere, 1e-3), true);

@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -104,7 +105,14 @@ MeshDistanceQuery::MeshDistanceQuery(std::unique_ptr<Impl> impl, bool is_signed)
 
 MeshDistanceQuery::~MeshDistanceQuery() = default;
 
+// CGAL's exact predicates convert coordinates to GMP rationals, which abort
+// the process (SIGFPE) on an infinite or NaN one: such a point has no
+// distance.
 double MeshDistanceQuery::UnsignedDistance(const Vec3& p, Vec3* closest) const {
+  if (!p.allFinite()) {
+    if (closest != nullptr) closest->setConstant(std::numeric_limits<double>::quiet_NaN());
+    return std::numeric_limits<double>::quiet_NaN();
+  }
   const Point query = ToPoint(p);
   if (closest == nullptr) return std::sqrt(CGAL::to_double(impl_->tree.squared_distance(query)));
   const Point nearest = impl_->tree.closest_point(query);
@@ -114,6 +122,7 @@ double MeshDistanceQuery::UnsignedDistance(const Vec3& p, Vec3* closest) const {
 
 double MeshDistanceQuery::UnsignedDistanceWithHint(const Vec3& p, const Vec3& hint,
                                                    Vec3* closest) const {
+  if (!p.allFinite() || !hint.allFinite()) return UnsignedDistance(p, closest);
   const Point query = ToPoint(p);
   const Point nearest = impl_->tree.closest_point(query, ToPoint(hint));
   if (closest != nullptr) *closest = ToVec3(nearest);
@@ -121,7 +130,7 @@ double MeshDistanceQuery::UnsignedDistanceWithHint(const Vec3& p, const Vec3& hi
 }
 
 bool MeshDistanceQuery::IsInside(const Vec3& p) const {
-  if (!is_signed_) return false;
+  if (!is_signed_ || !p.allFinite()) return false;
   return (*impl_->side)(ToPoint(p)) == CGAL::ON_BOUNDED_SIDE;
 }
 

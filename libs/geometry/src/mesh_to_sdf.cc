@@ -103,15 +103,16 @@ bool SdfGenerationOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = message;
     return false;
   };
-  if (!(resolution > 0.0) || !std::isfinite(resolution)) {
-    return fail("resolution must be a positive number of metres, got " + Format(resolution));
+  // A link SDF coarser than a metre describes no link; beyond that the grid
+  // node coordinates overflow.
+  if (!(resolution > 0.0 && resolution <= 1.0)) {
+    return fail("resolution must be in (0, 1] m, got " + Format(resolution));
   }
-  if (!(padding >= 0.0) || !std::isfinite(padding)) {
-    return fail("padding must be a non-negative number of metres, got " + Format(padding));
+  if (!(padding >= 0.0 && padding <= 10.0)) {
+    return fail("padding must be in [0, 10] m, got " + Format(padding));
   }
-  if (num_threads < 0) {
-    return fail("num_threads must be >= 0 (0: all hardware threads), got " +
-                std::to_string(num_threads));
+  if (num_threads < 0 || num_threads > 256) {
+    return fail("num_threads must be in [0, 256] (0: all hardware threads), got " + std::to_string(num_threads));
   }
   // Even a point-sized mesh gets a grid spanning twice the padding per axis.
   const double min_nodes_per_axis = std::floor(2.0 * padding / resolution) + 1.0;

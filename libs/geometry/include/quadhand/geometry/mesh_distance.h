@@ -19,7 +19,9 @@ class MeshDistanceQuery {
                                                                  bool is_signed);
   ~MeshDistanceQuery();
 
-  // Distance to the surface, negative inside when signed. Thread-safe.
+  // Distance to the surface, negative inside when signed. Thread-safe. A
+  // point with an infinite or NaN coordinate has no distance: NaN (and
+  // IsInside() is false).
   double SignedDistance(const Vec3& p) const;
   // Unsigned distance and the closest surface point. Thread-safe.
   double UnsignedDistance(const Vec3& p, Vec3* closest = nullptr) const;
