@@ -452,7 +452,7 @@ int main(int argc, char** argv) {
   bool quiet = false;
   app.add_option("--out", out_dir, "Output directory (created if missing)")->required();
   app.add_option("--tolerance", tolerance,
-                 "Largest distance of curved mesh surfaces from the true primitives, metres")
+                 "Largest distance of curved mesh surfaces from the true primitives, metres, in [1e-6, 1e-3]")
       ->capture_default_str();
   app.add_flag("--quiet", quiet, "Print nothing on success");
   try {
@@ -462,8 +462,12 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return quadhand::Fail(std::string(e.what()) + " (see --help)");
   }
-  if (!(tolerance > 0.0) || !(tolerance <= 1e-3)) {
-    return quadhand::Fail("--tolerance must be in (0, 0.001] metres, got " + std::to_string(tolerance));
+  // Below a micrometre the curved links need millions of triangles (minutes
+  // and gigabytes for nothing a planner can use).
+  if (!(tolerance >= 1e-6 && tolerance <= 1e-3)) {
+    char given[32];
+    std::snprintf(given, sizeof(given), "%g", tolerance);
+    return quadhand::Fail(std::string("--tolerance must be in [1e-06, 0.001] metres, got ") + given);
   }
   return quadhand::Run(out_dir, tolerance, quiet);
 }
