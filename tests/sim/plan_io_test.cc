@@ -1,5 +1,8 @@
 // Plan files, the figure-eight plan, the configuration file, and TrackPlan.
 #include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -160,6 +163,26 @@ TEST(SimConfigTest, ShippedFileLoadsAndTyposAreErrors) {
   EXPECT_NE(slow.status().message().find("500 Hz"), std::string::npos);
   EXPECT_FALSE(ParseSimConfig("step: [1, 2\n", ".", "c.yaml").ok());
   EXPECT_FALSE(ParseSimConfig("gravity: abc\n", ".", "c.yaml").ok());
+  // Numbers out of their documented ranges (docs/sim.md): a simulation with
+  // them diverges or flies something meaningless, so they are refused.
+  for (const auto& [text, fragment] : std::vector<std::pair<std::string, std::string>>{
+           {"gravity: 1e300\n", "gravity must be in [0, 100]"},
+           {"rotors: {wheelbase: 1e300}\n", "rotors.wheelbase must be in (0, 10] m"},
+           {"rotors: {max_thrust: 1e300}\n", "rotors: need 0 <= min_thrust < max_thrust <= 10000 N"},
+           {"rotors: {time_constant: 1e-300}\n", "rotors.time_constant must be 0 or in [step / 2, 10] s"},
+           {"servo: {time_constant: 1e-9}\n", "servo.time_constant"},
+           {"linear_drag: [1e300, 0, 0]\n", "linear_drag"},
+           {"payload: {offset: [1e300, 0, 0]}\n", "payload.offset"},
+           {"controller: {position_gain: [1e300, 8, 8]}\n", "controller gains"},
+           {"controller: {inertia: [1e300, 0, 0]}\n", "controller mass and inertia"},
+           {"controller: {position_integral_limit: 1e300}\n", "controller integral limits"},
+           {"noise: {position: 1e300}\n", "noise standard deviations"},
+           {"servo: {max_acceleration: [1e300, 30, 60]}\n", "servo.max_acceleration"}}) {
+    auto parsed = ParseSimConfig(text, ".", "c.yaml");
+    ASSERT_FALSE(parsed.ok()) << text;
+    EXPECT_NE(parsed.status().message().find("c.yaml: " + fragment), std::string::npos) << parsed.status().message();
+  }
+  EXPECT_TRUE(ParseSimConfig("rotors: {time_constant: 0}\n", ".", "c.yaml").ok());
   EXPECT_FALSE(LoadSimConfig("/nonexistent/sim.yaml").ok());
 
   SimConfig c = Config();

@@ -174,40 +174,61 @@ bool Fail(std::string* why, const std::string& message) {
   return false;
 }
 
-bool NonNegative(const Vec3& v) { return (v.array() >= 0.0).all(); }
-
 }  // namespace
 
+// Every number has a range (docs/sim.md): far outside any multirotor and
+// servo, a value is a typo or a unit error, and the simulation would only
+// diverge or, worse, fly something meaningless.
 bool SimConfig::IsValid(std::string* why) const {
   if (!(step > 0.0 && step <= 0.002)) return Fail(why, "step must be in (0, 0.002] s (RK4 at >= 500 Hz)");
-  if (!(gravity >= 0.0)) return Fail(why, "gravity must be >= 0");
-  if (!NonNegative(linear_drag)) return Fail(why, "linear_drag must be >= 0");
-  if (!(rotors.wheelbase > 0.0)) return Fail(why, "rotors.wheelbase must be > 0");
-  if (!(rotors.min_thrust >= 0.0 && rotors.max_thrust > rotors.min_thrust)) {
-    return Fail(why, "rotors: need 0 <= min_thrust < max_thrust");
+  auto in = [](double v, double low, double high) { return v >= low && v <= high; };
+  auto all_in = [&](const Vec3& v, double low, double high) {
+    return in(v.x(), low, high) && in(v.y(), low, high) && in(v.z(), low, high);
+  };
+  // RK4 on a first-order lag is unstable once the step exceeds about 2.8
+  // time constants: a lag faster than half a step is refused (0: none).
+  auto lag_ok = [&](double tc) { return tc == 0.0 || in(tc, step / 2.0, 10.0); };
+  if (!in(gravity, 0.0, 100.0)) return Fail(why, "gravity must be in [0, 100] m/s^2");
+  if (!all_in(linear_drag, 0.0, 1000.0)) return Fail(why, "linear_drag must be in [0, 1000] N/(m/s)");
+  if (!(rotors.wheelbase > 0.0 && rotors.wheelbase <= 10.0)) return Fail(why, "rotors.wheelbase must be in (0, 10] m");
+  if (!in(rotors.height, -1.0, 1.0)) return Fail(why, "rotors.height must be in [-1, 1] m");
+  if (!(rotors.min_thrust >= 0.0 && rotors.max_thrust > rotors.min_thrust && rotors.max_thrust <= 10000.0)) {
+    return Fail(why, "rotors: need 0 <= min_thrust < max_thrust <= 10000 N");
   }
-  if (!(rotors.time_constant >= 0.0)) return Fail(why, "rotors.time_constant must be >= 0");
-  if (!(rotors.torque_coefficient > 0.0)) return Fail(why, "rotors.torque_coefficient must be > 0");
-  if (!(servo.position_gain >= 0.0)) return Fail(why, "servo.position_gain must be >= 0");
-  if (!(servo.time_constant > 0.0)) return Fail(why, "servo.time_constant must be > 0");
+  if (!lag_ok(rotors.time_constant)) {
+    return Fail(why, "rotors.time_constant must be 0 or in [step / 2, 10] s");
+  }
+  if (!(rotors.torque_coefficient > 0.0 && rotors.torque_coefficient <= 1.0)) {
+    return Fail(why, "rotors.torque_coefficient must be in (0, 1] m");
+  }
+  if (!in(servo.position_gain, 0.0, 10000.0)) return Fail(why, "servo.position_gain must be in [0, 10000] 1/s");
+  if (!(servo.time_constant > 0.0 && lag_ok(servo.time_constant))) {
+    return Fail(why, "servo.time_constant must be in [step / 2, 10] s");
+  }
   for (double v : servo.max_rate) {
-    if (!(v > 0.0)) return Fail(why, "servo.max_rate entries must be > 0");
+    if (!(v > 0.0 && v <= 1000.0)) return Fail(why, "servo.max_rate entries must be in (0, 1000] rad/s");
   }
   for (double v : servo.max_acceleration) {
-    if (!(v > 0.0)) return Fail(why, "servo.max_acceleration entries must be > 0");
+    if (!(v > 0.0 && v <= 1e6)) return Fail(why, "servo.max_acceleration entries must be in (0, 1e6] rad/s^2");
   }
   // 100 kg is far beyond what an aerial manipulator carries: a larger value
   // is a typo or a unit error (grams), not a payload.
-  if (!(payload.mass >= 0.0 && payload.mass <= 100.0)) return Fail(why, "payload.mass must be in [0, 100] kg");
+  if (!in(payload.mass, 0.0, 100.0)) return Fail(why, "payload.mass must be in [0, 100] kg");
+  if (!all_in(payload.offset, -10.0, 10.0)) return Fail(why, "payload.offset entries must be in [-10, 10] m");
   const ControllerConfig& k = controller;
-  if (!(k.mass >= 0.0) || !NonNegative(k.inertia)) return Fail(why, "controller mass and inertia must be >= 0");
-  if (!NonNegative(k.position_gain) || !NonNegative(k.velocity_gain) || !NonNegative(k.position_integral_gain) ||
-      !NonNegative(k.attitude_gain) || !NonNegative(k.rate_gain) || !NonNegative(k.attitude_integral_gain) ||
-      !(k.position_integral_limit >= 0.0) || !(k.attitude_integral_limit >= 0.0)) {
-    return Fail(why, "controller gains and limits must be >= 0");
+  if (!in(k.mass, 0.0, 1000.0) || !all_in(k.inertia, 0.0, 1000.0)) {
+    return Fail(why, "controller mass and inertia must be in [0, 1000] (kg, kg m^2)");
   }
-  if (!(noise.position >= 0.0 && noise.velocity >= 0.0 && noise.attitude >= 0.0 && noise.body_rate >= 0.0)) {
-    return Fail(why, "noise standard deviations must be >= 0");
+  for (const Vec3* gain : {&k.position_gain, &k.velocity_gain, &k.position_integral_gain, &k.attitude_gain,
+                           &k.rate_gain, &k.attitude_integral_gain}) {
+    if (!all_in(*gain, 0.0, 1e6)) return Fail(why, "controller gains must be in [0, 1e6]");
+  }
+  if (!in(k.position_integral_limit, 0.0, 1000.0) || !in(k.attitude_integral_limit, 0.0, 1000.0)) {
+    return Fail(why, "controller integral limits must be in [0, 1000]");
+  }
+  if (!in(noise.position, 0.0, 1.0) || !in(noise.velocity, 0.0, 10.0) || !in(noise.attitude, 0.0, 1.0) ||
+      !in(noise.body_rate, 0.0, 10.0)) {
+    return Fail(why, "noise standard deviations must be in [0, 1] m, [0, 10] m/s, [0, 1] rad and [0, 10] rad/s");
   }
   return true;
 }
