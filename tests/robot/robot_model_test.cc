@@ -85,6 +85,27 @@ core::Status LoadFailure(const std::string& xml, StatusCode expected) {
   return model.status();
 }
 
+// An axis is a direction at any scale: (0, 1e300, 0) overflowed the squared
+// norm and loaded as a zero axis, a joint that silently did nothing (the
+// plan then failed on a misread robot). A zero axis is still refused.
+TEST(RobotModelTest, AnAxisOfAnyScaleIsItsDirection) {
+  for (const char* axis : {"0 1e300 0", "0 -1e200 0", "0 3 4"}) {
+    SCOPED_TRACE(axis);
+    const std::string joint = "<joint name='j' type='revolute'><parent link='base'/><child link='arm'/><axis xyz='" +
+                              std::string(axis) + "'/><limit lower='-1' upper='1' effort='1' velocity='1'/></joint>";
+    auto model = RobotModel::LoadFromUrdfString(OneLinkUrdf("<link name='arm'/>" + joint), FixturePath(""));
+    ASSERT_TRUE(model.ok()) << model.status().message();
+    const Vec3 expected = std::string(axis) == "0 3 4" ? Vec3(0, 0.6, 0.8) : std::string(axis) == "0 1e300 0" ? Vec3::UnitY() : Vec3(-Vec3::UnitY());
+    EXPECT_TRUE(model->joint(model->JointIndex("j")).axis.isApprox(expected, 1e-15))
+        << model->joint(model->JointIndex("j")).axis.transpose();
+  }
+  const core::Status zero = LoadFailure(OneLinkUrdf("<link name='arm'/><joint name='j' type='revolute'><parent "
+                                                    "link='base'/><child link='arm'/><axis xyz='0 0 0'/><limit "
+                                                    "lower='-1' upper='1' effort='1' velocity='1'/></joint>"),
+                                        StatusCode::kInvalidArgument);
+  EXPECT_NE(zero.message().find("zero axis"), std::string::npos) << zero.message();
+}
+
 TEST(RobotModelTest, LoadsLinksInTopologicalOrderRootFirst) {
   const RobotModel model = LoadArm2();
   EXPECT_EQ(model.name(), "arm2");

@@ -346,13 +346,14 @@ Result<Joint> ConvertJoint(const urdf::Joint& source) {
     return Status::InvalidArgument(where + problem);
   }
   joint.origin = ToPose(source.parent_to_joint_origin_transform);
-  const Vec3 axis = ToVec3(source.axis);
-  if (joint.type != JointType::kFixed) {
-    if (!(axis.norm() > 1e-12)) return Status::InvalidArgument(where + "zero axis");
-    joint.axis = axis.normalized();
-  } else if (axis.norm() > 1e-12) {
-    joint.axis = axis.normalized();
-  }
+  // Scaled by its largest entry before normalising: the squared norm of an
+  // axis like (0, 1e300, 0) overflows, and normalized() then returns a zero
+  // axis, a joint that silently does nothing.
+  Vec3 axis = ToVec3(source.axis);
+  if (!axis.allFinite()) return Status::InvalidArgument(where + "axis must be finite");
+  const double largest = axis.cwiseAbs().maxCoeff();
+  if (joint.type != JointType::kFixed && !(largest > 1e-12)) return Status::InvalidArgument(where + "zero axis");
+  if (largest > 1e-12) joint.axis = (axis / largest).normalized();
   if (source.limits) joint.max_velocity = source.limits->velocity;
   switch (joint.type) {
     case JointType::kRevolute:
