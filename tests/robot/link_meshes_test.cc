@@ -96,6 +96,34 @@ TEST(LinkMeshesTest, MirroringScaleKeepsTheMeshOutward) {
   EXPECT_NEAR(geometry::BoundingBox(*mesh).min.x(), -0.1, 1e-12);
 }
 
+// A mesh scale far from any unit conversion is refused when the URDF is read
+// (1e-300 flattened a link into a sheet, 1e300 overflowed CGAL's exact
+// distances and aborted the process), and a scaled, placed mesh reaching
+// beyond 1000 m when its link's meshes are built.
+TEST(LinkMeshesTest, ScalesAndPlacementsOutOfRangeAreRefused) {
+  const std::string tetra = FixturePath("qh_fixture_pkg/meshes/tetra.off");
+  auto urdf = [&](const std::string& scale, const std::string& xyz) {
+    return "<robot name='r'><link name='base'><collision><origin xyz='" + xyz + "'/><geometry><mesh filename='" +
+           tetra + "' scale='" + scale + "'/></geometry></collision></link></robot>";
+  };
+  for (const char* scale : {"1e-300 1 1", "1 1e300 1", "1 1 -1e7"}) {
+    SCOPED_TRACE(scale);
+    auto model = RobotModel::LoadFromUrdfString(urdf(scale, "0 0 0"), FixturePath(""));
+    ASSERT_FALSE(model.ok());
+    EXPECT_NE(model.status().message().find("scale entries must be within [1e-6, 1e6]"), std::string::npos)
+        << model.status().message();
+  }
+  auto far = RobotModel::LoadFromUrdfString(urdf("1e5 1 1", "0 0 0"), FixturePath(""));
+  ASSERT_TRUE(far.ok()) << far.status().message();
+  auto mesh = LinkCollisionMesh(*far, far->LinkIndex("base"));
+  ASSERT_FALSE(mesh.ok());
+  EXPECT_NE(mesh.status().message().find("more than 1000 m from the link frame"), std::string::npos)
+      << mesh.status().message();
+  auto mirrored_mm = RobotModel::LoadFromUrdfString(urdf("-0.001 0.001 0.001", "0 0 0"), FixturePath(""));
+  ASSERT_TRUE(mirrored_mm.ok()) << mirrored_mm.status().message();
+  EXPECT_TRUE(LinkCollisionMesh(*mirrored_mm, mirrored_mm->LinkIndex("base")).ok());
+}
+
 TEST(LinkMeshesTest, BoxAndMeshFileUnion) {
   const RobotModel model = Load(testing::Arm2Path());
   // forearm: a box 0.1 x 0.04 x 0.04 and a tetrahedron (edge 0.05) poking out of it.

@@ -21,7 +21,16 @@ Result<geometry::TriangleMesh> ElementMesh(const CollisionGeometry& element) {
       Result<geometry::TriangleMesh> mesh = geometry::ReadMesh(element.mesh_path);
       if (!mesh.ok()) return mesh.status();
       // Transformed() flips the winding for a mirroring scale, so outward stays outward.
-      return geometry::Transformed(*mesh, element.origin, element.mesh_scale);
+      geometry::TriangleMesh placed = geometry::Transformed(*mesh, element.origin, element.mesh_scale);
+      // The same bound as the primitives' sizes and the joints' origins: CGAL's
+      // exact distances overflow (and abort) on far larger coordinates.
+      for (const Vec3& vertex : placed.vertices) {
+        if (!(vertex.allFinite() && vertex.cwiseAbs().maxCoeff() <= 1000.0)) {
+          return Status::InvalidArgument("mesh '" + element.mesh_path +
+                                         "': scaled and placed, a vertex lies more than 1000 m from the link frame");
+        }
+      }
+      return placed;
     }
     case GeometryType::kBox:
       return geometry::TessellateBox(geometry::Box{element.origin, element.box_size});

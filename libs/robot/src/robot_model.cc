@@ -284,6 +284,12 @@ Result<CollisionGeometry> ConvertCollision(const urdf::Collision& collision,
       if (!(geometry.mesh_scale.array().abs() > 0.0).all()) {
         return Status::InvalidArgument("mesh '" + mesh.filename + "': scale must be non-zero");
       }
+      // Wider than metres from micrometres (or the reverse) is a typo: a
+      // 1e-300 scale flattened a link into a sheet the exact check could not
+      // see, a 1e300 one overflowed CGAL's distances.
+      if (!(geometry.mesh_scale.array().abs() >= 1e-6 && geometry.mesh_scale.array().abs() <= 1e6).all()) {
+        return Status::InvalidArgument("mesh '" + mesh.filename + "': scale entries must be within [1e-6, 1e6] in magnitude");
+      }
       Result<std::string> path = ResolveMeshPath(mesh.filename, base_dir);
       if (!path.ok()) return path.status();
       geometry.mesh_path = std::move(path).value();
