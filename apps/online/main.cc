@@ -192,6 +192,8 @@ int main(int argc, char** argv) {
   if (!(std::isfinite(arrival_tolerance) && arrival_tolerance > 0.0 && arrival_tolerance <= 1.0)) {
     return Fail("--arrival-tolerance must be in (0, 1] m");
   }
+  // A longer --arrival-hold alone raises the default timeout with it.
+  if (app.count("--arrival-timeout") == 0) arrival_timeout = std::max(arrival_timeout, arrival_hold);
   if (!(std::isfinite(arrival_timeout) && arrival_timeout >= arrival_hold && arrival_timeout <= 60.0)) {
     return Fail("--arrival-timeout must be in [--arrival-hold, 60] s");
   }

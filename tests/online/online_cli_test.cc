@@ -276,6 +276,7 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {task + vehicle + " --arrival-tolerance 0", "--arrival-tolerance must be in (0, 1] m"},
       {task + vehicle + " --arrival-tolerance nan", "--arrival-tolerance"},
       {task + vehicle + " --arrival-hold 2 --arrival-timeout 1", "--arrival-timeout must be in [--arrival-hold, 60] s"},
+      {task + vehicle + " --arrival-hold 20 --arrival-timeout 61", "--arrival-timeout must be in [--arrival-hold, 60] s"},
       {task + vehicle + " --replan-period -1", "--replan-period"},
       {task + vehicle + " --replan-threshold 0", "--replan-threshold"},
       {task + " --vehicle localhost:14999", "udp://"},
@@ -310,7 +311,8 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
 }
 
 TEST_F(OnlineCliTest, DryRunPrintsWhatWouldBeStreamed) {
-  const auto r = RunCommand(kOnline + " " + WriteTask() + " --dry-run --rate 25");
+  // (A long --arrival-hold alone is accepted: the default --arrival-timeout grows with it.)
+  const auto r = RunCommand(kOnline + " " + WriteTask() + " --dry-run --rate 25 --arrival-hold 20");
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("at 25.0 Hz"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("first setpoints"), std::string::npos) << r.out;
