@@ -486,15 +486,18 @@ void OnlineController::RunHandshake(double t, ControllerOutput* out) {
   }
 }
 
-double OnlineController::ArrivalOffset() const {
-  const planner::Task& task = *setup_.task;
-  const robot::RobotModel& robot = setup_.scene.robot;
+std::optional<double> ToolGoalError(const robot::RobotModel& robot, const planner::Task& task,
+                                    const MeasuredState& state) {
   const int tool = robot.LinkIndex(task.tool_link);
-  if (task.tool && tool >= 0 && joints_.size() == robot.num_actuated()) {
-    robot::KinematicsState kinematics;
-    robot::ComputeKinematics(robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, &kinematics);
-    return (kinematics.link_poses[tool].translation() - task.tool->position).norm();
-  }
+  if (!task.tool || tool < 0 || state.joints.size() != robot.num_actuated()) return std::nullopt;
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(robot, MakePose(state.position, state.attitude.toRotationMatrix()), state.joints,
+                           &kinematics);
+  return (kinematics.link_poses[tool].translation() - task.tool->position).norm();
+}
+
+double OnlineController::ArrivalOffset() const {
+  if (const auto tool_error = ToolGoalError(setup_.scene.robot, *setup_.task, measured())) return *tool_error;
   const planner::WholeBodyTrajectory& plan = *to_.plan->trajectory;
   return (position_ - plan.Sample(plan.duration()).position).norm();
 }

@@ -131,12 +131,7 @@ FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const rob
   if (!samples.empty()) {
     const MeasuredState& last = samples.back().measured;
     metrics.final_base_error = (last.position - terminal_position).norm();
-    const int tool = robot.LinkIndex(task.tool_link);
-    if (task.tool && tool >= 0 && last.joints.size() == robot.num_actuated()) {
-      robot::ComputeKinematics(robot, MakePose(last.position, last.attitude.toRotationMatrix()), last.joints,
-                               &kinematics);
-      metrics.final_tool_error = (kinematics.link_poses[tool].translation() - task.tool->position).norm();
-    }
+    if (const auto tool_error = ToolGoalError(robot, task, last)) metrics.final_tool_error = *tool_error;
   }
   return metrics;
 }

@@ -142,6 +142,13 @@ struct MeasuredState {
   VecX joints, joint_rates;
 };
 
+// Distance of the tool frame at a measured state (base pose and joints,
+// forward kinematics) from the task's goal.tool.position; none when the task
+// has no tool goal, the robot lacks its tool_link or the joints are missing.
+// The arrival hold waits on it and the flight log reports it.
+std::optional<double> ToolGoalError(const robot::RobotModel& robot, const planner::Task& task,
+                                    const MeasuredState& state);
+
 // What the planner needs; the scene, task and solver must outlive the controller.
 struct PlanningSetup {
   planner::PlanningScene scene;
