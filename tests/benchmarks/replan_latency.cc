@@ -179,6 +179,13 @@ int main(int argc, char** argv) {
       std::printf("  trial %3d  t = %5.2f s  %-9s  attempts %d  %-8s %7.2f ms (solve %.2f, post-check %.2f)\n", trial,
                   t, result->rejoined_at >= 0.0 ? "rejoined" : "remainder", static_cast<int>(result->attempts.size()),
                   result->success ? "success" : "failed", ms, result->solve_ms, result->post_check_ms);
+      if (result->attempts.size() > 1) {
+        for (size_t a = 0; a < result->attempts.size(); ++a) {
+          const planner::PlanAttempt& attempt = result->attempts[a];
+          std::printf("      solve %zu: %d iterations, %.2f ms: %s\n", a + 1, attempt.iterations, attempt.solve_ms,
+                      attempt.post_check_failure.empty() ? "passed" : attempt.post_check_failure.c_str());
+        }
+      }
     }
     if (!result->success) std::printf("  t = %.2f s: %s\n", t, result->message.c_str());
   }
@@ -207,6 +214,11 @@ int main(int argc, char** argv) {
     auto result = planner::Plan(scene, cold_task, options, **solver);
     cold_ms.push_back(Ms(begin));
     cold_successes += result.ok() && result->success;
+    if (each) {
+      std::printf("  cold from the state at t = %5.2f s: %-8s %7.2f ms%s%s\n", times[i],
+                  result.ok() && result->success ? "success" : "failed", cold_ms.back(),
+                  result.ok() && !result->success ? ": " : "", result.ok() && !result->success ? result->message.c_str() : "");
+    }
   }
   PrintStats("cold plan (same states)", cold_ms, cold_successes, static_cast<int>(cold_ms.size()));
   return 0;

@@ -405,6 +405,46 @@ TEST(ReplanTest, RejoinsThePlanAfterTheHorizonAndKeepsItsCertificate) {
   EXPECT_LE(again->post_check.certified_clearance, BruteForceClearance(*again->trajectory, 0.002));
 }
 
+// Less than the horizon before the insertion there is no junction a full
+// horizon ahead: the replan rejoins at the last junction, the insertion's
+// start, and keeps the insertion piece with its certificate and its
+// insertion check (a replan of the whole remainder re-solved and re-checked
+// the insertion at the cup, the costliest stretch to check).
+TEST(ReplanTest, RejoinsAtTheLastJunctionWhenNoneIsAHorizonAhead) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& old = *plan.trajectory;
+  const Task& task = WindowCup().task;
+  ASSERT_TRUE(plan.insertion.enabled);
+  solvers::LbfgsSolver solver;
+  const ReplanOptions replan = DefaultReplanOptions();
+  const double t_from = InsertionStart(plan) - 0.5 * replan.horizon;
+  BoundaryState start = StateOnPlan(old, t_from);
+  start.position += Vec3(0.03, 0.02, -0.02);
+  auto result = Replan(WindowCup().Scene(), task, DefaultPlannerOptions(), replan, solver, plan, t_from, start);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  ASSERT_TRUE(result->success) << result->message;
+  ASSERT_GT(result->rejoined_at, 0.0) << "not rejoined";
+  const WholeBodyTrajectory& fresh = *result->trajectory;
+  const double insertion = old.position().durations()[old.num_pieces() - 1];
+  EXPECT_NEAR(fresh.duration() - result->rejoined_at, insertion, 1e-9) << "the kept part is the insertion piece";
+  for (int k = 0; k <= 20; ++k) {
+    const double tau = insertion * k / 20.0;
+    const WholeBodySample a = fresh.Sample(result->rejoined_at + tau), b = old.Sample(InsertionStart(plan) + tau);
+    EXPECT_LT((a.position - b.position).norm(), 1e-9) << tau;
+    EXPECT_LT((a.joints - b.joints).cwiseAbs().maxCoeff(), 1e-9) << tau;
+  }
+  const PostCheckReport& report = result->post_check;
+  EXPECT_TRUE(report.certified) << report.FirstFailure();
+  bool insertion_checked = false;
+  for (const CheckResult& check : report.checks) {
+    if (check.kind == CheckKind::kInsertion) insertion_checked = check.passed;
+  }
+  EXPECT_TRUE(insertion_checked) << "the kept insertion check";
+  const double truth = BruteForceClearance(fresh, 0.001);
+  EXPECT_LE(report.certified_clearance, truth);
+  EXPECT_GE(truth, task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance);
+}
+
 // The kept part must carry the full safety distance in the current plan's
 // certificate; where it does not (here: a stretch marked below it), or with
 // the horizon off, the whole remainder is replanned and checked.

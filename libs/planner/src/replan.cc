@@ -130,6 +130,10 @@ std::optional<Rejoin> FindRejoin(const PlanResult& current, const Task& task, co
       break;
     }
   }
+  if (rejoin.new_pieces == 0 && remaining >= 2) {  // no junction that far: the last one before the end
+    rejoin.new_pieces = remaining - 1;
+    rejoin.junction_piece = last_merged + remaining - 2;
+  }
   if (rejoin.new_pieces == 0) return std::nullopt;
   rejoin.old_time = t_from + planned;
   const std::vector<CertifiedInterval>& intervals = current.post_check.certified_intervals;

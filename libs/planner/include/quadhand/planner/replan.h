@@ -23,7 +23,9 @@
 //
 // Rejoining: only the next `horizon` seconds are planned anew when the
 // current plan goes on for longer. The new part ends at the first junction
-// of the current plan at least `horizon` after the start, in the current
+// of the current plan at least `horizon` after the start (where there is
+// none, at the last junction before the plan's end: before an insertion,
+// the insertion's start), in the current
 // plan's full state there (position to jerk, yaw, joints and their rates),
 // and the current plan's pieces after that junction are kept as they are.
 // Only the new part is solved and post-checked; the kept pieces keep the
@@ -72,7 +74,8 @@ struct ReplanOptions {
   // and leaves room to back off the margin's 3 cm.
   double recovery_time = 1.0;
   // Rejoining (see the header comment): seconds planned anew before the
-  // current plan is rejoined at its next junction; 0 never rejoins. Solves
+  // current plan is rejoined at its next junction (or at its last one, when
+  // less than this is left before it); 0 never rejoins. Solves
   // of the new part before falling back to the whole remainder. Measured
   // (docs/online.md): from 5-20 cm off the default plan, 1 s rejoins 3 of 4
   // replans; a second solve of the new part rarely passes where the first
