@@ -32,5 +32,25 @@ TEST(YamlTextTest, RejectsMalformedAndTooDeepText) {
   EXPECT_TRUE(CheckYamlText("", "empty.yaml").ok());
 }
 
+// Nine aliases of nine aliases, nine levels deep: 300 bytes that expand to
+// 9^9 (387 million) nodes. yaml-cpp shares aliased nodes, but every reader
+// walking the tree visits them all: it was a hang of every program that
+// reads YAML. Refused after 100 000 node visits; an ordinary use of aliases
+// is still fine.
+TEST(YamlTextTest, RefusesAnAliasBombAndKeepsOrdinaryAliases) {
+  std::string bomb = "a: &a [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n";
+  for (char level = 'b'; level <= 'i'; ++level) {
+    const char previous = static_cast<char>(level - 1);
+    bomb += std::string(1, level) + ": &" + level + " [";
+    for (int k = 0; k < 9; ++k) bomb += std::string(k ? ", " : "") + "*" + previous;
+    bomb += "]\n";
+  }
+  const Status refused = CheckYamlText(bomb, "bomb.yaml");
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("bomb.yaml: line "), std::string::npos) << refused.message();
+  EXPECT_NE(refused.message().find("more than 100000 nodes"), std::string::npos) << refused.message();
+  EXPECT_TRUE(CheckYamlText("limits: &l {v_max: 2, a_max: 4}\nother: *l\nthird: *l\n", "t.yaml").ok());
+}
+
 }  // namespace
 }  // namespace quadhand::core

@@ -11,7 +11,8 @@ namespace quadhand::core {
 // InvalidArgument naming `name` and the line when the text is not YAML, when
 // a mapping holds the same key twice (yaml-cpp would keep the first and drop
 // the second silently: "safety_distance: 0.03 ... safety_distance: 0.1"
-// must not plan with 0.03), or when it nests deeper than 64 levels.
+// must not plan with 0.03), when it nests deeper than 64 levels, or when it
+// holds more than 100 000 nodes counting each use of an alias (an alias bomb).
 Status CheckYamlText(const std::string& text, const std::string& name);
 
 }  // namespace quadhand::core
