@@ -33,7 +33,7 @@ using namespace quadhand;
 using Clock = std::chrono::steady_clock;
 
 int Fail(const std::string& message) {
-  std::fprintf(stderr, "quadhand-bench: error: %s\n", message.c_str());
+  core::PrintError("quadhand-bench", message);
   return 2;
 }
 

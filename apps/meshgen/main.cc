@@ -14,6 +14,7 @@
 #include <CLI/CLI.hpp>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/log.h"
 #include "quadhand/core/status.h"
 #include "quadhand/core/types.h"
 #include "quadhand/geometry/mesh_io.h"
@@ -388,7 +389,7 @@ std::string PrimitivesYaml(const std::vector<LinkSpec>& links, double tolerance)
 }
 
 int Fail(const std::string& message) {
-  std::fprintf(stderr, "quadhand-meshgen: error: %s\n", message.c_str());
+  core::PrintError("quadhand-meshgen", message);
   return kBadInputExitCode;
 }
 

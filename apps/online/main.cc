@@ -24,6 +24,7 @@
 #include <CLI/CLI.hpp>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/log.h"
 #include "quadhand/link/connection.h"
 #include "quadhand/link/frames.h"
 #include "quadhand/online/controller.h"
@@ -50,7 +51,7 @@ std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }
 
 int Fail(const std::string& message) {
-  std::fprintf(stderr, "quadhand-online: error: %s\n", message.c_str());
+  core::PrintError("quadhand-online", message);
   return kExitBadInput;
 }
 
@@ -391,7 +392,7 @@ int main(int argc, char** argv) {
     core::Status s = files.Stage(log_path, log.Csv(ctx.robot().ActuatedJointNames()));
     if (s.ok()) s = files.Commit();
     if (!s.ok()) {
-      std::fprintf(stderr, "quadhand-online: error: --log %s\n", s.message().c_str());
+      core::PrintError("quadhand-online", "--log " + s.message());
       if (code == kExitSuccess) code = kExitBadInput;
     } else {
       std::printf("  log: %s (%zu rows)\n", log_path.c_str(), log.samples().size());

@@ -33,7 +33,7 @@ constexpr int kExitNoPlan = 1;
 constexpr int kExitBadInput = 2;
 
 int Fail(const std::string& message) {
-  std::fprintf(stderr, "quadhand-plan: error: %s\n", message.c_str());
+  core::PrintError("quadhand-plan", message);
   return kExitBadInput;
 }
 

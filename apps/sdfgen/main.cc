@@ -37,7 +37,7 @@ namespace robot = quadhand::robot;
 constexpr int kExitBadInput = 2;
 
 int Fail(const std::string& message) {
-  std::fprintf(stderr, "quadhand-sdfgen: error: %s\n", message.c_str());
+  core::PrintError("quadhand-sdfgen", message);
   return kExitBadInput;
 }
 

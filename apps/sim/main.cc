@@ -15,6 +15,7 @@
 #include <CLI/CLI.hpp>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/log.h"
 #include "quadhand/link/frame.h"
 #include "quadhand/link/udp.h"
 #include "quadhand/robot/robot_model.h"
@@ -33,7 +34,7 @@ constexpr int kExitDiverged = 1;
 constexpr int kExitBadInput = 2;
 
 int Fail(const std::string& message, int code = kExitBadInput) {
-  std::fprintf(stderr, "quadhand-sim: error: %s\n", message.c_str());
+  core::PrintError("quadhand-sim", message);
   return code;
 }
 

@@ -9,6 +9,7 @@
 #include <variant>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/log.h"
 #include "quadhand/link/connection.h"
 #include "quadhand/sim/plan_io.h"
 
@@ -29,7 +30,7 @@ void InstallSignalHandlers() {
 }
 
 int Fail(const std::string& message, int code) {
-  std::fprintf(stderr, "quadhand-sim: error: %s\n", message.c_str());
+  core::PrintError("quadhand-sim", message);
   return code;
 }
 

@@ -1,6 +1,7 @@
 // Every file a user hands to a program, replaced in turn by each kind of
 // hostile file (missing, a folder, a FIFO, /dev/zero, empty, binary garbage,
-// truncated, a symlink loop), for every command-line program: exit code 2,
+// truncated, a symlink loop, a YAML alias bomb, 64 GiB of zeros without a
+// line break, a name with a line break), for every command-line program: exit code 2,
 // one stderr line naming the path as the user gave it, no file left in the
 // output folder, no hang (each run has a time limit). Then the same
 // programs still work on good input. The per-program tests (plan_test.cc,
@@ -62,7 +63,14 @@ class HostileInputTest : public ::testing::Test {
   static std::vector<std::pair<std::string, std::string>> Kinds() {
     return {{"missing", In("missing.file")},   {"folder", In("folder")},       {"fifo", In("fifo")},
             {"device", "/dev/zero"},           {"empty", In("empty.file")},    {"garbage", In("garbage.file")},
-            {"truncated", In("truncated.file")}, {"loop", In("loop.file")}};
+            {"truncated", In("truncated.file")}, {"loop", In("loop.file")}, {"alias bomb", In("bomb.file")},
+            {"64 GiB of zeros", In("zeros.file")}, {"a line break in the name", In("line\nbreak.file")}};
+  }
+
+  // How a message names `path`: control characters escaped (core::PrintError).
+  static std::string AsPrinted(std::string path) {
+    for (size_t at = path.find('\n'); at != std::string::npos; at = path.find('\n', at + 2)) path.replace(at, 1, "\\n");
+    return path;
   }
 
   static void MakeHostile(const std::string& kind) {
@@ -82,6 +90,19 @@ class HostileInputTest : public ::testing::Test {
       std::ofstream(In("truncated.file")) << task.substr(0, task.size() / 3) << "start: {position: [1, ";
     }
     if (kind == "loop") fs::create_symlink(In("loop.file"), In("loop.file"));
+    if (kind == "alias bomb") {  // 9^9 nodes from 300 bytes
+      std::string bomb = "a: &a [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n";
+      for (char level = 'b'; level <= 'i'; ++level) {
+        bomb += std::string(1, level) + ": &" + level + " [";
+        for (int k = 0; k < 9; ++k) bomb += std::string(k ? ", " : "") + "*" + static_cast<char>(level - 1);
+        bomb += "]\n";
+      }
+      std::ofstream(In("bomb.file")) << bomb;
+    }
+    if (kind == "64 GiB of zeros") {  // sparse: no line break anywhere, far more than fits in memory
+      std::ofstream(In("zeros.file"));
+      fs::resize_file(In("zeros.file"), 64ull << 30);
+    }
   }
 
   // Runs `line` against a fresh, empty output folder and checks the
@@ -139,13 +160,14 @@ TEST_F(HostileInputTest, EveryFileArgumentOfEveryProgramRefusesEveryKindOfHostil
   for (const FileArgument& argument : arguments) {
     for (const auto& [kind, path] : Kinds()) {
       std::string line = argument.command;
-      line.replace(line.find("{}"), 2, path);
-      ExpectRefused(argument.program, line, path, kind);
+      line.replace(line.find("{}"), 2, "'" + path + "'");  // quoted: a name may hold a line break
+      ExpectRefused(argument.program, line, AsPrinted(path), kind);
     }
   }
   // Files a task names (scene, robot): the path as the task writes it.
   for (const std::string key : {"scene", "robot"}) {
     for (const auto& [kind, path] : Kinds()) {
+      if (path.find('\n') != std::string::npos) continue;  // not a YAML scalar as it stands
       std::ofstream(In("named.yaml")) << testing::WindowCupTaskText({{key + ":", key + ": " + path}});
       ExpectRefused("quadhand-plan", In("named.yaml") + " --out " + out + "/plan.csv --report " + out + "/report.json",
                     path, key + " " + kind);

@@ -124,6 +124,41 @@ TEST_F(FileUtilTest, ReadMissingFileIsNotFound) {
   EXPECT_EQ(ReadFileToString((dir_ / "nope").string()).status().code(), StatusCode::kNotFound);
 }
 
+// Lines of any length up to the limit, across the reader's internal chunks
+// and with or without a final line break; a longer one stops the reading
+// after the limit instead of taking the rest of the file.
+TEST(ReadBoundedLineTest, ReadsLinesUpToTheLimitAndStopsAtALongerOne) {
+  const std::string long_line(10000, 'x');
+  std::istringstream in("a\n\n" + long_line + "\n" + std::string(4095, 'y') + "\nlast");
+  std::string line;
+  ASSERT_EQ(ReadBoundedLine(in, 20000, &line), LineRead::kLine);
+  EXPECT_EQ(line, "a");
+  ASSERT_EQ(ReadBoundedLine(in, 20000, &line), LineRead::kLine);
+  EXPECT_EQ(line, "");
+  ASSERT_EQ(ReadBoundedLine(in, 20000, &line), LineRead::kLine);
+  EXPECT_EQ(line, long_line);
+  ASSERT_EQ(ReadBoundedLine(in, 20000, &line), LineRead::kLine);
+  EXPECT_EQ(line, std::string(4095, 'y'));
+  ASSERT_EQ(ReadBoundedLine(in, 20000, &line), LineRead::kLine);
+  EXPECT_EQ(line, "last");
+  EXPECT_EQ(ReadBoundedLine(in, 20000, &line), LineRead::kEnd);
+  EXPECT_EQ(ReadBoundedLine(in, 20000, &line), LineRead::kEnd);
+
+  std::istringstream exact(std::string(8190, 'z'));  // two full chunks, then the end
+  ASSERT_EQ(ReadBoundedLine(exact, 8190, &line), LineRead::kLine);
+  EXPECT_EQ(line.size(), 8190u);
+  EXPECT_EQ(ReadBoundedLine(exact, 8190, &line), LineRead::kEnd);
+
+  std::string zeros(1 << 20, '\0');  // no line break at all
+  std::istringstream binary(zeros);
+  EXPECT_EQ(ReadBoundedLine(binary, 65536, &line), LineRead::kTooLong);
+  EXPECT_TRUE(line.empty());
+  EXPECT_LE(binary.tellg(), 65536 + 8192) << "read no further than the limit and a chunk";
+  std::istringstream with_nul(std::string("a\0b\nc", 5));
+  ASSERT_EQ(ReadBoundedLine(with_nul, 10, &line), LineRead::kLine);
+  EXPECT_EQ(line, std::string("a\0b", 3));
+}
+
 TEST(PathTest, ResolvesRelativeToTheBaseDirectory) {
   EXPECT_EQ(DirectoryOf("a/b/c.yaml"), "a/b");
   EXPECT_EQ(DirectoryOf("c.yaml"), ".");

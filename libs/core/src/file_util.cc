@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <istream>
 #include <sstream>
 #include <system_error>
 
@@ -83,6 +84,28 @@ Status WriteWholeFile(const std::string& path, const std::string& contents) {
 }
 
 }  // namespace
+
+LineRead ReadBoundedLine(std::istream& in, std::size_t max_length, std::string* line) {
+  line->clear();
+  char chunk[4096];
+  while (true) {
+    in.getline(chunk, sizeof(chunk));
+    const std::size_t got = static_cast<std::size_t>(in.gcount());
+    const bool chunk_full = in.fail() && !in.eof() && !in.bad() && got == sizeof(chunk) - 1;
+    const bool ended_by_break = !in.fail() && !in.eof();
+    line->append(chunk, ended_by_break ? got - 1 : got);
+    if (line->size() > max_length) {
+      line->clear();
+      return LineRead::kTooLong;
+    }
+    if (chunk_full) {
+      in.clear();  // getline sets failbit for a chunk without a line break
+      continue;
+    }
+    if (ended_by_break || got > 0 || !line->empty()) return LineRead::kLine;
+    return LineRead::kEnd;
+  }
+}
 
 Result<std::string> ReadFileToString(const std::string& path, unsigned long long max_bytes) {
   namespace fs = std::filesystem;

@@ -19,6 +19,28 @@ void VLog(LogLevel level, const char* format, va_list args) {
 void SetLogLevel(LogLevel level) { g_log_level = static_cast<int>(level); }
 LogLevel GetLogLevel() { return static_cast<LogLevel>(g_log_level.load()); }
 
+void PrintError(const char* program, const std::string& message) {
+  std::string line;
+  line.reserve(message.size());
+  for (const char c : message) {
+    const unsigned char u = static_cast<unsigned char>(c);
+    if (c == '\n') {
+      line += "\\n";
+    } else if (c == '\r') {
+      line += "\\r";
+    } else if (c == '\t') {
+      line += "\\t";
+    } else if (u < 0x20 || u == 0x7f) {
+      char escaped[8];
+      std::snprintf(escaped, sizeof(escaped), "\\x%02x", u);
+      line += escaped;
+    } else {
+      line += c;
+    }
+  }
+  std::fprintf(stderr, "%s: error: %s\n", program, line.c_str());
+}
+
 void LogInfo(const char* format, ...) {
   va_list args;
   va_start(args, format);

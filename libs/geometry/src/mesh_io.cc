@@ -60,6 +60,11 @@ using InexactMesh = CGAL::Surface_mesh<InexactKernel::Point_3>;
 using ExactMesh = CGAL::Surface_mesh<ExactKernel::Point_3>;
 using Triangle = std::array<std::size_t, 3>;
 
+// Largest mesh file read (every format is read whole by its reader), and
+// the longest line of a text OFF file checked before CGAL reads it.
+constexpr std::uintmax_t kMaxMeshBytes = 256ull << 20;
+constexpr std::size_t kMaxOffLineBytes = 65536;
+
 std::string LowerCaseExtension(const std::string& path) {
   std::string extension = std::filesystem::path(path).extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
@@ -301,7 +306,8 @@ std::string OffTextProblem(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::vector<std::vector<std::string>> lines;
   std::string line;
-  while (std::getline(in, line)) {
+  for (core::LineRead got; (got = core::ReadBoundedLine(in, kMaxOffLineBytes, &line)) != core::LineRead::kEnd;) {
+    if (got == core::LineRead::kTooLong) return "an OFF line longer than 64 KiB";
     const std::size_t hash = line.find('#');
     if (hash != std::string::npos) line.erase(hash);
     std::istringstream words(line);
@@ -385,8 +391,14 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
     return core::Status::InvalidArgument(path + ": unsupported mesh format '" + extension +
                                          "' (expected .stl, .obj, .ply, .off or .dae)");
   }
-  if (std::filesystem::file_size(path, error) == 0 || error) {
+  const std::uintmax_t file_size = std::filesystem::file_size(path, error);
+  if (file_size == 0 || error) {
     return core::Status::InvalidArgument(path + ": empty mesh file");
+  }
+  if (file_size > kMaxMeshBytes) {
+    return core::Status::InvalidArgument(path + ": mesh file of " + std::to_string(file_size) +
+                                         " bytes, more than the " + std::to_string(kMaxMeshBytes >> 20) +
+                                         " MiB a link mesh may have (simplify it)");
   }
   // Every format is read as a polygon soup first and checked here: CGAL's
   // readers do not check face indices (an OBJ face naming vertex 0 or one
@@ -403,7 +415,7 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
     for (const auto& t : soup->triangles) polygons.push_back({t[0], t[1], t[2]});
   } else {
     if (extension == ".ply") {
-      const std::string problem = PlyHeaderProblem(path, std::filesystem::file_size(path, error));
+      const std::string problem = PlyHeaderProblem(path, file_size);
       if (!problem.empty()) return core::Status::InvalidArgument(path + ": " + problem);
     }
     if (extension == ".off") {

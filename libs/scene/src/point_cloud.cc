@@ -22,11 +22,18 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include "quadhand/core/file_util.h"
 #include "quadhand/core/numbers.h"
 #include "quadhand/core/ply_header.h"
 
 namespace quadhand::scene {
 namespace {
+
+// Longest header read (PCD, PLY), and the longest data row beyond 64
+// characters per value: lines are read with a limit, so a file without
+// line breaks is refused after that much, not read whole.
+constexpr std::size_t kMaxHeaderBytes = 65536;
+constexpr std::size_t kMaxRowBytes = 65536;
 
 // PCL prints its own diagnostics to the console; ours come back as Status.
 void SilencePcl() { pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS); }
@@ -144,7 +151,8 @@ core::Status CheckPcdData(const std::string& path, const pcl::PCLPointCloud2& he
     // unknown encoding, as ascii.
     std::ifstream in(path);
     std::string line, encoding;
-    while (std::getline(in, line) && static_cast<std::uint64_t>(in.tellg()) <= data_offset) {
+    while (core::ReadBoundedLine(in, kMaxHeaderBytes, &line) == core::LineRead::kLine &&
+           static_cast<std::uint64_t>(in.tellg()) <= data_offset) {
       if (line.rfind("DATA", 0) == 0) {
         std::istringstream words(line.substr(4));
         words >> encoding;
@@ -207,8 +215,13 @@ core::Status CheckPcdData(const std::string& path, const pcl::PCLPointCloud2& he
   in.seekg(data_offset);
   std::string line;
   std::uint64_t rows = 0, line_number = 0;
-  while (std::getline(in, line)) {
+  const std::size_t max_row = kMaxRowBytes + 64 * values_per_point;
+  for (core::LineRead got; (got = core::ReadBoundedLine(in, max_row, &line)) != core::LineRead::kEnd;) {
     ++line_number;
+    if (got == core::LineRead::kTooLong) {
+      return core::Status::InvalidArgument(path + ": PCD data row " + std::to_string(rows + 1) + " is longer than " +
+                                           std::to_string(max_row) + " characters");
+    }
     const size_t first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos || line[first] == '#') continue;
     std::uint64_t values = 0;
@@ -254,7 +267,7 @@ core::Status CheckPlyAsciiData(const std::string& path) {
     bool has_list = false;
   };
   std::vector<Element> elements;
-  while (std::getline(in, line)) {
+  while (core::ReadBoundedLine(in, kMaxHeaderBytes, &line) == core::LineRead::kLine) {
     std::istringstream words(line);
     std::string keyword;
     words >> keyword;
@@ -281,7 +294,13 @@ core::Status CheckPlyAsciiData(const std::string& path) {
   if (!ascii) return core::Status::Ok();
   for (const Element& e : elements) {
     for (std::uint64_t row = 0; row < e.count; ++row) {
-      if (!std::getline(in, line)) {
+      const core::LineRead got = core::ReadBoundedLine(in, kMaxRowBytes + 64 * e.scalars, &line);
+      if (got == core::LineRead::kTooLong) {
+        return core::Status::InvalidArgument(path + ": PLY " + e.name + " row " + std::to_string(row + 1) +
+                                             " is longer than " + std::to_string(kMaxRowBytes + 64 * e.scalars) +
+                                             " characters");
+      }
+      if (got == core::LineRead::kEnd) {
         return core::Status::InvalidArgument(path + ": the PLY header says " + std::to_string(e.count) + " " +
                                              e.name + " rows but the data holds " + std::to_string(row));
       }
@@ -307,8 +326,8 @@ core::Status CheckPlyAsciiData(const std::string& path) {
       }
     }
   }
-  while (std::getline(in, line)) {
-    if (line.find_first_not_of(" \t\r") != std::string::npos) {
+  for (core::LineRead got; (got = core::ReadBoundedLine(in, kMaxRowBytes, &line)) != core::LineRead::kEnd;) {
+    if (got == core::LineRead::kTooLong || line.find_first_not_of(" \t\r") != std::string::npos) {
       return core::Status::InvalidArgument(path + ": the PLY data holds more rows than its header declares");
     }
   }
@@ -381,10 +400,10 @@ std::string PcdHeaderProblem(const std::string& path) {
     }
     return token.compare(0, 7, "COLUMNS") == 0;
   };
-  while (std::getline(in, line)) {
+  for (core::LineRead got; (got = core::ReadBoundedLine(in, kMaxHeaderBytes, &line)) != core::LineRead::kEnd;) {
     read += line.size() + 1;
     ++line_number;
-    if (read > 65536) return "PCD header longer than 64 KiB";
+    if (got == core::LineRead::kTooLong || read > kMaxHeaderBytes) return "PCD header longer than 64 KiB";
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty() || line[0] == '#') continue;
     for (char c : line) {
@@ -462,7 +481,7 @@ std::string PcdHeaderProblem(const std::string& path) {
       // PCL reads on past DATA while lines look like header lines (blank,
       // comments, keywords): a keyword there would change the header it uses.
       std::size_t looked = 0;
-      while (looked < 65536 && std::getline(in, line)) {
+      while (looked < kMaxHeaderBytes && core::ReadBoundedLine(in, kMaxHeaderBytes, &line) == core::LineRead::kLine) {
         looked += line.size() + 1;
         const std::vector<std::string> words = tokens_of(line);
         if (words.empty() || words[0][0] == '#') continue;

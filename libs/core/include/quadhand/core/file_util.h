@@ -2,6 +2,8 @@
 // partial output behind) and whole-file reads.
 #pragma once
 
+#include <cstddef>
+#include <iosfwd>
 #include <string>
 #include <vector>
 
@@ -18,6 +20,14 @@ inline constexpr unsigned long long kMaxReadBytes = 1ull << 30;
 // so a FIFO cannot block and /dev/zero cannot fill the memory) or a file
 // larger than `max_bytes`, each naming the path.
 Result<std::string> ReadFileToString(const std::string& path, unsigned long long max_bytes = kMaxReadBytes);
+
+// std::getline with a limit: a file without line breaks (a disk image, a
+// sparse file of zeros) must not be read whole into one line. kLine with the
+// line (without its line break) in *line; kEnd at the end of the input;
+// kTooLong when the line holds more than `max_length` characters (the
+// stream is then left inside it).
+enum class LineRead { kLine, kEnd, kTooLong };
+LineRead ReadBoundedLine(std::istream& in, std::size_t max_length, std::string* line);
 
 // Writes `contents` to `path` atomically: to "<path>.tmp-<pid>" first, then
 // renamed. On failure nothing is left at `path` or at the temporary name.

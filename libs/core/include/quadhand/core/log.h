@@ -17,6 +17,11 @@ LogLevel GetLogLevel();
 void LogInfo(const char* format, ...) __attribute__((format(printf, 1, 2)));
 void LogVerbose(const char* format, ...) __attribute__((format(printf, 1, 2)));
 
+// Prints "<program>: error: <message>" as exactly one line on stderr: line
+// breaks and other control characters in the message (a file name may hold
+// them) are written as \n, \r, \t or \xHH.
+void PrintError(const char* program, const std::string& message);
+
 // Prints "label  42% (done/total) 1.2 s" on stderr, redrawn in place on a
 // terminal and at most every 10 % otherwise (so logs stay short).
 class ProgressBar {
