@@ -17,6 +17,12 @@ double SecondsSince(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+std::string Format(double x) {
+  std::ostringstream out;
+  out << x;
+  return out.str();
+}
+
 std::string Format(const Vec3& p) {
   std::ostringstream out;
   out << "(" << p.x() << ", " << p.y() << ", " << p.z() << ")";
@@ -155,8 +161,10 @@ core::Result<FrontEndMap> FrontEndMap::Build(const std::vector<Vec3>& obstacle_p
     if (padded > static_cast<double>(options.max_voxels)) {
       return core::Status::InvalidArgument("front end: the grid box " + Format(lo) + " - " + Format(hi) +
                                            " needs more than max_voxels = " + std::to_string(options.max_voxels) +
-                                           " voxels at voxel_size " + std::to_string(v) +
-                                           "; use larger voxels or a smaller margin");
+                                           " voxels at voxel_size " + Format(v) +
+                                           " (the box holds the whole scene, start and goal): crop the scene "
+                                           "to where the robot flies (a scan's crop:, docs/task_format.md), "
+                                           "or set front_end.voxel_size or max_voxels");
     }
     dims[axis] = static_cast<int>(n);
   }
