@@ -219,12 +219,13 @@ TEST_F(OnlineCliTest, AFloodedSignedLinkStillFliesAndAcceptsNothingForged) {
   Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--bind", bind, "--signing-key", key,
                         "--require-signing", "--max-duration", "60"},
                        (dir_ / "online").string());
-  std::this_thread::sleep_for(std::chrono::milliseconds(800));
-  // A sanitized build checks every frame several times slower: at the full
-  // rate its kernel buffer overflows with the flood and drops the vehicle's
-  // own positions too, until the vehicle counts as lost (the safe reaction,
-  // but not what this test is about). It gets a tenth of the rate.
-  const long rate = kSanitizedBuild ? 10000 : 100000;
+  // A sanitized build starts and checks every frame several times slower:
+  // flooded at the full rate, or before it has settled into its stream, its
+  // kernel buffer overflows and drops the vehicle's own positions too, until
+  // the vehicle counts as lost (the safe reaction, but not what this test is
+  // about). It gets 3 s to start and a hundredth of the rate.
+  std::this_thread::sleep_for(std::chrono::milliseconds(kSanitizedBuild ? 3000 : 800));
+  const long rate = kSanitizedBuild ? 1000 : 100000;
   Child flood = Spawn({std::string(QUADHAND_BIN_DIR) + "/quadhand-mavlink-flood", "--target", vehicle + ",1,191",
                        "--target", bind + ",1,1", "--key", key, "--rate", std::to_string(rate), "--seconds", "3"},
                       (dir_ / "flood").string());
