@@ -110,8 +110,9 @@ struct Rejoin {
   BoundaryState state;
 };
 
-// The rejoin point for `guess` (the remainder from t_from), or nothing when
-// the remainder is not longer than the horizon or the current plan's
+// The rejoin point for `guess` (the remainder from t_from): its first
+// junction at least `horizon` ahead, else its last junction. Nothing when
+// rejoining is off, the remainder is a single piece, or the current plan's
 // certificate does not carry the rest at the full safety distance.
 std::optional<Rejoin> FindRejoin(const PlanResult& current, const Task& task, const PostCheckOptions& check,
                                  const VecX& guess_durations, double t_from, double horizon) {
@@ -124,15 +125,11 @@ std::optional<Rejoin> FindRejoin(const PlanResult& current, const Task& task, co
   double planned = 0.0;
   for (int k = 1; k < remaining; ++k) {  // k < remaining: at least one piece is kept
     planned += guess_durations[k - 1];
-    if (planned >= horizon) {
+    if (planned >= horizon || k == remaining - 1) {
       rejoin.new_pieces = k;
       rejoin.junction_piece = last_merged + k - 1;
       break;
     }
-  }
-  if (rejoin.new_pieces == 0 && remaining >= 2) {  // no junction that far: the last one before the end
-    rejoin.new_pieces = remaining - 1;
-    rejoin.junction_piece = last_merged + remaining - 2;
   }
   if (rejoin.new_pieces == 0) return std::nullopt;
   rejoin.old_time = t_from + planned;

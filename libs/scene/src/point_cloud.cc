@@ -294,11 +294,11 @@ core::Status CheckPlyAsciiData(const std::string& path) {
   if (!ascii) return core::Status::Ok();
   for (const Element& e : elements) {
     for (std::uint64_t row = 0; row < e.count; ++row) {
-      const core::LineRead got = core::ReadBoundedLine(in, kMaxRowBytes + 64 * e.scalars, &line);
+      const std::size_t max_row = kMaxRowBytes + 64 * e.scalars;
+      const core::LineRead got = core::ReadBoundedLine(in, max_row, &line);
       if (got == core::LineRead::kTooLong) {
         return core::Status::InvalidArgument(path + ": PLY " + e.name + " row " + std::to_string(row + 1) +
-                                             " is longer than " + std::to_string(kMaxRowBytes + 64 * e.scalars) +
-                                             " characters");
+                                             " is longer than " + std::to_string(max_row) + " characters");
       }
       if (got == core::LineRead::kEnd) {
         return core::Status::InvalidArgument(path + ": the PLY header says " + std::to_string(e.count) + " " +
