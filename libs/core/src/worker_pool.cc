@@ -1,13 +1,12 @@
 #include "quadhand/core/worker_pool.h"
 
 #include <algorithm>
+#include <chrono>
 
 namespace quadhand::core {
 namespace {
 
-// About 20-50 microseconds of polling before sleeping: longer than the gap
-// between two evaluations of an optimiser, far shorter than a frame.
-constexpr int kSpins = 20000;
+using Clock = std::chrono::steady_clock;
 
 inline void Relax() {
 #if defined(__x86_64__) || defined(__i386__)
@@ -15,6 +14,28 @@ inline void Relax() {
 #else
   std::this_thread::yield();
 #endif
+}
+
+// Polling before sleeping: longer than the gap between two evaluations of
+// an optimiser, far shorter than an evaluation. A time, not a count of
+// pause instructions: one pause takes 10 to 150 cycles depending on the
+// processor (20 000, the count this replaced, took 385 us on an AMD EPYC),
+// and a thread that polls that long after every part takes a core from
+// everything else on a busy computer: with one of two cores busy, the
+// solve took 2.7x as long as with 50 us (docs/benchmark.md).
+constexpr std::chrono::microseconds kSpinTime{50};
+
+// Polls `done` until it holds or `budget` has passed; true when it holds.
+template <typename Done>
+bool SpinUntil(Clock::duration budget, Done done) {
+  if (budget <= Clock::duration::zero()) return done();
+  const Clock::time_point until = Clock::now() + budget;
+  for (int i = 1;; ++i) {
+    if (done()) return true;
+    // A clock read costs about as much as a few pauses.
+    if (i % 32 == 0 && Clock::now() >= until) return done();
+    Relax();
+  }
 }
 
 }  // namespace
@@ -27,7 +48,9 @@ int WorkerCount(int requested, int limit) {
 WorkerPool::WorkerPool(int workers)
     // More workers than cores would spin while the one holding the core
     // waits: then they only sleep.
-    : spins_(std::max(1, workers) <= std::max(1, static_cast<int>(std::thread::hardware_concurrency())) ? kSpins : 0) {
+    : spin_(std::max(1, workers) <= std::max(1, static_cast<int>(std::thread::hardware_concurrency()))
+                ? std::chrono::duration_cast<Clock::duration>(kSpinTime)
+                : Clock::duration::zero()) {
   for (int w = 1; w < std::max(1, workers); ++w) threads_.emplace_back(&WorkerPool::Loop, this, w);
 }
 
@@ -54,8 +77,7 @@ void WorkerPool::Run(const std::function<void(int)>& task) {
   }
   start_.notify_all();
   task(0);
-  for (int spin = 0; spin < spins_ && remaining_.load(std::memory_order_acquire) != 0; ++spin) Relax();
-  if (remaining_.load(std::memory_order_acquire) != 0) {
+  if (!SpinUntil(spin_, [this] { return remaining_.load(std::memory_order_acquire) == 0; })) {
     std::unique_lock<std::mutex> lock(mutex_);
     done_.wait(lock, [this] { return remaining_.load(std::memory_order_acquire) == 0; });
   }
@@ -65,12 +87,8 @@ void WorkerPool::Run(const std::function<void(int)>& task) {
 void WorkerPool::Loop(int worker) {
   unsigned long seen = 0;
   for (;;) {
-    unsigned long now = generation_.load(std::memory_order_acquire);
-    for (int spin = 0; spin < spins_ && now == seen; ++spin) {
-      Relax();
-      now = generation_.load(std::memory_order_acquire);
-    }
-    if (now == seen) {
+    unsigned long now = seen;
+    if (!SpinUntil(spin_, [&] { return (now = generation_.load(std::memory_order_acquire)) != seen; })) {
       std::unique_lock<std::mutex> lock(mutex_);
       start_.wait(lock, [&] { return generation_.load(std::memory_order_acquire) != seen; });
       now = generation_.load(std::memory_order_acquire);

@@ -1,13 +1,14 @@
 // A small pool of persistent worker threads for work that is split many
 // times a second into short parallel parts (the cost's samples, once per
 // evaluation: a few hundred microseconds each). Starting threads per part
-// would cost as much as the part; these wait for the next part spinning
-// briefly, then asleep. Results that must not depend on the number of
+// would cost as much as the part; these wait for the next part polling for
+// 50 microseconds, then asleep. Results that must not depend on the number of
 // workers are the caller's business: split the work into parts that do not
 // depend on it (pieces, samples) and reduce them in a fixed order.
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <mutex>
@@ -38,7 +39,7 @@ class WorkerPool {
  private:
   void Loop(int worker);
 
-  int spins_ = 0;  // polls before sleeping
+  std::chrono::steady_clock::duration spin_{};  // polling before sleeping
   std::vector<std::thread> threads_;
   const std::function<void(int)>* task_ = nullptr;
   std::atomic<unsigned long> generation_{0};
