@@ -17,6 +17,7 @@
 #include <CLI/CLI.hpp>
 
 #include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/planner/replan.h"
 #include "quadhand/robot/kinematics.h"
@@ -50,6 +51,7 @@ int main(int argc, char** argv) {
   using namespace quadhand;
   CLI::App app{"quadhand-replan-latency: latency of warm-started replanning from perturbed states"};
   std::string task_path = std::string(QUADHAND_SOURCE_DIR) + "/data/tasks/window_cup.yaml";
+  std::string planner_config_path;
   int trials = 50, max_iterations = -1, cold_trials = 5, attempts = -1;
   unsigned seed = 1;
   double min_offset = 0.05, max_offset = 0.20, velocity_noise = 0.1;
@@ -57,6 +59,9 @@ int main(int argc, char** argv) {
   int horizon_attempts = -1;
   bool profile_post_check = false, each = false;
   app.add_option("--task", task_path, "Task file")->capture_default_str();
+  app.add_option("--planner-config", planner_config_path,
+                 "Planner configuration (YAML, docs/configuration.md; its replan: keys set the replans), as "
+                 "quadhand-online reads it; the options below override it");
   app.add_option("--trials", trials, "Replans to time")->capture_default_str();
   app.add_option("--cold-trials", cold_trials, "Cold plans from the same states, for comparison")->capture_default_str();
   app.add_option("--seed", seed, "Seed of the random times and offsets")->capture_default_str();
@@ -77,15 +82,20 @@ int main(int argc, char** argv) {
     return 2;
   }
   auto solver = opt::CreateSolver("lbfgs");
-  auto context = planner::PlanningContext::Load(task_path, {});
+  auto config = planner::LoadPlannerConfigOrDefaults(planner_config_path);
+  if (!config.ok()) {
+    std::fprintf(stderr, "quadhand-replan-latency: error: %s\n", config.status().message().c_str());
+    return 2;
+  }
+  auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) {
     std::fprintf(stderr, "quadhand-replan-latency: error: %s\n", context.status().message().c_str());
     return 2;
   }
   const planner::PlanningScene scene = (*context)->Scene();
   const planner::Task& task = (*context)->task();
-  const planner::PlannerOptions options = planner::DefaultPlannerOptions();
-  planner::ReplanOptions replan = planner::DefaultReplanOptions();
+  const planner::PlannerOptions options = config->planner;
+  planner::ReplanOptions replan = config->replan;
   if (max_iterations >= 0) replan.solver.max_iterations = max_iterations;
   if (relative_tolerance >= 0) replan.solver.relative_cost_tolerance = relative_tolerance;
   if (attempts >= 1) replan.max_attempts = attempts;
@@ -182,7 +192,8 @@ int main(int argc, char** argv) {
       if (result->attempts.size() > 1) {
         for (size_t a = 0; a < result->attempts.size(); ++a) {
           const planner::PlanAttempt& attempt = result->attempts[a];
-          std::printf("      solve %zu: %d iterations, %.2f ms: %s\n", a + 1, attempt.iterations, attempt.solve_ms,
+          std::printf("      solve %zu: %d iterations, %.2f ms, post-check %.2f ms: %s\n", a + 1, attempt.iterations,
+                      attempt.solve_ms, attempt.post_check_ms,
                       attempt.post_check_failure.empty() ? "passed" : attempt.post_check_failure.c_str());
         }
       }

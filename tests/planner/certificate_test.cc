@@ -239,5 +239,67 @@ TEST(CertificateTest, RejectsAPlanThatGrazesAPointBetweenSamples) {
   EXPECT_TRUE(found) << "no place for a graze between samples on this plan: the test proves nothing";
 }
 
+// PostCheckOptions::stop_at_first_failure: on a plan that passes, the same
+// report as the full check; on one that fails early (an obstacle point on
+// the robot at t = 1 s), the same verdict and limit checks, and the same
+// certified stretches up to a little (at most 8 of them) after the first
+// that fails, none later.
+TEST(CertificateTest, StoppingAtTheFirstFailureKeepsTheVerdict) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& trajectory = *plan.trajectory;
+  auto check = [&](const env::ExactMeshModel& exact, bool stop) {
+    PostCheckOptions options = DefaultPlannerOptions().post_check;
+    options.stop_at_first_failure = stop;
+    return PostCheck(trajectory, WindowCup().robot(), WindowCup().task, plan.terminal, plan.insertion,
+                     *WindowCup().model, exact, nullptr, options);
+  };
+  {
+    const PostCheckReport full = check(*WindowCup().exact, false), stopping = check(*WindowCup().exact, true);
+    ASSERT_TRUE(full.passed) << full.FirstFailure();
+    EXPECT_TRUE(stopping.passed) << stopping.FirstFailure();
+    EXPECT_EQ(stopping.certified_clearance, full.certified_clearance);
+    EXPECT_EQ(stopping.min_clearance_exact, full.min_clearance_exact);
+    EXPECT_EQ(stopping.certified_intervals.size(), full.certified_intervals.size());
+    EXPECT_EQ(stopping.clearance_checked_until, trajectory.duration());
+    EXPECT_EQ(full.clearance_checked_until, trajectory.duration());
+  }
+  const double hit = 1.0;
+  std::vector<Vec3> points = WindowCup().points;
+  points.push_back(WorldVertices(KinematicsAt(trajectory, hit)).front().second);
+  const auto struck = env::ExactMeshModel::Create(WindowCup().robot(), points);
+  ASSERT_TRUE(struck.ok());
+  const PostCheckReport full = check(**struck, false), stopping = check(**struck, true);
+  ASSERT_FALSE(full.passed);
+  const double bound = WindowCup().task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance;
+  size_t first_failing = 0;
+  while (first_failing < full.certified_intervals.size() &&
+         full.certified_intervals[first_failing].clearance_lower >= bound) {
+    ++first_failing;
+  }
+  ASSERT_LT(first_failing, full.certified_intervals.size());
+  ASSERT_GT(first_failing + 8, stopping.certified_intervals.size() - 1);
+  ASSERT_LE(first_failing, stopping.certified_intervals.size() - 1);
+  for (size_t i = 0; i < stopping.certified_intervals.size(); ++i) {
+    EXPECT_EQ(stopping.certified_intervals[i].t1, full.certified_intervals[i].t1);
+    EXPECT_EQ(stopping.certified_intervals[i].clearance_lower, full.certified_intervals[i].clearance_lower);
+  }
+  EXPECT_FALSE(stopping.passed);
+  EXPECT_FALSE(stopping.certified);
+  ASSERT_EQ(stopping.checks.size(), full.checks.size());
+  EXPECT_EQ(stopping.checks[0].kind, CheckKind::kClearance);
+  EXPECT_FALSE(stopping.checks[0].passed);
+  EXPECT_NE(stopping.checks[0].detail.find("stopped at the first failure"), std::string::npos)
+      << stopping.checks[0].detail;
+  EXPECT_LE(stopping.checks[0].time, hit + 0.05);
+  EXPECT_LT(stopping.clearance_checked_until, hit + 0.5);  // well before the end (duration above 5 s)
+  EXPECT_LT(stopping.certified_intervals.size(), full.certified_intervals.size() / 2);
+  EXPECT_EQ(stopping.certified_intervals.back().t1, stopping.clearance_checked_until);
+  for (size_t i = 1; i < full.checks.size(); ++i) {  // every limit, state and insertion check
+    SCOPED_TRACE(full.checks[i].name);
+    EXPECT_EQ(stopping.checks[i].passed, full.checks[i].passed);
+    EXPECT_EQ(stopping.checks[i].value, full.checks[i].value);
+  }
+}
+
 }  // namespace
 }  // namespace quadhand::planner

@@ -109,7 +109,7 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   report["checks"] = checks;
   nlohmann::json attempts = nlohmann::json::array();
   for (const auto& a : result.attempts) {
-    attempts.push_back({{"solve_ms", a.solve_ms}, {"iterations", a.iterations}, {"cost_evaluations", a.evaluations},
+    attempts.push_back({{"solve_ms", a.solve_ms}, {"post_check_ms", a.post_check_ms}, {"iterations", a.iterations}, {"cost_evaluations", a.evaluations},
                         {"solver_status", opt::SolveStatusName(a.solver_status)}, {"post_check_failure", a.post_check_failure}});
   }
   report["attempts"] = attempts;

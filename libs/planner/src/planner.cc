@@ -127,9 +127,15 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
     }
     x = solved.x;
     const auto check_start = std::chrono::steady_clock::now();
+    // A solve that is followed by another when it fails only needs to know
+    // that it failed, and which checks: its check stops at the first failing
+    // clearance (PostCheckOptions::stop_at_first_failure).
+    PostCheckOptions check = options.post_check;
+    check.stop_at_first_failure = check.stop_at_first_failure || attempt + 1 < schedule.max_attempts;
     result->post_check = PostCheck(*trajectory, scene.robot, task, result->terminal, result->insertion, collision,
-                                   scene.exact, scene.self_collision, options.post_check);
-    result->post_check_ms += MillisecondsSince(check_start);
+                                   scene.exact, scene.self_collision, check);
+    record.post_check_ms = MillisecondsSince(check_start);
+    result->post_check_ms += record.post_check_ms;
     result->trajectory = std::move(*trajectory);
     if (auto breakdown = problem->Breakdown(x); breakdown.ok()) result->final_cost = *breakdown;
     record.post_check_failure = result->post_check.FirstFailure();

@@ -90,6 +90,7 @@ PlannerOptions DefaultPlannerOptions();
 
 struct PlanAttempt {
   double solve_ms = 0;
+  double post_check_ms = 0;  // 0 when the solver gave no trajectory to check
   int iterations = 0;
   int evaluations = 0;
   opt::SolveStatus solver_status = opt::SolveStatus::kInvalidInput;

@@ -8,7 +8,8 @@
 // Left out on purpose, because the task or a command-line flag sets them:
 // the collision thresholds (safety distance + the margins here), the
 // terminal-state seed (--seed), solver verbosity (--verbose), the
-// post-check's recovery time (set by replans from replan.recovery_time).
+// post-check's recovery time (set by replans from replan.recovery_time) and
+// its stop_at_first_failure (set per solve: every solve but the last).
 #pragma once
 
 #include <string>

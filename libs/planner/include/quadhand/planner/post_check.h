@@ -48,6 +48,14 @@ struct PostCheckOptions {
   // Workers measuring the samples (0: one per core). The report does not
   // depend on it: the samples are reduced in time order.
   int threads = 0;
+  // For a trajectory that is re-solved when it fails (every solve of a plan
+  // but its last): the clearances are measured and certified in time order,
+  // a few tenths of a second at a time, and no more after the stretch in
+  // which the clearance or self-clearance first fails; the limits, states
+  // and insertion are still checked at every sample. A failing check then
+  // costs what its first failure costs, and its verdict is the same (failed);
+  // the report's clearance figures cover [0, clearance_checked_until] only.
+  bool stop_at_first_failure = false;
 
   bool IsValid(std::string* why) const;
 };
@@ -100,7 +108,11 @@ struct PostCheckReport {
   double certified_margin = 0.0;      // certified_clearance less the distance it had to keep (negative: within the tolerance)
   double certified_self_distance = 0.0;
   int certificate_samples = 0;
-  // Per stretch between clearance samples, in time order, covering [0, duration].
+  // Where the clearances were measured and certified up to: the duration,
+  // or less when PostCheckOptions::stop_at_first_failure stopped them.
+  double clearance_checked_until = 0.0;
+  // Per stretch between clearance samples, in time order, covering
+  // [0, clearance_checked_until].
   std::vector<CertifiedInterval> certified_intervals;
   bool recovery = false;              // the recovery rule judged the clearance (see recovery_time)
   // Under the recovery rule: how much lower than the start's clearance (less
