@@ -261,7 +261,8 @@ TEST(SrdfTest, ReadsDisabledPairsAndNamesTheFileInErrors) {
   }
   for (const char* bad : {R"(<robot><disable_collisions link1="base" link2="wing"/></robot>)",
                           R"(<robot><disable_collisions link1="base"/></robot>)", R"(<robot><disable_collisions)",
-                          R"(<model/>)"}) {
+                          R"(<model/>)",
+                          R"(<!DOCTYPE robot [<!ENTITY b "base">]><robot><disable_collisions link1="&b;" link2="hand"/></robot>)"}) {
     SrdfFile srdf(bad);
     auto pairs = robot::LoadSrdfDisabledPairs(srdf.path(), f.robot);
     ASSERT_FALSE(pairs.ok()) << bad;

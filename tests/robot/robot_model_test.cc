@@ -468,6 +468,22 @@ TEST(RobotModelTest, UnknownPackageIsNotFound) {
   EXPECT_NE(status.message().find("link 'base'"), std::string::npos) << status.message();
 }
 
+// tinyxml reads no document type definition: with one, the <robot> after it
+// was "not found" and an entity bomb looked like a missing element. Refused
+// by name; a plain <!DOCTYPE robot> (no definitions) still loads.
+TEST(RobotModelTest, DocumentTypeDefinitionsAreRefusedByName) {
+  const std::string bomb =
+      "<?xml version='1.0'?>\n<!DOCTYPE robot [\n <!ENTITY a 'aaaaaaaaaa'>\n <!ENTITY b '&a;&a;&a;&a;&a;'>\n]>\n" +
+      OneLinkUrdf("<link name='&b;'/>");
+  auto model = RobotModel::LoadFromUrdfString(bomb, ".");
+  ASSERT_FALSE(model.ok());
+  EXPECT_EQ(model.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(model.status().message().find("document type definition"), std::string::npos) << model.status().message();
+  auto plain = RobotModel::LoadFromUrdfString("<?xml version='1.0'?>\n<!DOCTYPE robot>\n" + OneLinkUrdf(""), ".");
+  ASSERT_TRUE(plain.ok()) << plain.status().message();
+  EXPECT_EQ(plain->num_links(), 1);
+}
+
 TEST(RobotModelTest, SingleLinkRobot) {
   auto model = RobotModel::LoadFromUrdfString(OneLinkUrdf(""), ".");
   ASSERT_TRUE(model.ok()) << model.status().message();

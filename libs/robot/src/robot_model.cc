@@ -18,6 +18,8 @@
 
 #include "quadhand/core/file_util.h"
 
+#include "xml_document.h"
+
 namespace quadhand::robot {
 namespace {
 
@@ -428,6 +430,7 @@ Result<RobotModel> RobotModel::Load(const std::string& xml, const std::string& b
   // Our own XML pass first: it gives line and column for malformed XML, which
   // urdfdom does not, and the document order of the joints.
   if (xml.find_first_not_of(" \t\r\n") == std::string::npos) return invalid("empty document");
+  if (std::string problem = DocumentTypeProblem(xml); !problem.empty()) return invalid(problem);
   TiXmlDocument doc;
   doc.Parse(xml.c_str());
   if (doc.Error()) {

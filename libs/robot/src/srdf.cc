@@ -6,6 +6,8 @@
 
 #include "quadhand/core/file_util.h"
 
+#include "xml_document.h"
+
 namespace quadhand::robot {
 
 core::Result<std::vector<std::pair<int, int>>> LoadSrdfDisabledPairs(const std::string& path,
@@ -13,6 +15,7 @@ core::Result<std::vector<std::pair<int, int>>> LoadSrdfDisabledPairs(const std::
   core::Result<std::string> xml = core::ReadFileToString(path);
   if (!xml.ok()) return xml.status();
   auto error = [&path](const std::string& what) { return core::Status::InvalidArgument(path + ": " + what); };
+  if (std::string problem = DocumentTypeProblem(*xml); !problem.empty()) return error(problem);
   TiXmlDocument doc;
   doc.Parse(xml->c_str());
   if (doc.Error()) {
