@@ -269,8 +269,8 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   // costly ones (near the scene, at the end of a grasp) are spread over all
   // workers. Stopping at the first failure, blocks of 8 clearance intervals
   // (0.32 s at the defaults) are where it can stop.
-  const int kBlock = options.stop_at_first_failure ? 8 * clearance_every : 4096;
-  std::vector<Measured> measured(std::min(steps + 1, kBlock));
+  const int block_size = options.stop_at_first_failure ? 8 * clearance_every : 4096;
+  std::vector<Measured> measured(std::min(steps + 1, block_size));
   std::vector<Certified> certified(measured.size());
   Measured previous;  // the last clearance sample before the block
   int block_begin = 0, block_end = 0;
@@ -301,7 +301,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     for (size_t i = first; i < to_certify.size(); i += stride) certify_interval(to_certify[i], kMaxHalvings, &kinematics);
   };
   // One pool for every block's two passes (measure, then certify).
-  core::WorkerPool pool(core::WorkerCount(options.threads, std::min(steps + 1, kBlock)));
+  core::WorkerPool pool(core::WorkerCount(options.threads, std::min(steps + 1, block_size)));
   auto run_on_workers = [&](auto&& work) { pool.Run([&](int worker) { work(worker, pool.size()); }); };
 
   Worst speed, acceleration, yaw_rate, body_rate, joint_excess;
@@ -322,7 +322,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     if (check_self) self_least.Take(d, t, pair);
   };
   for (block_begin = 0; block_begin <= steps; block_begin = block_end) {
-    block_end = std::min(steps + 1, block_begin + kBlock);
+    block_end = std::min(steps + 1, block_begin + block_size);
     measure_order.clear();
     for (int step = block_begin; step < block_end; ++step) {
       if (is_clearance_step(step)) measure_order.push_back(step);
