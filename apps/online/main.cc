@@ -132,6 +132,12 @@ int main(int argc, char** argv) {
   app.add_option("--planner-config", planner_config_path,
                  "Planner configuration (YAML, docs/configuration.md): the planner, replanner, front end and\n"
                  "representation options; keys left out keep their defaults");
+  int threads = -1;
+  app.add_option("--threads", threads,
+                 "Workers for the cost's and the post-check's samples (0: one per core; default: the\n"
+                 "configuration's cost.threads and post_check.threads, 0). On a computer busy with other work,\n"
+                 "fewer than its cores plan faster (docs/benchmark.md); the plans do not depend on it")
+      ->check(CLI::Range(0, 256));
   app.add_option("--signing-key", key_path, "MAVLink 2 signing key file (64 hex digits or 32 raw bytes): signs what is "
                                             "sent, verifies what is received");
   app.add_flag("--require-signing", require_signing,
@@ -232,6 +238,7 @@ int main(int argc, char** argv) {
   if (!solver.ok()) return Fail(solver.status().message());
   auto config = planner::LoadPlannerConfigOrDefaults(planner_config_path);
   if (!config.ok()) return Fail(config.status().message());
+  if (threads >= 0) config->planner.post_check.threads = config->planner.cost.threads = threads;
   auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;

@@ -289,6 +289,8 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {task + vehicle + " --log " + (dir_ / "no" / "such" / "flight.csv").string(), "--log"},
       {(dir_ / "missing.yaml").string() + vehicle + " --log " + log, "missing.yaml"},
       {task + vehicle + " --no-such-option", "--no-such-option"},
+      {task + vehicle + " --threads -1", "--threads"},
+      {task + vehicle + " --threads 1000", "--threads"},
   };
   for (const auto& [args, fragment] : cases) {
     const auto r = RunCommand(kOnline + " " + args);
@@ -306,14 +308,14 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
   EXPECT_EQ(r.exit_code, 0);
   for (const char* option : {"--vehicle", "--bind", "--rate", "--signing-key", "--require-signing", "--log",
                              "--dry-run", "--vehicle-timeout", "--replan-threshold", "--hold-time", "--quiet",
-                             "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "Exit codes"}) {
+                             "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "--threads", "Exit codes"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }
 
 TEST_F(OnlineCliTest, DryRunPrintsWhatWouldBeStreamed) {
   // (A long --arrival-hold alone is accepted: the default --arrival-timeout grows with it.)
-  const auto r = RunCommand(kOnline + " " + WriteTask() + " --dry-run --rate 25 --arrival-hold 20");
+  const auto r = RunCommand(kOnline + " " + WriteTask() + " --dry-run --rate 25 --arrival-hold 20 --threads 1");
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("at 25.0 Hz"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("first setpoints"), std::string::npos) << r.out;
