@@ -429,14 +429,8 @@ Result<RobotModel> RobotModel::Load(const std::string& xml, const std::string& b
 
   // Our own XML pass first: it gives line and column for malformed XML, which
   // urdfdom does not, and the document order of the joints.
-  if (xml.find_first_not_of(" \t\r\n") == std::string::npos) return invalid("empty document");
-  if (std::string problem = DocumentTypeProblem(xml); !problem.empty()) return invalid(problem);
   TiXmlDocument doc;
-  doc.Parse(xml.c_str());
-  if (doc.Error()) {
-    return invalid("malformed XML at line " + std::to_string(doc.ErrorRow()) + ", column " +
-                   std::to_string(doc.ErrorCol()) + ": " + OneLine(doc.ErrorDesc()));
-  }
+  if (std::string problem = ParseXmlDocument(xml, &doc); !problem.empty()) return invalid(problem);
   const TiXmlElement* robot_xml = doc.FirstChildElement("robot");
   if (robot_xml == nullptr) return invalid("no <robot> element");
   const std::vector<std::string> document_order = JointNamesInDocumentOrder(*robot_xml);

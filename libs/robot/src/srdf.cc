@@ -15,12 +15,8 @@ core::Result<std::vector<std::pair<int, int>>> LoadSrdfDisabledPairs(const std::
   core::Result<std::string> xml = core::ReadFileToString(path);
   if (!xml.ok()) return xml.status();
   auto error = [&path](const std::string& what) { return core::Status::InvalidArgument(path + ": " + what); };
-  if (std::string problem = DocumentTypeProblem(*xml); !problem.empty()) return error(problem);
   TiXmlDocument doc;
-  doc.Parse(xml->c_str());
-  if (doc.Error()) {
-    return error(std::string("not valid XML (line ") + std::to_string(doc.ErrorRow()) + ": " + doc.ErrorDesc() + ")");
-  }
+  if (std::string problem = ParseXmlDocument(*xml, &doc); !problem.empty()) return error(problem);
   const TiXmlElement* root = doc.RootElement();
   if (root == nullptr || std::string(root->Value()) != "robot") return error("the root element is not <robot>");
   std::vector<std::pair<int, int>> pairs;

@@ -1,28 +1,21 @@
-// What the URDF and SRDF readers share about XML: tinyxml, the reader
-// urdfdom uses, does not read document type definitions. A DOCTYPE with an
-// internal subset ends at its first '>', the rest of the document is
-// misread (a <robot> after it is not found), and entities are never
-// expanded. URDF and SRDF do not use them, so a document that declares them
-// is refused by name instead of failing later with a misleading error.
+// The XML pass the URDF and SRDF readers share (tinyxml, the reader urdfdom
+// uses): one place for what tinyxml cannot be trusted with and for how a
+// malformed document is reported.
 #pragma once
 
 #include <string>
 
+class TiXmlDocument;
+
 namespace quadhand::robot {
 
-// The problem with `xml`'s document type declaration, or "" when it has none
-// that tinyxml would misread.
-inline std::string DocumentTypeProblem(const std::string& xml) {
-  const bool entity = xml.find("<!ENTITY") != std::string::npos;
-  const size_t doctype = xml.find("<!DOCTYPE");
-  bool subset = false;
-  if (doctype != std::string::npos) {
-    const size_t bracket = xml.find('[', doctype), close = xml.find('>', doctype);
-    subset = bracket != std::string::npos && (close == std::string::npos || bracket < close);
-  }
-  if (!entity && !subset) return "";
-  return "the document declares a document type definition (<!DOCTYPE ... [ ... ]> or <!ENTITY>), which URDF and "
-         "SRDF do not use and which is not read (entities are not expanded): remove it";
-}
+// Parses `xml` into `doc`; returns the problem ("" when it parsed): an
+// empty document, a document type definition, or malformed XML with its
+// line and column. tinyxml reads no document type definition: a DOCTYPE
+// with an internal subset ends at its first '>', the rest of the document is
+// misread (a <robot> after it is not found), and entities are never
+// expanded. URDF and SRDF do not use them, so a document that declares them
+// is refused by name instead of failing later with a misleading error.
+std::string ParseXmlDocument(const std::string& xml, TiXmlDocument* doc);
 
 }  // namespace quadhand::robot
