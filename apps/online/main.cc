@@ -238,7 +238,7 @@ int main(int argc, char** argv) {
   if (!solver.ok()) return Fail(solver.status().message());
   auto config = planner::LoadPlannerConfigOrDefaults(planner_config_path);
   if (!config.ok()) return Fail(config.status().message());
-  if (threads >= 0) config->planner.post_check.threads = config->planner.cost.threads = threads;
+  if (threads >= 0) planner::SetWorkerThreads(threads, &*config);
   auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;

@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
   auto loaded_config = planner::LoadPlannerConfigOrDefaults(config_path);
   if (!loaded_config.ok()) return Fail(loaded_config.status().message());
   planner::PlannerConfig& config = *loaded_config;
-  if (threads >= 0) config.planner.post_check.threads = config.planner.cost.threads = threads;
+  if (threads >= 0) planner::SetWorkerThreads(threads, &config);
   if (print_config) {
     std::printf("%s", planner::PlannerConfigYaml(config).c_str());
     return 0;

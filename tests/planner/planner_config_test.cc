@@ -151,5 +151,14 @@ TEST(PlannerConfigTest, RunOptionsApplyTheFlags) {
   EXPECT_EQ(context.representation_options.esdf.resolution, 0.04);
 }
 
+TEST(PlannerConfigTest, OneWorkerCountSetsTheCostsAndThePostChecks) {
+  PlannerConfig config = DefaultPlannerConfig();
+  SetWorkerThreads(3, &config);
+  EXPECT_EQ(config.planner.cost.threads, 3);
+  EXPECT_EQ(config.planner.post_check.threads, 3);
+  std::string why;
+  EXPECT_TRUE(config.IsValid(&why)) << why;
+}
+
 }  // namespace
 }  // namespace quadhand::planner

@@ -323,6 +323,11 @@ PlannerOptions RunPlannerOptions(const PlannerConfig& config, double dt, unsigne
   return options;
 }
 
+void SetWorkerThreads(int threads, PlannerConfig* config) {
+  config->planner.cost.threads = threads;
+  config->planner.post_check.threads = threads;
+}
+
 PlanningContextOptions ContextOptions(const PlannerConfig& config, std::vector<std::string> representations) {
   PlanningContextOptions options;
   options.representations = std::move(representations);

@@ -57,6 +57,11 @@ std::string PlannerConfigYaml(const PlannerConfig& config);
 // --dt, --seed, --verbose; the Python module's arguments of those names).
 PlannerOptions RunPlannerOptions(const PlannerConfig& config, double dt, unsigned seed, bool verbose);
 
+// One worker count for the cost's and the post-check's samples
+// (cost.threads and post_check.threads; 0: one per core): what
+// quadhand-plan's and quadhand-online's --threads set.
+void SetWorkerThreads(int threads, PlannerConfig* config);
+
 // The context options of a configuration: its front end and representation
 // options, building `representations`.
 PlanningContextOptions ContextOptions(const PlannerConfig& config, std::vector<std::string> representations);
