@@ -38,22 +38,34 @@ double StartClearance(const BoundaryState& state) {
   return env::WholeBodyClearance(kinematics, *WindowCup().exact, 0.1, {});  // 10 cm: the margins of interest are 3 cm
 }
 
+// The same at the attitude the state's trajectory starts with (flatness of
+// its acceleration and jerk), as the post-check sees its first sample.
+double FlatStartClearance(const BoundaryState& state) {
+  const traj::FlatState flat = traj::FlatForward(state.velocity, state.acceleration, state.jerk, state.yaw,
+                                                 state.yaw_rate, DefaultPlannerOptions().cost.flatness);
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(WindowCup().robot(), MakePose(state.position, flat.rotation()), state.joints, &kinematics);
+  return env::WholeBodyClearance(kinematics, *WindowCup().exact, 0.1, {});
+}
+
 // `state` moved (position only) towards the nearest obstacle until its exact
-// clearance is `target` (bisection along the clearance's descent direction).
-BoundaryState MovedToClearance(BoundaryState state, double target) {
+// clearance (by `clearance`) is `target` (bisection along the clearance's
+// descent direction).
+BoundaryState MovedToClearance(BoundaryState state, double target,
+                               double (*clearance)(const BoundaryState&) = StartClearance) {
   Vec3 gradient;
   for (int k = 0; k < 3; ++k) {
     BoundaryState plus = state, minus = state;
     plus.position[k] += 1e-3;
     minus.position[k] -= 1e-3;
-    gradient[k] = (StartClearance(plus) - StartClearance(minus)) / 2e-3;
+    gradient[k] = (clearance(plus) - clearance(minus)) / 2e-3;
   }
   const Vec3 towards = -gradient.normalized();
   double lo = 0.0, hi = 0.2;  // metres along `towards`: clearance above / below target
   for (int i = 0; i < 40; ++i) {
     BoundaryState mid = state;
     mid.position += 0.5 * (lo + hi) * towards;
-    (StartClearance(mid) > target ? lo : hi) = 0.5 * (lo + hi);
+    (clearance(mid) > target ? lo : hi) = 0.5 * (lo + hi);
   }
   state.position += lo * towards;
   return state;
@@ -191,6 +203,26 @@ TEST(ReplanTest, RefusesInsideTheInsertionAndFromACollidingState) {
   EXPECT_EQ(colliding->status, PlanStatus::kStartInCollision) << colliding->message;
   EXPECT_LT(StartClearance(start), -DefaultReplanOptions().max_start_penetration);
   EXPECT_FALSE(colliding->trajectory.has_value());
+
+  // A braking vehicle is tilted: the start is judged at the attitude its
+  // trajectory starts with, as the post-check judges the first sample. Here
+  // the tilt takes it past the recovery limit while a level body would not be.
+  const double limit = DefaultReplanOptions().max_start_penetration;
+  bool tried = false;
+  for (const Vec3& acceleration : {Vec3(4, 0, 0), Vec3(-4, 0, 0), Vec3(0, 4, 0), Vec3(0, -4, 0)}) {
+    BoundaryState tilted = StateOnPlan(old, t_from);
+    tilted.acceleration = acceleration;
+    tilted.jerk.setZero();
+    tilted = MovedToClearance(tilted, -limit - 0.001, FlatStartClearance);
+    if (!(StartClearance(tilted) > -limit)) continue;  // the tilt does not matter in this direction
+    tried = true;
+    ASSERT_NEAR(FlatStartClearance(tilted), -limit - 0.001, 1e-4);
+    auto refused = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(),
+                          solver, plan, t_from, tilted);
+    ASSERT_TRUE(refused.ok());
+    EXPECT_EQ(refused->status, PlanStatus::kStartInCollision) << acceleration.transpose() << ": " << refused->message;
+  }
+  EXPECT_TRUE(tried) << "no acceleration tilted the body further into the scene";
 
   // Inconsistent input is an error.
   BoundaryState wrong = StateOnPlan(old, t_from);

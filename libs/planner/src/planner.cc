@@ -153,9 +153,12 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
   return core::Status::Ok();
 }
 
-double StateClearance(const PlanningScene& scene, const BoundaryState& state, double reach, int* link) {
+double StateClearance(const PlanningScene& scene, const BoundaryState& state, const traj::FlatnessOptions& flatness,
+                      double reach, int* link) {
   robot::KinematicsState kinematics;
-  const Pose base = MakePose(state.position, Eigen::AngleAxisd(state.yaw, Vec3::UnitZ()).toRotationMatrix());
+  const traj::FlatState flat =
+      traj::FlatForward(state.velocity, state.acceleration, state.jerk, state.yaw, state.yaw_rate, flatness);
+  const Pose base = MakePose(state.position, flat.rotation());
   robot::ComputeKinematics(scene.robot, base, state.joints, &kinematics);
   return env::WholeBodyClearance(kinematics, scene.exact, reach, {}, link);
 }
@@ -256,7 +259,7 @@ core::Status CheckEndPoints(const PlanningScene& scene, const Task& task, const 
   const std::pair<const char*, const BoundaryState*> ends[] = {{"start", &task.start}, {"goal", &terminal}};
   for (const auto& [name, state] : ends) {
     int link = -1;
-    const double clearance = StateClearance(scene, *state, reach, &link);
+    const double clearance = StateClearance(scene, *state, options.cost.flatness, reach, &link);
     if (clearance < task.safety_distance - options.post_check.clearance_tolerance) {
       return core::Status::InvalidArgument(task.file + ": " + name + " state is in collision: link " +
                                            scene.robot.link(link).name + " is " + std::to_string(clearance) +

@@ -19,6 +19,8 @@
 // the clearance may never fall below the start's own clearance (minus the
 // post-check's clearance tolerance), and from then on it must keep the full
 // safety distance. A start deeper than that is refused (start_in_collision).
+// Both are measured at the attitude the new trajectory starts with (tilted
+// by the start's acceleration), as the post-check measures its first sample.
 // A start outside the margin is checked exactly as Plan() checks.
 //
 // Rejoining: only the next `horizon` seconds are planned anew when the
