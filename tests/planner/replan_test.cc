@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/solvers/lbfgs_solver.h"
 #include "support/window_cup_plan.h"
@@ -290,6 +292,66 @@ TEST(ReplanTest, FromAStartInsideTheSafetyMarginRecoversAndReachesTheGoal) {
   EXPECT_NE(hurried.FirstFailure().find("clearance: recovery"), std::string::npos) << hurried.FirstFailure();
 }
 
+// A start 2 cm from a window edge (1 cm inside the margin) flying at it:
+// the recovery rule allows the braking that speed needs, v^2 / (2 a_max),
+// but never a bound below -max_start_penetration (less the tolerance)
+// however fast the start moves: deeper is contact. Checked independently of
+// the post-check on a 5 ms grid wherever a replan claims success.
+TEST(ReplanTest, TheRecoveryRuleNeverAcceptsContactHoweverFastTheStart) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& old = *plan.trajectory;
+  const Task& task = WindowCup().task;
+  double t_close = 0.0, closest = 1e9;
+  for (double t = 0.2; t < InsertionStart(plan) - 1.0; t += 0.05) {
+    const double d = StartClearance(StateOnPlan(old, t));
+    if (d < closest) closest = d;
+    if (d == closest) t_close = t;
+  }
+  const double t_from = std::max(0.2, t_close - 0.3);
+  const ReplanOptions replan = DefaultReplanOptions();
+  const double a_max = task.limits.a_max;
+  const double tolerance = DefaultPlannerOptions().post_check.clearance_tolerance;
+  solvers::LbfgsSolver solver;
+  int successes = 0;
+  for (double speed : {0.0, 0.3, 1.5}) {
+    BoundaryState start = StateOnPlan(old, t_from);
+    start.velocity.setZero();
+    start.acceleration.setZero();
+    start.jerk.setZero();
+    start = MovedToClearance(start, 0.02, FlatStartClearance);
+    // Towards the obstacle: down the clearance's gradient.
+    Vec3 gradient;
+    for (int k = 0; k < 3; ++k) {
+      BoundaryState plus = start, minus = start;
+      plus.position[k] += 1e-4;
+      minus.position[k] -= 1e-4;
+      gradient[k] = (FlatStartClearance(plus) - FlatStartClearance(minus)) / 2e-4;
+    }
+    start.velocity = -speed * gradient.normalized();
+    auto result = Replan(WindowCup().Scene(), task, DefaultPlannerOptions(), replan, solver, plan, t_from, start);
+    ASSERT_TRUE(result.ok()) << result.status().message();
+    ASSERT_TRUE(result->trajectory.has_value()) << speed << ": " << result->message;
+    const PostCheckReport& report = result->post_check;
+    const double braking = speed * speed / (2.0 * a_max);  // the clearance closes at about `speed`
+    EXPECT_TRUE(report.recovery) << speed;
+    EXPECT_NEAR(report.recovery_braking_allowance, braking, 0.5 * braking + 1e-4) << speed;
+    if (!result->success) continue;
+    ++successes;
+    const WholeBodyTrajectory& fresh = *result->trajectory;
+    const double floor =
+        std::max(-replan.max_start_penetration, report.start_clearance_exact - report.recovery_braking_allowance);
+    for (double t = 0.0; t <= fresh.duration(); t += 0.005) {
+      const double d = FlatStartClearance(StateOnPlan(fresh, t));
+      if (t < replan.recovery_time) {
+        ASSERT_GE(d, floor - tolerance - 5e-4) << "speed " << speed << ", t = " << t;
+      } else {
+        ASSERT_GE(d, task.safety_distance - tolerance - 5e-4) << "speed " << speed << ", t = " << t;
+      }
+    }
+  }
+  EXPECT_GE(successes, 1) << "no start was certified by the recovery rule";
+}
+
 // The post-check's samples are measured on several workers and reduced in
 // time order: the report is the same to the last bit for any count.
 TEST(ReplanTest, ThePostCheckVerdictDoesNotDependOnItsThreads) {
@@ -316,6 +378,12 @@ TEST(ReplanTest, ThePostCheckVerdictDoesNotDependOnItsThreads) {
   }
   options.threads = -1;
   EXPECT_FALSE(options.IsValid(nullptr));
+  options.threads = 0;
+  EXPECT_TRUE(options.IsValid(nullptr));
+  for (double floor : {0.001, std::numeric_limits<double>::quiet_NaN(), -std::numeric_limits<double>::infinity()}) {
+    options.recovery_min_clearance = floor;
+    EXPECT_FALSE(options.IsValid(nullptr)) << floor;
+  }
 }
 
 // A trajectory that would need more than a million samples is a failed

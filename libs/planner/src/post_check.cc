@@ -71,6 +71,10 @@ bool PostCheckOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "post-check clearance_dt must be in [0.0001, 10] s";
     return false;
   }
+  if (!(std::isfinite(recovery_min_clearance) && recovery_min_clearance <= 0.0)) {
+    if (why != nullptr) *why = "post-check recovery_min_clearance must be finite and at most 0";
+    return false;
+  }
   if (threads < 0 || threads > 256) {
     if (why != nullptr) *why = "post-check threads must be in [0, 256] (0: all cores)";
     return false;
@@ -343,7 +347,10 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
         // stretch also allows the distance braking at the acceleration limit
         // takes, v^2 / (2 a_max), v the rate at which the start's own motion
         // closes its clearance (over the first millisecond the plan cannot
-        // change that motion: it starts with the measured velocity).
+        // change that motion: it starts with the measured velocity). Not a
+        // reason to judge a start outside the margin by this rule: passing an
+        // edge closes the clearance too, and then slows its closing by
+        // itself, with no braking.
         robot::KinematicsState kinematics;
         Measured soon;
         const double epsilon = std::min(1e-3, duration);
@@ -351,7 +358,9 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
         const double closing = epsilon > 0.0 ? std::max(0.0, (report.start_clearance_exact - soon.d_exact) / epsilon) : 0.0;
         report.recovery_braking_allowance = closing * closing / (2.0 * limits.a_max);
       }
-      stretch_bound = report.start_clearance_exact - options.clearance_tolerance - report.recovery_braking_allowance;
+      stretch_bound = std::max(options.recovery_min_clearance,
+                               report.start_clearance_exact - report.recovery_braking_allowance) -
+                      options.clearance_tolerance;
     }
     // More added samples than the regular ones over the whole trajectory
     // means a plan grazing the scene nearly everywhere: the rest is not

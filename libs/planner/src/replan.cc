@@ -355,6 +355,7 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   // for a start outside the safety margin.
   PlannerOptions checked = options;
   checked.post_check.recovery_time = replan.recovery_time;
+  checked.post_check.recovery_min_clearance = -replan.max_start_penetration;
   // Re-solves of a replan raise weights only; they keep the sample count
   // (measured with that rule: docs/online.md).
   checked.resolve_sample_factor = 1;

@@ -45,6 +45,12 @@ struct PostCheckOptions {
   // distance minus clearance_tolerance. A start outside the margin is checked
   // exactly as without it.
   double recovery_time = 0.0;
+  // The stretch's bound (before clearance_tolerance) never goes below this
+  // clearance, metres (<= 0): a braking allowance that would take the
+  // vehicle deeper into the scene than this fails the check instead
+  // (contact, where the free-flight model no longer holds). Replans set it
+  // to -ReplanOptions::max_start_penetration.
+  double recovery_min_clearance = -0.005;
   // Workers measuring the samples (0: one per core). The report does not
   // depend on it: the samples are reduced in time order.
   int threads = 0;
