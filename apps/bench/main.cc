@@ -24,6 +24,7 @@
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
+#include "quadhand/planner/task.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/solvers/builtin_solvers.h"
 
@@ -159,6 +160,9 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "loaded %s and built %zu representation(s)\n", config->task_path.c_str(),
                representations.size());
   const planner::Task* task = &(*context)->task();
+  for (const std::string& caution : planner::TaskCautions(*task)) {
+    std::fprintf(stderr, "quadhand-bench: caution: %s\n", caution.c_str());
+  }
   const robot::RobotModel* robot = &(*context)->robot();
   const env::ExactMeshModel* exact = &(*context)->exact();
   const planner::PlannerOptions options = planner_config->planner;

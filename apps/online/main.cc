@@ -33,6 +33,7 @@
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
+#include "quadhand/planner/task.h"
 #include "quadhand/solvers/builtin_solvers.h"
 
 namespace {
@@ -242,6 +243,9 @@ int main(int argc, char** argv) {
   auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;
+  for (const std::string& caution : planner::TaskCautions(ctx.task())) {
+    std::fprintf(stderr, "quadhand-online: caution: %s\n", caution.c_str());
+  }
   online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config->planner, config->replan, solver->get()};
   if (dry_run) return DryRun(ctx, setup, rate);
 

@@ -18,6 +18,7 @@
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
+#include "quadhand/planner/task.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/solvers/builtin_solvers.h"
 #include "quadhand/robot/link_meshes.h"
@@ -197,6 +198,7 @@ int main(int argc, char** argv) {
     core::LogInfo("%s: dropped %ld non-finite points", task.scene_path.c_str(),
                   (*context)->dropped_non_finite_points());
   }
+  for (const std::string& caution : planner::TaskCautions(task)) core::LogInfo("quadhand-plan: caution: %s", caution.c_str());
   core::LogInfo("quadhand-plan: %s, %zu scene points (%zu post-checked) loaded in %.0f ms, robot %s",
                 task_path.c_str(), (*context)->points().size(), (*context)->checked_points().size(),
                 (*context)->scene_load_seconds() * 1e3, robot.name().c_str());

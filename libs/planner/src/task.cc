@@ -1,6 +1,7 @@
 #include "quadhand/planner/task.h"
 
 #include <cmath>
+#include <cstdio>
 #include <set>
 
 #include <yaml-cpp/yaml.h>
@@ -285,6 +286,22 @@ core::Result<Task> ParseTaskText(const std::string& text, const std::string& nam
   } catch (const YAML::Exception& e) {  // e.g. a key that is not a scalar
     return core::Status::InvalidArgument(name + ": malformed task: " + e.msg);
   }
+}
+
+std::vector<std::string> TaskCautions(const Task& task) {
+  std::vector<std::string> cautions;
+  for (size_t i = 0; i < task.scans.size(); ++i) {
+    const scene::ScanSource& scan = task.scans[i];
+    if (!(scan.voxel > task.safety_distance)) continue;
+    char text[400];
+    std::snprintf(text, sizeof(text),
+                  "%s: scene[%zu] (%s): voxel leaf %g m is coarser than safety_distance %g m: the planner's "
+                  "points may leave gaps a link fits through, and the post-check (every unfiltered point) would "
+                  "then reject its plans; a leaf of at most the safety distance avoids that",
+                  task.file.c_str(), i, scan.path.c_str(), scan.voxel, task.safety_distance);
+    cautions.emplace_back(text);
+  }
+  return cautions;
 }
 
 core::Status ApplyRobot(const robot::RobotModel& robot, Task* task) {

@@ -5,6 +5,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "quadhand/core/status.h"
 #include "quadhand/planner/whole_body_problem.h"
@@ -60,6 +61,15 @@ struct TaskSources {
 // in the task resolve against `base_dir`.
 core::Result<Task> ParseTaskText(const std::string& text, const std::string& name, const std::string& base_dir,
                                  const TaskSources& sources);
+
+// Cautions about a valid task that may not plan as its author meant, one
+// line each, naming the file; empty when there are none. Today: a scan whose
+// voxel leaf is coarser than the safety distance (its reduced points may
+// leave gaps a link fits through in the optimiser's scene, and the exact
+// post-check, which sees every unfiltered point, then rejects the plans; a
+// leaf in millimetres by mistake collapses a room to a few points). The
+// applications print them after loading.
+std::vector<std::string> TaskCautions(const Task& task);
 
 // Checks the task against the robot (joint counts, start and terminal joints
 // within limits), fills the joint limits from the URDF and checks tool_link:
