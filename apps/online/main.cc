@@ -121,6 +121,7 @@ int main(int argc, char** argv) {
   double rate = 50.0, vehicle_timeout = 1.0, replan_threshold = 0.10, replan_period = 1.0, hold_time = 1.2, max_duration = 0.0;
   double arrival_hold = online::OnlineOptions{}.arrival_hold;
   double arrival_tolerance = online::OnlineOptions{}.arrival_tolerance;
+  double arrival_settle_speed = online::OnlineOptions{}.arrival_settle_speed;
   double arrival_timeout = online::OnlineOptions{}.arrival_timeout;
   int target_system = 1, target_component = 1, system_id = 1, component_id = 191;
   bool require_signing = false, dry_run = false, quiet = false, no_replan = false;
@@ -162,7 +163,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--arrival-tolerance", arrival_tolerance,
                  "After --arrival-hold, hold on until the tool is this close (m) to its goal (no tool goal: the base\n"
-                 "to the plan's end) and the base slower than 1 cm/s")
+                 "to the plan's end) and the base slower than --arrival-settle-speed")
+      ->capture_default_str();
+  app.add_option("--arrival-settle-speed", arrival_settle_speed,
+                 "Base speed (m/s) below which the vehicle counts as settled at the goal")
       ->capture_default_str();
   app.add_option("--arrival-timeout", arrival_timeout,
                  "Most seconds of holding at the goal, settled or not (equal to --arrival-hold: a fixed hold)")
@@ -199,6 +203,9 @@ int main(int argc, char** argv) {
   }
   if (!(std::isfinite(arrival_tolerance) && arrival_tolerance > 0.0 && arrival_tolerance <= 1.0)) {
     return Fail("--arrival-tolerance must be in (0, 1] m");
+  }
+  if (!(std::isfinite(arrival_settle_speed) && arrival_settle_speed > 0.0 && arrival_settle_speed <= 1.0)) {
+    return Fail("--arrival-settle-speed must be in (0, 1] m/s");
   }
   // A longer --arrival-hold alone raises the default timeout with it.
   if (app.count("--arrival-timeout") == 0) arrival_timeout = std::max(arrival_timeout, arrival_hold);
@@ -257,6 +264,7 @@ int main(int argc, char** argv) {
   options.replanning = !no_replan;
   options.arrival_hold = arrival_hold;
   options.arrival_tolerance = arrival_tolerance;
+  options.arrival_settle_speed = arrival_settle_speed;
   options.arrival_timeout = arrival_timeout;
   auto controller_or = online::OnlineController::Create(setup, options);
   if (!controller_or.ok()) return Fail(controller_or.status().message());

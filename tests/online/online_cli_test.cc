@@ -276,6 +276,9 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {task + vehicle + " --arrival-hold 1e9", "--arrival-hold must be in [0, 60] s"},
       {task + vehicle + " --arrival-tolerance 0", "--arrival-tolerance must be in (0, 1] m"},
       {task + vehicle + " --arrival-tolerance nan", "--arrival-tolerance"},
+      {task + vehicle + " --arrival-settle-speed 0", "--arrival-settle-speed must be in (0, 1] m/s"},
+      {task + vehicle + " --arrival-settle-speed 2", "--arrival-settle-speed must be in (0, 1] m/s"},
+      {task + vehicle + " --arrival-settle-speed inf", "--arrival-settle-speed"},
       {task + vehicle + " --arrival-hold 2 --arrival-timeout 1", "--arrival-timeout must be in [--arrival-hold, 60] s"},
       {task + vehicle + " --arrival-hold 20 --arrival-timeout 61", "--arrival-timeout must be in [--arrival-hold, 60] s"},
       {task + vehicle + " --replan-period -1", "--replan-period"},
@@ -308,14 +311,14 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
   EXPECT_EQ(r.exit_code, 0);
   for (const char* option : {"--vehicle", "--bind", "--rate", "--signing-key", "--require-signing", "--log",
                              "--dry-run", "--vehicle-timeout", "--replan-threshold", "--hold-time", "--quiet",
-                             "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "--threads", "Exit codes"}) {
+                             "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-settle-speed", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "--threads", "Exit codes"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }
 
 TEST_F(OnlineCliTest, DryRunPrintsWhatWouldBeStreamed) {
   // (A long --arrival-hold alone is accepted: the default --arrival-timeout grows with it.)
-  const auto r = RunCommand(kOnline + " " + WriteTask() + " --dry-run --rate 25 --arrival-hold 20 --threads 1");
+  const auto r = RunCommand(kOnline + " " + WriteTask() + " --dry-run --rate 25 --arrival-hold 20 --threads 1 --arrival-settle-speed 0.02");
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("at 25.0 Hz"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("first setpoints"), std::string::npos) << r.out;
