@@ -482,6 +482,21 @@ TEST(RobotModelTest, DocumentTypeDefinitionsAreRefusedByName) {
   auto plain = RobotModel::LoadFromUrdfString("<?xml version='1.0'?>\n<!DOCTYPE robot>\n" + OneLinkUrdf(""), ".");
   ASSERT_TRUE(plain.ok()) << plain.status().message();
   EXPECT_EQ(plain->num_links(), 1);
+  // Markup quoted in a comment or CDATA, or a "[" inside a quoted system
+  // id, is not a definition.
+  for (const std::string& harmless :
+       {std::string("<?xml version='1.0'?>\n<!-- an old note: <!ENTITY x 'y'> and <!DOCTYPE robot [ ] > -->\n"),
+        std::string("<?xml version='1.0'?>\n<!DOCTYPE robot SYSTEM \"robots[1].dtd\">\n")}) {
+    auto loaded = RobotModel::LoadFromUrdfString(harmless + OneLinkUrdf(""), ".");
+    EXPECT_TRUE(loaded.ok()) << harmless << ": " << loaded.status().message();
+  }
+  auto after_comment = RobotModel::LoadFromUrdfString(
+      "<?xml version='1.0'?>\n<!-- note -->\n<!DOCTYPE robot [ <!ENTITY a 'b'> ]>\n" + OneLinkUrdf(""), ".");
+  ASSERT_FALSE(after_comment.ok());
+  EXPECT_NE(after_comment.status().message().find("document type definition"), std::string::npos)
+      << after_comment.status().message();
+  auto unterminated = RobotModel::LoadFromUrdfString("<?xml version='1.0'?>\n<!-- never closed\n" + OneLinkUrdf(""), ".");
+  EXPECT_FALSE(unterminated.ok());
 }
 
 TEST(RobotModelTest, SingleLinkRobot) {
