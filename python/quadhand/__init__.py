@@ -20,6 +20,7 @@ Reference: docs/python.md.
 
 import json
 import os
+import warnings
 from collections.abc import Mapping
 
 import numpy as np
@@ -148,7 +149,10 @@ class PlanResult:
     ``message``, ``report`` (the dict quadhand-plan writes as the report
     JSON, docs/plan.md), ``columns`` (the plan file's column names) and
     ``table`` (one row per sample, as in the plan CSV) or None when no plan
-    is returned, ``trajectory`` (a dict from column name to a 1-D array).
+    is returned, ``trajectory`` (a dict from column name to a 1-D array),
+    ``cautions`` (the lines quadhand-plan prints as "caution:" about a valid
+    task that may not plan as meant, e.g. a voxel leaf coarser than the
+    safety distance; each is also issued as a :class:`UserWarning`).
     """
 
     def __init__(self, output):
@@ -164,6 +168,7 @@ class PlanResult:
             name: self.table[:, i] for i, name in enumerate(self.columns)
         }
         self._csv = output.csv
+        self.cautions = list(output.cautions)
 
     def csv(self):
         """The plan file's text, exactly as quadhand-plan writes it."""
@@ -252,7 +257,10 @@ def plan(task, robot=None, scene=None, *, solver="lbfgs", representation="mrc_sd
         raise Error(f"seed: expected an integer in [0, 2^32), got {seed!r}")
     output = _core._plan(text, name, folder, robot, None if scene is None else scene._core, solver, representation,
                          float(dt), int(seed), bool(verbose), bool(keep_failed_plan), config_text, config_name)
-    return PlanResult(output)
+    result = PlanResult(output)
+    for caution in result.cautions:
+        warnings.warn(caution, UserWarning, stacklevel=2)
+    return result
 
 
 def generate_sdfs(urdf, out_dir, *, resolution=0.002, padding=0.08, threads=0, links=None, allow_unsigned=False):

@@ -122,6 +122,7 @@ struct PlanOutput {
   std::vector<std::string> columns;
   std::optional<Eigen::MatrixXd> table;  // absent when no plan is returned
   std::string csv;                       // the plan file's text, when a table is returned
+  std::vector<std::string> cautions;     // planner::TaskCautions
 };
 
 struct PlanArguments {
@@ -190,6 +191,7 @@ PlanOutput RunPlan(const PlanArguments& args) {
   planner::PlanResult result = Take(planner::Plan(context->Scene(), context->task(), options, *solver));
 
   PlanOutput output;
+  output.cautions = planner::TaskCautions(context->task());
   output.success = result.success;
   output.status = planner::PlanStatusName(result.status);
   output.message = result.message;
@@ -308,7 +310,8 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("report_json", &PlanOutput::report_json)
       .def_readonly("columns", &PlanOutput::columns)
       .def_readonly("table", &PlanOutput::table)
-      .def_readonly("csv", &PlanOutput::csv);
+      .def_readonly("csv", &PlanOutput::csv)
+      .def_readonly("cautions", &PlanOutput::cautions);
 
   m.def(
       "_plan",

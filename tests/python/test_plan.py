@@ -192,3 +192,14 @@ def test_a_configuration_changes_the_plan_and_is_recorded(task_file, python_plan
 
     with pytest.raises(quadhand.Error, match=r"^config: cost.samples: unknown key"):
         quadhand.plan(str(task_file), config={"cost": {"samples": 12}})
+
+
+def test_a_coarse_voxel_leaf_is_a_caution_and_a_warning(python_plan, sdf_dir):
+    assert python_plan.cautions == []
+    task = window_cup_dict()
+    task["scene"] = [{"file": str(SCENE), "voxel": 0.05}]
+    robot = quadhand.Robot(URDF, sdf_dir=sdf_dir)
+    with pytest.warns(UserWarning, match="voxel leaf 0.05 m is coarser than safety_distance 0.03 m"):
+        result = quadhand.plan(task, robot=robot)
+    assert len(result.cautions) == 1 and "scene[0]" in result.cautions[0]
+    assert result.report["checked_points"] > result.report["scene_points"]
