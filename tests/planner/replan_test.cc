@@ -50,11 +50,8 @@ double FlatStartClearance(const BoundaryState& state) {
   return env::WholeBodyClearance(kinematics, *WindowCup().exact, 0.1, {});
 }
 
-// `state` moved (position only) towards the nearest obstacle until its exact
-// clearance (by `clearance`) is `target` (bisection along the clearance's
-// descent direction).
-BoundaryState MovedToClearance(BoundaryState state, double target,
-                               double (*clearance)(const BoundaryState&) = StartClearance) {
+// The gradient of `clearance` in the base position (central differences).
+Vec3 ClearanceGradient(const BoundaryState& state, double (*clearance)(const BoundaryState&)) {
   Vec3 gradient;
   for (int k = 0; k < 3; ++k) {
     BoundaryState plus = state, minus = state;
@@ -62,7 +59,15 @@ BoundaryState MovedToClearance(BoundaryState state, double target,
     minus.position[k] -= 1e-3;
     gradient[k] = (clearance(plus) - clearance(minus)) / 2e-3;
   }
-  const Vec3 towards = -gradient.normalized();
+  return gradient;
+}
+
+// `state` moved (position only) towards the nearest obstacle until its exact
+// clearance (by `clearance`) is `target` (bisection along the clearance's
+// descent direction).
+BoundaryState MovedToClearance(BoundaryState state, double target,
+                               double (*clearance)(const BoundaryState&) = StartClearance) {
+  const Vec3 towards = -ClearanceGradient(state, clearance).normalized();
   double lo = 0.0, hi = 0.2;  // metres along `towards`: clearance above / below target
   for (int i = 0; i < 40; ++i) {
     BoundaryState mid = state;
@@ -76,6 +81,18 @@ BoundaryState MovedToClearance(BoundaryState state, double target,
 double InsertionStart(const PlanResult& plan) {
   const VecX& T = plan.trajectory->position().durations();
   return plan.trajectory->duration() - T[T.size() - 1];
+}
+
+// 0.3 s before the plan's closest approach to the scene before the
+// insertion (next to a window edge): the plan is approaching it there.
+double TimeApproachingTheClosestEdge(const PlanResult& plan) {
+  double t_close = 0.0, closest = 1e9;
+  for (double t = 0.2; t < InsertionStart(plan) - 1.0; t += 0.05) {
+    const double d = StartClearance(StateOnPlan(*plan.trajectory, t));
+    if (d < closest) closest = d;
+    if (d == closest) t_close = t;
+  }
+  return std::max(0.2, t_close - 0.3);
 }
 
 TEST(RemainderGuessTest, KeepsTheRemainingPiecesAndTheirJunctions) {
@@ -244,14 +261,7 @@ TEST(ReplanTest, FromAStartInsideTheSafetyMarginRecoversAndReachesTheGoal) {
   const PlanResult& plan = DefaultPlan();
   const WholeBodyTrajectory& old = *plan.trajectory;
   const Task& task = WindowCup().task;
-  // The plan's closest approach before the insertion: next to a window edge.
-  double t_close = 0.0, closest = 1e9;
-  for (double t = 0.2; t < InsertionStart(plan) - 1.0; t += 0.05) {
-    const double d = StartClearance(StateOnPlan(old, t));
-    if (d < closest) closest = d;
-    if (d == closest) t_close = t;
-  }
-  const double t_from = std::max(0.2, t_close - 0.3);  // approaching it
+  const double t_from = TimeApproachingTheClosestEdge(plan);
   const BoundaryState start = MovedToClearance(StateOnPlan(old, t_from), 0.01);
   const double start_clearance = StartClearance(start);
   ASSERT_NEAR(start_clearance, 0.01, 1e-3);
@@ -301,13 +311,7 @@ TEST(ReplanTest, TheRecoveryRuleNeverAcceptsContactHoweverFastTheStart) {
   const PlanResult& plan = DefaultPlan();
   const WholeBodyTrajectory& old = *plan.trajectory;
   const Task& task = WindowCup().task;
-  double t_close = 0.0, closest = 1e9;
-  for (double t = 0.2; t < InsertionStart(plan) - 1.0; t += 0.05) {
-    const double d = StartClearance(StateOnPlan(old, t));
-    if (d < closest) closest = d;
-    if (d == closest) t_close = t;
-  }
-  const double t_from = std::max(0.2, t_close - 0.3);
+  const double t_from = TimeApproachingTheClosestEdge(plan);
   const ReplanOptions replan = DefaultReplanOptions();
   const double a_max = task.limits.a_max;
   const double tolerance = DefaultPlannerOptions().post_check.clearance_tolerance;
@@ -320,14 +324,7 @@ TEST(ReplanTest, TheRecoveryRuleNeverAcceptsContactHoweverFastTheStart) {
     start.jerk.setZero();
     start = MovedToClearance(start, 0.02, FlatStartClearance);
     // Towards the obstacle: down the clearance's gradient.
-    Vec3 gradient;
-    for (int k = 0; k < 3; ++k) {
-      BoundaryState plus = start, minus = start;
-      plus.position[k] += 1e-4;
-      minus.position[k] -= 1e-4;
-      gradient[k] = (FlatStartClearance(plus) - FlatStartClearance(minus)) / 2e-4;
-    }
-    start.velocity = -speed * gradient.normalized();
+    start.velocity = -speed * ClearanceGradient(start, FlatStartClearance).normalized();
     auto result = Replan(WindowCup().Scene(), task, DefaultPlannerOptions(), replan, solver, plan, t_from, start);
     ASSERT_TRUE(result.ok()) << result.status().message();
     ASSERT_TRUE(result->trajectory.has_value()) << speed << ": " << result->message;
