@@ -17,8 +17,9 @@
 // is still replanned, and its post-check uses the recovery rule
 // (PostCheckOptions::recovery_time): within the first recovery_time seconds
 // the clearance may never fall below the start's own clearance (minus the
-// post-check's clearance tolerance), and from then on it must keep the full
-// safety distance. A start deeper than that is refused (start_in_collision).
+// post-check's clearance tolerance, less the braking a start moving towards
+// the obstacle needs, but never below -max_start_penetration), and from then
+// on it must keep the full safety distance. A start deeper than that is refused (start_in_collision).
 // Both are measured at the attitude the new trajectory starts with (tilted
 // by the start's acceleration), as the post-check measures its first sample.
 // A start outside the margin is checked exactly as Plan() checks.
