@@ -17,6 +17,7 @@
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+#include "app_options.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/opt/solver_registry.h"
@@ -26,6 +27,7 @@
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/robot/kinematics.h"
+#include "quadhand/robot/robot_model.h"
 #include "quadhand/solvers/builtin_solvers.h"
 
 namespace {
@@ -112,6 +114,8 @@ int main(int argc, char** argv) {
   app.add_option("--shard", shard_text, "K/N: run only the trials k with k % N == K (for running on many machines)")
       ->capture_default_str();
   app.add_option("--out", out_path, "Results, one JSON line per (trial, representation, solver)")->required();
+  std::vector<std::string> package_path;
+  quadhand::apps::AddPackagePathOption(&app, &package_path);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -155,6 +159,7 @@ int main(int argc, char** argv) {
   if (core::SameFile(out_path, config->task_path)) {
     return Fail("--out " + out_path + ": is an input of this run; refusing to overwrite it");
   }
+  robot::PrependRosPackagePath(package_path);
   auto context = planner::PlanningContext::Load(config->task_path, context_options);
   if (!context.ok()) return Fail(context.status().message());
   std::fprintf(stderr, "loaded %s and built %zu representation(s)\n", config->task_path.c_str(),

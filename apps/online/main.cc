@@ -23,6 +23,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "app_options.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/link/connection.h"
@@ -34,6 +35,7 @@
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/planner/task.h"
+#include "quadhand/robot/robot_model.h"
 #include "quadhand/solvers/builtin_solvers.h"
 
 namespace {
@@ -178,6 +180,8 @@ int main(int argc, char** argv) {
   app.add_option("--system-id", system_id, "Our MAVLink system id")->capture_default_str();
   app.add_option("--component-id", component_id, "Our MAVLink component id (191: MAV_COMP_ID_ONBOARD_COMPUTER)")
       ->capture_default_str();
+  std::vector<std::string> package_path;
+  quadhand::apps::AddPackagePathOption(&app, &package_path);
   app.add_flag("-q,--quiet", quiet, "Print only the final summary (and errors)");
   try {
     app.parse(argc, argv);
@@ -247,6 +251,7 @@ int main(int argc, char** argv) {
   auto config = planner::LoadPlannerConfigOrDefaults(planner_config_path);
   if (!config.ok()) return Fail(config.status().message());
   if (threads >= 0) planner::SetWorkerThreads(threads, &*config);
+  robot::PrependRosPackagePath(package_path);
   auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;

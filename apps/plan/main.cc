@@ -11,6 +11,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "app_options.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/opt/solver_registry.h"
@@ -116,11 +117,7 @@ int main(int argc, char** argv) {
                "Print the configuration planning would use (the defaults, or --planner-config's with the\n"
                "defaults filled in) as YAML, and exit");
   std::vector<std::string> package_path;
-  app.add_option("--package-path", package_path,
-                 "Folders searched for package://NAME/ mesh URIs before ROS_PACKAGE_PATH (repeatable or\n"
-                 "comma separated; also the URDF's own ancestors are searched)")
-      ->delimiter(',')
-      ->check(CLI::ExistingDirectory);
+  quadhand::apps::AddPackagePathOption(&app, &package_path);
   int threads = -1;
   app.add_option("--threads", threads,
                  "Workers for the cost's and the post-check's samples (0: one per core; default: the\n"

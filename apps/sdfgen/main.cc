@@ -19,6 +19,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "app_options.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/geometry/mesh_io.h"
@@ -154,11 +155,7 @@ int main(int argc, char** argv) {
   app.add_flag("--unsigned", allow_unsigned,
                "Accept meshes that are not closed or self-intersect; distances are then unsigned");
   std::vector<std::string> package_path;
-  app.add_option("--package-path", package_path,
-                 "Folders searched for package://NAME/ mesh URIs before ROS_PACKAGE_PATH (repeatable or\n"
-                 "comma separated; also the URDF's own ancestors are searched)")
-      ->delimiter(',')
-      ->check(CLI::ExistingDirectory);
+  quadhand::apps::AddPackagePathOption(&app, &package_path);
   app.add_flag("-q,--quiet", quiet, "No progress output");
 
   std::string probe_file, info_file;

@@ -14,6 +14,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "app_options.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/link/frame.h"
@@ -94,6 +95,8 @@ int main(int argc, char** argv) {
   app.add_option("--system-id", system_id, "--udp: MAVLink system id of the vehicle")
       ->check(CLI::Range(1, 255))
       ->capture_default_str();
+  std::vector<std::string> package_path;
+  quadhand::apps::AddPackagePathOption(&app, &package_path);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -136,6 +139,7 @@ int main(int argc, char** argv) {
   }
   if (!noise.empty()) config->noise.enabled = noise == "on";
   if (config->robot_path.empty()) return Fail(config_path + ": robot: missing (the URDF to simulate)");
+  robot::PrependRosPackagePath(package_path);
   auto robot = robot::RobotModel::LoadFromUrdfFile(config->robot_path);
   if (!robot.ok()) return Fail(robot.status().message());
   const std::vector<std::string> joints = robot->ActuatedJointNames();

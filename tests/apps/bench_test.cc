@@ -87,7 +87,8 @@ std::map<std::string, nlohmann::json> Records(const std::vector<std::string>& fi
 TEST_F(BenchCliTest, HelpListsEveryOption) {
   const auto r = RunCommand(kBench + " --help");
   EXPECT_EQ(r.exit_code, 0);
-  for (const char* option : {"--config", "--trials", "--first", "--solvers", "--representations", "--shard", "--out"}) {
+  for (const char* option : {"--config", "--trials", "--first", "--solvers", "--representations", "--shard", "--out",
+                             "--package-path"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }

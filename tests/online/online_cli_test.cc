@@ -293,6 +293,7 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {(dir_ / "missing.yaml").string() + vehicle + " --log " + log, "missing.yaml"},
       {task + vehicle + " --no-such-option", "--no-such-option"},
       {task + vehicle + " --threads -1", "--threads"},
+      {task + vehicle + " --package-path /nonexistent-quadhand-packages", "nonexistent-quadhand-packages"},
       {task + vehicle + " --threads 1000", "--threads"},
   };
   for (const auto& [args, fragment] : cases) {
@@ -311,7 +312,7 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
   EXPECT_EQ(r.exit_code, 0);
   for (const char* option : {"--vehicle", "--bind", "--rate", "--signing-key", "--require-signing", "--log",
                              "--dry-run", "--vehicle-timeout", "--replan-threshold", "--hold-time", "--quiet",
-                             "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-settle-speed", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "--threads", "Exit codes"}) {
+                             "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-settle-speed", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "--threads", "--package-path", "Exit codes"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }

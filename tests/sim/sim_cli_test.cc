@@ -67,7 +67,7 @@ TEST_F(SimCliTest, HelpListsEveryOption) {
   const auto r = RunCommand(kSim + " --help");
   EXPECT_EQ(r.exit_code, 0);
   for (const char* option : {"--track", "--figure8", "--out", "--config", "--pcgc", "--payload", "--seed", "--noise",
-                             "--settle"}) {
+                             "--settle", "--package-path"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }
