@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "quadhand/core/text.h"
 #include "quadhand/geometry/mesh_distance.h"
 #include "quadhand/geometry/mesh_io.h"
 
@@ -21,11 +22,7 @@ namespace {
 // more likely than a real need.
 constexpr double kMaxNodes = 2e8;
 
-std::string Format(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
-}
+std::string Format(double value) { return core::Format("%g", value); }
 
 bool InBox(const Vec3& p, const AxisAlignedBox& box) {
   return (p.array() >= box.min.array()).all() && (p.array() <= box.max.array()).all();

@@ -1,4 +1,5 @@
 #include "quadhand/online/controller.h"
+#include "quadhand/core/text.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/traj/flatness.h"
 
@@ -19,11 +20,7 @@
 namespace quadhand::online {
 namespace {
 
-std::string Format(const char* format, double a, double b = 0.0) {
-  char buffer[200];
-  std::snprintf(buffer, sizeof(buffer), format, a, b);
-  return buffer;
-}
+using core::Format;
 
 }  // namespace
 

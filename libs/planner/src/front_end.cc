@@ -8,6 +8,8 @@
 #include <queue>
 #include <sstream>
 
+#include "quadhand/core/text.h"
+
 namespace quadhand::planner {
 namespace {
 
@@ -17,11 +19,7 @@ double SecondsSince(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-std::string Format(double x) {
-  std::ostringstream out;
-  out << x;
-  return out.str();
-}
+std::string Format(double x) { return core::Format("%g", x); }
 
 std::string Format(const Vec3& p) {
   std::ostringstream out;

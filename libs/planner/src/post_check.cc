@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "quadhand/core/text.h"
 #include "quadhand/core/worker_pool.h"
 #include "quadhand/planner/motion_bound.h"
 #include "quadhand/robot/kinematics.h"
@@ -12,12 +13,7 @@
 namespace quadhand::planner {
 namespace {
 
-template <typename... Numbers>
-std::string Format(const char* format, Numbers... numbers) {
-  char buffer[256];
-  std::snprintf(buffer, sizeof(buffer), format, numbers...);
-  return buffer;
-}
+using core::Format;
 
 // Tracks the worst value of one quantity over the samples.
 struct Worst {

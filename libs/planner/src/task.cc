@@ -1,12 +1,12 @@
 #include "quadhand/planner/task.h"
 
 #include <cmath>
-#include <cstdio>
 #include <set>
 
 #include <yaml-cpp/yaml.h>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/text.h"
 #include "quadhand/core/yaml_text.h"
 
 namespace quadhand::planner {
@@ -293,13 +293,11 @@ std::vector<std::string> TaskCautions(const Task& task) {
   for (size_t i = 0; i < task.scans.size(); ++i) {
     const scene::ScanSource& scan = task.scans[i];
     if (!(scan.voxel > task.safety_distance)) continue;
-    char text[400];
-    std::snprintf(text, sizeof(text),
-                  "%s: scene[%zu] (%s): voxel leaf %g m is coarser than safety_distance %g m: the planner's "
-                  "points may leave gaps a link fits through, and the post-check (every unfiltered point) would "
-                  "then reject its plans; a leaf of at most the safety distance avoids that",
-                  task.file.c_str(), i, scan.path.c_str(), scan.voxel, task.safety_distance);
-    cautions.emplace_back(text);
+    cautions.push_back(core::Format(
+        "%s: scene[%zu] (%s): voxel leaf %g m is coarser than safety_distance %g m: the planner's points may leave "
+        "gaps a link fits through, and the post-check (every unfiltered point) would then reject its plans; a leaf "
+        "of at most the safety distance avoids that",
+        task.file.c_str(), i, scan.path.c_str(), scan.voxel, task.safety_distance));
   }
   return cautions;
 }

@@ -7,17 +7,14 @@
 #include <utility>
 
 #include "quadhand/core/log.h"
+#include "quadhand/core/text.h"
 
 namespace quadhand::solvers {
 namespace {
 
 constexpr int kCacheSize = 4;
 
-std::string Format(const char* format, double a, double b) {
-  char buffer[160];
-  std::snprintf(buffer, sizeof(buffer), format, a, b);
-  return buffer;
-}
+using core::Format;
 
 }  // namespace
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "quadhand/core/log.h"
+#include "quadhand/core/text.h"
 #include "quadhand/opt/solver_registry.h"
 
 namespace quadhand::solvers {
@@ -149,11 +150,7 @@ class Run {
   std::chrono::steady_clock::time_point start_;
 };
 
-std::string Format(const char* format, double a, double b) {
-  char buffer[160];
-  std::snprintf(buffer, sizeof(buffer), format, a, b);
-  return buffer;
-}
+using core::Format;
 
 }  // namespace
 
