@@ -6,7 +6,6 @@
 #include <cstdint>
 #include <limits>
 #include <queue>
-#include <sstream>
 
 #include "quadhand/core/text.h"
 
@@ -21,11 +20,7 @@ double SecondsSince(Clock::time_point t0) {
 
 std::string Format(double x) { return core::Format("%g", x); }
 
-std::string Format(const Vec3& p) {
-  std::ostringstream out;
-  out << "(" << p.x() << ", " << p.y() << ", " << p.z() << ")";
-  return out.str();
-}
+std::string Format(const Vec3& p) { return core::Format("(%g, %g, %g)", p.x(), p.y(), p.z()); }
 
 bool Fail(std::string* why, const std::string& message) {
   if (why != nullptr) *why = message;

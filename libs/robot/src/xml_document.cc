@@ -19,16 +19,18 @@ std::string WithoutCommentsAndCdata(std::string xml) {
   size_t at = 0;
   while (true) {
     size_t begin = std::string::npos;
+    const char* open_mark = nullptr;
     const char* end_mark = nullptr;
     for (const auto& [open, close] : spans) {
       const size_t found = xml.find(open, at);
       if (found < begin) {
         begin = found;
+        open_mark = open;
         end_mark = close;
       }
     }
     if (begin == std::string::npos) return xml;
-    const size_t close = xml.find(end_mark, begin + 4);
+    const size_t close = xml.find(end_mark, begin + std::char_traits<char>::length(open_mark));
     const size_t end = close == std::string::npos ? xml.size() : close + std::char_traits<char>::length(end_mark);
     std::fill(xml.begin() + static_cast<std::ptrdiff_t>(begin), xml.begin() + static_cast<std::ptrdiff_t>(end), ' ');
     at = end;
