@@ -8,7 +8,10 @@
 // Exit codes: 0 the plan was flown to its end; 1 planning failed (the vehicle
 // was left holding at the last safe setpoint); 2 bad input; 3 the vehicle
 // went silent (or never answered); 4 the vehicle refused or left OFFBOARD or
-// arming; 5 interrupted (SIGINT/SIGTERM, --max-duration) before the end.
+// arming; 5 interrupted (SIGINT/SIGTERM, --max-duration) before the end;
+// 6 the flown path, judged on the vehicle's own time-stamped states against
+// the exact meshes, did not keep the safety distance (less
+// --clearance-tolerance), or was not seen densely enough to be judged.
 #include <unistd.h>
 
 #include <algorithm>
@@ -26,6 +29,7 @@
 #include "app_options.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
+#include "quadhand/core/text.h"
 #include "quadhand/link/connection.h"
 #include "quadhand/link/frames.h"
 #include "quadhand/online/controller.h"
@@ -49,6 +53,7 @@ constexpr int kExitBadInput = 2;
 constexpr int kExitVehicleLost = 3;
 constexpr int kExitRefused = 4;
 constexpr int kExitInterrupted = 5;
+constexpr int kExitClearanceLost = 6;
 
 std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }
@@ -118,7 +123,8 @@ int main(int argc, char** argv) {
       "streams SET_POSITION_TARGET_LOCAL_NED and DEBUG_FLOAT_ARRAY 'JOINT_SP' at --rate, replanning when the\n"
       "tracking error exceeds --replan-threshold.\n"
       "Exit codes: 0 flown to the end of the plan; 1 planning failed (vehicle left holding); 2 bad input;\n"
-      "3 vehicle silent for --vehicle-timeout; 4 vehicle refused or left OFFBOARD/arming; 5 interrupted."};
+      "3 vehicle silent for --vehicle-timeout; 4 vehicle refused or left OFFBOARD/arming; 5 interrupted;\n"
+      "6 the flown path (the vehicle's time-stamped states) did not keep the safety distance, or was not seen."};
   std::string task_path, vehicle_url, bind_url = "udp://0.0.0.0:0", key_path, log_path;
   double rate = 50.0, vehicle_timeout = 1.0, replan_threshold = 0.10, replan_period = 1.0, hold_time = 1.2, max_duration = 0.0;
   double arrival_hold = online::OnlineOptions{}.arrival_hold;
@@ -126,7 +132,11 @@ int main(int argc, char** argv) {
   double arrival_settle_speed = online::OnlineOptions{}.arrival_settle_speed;
   double arrival_timeout = online::OnlineOptions{}.arrival_timeout;
   int target_system = 1, target_component = 1, system_id = 1, component_id = 191;
-  bool require_signing = false, dry_run = false, quiet = false, no_replan = false;
+  bool require_signing = false, dry_run = false, quiet = false, no_replan = false, no_timesync = false;
+  const online::OnlineOptions defaults;
+  double max_state_age = defaults.max_state_age, link_budget = defaults.link_budget;
+  double min_link_speed = defaults.min_link_speed, clearance_tolerance = defaults.clearance_tolerance;
+  double max_judged_gap = defaults.max_judged_gap, max_blind_time = defaults.max_blind_time;
   app.add_option("task", task_path, "Task file (YAML, docs/task_format.md)")->required();
   app.add_option("--vehicle", vehicle_url, "The vehicle's MAVLink address, udp://HOST:PORT (required unless --dry-run)");
   app.add_option("--bind", bind_url, "Local address to receive on, udp://ADDR:PORT (port 0: any free port)")
@@ -174,6 +184,29 @@ int main(int argc, char** argv) {
                  "Most seconds of holding at the goal, settled or not (equal to --arrival-hold: a fixed hold)")
       ->capture_default_str();
   app.add_option("--max-duration", max_duration, "Stop streaming and exit after this many seconds (0: no limit)")
+      ->capture_default_str();
+  app.add_flag("--no-timesync", no_timesync,
+               "Fly without TIMESYNC: a state's arrival time is taken as its time, the latency is unknown and the\n"
+               "link budget is off (only for a vehicle that does not answer TIMESYNC, over a fast link)");
+  app.add_option("--max-state-age", max_state_age,
+                 "Replan only from a state at most this old (s, the vehicle's stamp to now), in (0, 5]")
+      ->capture_default_str();
+  app.add_option("--link-budget", link_budget,
+                 "Fly at most link-budget safety distances in the time the vehicle is unseen (the newest state's\n"
+                 "age + the uplink latency): plans are slowed down to it, and a vehicle much faster than it brakes\n"
+                 "along the plan and holds until the link is good, in (0, 1000]")
+      ->capture_default_str();
+  app.add_option("--max-blind-time", max_blind_time,
+                 "Brake along the plan and hold when no state is fresher than this (age + uplink, s), in (0, 60]")
+      ->capture_default_str();
+  app.add_option("--min-link-speed", min_link_speed,
+                 "Below this speed (m/s) allowed by the link, wait instead of planning, in (0, 10]")
+      ->capture_default_str();
+  app.add_option("--clearance-tolerance", clearance_tolerance,
+                 "Exit 0 needs the flown path to keep the safety distance less this (m), in [0, 0.05]")
+      ->capture_default_str();
+  app.add_option("--max-judged-gap", max_judged_gap,
+                 "Exit 0 needs a state at least every this many seconds while flying, in (0, 5]")
       ->capture_default_str();
   app.add_option("--target-system", target_system, "The vehicle's MAVLink system id")->capture_default_str();
   app.add_option("--target-component", target_component, "The vehicle's MAVLink component id")->capture_default_str();
@@ -223,6 +256,15 @@ int main(int argc, char** argv) {
   for (const auto& [value, name] : ids) {
     if (value < 0 || value > 255) return Fail(std::string(name) + " must be in [0, 255]");
   }
+  auto in_range = [](double v, double lo, double hi, bool open_low) {
+    return std::isfinite(v) && (open_low ? v > lo : v >= lo) && v <= hi;
+  };
+  if (!in_range(max_state_age, 0.0, 5.0, true)) return Fail("--max-state-age must be in (0, 5] s");
+  if (!in_range(link_budget, 0.0, 1000.0, true)) return Fail("--link-budget must be in (0, 1000]");
+  if (!in_range(max_blind_time, 0.0, 60.0, true)) return Fail("--max-blind-time must be in (0, 60] s");
+  if (!in_range(min_link_speed, 0.0, 10.0, true)) return Fail("--min-link-speed must be in (0, 10] m/s");
+  if (!in_range(clearance_tolerance, 0.0, 0.05, false)) return Fail("--clearance-tolerance must be in [0, 0.05] m");
+  if (!in_range(max_judged_gap, 0.0, 5.0, true)) return Fail("--max-judged-gap must be in (0, 5] s");
   if (require_signing && key_path.empty()) return Fail("--require-signing needs --signing-key FILE");
   if (dry_run && !log_path.empty()) return Fail("--log: --dry-run streams nothing, so there is no flight to log");
   if (!dry_run && vehicle_url.empty()) return Fail("--vehicle udp://HOST:PORT is required (or --dry-run)");
@@ -271,6 +313,13 @@ int main(int argc, char** argv) {
   options.arrival_tolerance = arrival_tolerance;
   options.arrival_settle_speed = arrival_settle_speed;
   options.arrival_timeout = arrival_timeout;
+  options.require_clock_sync = !no_timesync;
+  options.max_state_age = max_state_age;
+  options.link_budget = link_budget;
+  options.max_blind_time = max_blind_time;
+  options.min_link_speed = min_link_speed;
+  options.clearance_tolerance = clearance_tolerance;
+  options.max_judged_gap = max_judged_gap;
   auto controller_or = online::OnlineController::Create(setup, options);
   if (!controller_or.ok()) return Fail(controller_or.status().message());
   online::OnlineController& controller = **controller_or;
@@ -304,6 +353,7 @@ int main(int argc, char** argv) {
   long send_errors = 0;
   std::string first_send_error;
   bool interrupted = false;
+  double last_tick = 0.0;
   unsigned long long from_other_systems = 0;  // accepted frames the controller ignored for their sender
   for (;;) {
     const double wait = next_tick - now();
@@ -323,6 +373,7 @@ int main(int argc, char** argv) {
       break;
     }
     const online::ControllerOutput out = controller.Tick(t);
+    last_tick = t;
     for (const link::Message& m : online::MessagesFor(out, t, targets)) {
       if (core::Status s = connection.Send(m); !s.ok()) {
         if (send_errors++ == 0) first_send_error = s.message();
@@ -358,6 +409,33 @@ int main(int argc, char** argv) {
   if (code == kExitSuccess && phase == online::Phase::kArrived && !controller.arrival_settled()) {
     outcome = "arrived (not settled at the goal)";
   }
+  // What was flown decides last: the vehicle's own states against the exact
+  // meshes. A success is claimed only for a path that kept its clearance
+  // and was seen all along.
+  std::optional<online::FlightMetrics> metrics;
+  std::string judgement;
+  if (controller.current_plan()) {
+    // A flight that ended on its own is judged up to its last tick: a vehicle
+    // silent at the end was not seen arriving.
+    metrics = online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
+                                     controller.current_plan()->terminal.position, 0.3,
+                                     code == kExitSuccess ? last_tick : online::kNoEndTime);
+    const double required = ctx.task().safety_distance - clearance_tolerance;
+    if (metrics->min_clearance < required) {
+      code = kExitClearanceLost;
+      outcome = "CLEARANCE LOST";
+      judgement = core::Format("the flown path came within %.4f m of the scene (link %s, t = %.2f s); the safety "
+                               "distance less the tolerance is %.4f m",
+                               metrics->min_clearance, metrics->closest_link.c_str(), metrics->min_clearance_time,
+                               required);
+    } else if (code == kExitSuccess && metrics->max_state_gap > max_judged_gap) {
+      code = kExitClearanceLost;
+      outcome = "CLEARANCE NOT VERIFIED";
+      judgement = core::Format("no state from the vehicle for %.3f s while flying (t = %.2f s; limit %.3f s): the "
+                               "path in between was not seen",
+                               metrics->max_state_gap, metrics->max_state_gap_time, max_judged_gap);
+    }
+  }
 
   const online::OnlineStats& stats = controller.stats();
   std::printf("%s after %.2f s: phase %s, %ld setpoints", outcome, now(), online::PhaseName(phase), stats.setpoints);
@@ -368,6 +446,7 @@ int main(int argc, char** argv) {
                 (send_times.size() - 1) / (send_times.back() - send_times.front()), rate, max_gap * 1e3);
   }
   std::printf("\n");
+  if (!judgement.empty()) std::printf("  %s\n", judgement.c_str());
   if (send_errors > 0) std::printf("  %ld sends failed (first: %s)\n", send_errors, first_send_error.c_str());
   std::vector<double> replan_ms, warm_ms;
   int replan_failures = 0, fallbacks = 0;
@@ -391,15 +470,31 @@ int main(int argc, char** argv) {
   std::printf("\n  setpoint motion: max step %.4f m between ticks, max speed %.3f m/s (during splices: %.4f m, "
               "%.3f m/s)\n",
               stats.max_setpoint_step, stats.max_setpoint_speed, stats.max_splice_step, stats.max_splice_speed);
-  if (controller.current_plan()) {
-    const online::FlightMetrics m = online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
-                                                           controller.current_plan()->terminal.position);
+  if (metrics) {
+    const online::FlightMetrics& m = *metrics;
     std::printf("  tracking error (3-D, while flying, %ld samples): mean %.4f m, median %.4f m, p95 %.4f m, max %.4f m\n",
                 m.flying_samples, m.tracking_mean, m.tracking_median, m.tracking_p95, m.tracking_max);
     std::printf("  flown path: min clearance %.4f m (exact, link %s, t = %.2f s); final tool error %.4f m, base %.4f m "
                 "from the plan's terminal state\n",
                 m.min_clearance, m.closest_link.c_str(), m.min_clearance_time, m.final_tool_error, m.final_base_error);
+    std::printf("  judged on %ld of the vehicle's time-stamped states; longest gap between two %.3f s\n",
+                m.judged_samples, m.max_state_gap);
   }
+  const online::ClockSync& clock = controller.clock_sync();
+  if (clock.synced()) {
+    const online::LinkLatency l = clock.latency();
+    std::printf("  latency: TIMESYNC round trip median %.1f ms, max %.1f ms (last %.0f s); uplink median %.1f ms; "
+                "state age mean %.1f ms, max %.1f ms; %ld stale states dropped\n",
+                l.round_trip * 1e3, l.round_trip_max * 1e3, online::OnlineOptions{}.clock_sync.window, l.uplink * 1e3,
+                stats.position_measurements > 0 ? 1e3 * stats.sum_state_age / stats.position_measurements : 0.0,
+                stats.max_state_age * 1e3, stats.stale_states_dropped);
+  } else {
+    std::printf("  latency: not measured (%s)\n",
+                no_timesync ? "--no-timesync: states judged at their arrival" : "the vehicle never answered TIMESYNC");
+  }
+  std::printf("  link budget: %d holds (braked along the plan), %d fresh plans after them, %d replans not started "
+              "from a stale state\n",
+              stats.link_holds, stats.link_resumes, stats.replans_skipped_stale);
   const link::ParserStats& link_stats = connection.stats();
   std::printf("  link: %llu frames accepted (%llu from other systems, ignored), %llu sent; dropped: %llu bad CRC, "
               "%llu unsigned, %llu bad signature, %llu replayed, %llu unknown message; %llu bytes skipped\n",

@@ -102,6 +102,12 @@ std::vector<XmlMessage> XmlDefinitions() {
         {"float", "afz"},
         {"float", "yaw"},
         {"float", "yaw_rate"}}},
+      {"TIMESYNC",
+       111,
+       {{"int64_t", "tc1"},
+        {"int64_t", "ts1"},
+        {"uint8_t", "target_system", 0, true},
+        {"uint8_t", "target_component", 0, true}}},
       {"STATUSTEXT",
        253,
        {{"uint8_t", "severity"}, {"char", "text", 50}, {"uint16_t", "id", 0, true}, {"uint8_t", "chunk_seq", 0, true}}},
@@ -167,6 +173,7 @@ TEST(MessagesTest, CrcExtraAndLengthsMatchTheXmlDefinitions) {
       {CommandLong::kId, CommandLong::kCrcExtra},
       {CommandAck::kId, CommandAck::kCrcExtra},
       {SetPositionTargetLocalNed::kId, SetPositionTargetLocalNed::kCrcExtra},
+      {Timesync::kId, Timesync::kCrcExtra},
       {StatusText::kId, StatusText::kCrcExtra},
       {DebugFloatArray::kId, DebugFloatArray::kCrcExtra},
   };
@@ -260,6 +267,9 @@ std::map<std::string, FieldProbe> Probes(uint32_t id) {
               PROBE(SetPositionTargetLocalNed, afz, kF, f),
               PROBE(SetPositionTargetLocalNed, yaw, kF, f),
               PROBE(SetPositionTargetLocalNed, yaw_rate, kF, f)};
+    case Timesync::kId:
+      return {PROBE(Timesync, tc1, static_cast<int64_t>(kV64), kU64), PROBE(Timesync, ts1, static_cast<int64_t>(kV64), kU64),
+              PROBE(Timesync, target_system, 0xA5, kU8), PROBE(Timesync, target_component, 0xA5, kU8)};
     case StatusText::kId:
       return {PROBE(StatusText, severity, 0xA5, kU8), PROBE(StatusText, text, "Ab", (std::vector<uint8_t>{'A', 'b'})),
               PROBE(StatusText, id, kV16, kU16), PROBE(StatusText, chunk_seq, 0xA5, kU8)};
@@ -280,6 +290,7 @@ Message DefaultMessage(uint32_t id) {
     case CommandLong::kId: return CommandLong{};
     case CommandAck::kId: return CommandAck{};
     case SetPositionTargetLocalNed::kId: return SetPositionTargetLocalNed{};
+    case Timesync::kId: return Timesync{};
     case StatusText::kId: return StatusText{};
     default: return DebugFloatArray{};
   }

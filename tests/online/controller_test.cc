@@ -425,7 +425,9 @@ class HandshakeTest : public ::testing::Test {
     controller_->OnPosition(t, task.start.position, Vec3::Zero());
     controller_->OnAttitude(t, Quat(Eigen::AngleAxisd(task.start.yaw, Vec3::UnitZ())), Vec3::Zero());
     controller_->OnJoints(t, task.start.joints, VecX::Zero(task.start.joints.size()));
-    return controller_->Tick(t);
+    ControllerOutput out = controller_->Tick(t);
+    testing::AnswerTimesync(controller_.get(), out, t);
+    return out;
   }
 
   // Ticks at 50 Hz from `from` to `to`; returns the commands sent with their times.
@@ -513,6 +515,7 @@ TEST_F(HandshakeTest, TheFlightStartsOnceTheVehicleHasSettledAtTheHold) {
     controller_->OnAttitude(t, attitude, Vec3::Zero());
     controller_->OnJoints(t, task.start.joints, VecX::Zero(3));
     const ControllerOutput out = controller_->Tick(t);
+    testing::AnswerTimesync(controller_.get(), out, t);
     ASSERT_EQ(out.phase, Phase::kWaitingForPlan) << t;
     ASSERT_TRUE(out.setpoint.has_value());
     EXPECT_LT((out.setpoint->position - task.start.position).norm(), 1e-9);  // the hold

@@ -6,6 +6,8 @@
 // spliced at their splice times).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <functional>
 #include <memory>
 
@@ -54,6 +56,12 @@ inline std::unique_ptr<OnlineController> MakeController(const OnlineOptions& opt
   return std::move(*controller);
 }
 
+// A vehicle without a link answers the controller's TIMESYNC request at
+// once, its clock the test's: no latency.
+inline void AnswerTimesync(OnlineController* controller, const ControllerOutput& out, double t) {
+  if (out.timesync_request) controller->OnTimesync(t, std::max<int64_t>(1, std::llround(t * 1e9)), *out.timesync_request);
+}
+
 inline sim::Setpoint ToSim(const Setpoint& s) {
   sim::Setpoint out;
   out.position = s.position;
@@ -98,6 +106,7 @@ class DirectFlight {
       }
       const ControllerOutput out = controller_->Tick(t_);
       controller_->WaitUntilIdle();
+      if (!silent_) AnswerTimesync(controller_, out, t_);
       for (const CommandRequest& c : out.commands) {
         if (c.command == Command::kSetOffboardMode) offboard_ = true;
         else armed_ = true;

@@ -17,6 +17,7 @@ constexpr uint8_t kLocalPositionNedLength = 28;     // 4 + 6 * 4
 constexpr uint8_t kCommandLongLength = 33;          // 7 * 4 + 2 + 3 * 1
 constexpr uint8_t kCommandAckLength = 10;           // 2 + 1 + ext (1 + 4 + 1 + 1)
 constexpr uint8_t kSetPositionTargetLength = 53;    // 4 + 11 * 4 + 2 + 3 * 1
+constexpr uint8_t kTimesyncLength = 18;            // 2 * 8 + ext 2 * 1
 constexpr uint8_t kStatusTextLength = 54;           // 1 + 50 + ext (2 + 1)
 constexpr uint8_t kDebugFloatArrayLength = 252;     // 8 + 2 + 10 + ext 58 * 4
 constexpr size_t kStatusTextChars = 50;
@@ -30,6 +31,7 @@ constexpr MessageInfo kInfos[] = {
     {CommandAck::kId, CommandAck::kCrcExtra, kCommandAckLength, "COMMAND_ACK"},
     {SetPositionTargetLocalNed::kId, SetPositionTargetLocalNed::kCrcExtra, kSetPositionTargetLength,
      "SET_POSITION_TARGET_LOCAL_NED"},
+    {Timesync::kId, Timesync::kCrcExtra, kTimesyncLength, "TIMESYNC"},
     {StatusText::kId, StatusText::kCrcExtra, kStatusTextLength, "STATUSTEXT"},
     {DebugFloatArray::kId, DebugFloatArray::kCrcExtra, kDebugFloatArrayLength, "DEBUG_FLOAT_ARRAY"},
 };
@@ -248,6 +250,23 @@ SetPositionTargetLocalNed ReadSetPositionTargetLocalNed(Reader& r) {
   return m;
 }
 
+std::vector<uint8_t> Write(const Timesync& m) {
+  Writer w(kTimesyncLength);
+  w.U64(static_cast<uint64_t>(m.tc1));
+  w.U64(static_cast<uint64_t>(m.ts1));
+  w.U8(m.target_system);
+  w.U8(m.target_component);
+  return w.Take();
+}
+Timesync ReadTimesync(Reader& r) {
+  Timesync m;
+  m.tc1 = static_cast<int64_t>(r.U64());
+  m.ts1 = static_cast<int64_t>(r.U64());
+  m.target_system = r.U8();
+  m.target_component = r.U8();
+  return m;
+}
+
 std::vector<uint8_t> Write(const StatusText& m) {
   Writer w(kStatusTextLength);
   w.U8(m.severity);
@@ -317,6 +336,7 @@ std::optional<Message> DeserializePayload(uint32_t id, const uint8_t* payload, s
     case CommandLong::kId: return Message(ReadCommandLong(r));
     case CommandAck::kId: return Message(ReadCommandAck(r));
     case SetPositionTargetLocalNed::kId: return Message(ReadSetPositionTargetLocalNed(r));
+    case Timesync::kId: return Message(ReadTimesync(r));
     case StatusText::kId: return Message(ReadStatusText(r));
     case DebugFloatArray::kId: return Message(ReadDebugFloatArray(r));
     default: return std::nullopt;

@@ -1,9 +1,11 @@
 #include "quadhand/online/controller.h"
 #include "quadhand/core/text.h"
+#include "quadhand/planner/time_scale.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/traj/flatness.h"
 
 #include <algorithm>
+#include <limits>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -21,6 +23,14 @@ namespace quadhand::online {
 namespace {
 
 using core::Format;
+
+// Plans are made for this share of the speed the link allows, and the
+// vehicle brakes for the link only above kLinkHoldSlack times that speed:
+// the gap keeps ordinary jitter from braking a plan made for the link.
+constexpr double kLinkPlanningShare = 0.7;
+constexpr double kLinkHoldSlack = 1.5;
+constexpr double kLinkSettleTime = 1.0;  // s of link figures before the first plan
+constexpr double kRestSpeed = 0.05;      // m/s: a holding vehicle, planned from rest
 
 }  // namespace
 
@@ -65,6 +75,15 @@ bool OnlineOptions::IsValid(std::string* why) const {
     return fail("arrival_timeout must be finite and >= arrival_hold");
   }
   if (!positive(heartbeat_period)) return fail("heartbeat_period must be positive");
+  if (const char* clock_why = nullptr; !clock_sync.IsValid(&clock_why)) return fail(clock_why);
+  if (!positive(max_state_age)) return fail("max_state_age must be positive");
+  if (!positive(link_budget)) return fail("link_budget must be positive");
+  if (!positive(min_link_speed)) return fail("min_link_speed must be positive");
+  if (!positive(max_blind_time)) return fail("max_blind_time must be positive");
+  if (!(std::isfinite(clearance_tolerance) && clearance_tolerance >= 0.0)) {
+    return fail("clearance_tolerance must be >= 0");
+  }
+  if (!positive(max_judged_gap)) return fail("max_judged_gap must be positive");
   return true;
 }
 
@@ -81,6 +100,10 @@ class OnlineController::Worker {
     double t_from = 0.0;                              // replans: on base's clock
     double requested_at = 0.0;
     bool periodic = false;  // replans: a failure keeps the current plan (no cold fallback)
+    double v_max = 0.0;     // speed limit to plan with (0: the task's)
+    // Plans from rest (the first, and after a hold for the link): planned
+    // at the task's limits, then slowed down to v_max (time_scale.h).
+    bool from_rest = false;
   };
   struct Done {
     PlanRecord record;
@@ -158,15 +181,29 @@ class OnlineController::Worker {
     done.record.requested_at = job.requested_at;
     done.record.replan = job.replan;
     done.record.periodic = job.periodic;
+    done.record.speed_limit = job.v_max > 0.0 ? std::min(job.v_max, setup_.task->limits.v_max) : setup_.task->limits.v_max;
     const auto begin = std::chrono::steady_clock::now();
-    auto cold_plan = [&]() {
-      planner::Task task = *setup_.task;
+    // The link's speed limit, when it is lower than the task's: a plan
+    // from rest is made at the task's limits and slowed down as a whole (the
+    // optimiser is at its best at the speeds it was tuned for); a replan,
+    // whose start is moving, is made with the lower limit. Either way the
+    // post-check certifies the speed flown.
+    planner::Task limited = *setup_.task;
+    if (job.v_max > 0.0) limited.limits.v_max = std::min(limited.limits.v_max, job.v_max);
+    auto cold_plan = [&]() -> core::Result<planner::PlanResult> {
+      planner::Task task = job.from_rest ? *setup_.task : limited;
       task.start = job.start;
-      return planner::Plan(setup_.scene, task, setup_.plan_options, *setup_.solver);
+      core::Result<planner::PlanResult> planned =
+          planner::Plan(setup_.scene, task, setup_.plan_options, *setup_.solver);
+      if (!job.from_rest || job.v_max <= 0.0 || !planned.ok() || !planned->success) return planned;
+      const double peak = planner::PeakSpeed(*planned->trajectory);
+      if (peak <= job.v_max) return planned;
+      done.record.slowdown = peak / job.v_max;
+      return planner::SlowDown(*planned, peak / job.v_max, setup_.scene, task, setup_.plan_options);
     };
     core::Result<planner::PlanResult> result = core::Status::Internal("not run");
     if (job.replan) {
-      result = planner::Replan(setup_.scene, *setup_.task, setup_.plan_options, setup_.replan_options, *setup_.solver,
+      result = planner::Replan(setup_.scene, limited, setup_.plan_options, setup_.replan_options, *setup_.solver,
                                *job.base, job.t_from, job.start);
       done.record.warm_ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
@@ -228,7 +265,11 @@ core::Result<std::unique_ptr<OnlineController>> OnlineController::Create(const P
 }
 
 OnlineController::OnlineController(const PlanningSetup& setup, const OnlineOptions& options)
-    : setup_(setup), options_(options), worker_(std::make_unique<Worker>(setup, options.cold_fallback)) {}
+    : setup_(setup),
+      options_(options),
+      worker_(std::make_unique<Worker>(setup, options.cold_fallback)),
+      clock_(options.clock_sync),
+      planned_speed_limit_(setup.task->limits.v_max) {}
 
 OnlineController::~OnlineController() = default;
 
@@ -258,42 +299,71 @@ void OnlineController::Fail(Phase phase, const std::string& why) {
 }
 
 void OnlineController::OnPosition(double t, const Vec3& position, const Vec3& velocity) {
-  if (!position.allFinite() || !velocity.allFinite()) return;
+  if (!position.allFinite() || !velocity.allFinite() || !std::isfinite(t)) return;
+  if (have_position_ && t <= position_time_) {
+    ++stats_.stale_states_dropped;  // overtaken by a newer state, or a duplicate
+    return;
+  }
   have_position_ = true;
   position_time_ = t;
   position_ = position;
   velocity_ = velocity;
+  position_checked_ = false;
+  age_noted_ = false;
   ++stats_.position_measurements;
-  if (phase_ != Phase::kFlying) return;
-  const std::optional<Setpoint> reference = Reference(t);
+  if (phase_ != Phase::kFlying || link_hold_) return;
+  const std::optional<Setpoint> reference = ReferenceFollowedAt(t);
   if (!reference) return;
   const double error = (position - reference->position).norm();
+  last_error_ = error;
   stats_.max_tracking_error = std::max(stats_.max_tracking_error, error);
   stats_.sum_tracking_error += error;
   stats_.sum_squared_tracking_error += error * error;
   ++stats_.tracking_samples;
-  if (error > options_.replan_threshold) {
-    MaybeReplan(t, false, error);
-  } else if (options_.replan_period > 0.0 && t - std::max(last_trigger_, to_.start) >= options_.replan_period) {
-    MaybeReplan(t, true, error);
-  }
 }
 
 void OnlineController::OnAttitude(double t, const Quat& attitude, const Vec3& body_rate) {
-  (void)t;
-  if (!attitude.coeffs().allFinite() || !(attitude.norm() > 0.5) || !body_rate.allFinite()) return;
+  if (!attitude.coeffs().allFinite() || !(attitude.norm() > 0.5) || !body_rate.allFinite() || !std::isfinite(t)) return;
+  if (t <= attitude_time_) return;
+  attitude_time_ = t;
   have_attitude_ = true;
   attitude_ = attitude.normalized();
   body_rate_ = body_rate;
 }
 
 void OnlineController::OnJoints(double t, const VecX& joints, const VecX& joint_rates) {
-  (void)t;
   const int n = setup_.scene.robot.num_actuated();
-  if (joints.size() != n || joint_rates.size() != n || !joints.allFinite() || !joint_rates.allFinite()) return;
+  if (joints.size() != n || joint_rates.size() != n || !joints.allFinite() || !joint_rates.allFinite() ||
+      !std::isfinite(t)) {
+    return;
+  }
+  if (t <= joints_time_) return;
+  joints_time_ = t;
   have_joints_ = true;
   joints_ = joints;
   joint_rates_ = joint_rates;
+}
+
+void OnlineController::OnTimesync(double t, int64_t tc1, int64_t ts1) {
+  const bool was_synced = clock_.synced();
+  if (!clock_.OnAnswer(t, tc1, ts1)) return;
+  if (!was_synced && clock_.synced()) {
+    const LinkLatency l = clock_.latency();
+    Event(Format("clock synchronised with the vehicle (TIMESYNC round trip %.1f ms)", l.round_trip * 1e3));
+  }
+}
+
+double OnlineController::MeasurementTime(double received, double vehicle_time) const {
+  if (!clock_.synced()) return received;
+  // An estimate's error must never make a state look younger than it can be.
+  return std::min(received, clock_.ToLocal(vehicle_time));
+}
+
+double OnlineController::LinkSpeedLimit(double t) const {
+  if (!clock_.synced() || !have_position_) return std::numeric_limits<double>::infinity();
+  const double blind = BlindTime(t);
+  if (blind <= 0.0) return std::numeric_limits<double>::infinity();
+  return options_.link_budget * setup_.task->safety_distance / blind;
 }
 
 void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
@@ -303,8 +373,10 @@ void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
   // After both were confirmed, a heartbeat without them means the vehicle
   // (or its pilot) took over. A grace period covers heartbeats sent before
   // the mode change that arrive after its acknowledgement.
-  const bool confirmed_phase = phase_ == Phase::kWaitingForPlan || phase_ == Phase::kFlying ||
-                               phase_ == Phase::kArrived || phase_ == Phase::kHoldingAfterFailure;
+  // (A plan that failed before the handshake ended holds without either.)
+  const bool confirmed_phase = offboard_confirmed_ && armed_confirmed_ &&
+                               (phase_ == Phase::kWaitingForPlan || phase_ == Phase::kFlying ||
+                                phase_ == Phase::kArrived || phase_ == Phase::kHoldingAfterFailure);
   const double grace = options_.heartbeat_period + options_.ack_timeout + 0.5;
   if (confirmed_phase && (!armed || !offboard) && t - confirmed_time_ > grace && !arrival_done_) {
     Fail(Phase::kHandshakeFailed, std::string("the vehicle left ") + (!offboard ? "OFFBOARD" : "the armed state"));
@@ -356,8 +428,20 @@ planner::BoundaryState OnlineController::MeasuredBoundaryState() const {
 }
 
 void OnlineController::MaybeReplan(double t, bool periodic, double error) {
-  if (!options_.replanning || phase_ != Phase::kFlying || blending_ || replan_pending_ || !to_.plan) return;
+  if (!options_.replanning || phase_ != Phase::kFlying || link_hold_ || blending_ || replan_pending_ || !to_.plan) {
+    return;
+  }
   if (!periodic && t - last_trigger_ < options_.min_replan_interval) return;
+  // The start is the newest state predicted over its age and the lead: not
+  // from a state too old to predict from (a slow or lossy link).
+  const double age = t - position_time_ + clock_.latency().uncertainty;
+  if (age > options_.max_state_age) {
+    ++stats_.replans_skipped_stale;
+    last_trigger_ = t;
+    Event(Format("%s replan not started: the newest state is %.0f ms old (limit %.0f ms)",
+                 periodic ? "periodic" : "tracking-error", age * 1e3, options_.max_state_age * 1e3));
+    return;
+  }
   const planner::WholeBodyTrajectory& trajectory = *to_.plan->trajectory;
   const double t_splice = t + options_.replan_lead;
   const double plan_time = t_splice - to_.start;
@@ -367,8 +451,12 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   if (to_.plan->insertion.enabled) last_start -= T[T.size() - 1];
   if (plan_time >= last_start - setup_.replan_options.min_piece_duration) return;
 
-  // The measured state predicted to the splice time, the tracking error held constant.
-  const planner::WholeBodySample now = trajectory.Sample(t - to_.start);
+  // The measured state predicted to the splice time, the tracking error held
+  // constant: the error is against the reference the vehicle was following
+  // when it measured the state (streamed an uplink latency before), and the
+  // new plan's setpoints reach it as late as the current plan's did.
+  const double followed = position_time_ - UplinkLatency();
+  const planner::WholeBodySample now = trajectory.Sample(std::max(0.0, followed - to_.start));
   const planner::WholeBodySample then = trajectory.Sample(plan_time);
   const planner::BoundaryState measured = MeasuredBoundaryState();
   Worker::Job job;
@@ -377,6 +465,7 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   job.t_from = plan_time;
   job.requested_at = t;
   job.periodic = periodic;
+  job.v_max = planned_speed_limit_;
   planner::BoundaryState& s = job.start;
   s.position = measured.position + (then.position - now.position);
   s.velocity = measured.velocity + (then.velocity - now.velocity);
@@ -388,6 +477,8 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   s.joint_rates = then.joint_rates;
   worker_->Submit(std::move(job));
   replan_pending_ = true;
+  pending_resume_ = false;
+  pending_speed_limit_ = planned_speed_limit_;
   pending_splice_time_ = t_splice;
   last_trigger_ = t;
   ++stats_.replans_triggered;
@@ -404,6 +495,26 @@ void OnlineController::CollectPlan(double t) {
   if (!done) return;
   stats_.plans.push_back(done->record);
   const PlanRecord& record = done->record;
+  if (!record.replan && pending_resume_) {
+    pending_resume_ = false;
+    if (phase_ != Phase::kFlying) return;
+    if (!done->plan) {
+      Fail(Phase::kHoldingAfterFailure, std::string("the plan to resume after the link hold failed (") +
+                                            planner::PlanStatusName(record.status) + ": " + record.message + ")");
+      return;
+    }
+    to_ = {done->plan, t};
+    from_ = ActivePlan{};
+    blending_ = false;
+    link_hold_ = false;
+    planned_speed_limit_ = record.speed_limit;
+    last_trigger_ = t;
+    ++stats_.link_resumes;
+    Event(Format("link good again: flying a fresh plan from the measured state (%.2f s long, ",
+                 done->plan->trajectory->duration()) +
+          Format("speed limit %.2f m/s, planned in %.1f ms)", record.speed_limit, record.latency_ms));
+    return;
+  }
   if (!record.replan) {
     if (!done->plan) {
       Fail(Phase::kHoldingAfterFailure,
@@ -411,13 +522,19 @@ void OnlineController::CollectPlan(double t) {
       return;
     }
     first_plan_ = done->plan;
+    planned_speed_limit_ = record.speed_limit;
     Event(Format("plan ready: %.2f s long, ", first_plan_->trajectory->duration()) +
-          Format("planned in %.1f ms", record.latency_ms));
+          Format("planned in %.1f ms", record.latency_ms) +
+          (record.speed_limit < setup_.task->limits.v_max
+               ? Format(" (speed limit %.2f m/s for the link's latency)", record.speed_limit)
+               : std::string()));
     return;
   }
   replan_pending_ = false;
   if (phase_ != Phase::kFlying) return;  // arrived or failed meanwhile: nothing to splice into
+  if (link_hold_) return;  // braking for the link: a fresh plan follows when it is good again
   if (done->plan) {
+    planned_speed_limit_ = record.speed_limit;
     from_ = to_;
     to_ = {done->plan, pending_splice_time_};
     blending_ = true;
@@ -451,6 +568,132 @@ std::optional<Setpoint> OnlineController::Reference(double t) const {
     if (s < 1.0) return Blend(sample(from_), sample(to_), SpliceWeight(s));
   }
   return sample(to_);
+}
+
+double OnlineController::UplinkLatency() const { return clock_.synced() ? clock_.latency().uplink : 0.0; }
+
+std::optional<Setpoint> OnlineController::ReferenceFollowedAt(double t) const {
+  return Reference(t - UplinkLatency());
+}
+
+double OnlineController::BlindTime(double t) const {
+  const LinkLatency l = clock_.latency();
+  // The clock's offset error adds to the age and takes as much from the
+  // uplink: their sum needs no allowance for it.
+  return std::max(0.0, t - position_time_) + l.uplink;
+}
+
+double OnlineController::PlanningSpeedLimit() const {
+  double blind = 0.0;
+  for (const auto& [time, b] : blind_history_) blind = std::max(blind, b);
+  const double task_limit = setup_.task->limits.v_max;
+  if (!clock_.synced() || blind <= 0.0) return task_limit;
+  // A margin under what the link allows, so that ordinary jitter does not
+  // brake the plan it was made for.
+  return std::min(task_limit, kLinkPlanningShare * options_.link_budget * setup_.task->safety_distance / blind);
+}
+
+void OnlineController::CheckLink(double t) {
+  if (!clock_.synced() || !have_position_) return;
+  const double blind = BlindTime(t);
+  blind_history_.emplace_back(t, blind);
+  while (!blind_history_.empty() && blind_history_.front().first < t - options_.clock_sync.window) {
+    blind_history_.pop_front();
+  }
+  if (phase_ != Phase::kFlying) return;
+  const double allowed = LinkSpeedLimit(t);
+  if (!link_hold_) {
+    const std::optional<Setpoint> reference = Reference(t);
+    const double speed = reference ? reference->velocity.norm() : 0.0;
+    if (speed <= kLinkHoldSlack * allowed && blind <= options_.max_blind_time) return;
+    // Brake along the current plan's path: its clock slows to a stop.
+    link_hold_ = true;
+    link_hold_start_ = t;
+    link_brake_duration_ = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
+    ++stats_.link_holds;
+    Event(Format("link too slow for the speed: %.2f m/s planned, %.2f m/s allowed ", speed, allowed) +
+          Format("(blind for %.0f ms: the newest state's age and the uplink): braking along the plan and holding "
+                 "until the link is good",
+                 blind * 1e3));
+    return;
+  }
+  // Holding: resume with a fresh plan from the measured state once the link
+  // has stayed good enough for a useful speed over the whole window.
+  if (pending_resume_ || replan_pending_ || worker_->busy()) return;
+  if (t - link_hold_start_ < link_brake_duration_ + options_.clock_sync.window) return;
+  for (const auto& [time, b] : blind_history_) {
+    if (time >= t - options_.clock_sync.window && b > options_.max_blind_time) return;
+  }
+  const double limit = PlanningSpeedLimit();
+  if (limit < options_.min_link_speed) return;
+  // It plans from rest at the measured pose: the vehicle must be holding.
+  if (velocity_.norm() > kRestSpeed) return;
+  Worker::Job job;
+  job.start = MeasuredBoundaryState();
+  job.start.acceleration.setZero();
+  job.start.velocity.setZero();
+  job.start.yaw_rate = 0.0;
+  job.start.joint_rates.setZero();
+  job.requested_at = t;
+  job.v_max = limit;
+  job.from_rest = true;
+  worker_->Submit(std::move(job));
+  pending_resume_ = true;
+  Event(Format("link good again (%.2f m/s allowed): planning afresh from the measured state", limit));
+}
+
+std::optional<Setpoint> OnlineController::LinkHoldReference(double t) const {
+  // Warped time: the plan's clock rate falls linearly from 1 to 0 over the
+  // brake duration D, so the setpoint follows the same path and stops.
+  const double elapsed = std::min(t - link_hold_start_, link_brake_duration_);
+  const double rate = 1.0 - elapsed / link_brake_duration_;
+  const double warped = link_hold_start_ + elapsed - elapsed * elapsed / (2.0 * link_brake_duration_);
+  std::optional<Setpoint> s = Reference(warped);
+  if (!s) return s;
+  if (rate <= 0.0) return HoldAt(*s);
+  const Vec3 path_velocity = s->velocity;
+  s->velocity = rate * path_velocity;
+  s->acceleration = rate * rate * s->acceleration - path_velocity / link_brake_duration_;
+  s->yaw_rate *= rate;
+  s->joint_rates *= rate;
+  return s;
+}
+
+void OnlineController::CheckTracking(double t) {
+  if (position_checked_ || phase_ != Phase::kFlying || link_hold_) return;
+  position_checked_ = true;
+  if (last_error_ > options_.replan_threshold) {
+    MaybeReplan(t, false, last_error_);
+  } else if (options_.replan_period > 0.0 && t - std::max(last_trigger_, to_.start) >= options_.replan_period) {
+    MaybeReplan(t, true, last_error_);
+  }
+}
+
+void OnlineController::RequestFirstPlan(double t) {
+  if (options_.require_clock_sync && !clock_.synced()) return;
+  // The link's speed limit is taken over a second of its blind times, not
+  // from the first exchange.
+  if (clock_.synced() && (blind_history_.empty() || t - blind_history_.front().first < kLinkSettleTime)) return;
+  const double limit = PlanningSpeedLimit();
+  if (limit < options_.min_link_speed) {
+    if (!waiting_for_link_noted_) {
+      Event(Format("the link allows only %.3f m/s: waiting for it before planning", limit));
+      waiting_for_link_noted_ = true;
+    }
+    return;
+  }
+  Worker::Job job;
+  job.start.position = hold_.position;
+  job.start.yaw = hold_.yaw;
+  job.start.joints = hold_.joints;
+  job.start.joint_rates = hold_.joint_rates;
+  job.requested_at = t;
+  job.v_max = limit;
+  job.from_rest = true;
+  worker_->Submit(std::move(job));
+  first_plan_requested_ = true;
+  Event(Format("planning from the hold") +
+        (limit < setup_.task->limits.v_max ? Format(" (speed limit %.2f m/s for the link)", limit) : std::string()));
 }
 
 void OnlineController::RunHandshake(double t, ControllerOutput* out) {
@@ -507,6 +750,13 @@ ControllerOutput OnlineController::Tick(double t) {
     next_heartbeat_ = t;
   }
   CollectPlan(t);
+  if (have_position_ && !age_noted_) {
+    // Its age when it was first looked at (it arrived within the last tick).
+    const double age = std::max(0.0, t - position_time_);
+    stats_.max_state_age = std::max(stats_.max_state_age, age);
+    stats_.sum_state_age += age;
+    age_noted_ = true;
+  }
 
   // The vehicle's silence ends everything.
   if (phase_ != Phase::kVehicleLost && phase_ != Phase::kHandshakeFailed && !arrival_done_) {
@@ -514,6 +764,11 @@ ControllerOutput OnlineController::Tick(double t) {
       Fail(Phase::kVehicleLost, Format("no position from the vehicle for %.2f s", t - position_time_));
     } else if (!HaveState() && t - first_tick_ > options_.connect_timeout) {
       Fail(Phase::kVehicleLost, Format("no complete vehicle state within %.1f s", options_.connect_timeout));
+    } else if (options_.require_clock_sync && !clock_.synced() && t - first_tick_ > options_.connect_timeout) {
+      Fail(Phase::kHandshakeFailed,
+           Format("the vehicle did not answer TIMESYNC within %.1f s: the age of its states cannot be known "
+                  "(flying on arrival times needs require_clock_sync off)",
+                  options_.connect_timeout));
     }
   }
 
@@ -527,15 +782,8 @@ ControllerOutput OnlineController::Tick(double t) {
         hold_.joint_rates = VecX::Zero(joints_.size());
         hold_start_ = t;
         phase_ = Phase::kStreamingHold;
-        Worker::Job job;
-        job.start.position = hold_.position;
-        job.start.yaw = hold_.yaw;
-        job.start.joints = hold_.joints;
-        job.start.joint_rates = hold_.joint_rates;
-        job.requested_at = t;
-        worker_->Submit(std::move(job));
         Event(Format("vehicle state received: holding at (%.3f, ", position_.x()) +
-              Format("%.3f, %.3f) and planning from there", position_.y(), position_.z()));
+              Format("%.3f, %.3f)", position_.y(), position_.z()));
       }
       break;
     case Phase::kStreamingHold:
@@ -548,6 +796,10 @@ ControllerOutput OnlineController::Tick(double t) {
       break;
   }
   if (phase_ == Phase::kRequestingOffboard || phase_ == Phase::kArming) RunHandshake(t, &out);
+  if (!first_plan_requested_ && phase_ != Phase::kWaitingForVehicle && !finished() &&
+      phase_ != Phase::kHoldingAfterFailure) {
+    RequestFirstPlan(t);
+  }
 
   if (phase_ == Phase::kWaitingForPlan && first_plan_) {
     const double offset = (position_ - hold_.position).norm();
@@ -559,7 +811,9 @@ ControllerOutput OnlineController::Tick(double t) {
                     : Format("flying the plan although the vehicle is still %.3f m from the start", offset));
     }
   }
-  if (phase_ == Phase::kFlying) {
+  CheckLink(t);
+  if (phase_ == Phase::kFlying) CheckTracking(t);
+  if (phase_ == Phase::kFlying && !link_hold_) {
     if (blending_ && t >= blend_start_ + options_.blend_window) {
       blending_ = false;
       from_ = ActivePlan{};
@@ -593,8 +847,12 @@ ControllerOutput OnlineController::Tick(double t) {
       setpoint = hold_;
       break;
     case Phase::kFlying:
-      setpoint = Reference(t);
-      in_blend = blending_ && t >= blend_start_;
+      if (link_hold_) {
+        setpoint = LinkHoldReference(t);
+      } else {
+        setpoint = Reference(t);
+        in_blend = blending_ && t >= blend_start_;
+      }
       break;
     case Phase::kArrived:
       setpoint = HoldAt(FromSample(to_.plan->trajectory->Sample(to_.plan->trajectory->duration())));
@@ -621,6 +879,7 @@ ControllerOutput OnlineController::Tick(double t) {
     out.setpoint = std::move(setpoint);
   }
   const bool streaming_phase = phase_ != Phase::kVehicleLost && phase_ != Phase::kHandshakeFailed && !arrival_done_;
+  if (streaming_phase) out.timesync_request = clock_.RequestDue(t);
   if (streaming_phase && t >= next_heartbeat_) {
     out.send_heartbeat = true;
     next_heartbeat_ += options_.heartbeat_period;

@@ -89,17 +89,24 @@ std::string FlightLog::Csv(const std::vector<std::string>& joint_names) const {
 
 FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
                              const env::ExactMeshModel& exact, const planner::Task& task,
-                             const Vec3& terminal_position, double reach) {
+                             const Vec3& terminal_position, double reach, double end_time) {
   FlightMetrics metrics;
   std::vector<double> errors;
   bool flown = false;
   robot::KinematicsState kinematics;
   double min_clearance = reach;
   int closest = -1;
+  double last_time = 0.0;
   for (const FlightSample& s : samples) {
     if (s.phase == Phase::kFlying && s.setpoint) errors.push_back((s.measured.position - s.setpoint->position).norm());
     flown = flown || s.phase == Phase::kFlying;
     if (!flown || s.measured.joints.size() != robot.num_actuated()) continue;
+    if (metrics.judged_samples > 0 && s.measured.time - last_time > metrics.max_state_gap) {
+      metrics.max_state_gap = s.measured.time - last_time;
+      metrics.max_state_gap_time = s.measured.time;
+    }
+    last_time = s.measured.time;
+    ++metrics.judged_samples;
     robot::ComputeKinematics(robot, MakePose(s.measured.position, s.measured.attitude.toRotationMatrix()),
                              s.measured.joints, &kinematics);
     int link = -1;
@@ -110,6 +117,10 @@ FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const rob
       closest = link;
       metrics.min_clearance_time = s.measured.time;
     }
+  }
+  if (metrics.judged_samples > 0 && end_time != kNoEndTime && end_time - last_time > metrics.max_state_gap) {
+    metrics.max_state_gap = end_time - last_time;
+    metrics.max_state_gap_time = end_time;
   }
   metrics.flying_samples = static_cast<long>(errors.size());
   if (!errors.empty()) {

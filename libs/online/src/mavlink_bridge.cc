@@ -25,14 +25,16 @@ bool DeliverToController(const link::Message& message, uint8_t from_system, doub
     return true;
   }
   if (const auto* position = std::get_if<link::LocalPositionNed>(&message)) {
-    controller->OnPosition(t, link::NedToEnu(Vec3(position->x, position->y, position->z)),
+    controller->OnPosition(controller->MeasurementTime(t, position->time_boot_ms * 1e-3),
+                           link::NedToEnu(Vec3(position->x, position->y, position->z)),
                            link::NedToEnu(Vec3(position->vx, position->vy, position->vz)));
     return true;
   }
   if (const auto* attitude = std::get_if<link::AttitudeQuaternion>(&message)) {
     const Quat q_ned_frd(attitude->q1, attitude->q2, attitude->q3, attitude->q4);
     if (!(q_ned_frd.norm() > 0.5)) return false;
-    controller->OnAttitude(t, link::AttitudeNedFrdToEnuFlu(q_ned_frd),
+    controller->OnAttitude(controller->MeasurementTime(t, attitude->time_boot_ms * 1e-3),
+                           link::AttitudeNedFrdToEnuFlu(q_ned_frd),
                            link::FrdToFlu(Vec3(attitude->rollspeed, attitude->pitchspeed, attitude->yawspeed)));
     return true;
   }
@@ -46,7 +48,12 @@ bool DeliverToController(const link::Message& message, uint8_t from_system, doub
       if (static_cast<size_t>(k) < array->data.size()) q[k] = array->data[static_cast<size_t>(k)];
       if (static_cast<size_t>(n + k) < array->data.size()) qd[k] = array->data[static_cast<size_t>(n + k)];
     }
-    controller->OnJoints(t, q, qd);
+    controller->OnJoints(controller->MeasurementTime(t, static_cast<double>(array->time_usec) * 1e-6), q, qd);
+    return true;
+  }
+  if (const auto* sync = std::get_if<link::Timesync>(&message)) {
+    if (sync->tc1 == 0) return false;  // the vehicle's own request: not answered (optional in MAVLink)
+    controller->OnTimesync(t, sync->tc1, sync->ts1);
     return true;
   }
   if (const auto* ack = std::get_if<link::CommandAck>(&message)) {
@@ -128,6 +135,14 @@ std::vector<link::Message> MessagesFor(const ControllerOutput& output, double t,
     messages.push_back(ToJointSetpoint(*output.setpoint, t));
   }
   for (const CommandRequest& request : output.commands) messages.push_back(ToCommandLong(request, targets));
+  if (output.timesync_request) {
+    link::Timesync sync;
+    sync.tc1 = 0;
+    sync.ts1 = *output.timesync_request;
+    sync.target_system = targets.vehicle_system;
+    sync.target_component = targets.vehicle_component;
+    messages.push_back(sync);
+  }
   return messages;
 }
 

@@ -3,6 +3,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <sstream>
@@ -181,6 +182,17 @@ void Autopilot::Handle(const link::Message& message, uint8_t from_system, uint8_
     if (for_us(setpoint->target_system)) HandleSetpoint(*setpoint);
   } else if (const auto* array = std::get_if<link::DebugFloatArray>(&message)) {
     if (array->name == kJointSetpointArrayName) HandleJointSetpoint(*array);
+  } else if (const auto* sync = std::get_if<link::Timesync>(&message)) {
+    // A request (tc1 0) is answered with our clock, the one time_boot_ms and
+    // time_usec are stamped with (ns; never 0, which would read as a request).
+    if (sync->tc1 == 0 && (sync->target_system == 0 || for_us(sync->target_system))) {
+      link::Timesync answer;
+      answer.tc1 = std::max<int64_t>(1, std::llround(time() * 1e9));
+      answer.ts1 = sync->ts1;
+      answer.target_system = from_system;
+      answer.target_component = from_component;
+      out->push_back(answer);
+    }
   }
 }
 

@@ -101,6 +101,19 @@ struct SetPositionTargetLocalNed {  // SET_POSITION_TARGET_LOCAL_NED (84)
   uint8_t coordinate_frame = mav::kFrameLocalNed;
 };
 
+// Clock synchronisation (PX4 and ArduPilot answer it). A request has tc1 = 0
+// and ts1 = the sender's time; the answer has tc1 = the answerer's time and
+// ts1 copied from the request, so the requester learns the round trip and
+// the offset between the two clocks. Times in ns.
+struct Timesync {  // TIMESYNC (111)
+  static constexpr uint32_t kId = 111;
+  static constexpr uint8_t kCrcExtra = 34;
+  int64_t tc1 = 0;
+  int64_t ts1 = 0;
+  uint8_t target_system = 0;     // extension
+  uint8_t target_component = 0;  // extension
+};
+
 struct StatusText {  // STATUSTEXT (253)
   static constexpr uint32_t kId = 253;
   static constexpr uint8_t kCrcExtra = 83;
@@ -123,7 +136,7 @@ struct DebugFloatArray {  // DEBUG_FLOAT_ARRAY (350)
 };
 
 using Message = std::variant<Heartbeat, AttitudeQuaternion, LocalPositionNed, CommandLong, CommandAck,
-                             SetPositionTargetLocalNed, StatusText, DebugFloatArray>;
+                             SetPositionTargetLocalNed, Timesync, StatusText, DebugFloatArray>;
 
 // Id, CRC_EXTRA and full payload length (with extensions) of a known message
 // id; nullopt for ids this link does not know.

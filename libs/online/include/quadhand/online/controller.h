@@ -53,6 +53,7 @@
 // other method must be called from one thread.
 #pragma once
 
+#include <deque>
 #include <memory>
 #include <optional>
 #include <string>
@@ -61,6 +62,7 @@
 #include "quadhand/core/status.h"
 #include "quadhand/core/types.h"
 #include "quadhand/opt/solver.h"
+#include "quadhand/online/clock_sync.h"
 #include "quadhand/online/setpoint.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/replan.h"
@@ -105,6 +107,43 @@ struct OnlineOptions {
   double arrival_settle_speed = 0.01;
   double arrival_timeout = 10.0;  // >= arrival_hold; equal: a fixed hold
   double heartbeat_period = 1.0;     // s between our own heartbeats
+
+  // Time and latency (docs/online.md, "Latency"). States are judged at the
+  // time the vehicle stamped them, mapped to our clock by TIMESYNC
+  // (clock_sync.h). With require_clock_sync, the flight does not start
+  // until the vehicle has answered TIMESYNC (a vehicle that never does ends
+  // the flight after connect_timeout of trying, before anything is flown);
+  // without it, a state's arrival time is taken as its time, and the
+  // latency is not known.
+  bool require_clock_sync = true;
+  ClockSyncOptions clock_sync;
+  // A replan starts from a state at most this old (s, from the vehicle's
+  // stamp to now, plus the clock's uncertainty): the start is the state
+  // predicted over its age and the replan lead, and a prediction over longer
+  // is not trusted. Older: no replan until a fresher state arrives.
+  double max_state_age = 0.25;
+  // The link budget. The blind time is the age of the newest state plus
+  // the uplink latency (median): how long before a correction sent now acts
+  // on what the vehicle did when we last saw it. The vehicle may fly at
+  // most link_budget safety distances in that time: plans from rest (the
+  // first, and after a hold) are slowed down as a whole (time_scale.h,
+  // certified afresh) to 0.7 times link_budget * safety_distance over the
+  // largest blind time of the last clock_sync.window s, and replans keep
+  // the plan's speed limit. While flying, when the reference is faster than
+  // 1.5 times what the link allows now, or the blind time exceeds
+  // max_blind_time (an outage), the vehicle brakes along the plan's path and
+  // holds; once the link has stayed under max_blind_time for a window and
+  // allows at least min_link_speed, it flies a fresh plan from rest at the
+  // measured pose. Below min_link_speed the first plan is not made: it waits.
+  double link_budget = 10.0;
+  double max_blind_time = 0.5;    // s
+  double min_link_speed = 0.05;   // m/s
+  // Exit 0 needs the flown path (the vehicle's own time-stamped states,
+  // checked against the exact meshes) to keep the safety distance less this
+  // tolerance (m), with no gap between two states longer than
+  // max_judged_gap (s): a path not seen cannot be called safe.
+  double clearance_tolerance = 0.002;
+  double max_judged_gap = 0.25;
 
   bool IsValid(std::string* why) const;
 };
@@ -176,6 +215,8 @@ struct PlanRecord {
   double start_clearance = 0.0;
   double solve_ms = 0.0;
   int iterations = 0;
+  double speed_limit = 0.0;   // v_max it was planned with (m/s: the task's, or lower for the link)
+  double slowdown = 1.0;      // plans from rest: the factor it was slowed down by for the link
 };
 
 struct OnlineStats {
@@ -195,12 +236,21 @@ struct OnlineStats {
   // steps, not inflated when a tick comes late on a busy machine.
   double max_setpoint_speed = 0.0;
   double max_splice_speed = 0.0;
+  // Time and the link.
+  long stale_states_dropped = 0;       // arrived after a newer one (reordered, duplicated)
+  double max_state_age = 0.0;          // s, largest age of a state at its arrival
+  double sum_state_age = 0.0;          // over position_measurements
+  int link_slowdowns = 0;              // replans with a lower speed limit for the link
+  int link_holds = 0;                  // holds waiting for the link
+  int link_resumes = 0;                // fresh plans after such a hold
+  int replans_skipped_stale = 0;       // triggers refused: the newest state was too old
 };
 
 struct ControllerOutput {
   std::optional<Setpoint> setpoint;      // stream this now (none: stream nothing)
   std::vector<CommandRequest> commands;  // send these now
   bool send_heartbeat = false;
+  std::optional<int64_t> timesync_request;  // send TIMESYNC (tc1 0, ts1 this: ns of our clock)
   std::vector<std::string> events;       // what happened, in words, for the operator
   Phase phase = Phase::kWaitingForVehicle;
 };
@@ -213,13 +263,22 @@ class OnlineController {
   OnlineController(const OnlineController&) = delete;
   OnlineController& operator=(const OnlineController&) = delete;
 
-  // Measurements at controller time t (s), ENU/FLU.
+  // Measurements at controller time t (s), ENU/FLU: the time the vehicle
+  // took them (MeasurementTime()), not when they arrived. One older than or
+  // as old as the newest of its kind is dropped (reordered or duplicated).
   void OnPosition(double t, const Vec3& position, const Vec3& velocity);
   void OnAttitude(double t, const Quat& attitude, const Vec3& body_rate);
   void OnJoints(double t, const VecX& joints, const VecX& joint_rates);
   // The vehicle's heartbeat: armed flag and whether it is in OFFBOARD.
   void OnHeartbeat(double t, bool armed, bool offboard);
   void OnCommandAck(double t, Command command, AckResult result);
+  // A TIMESYNC answer (tc1: the vehicle's ns, ts1: ours) arrived at t.
+  void OnTimesync(double t, int64_t tc1, int64_t ts1);
+  // Our time of a state the vehicle stamped `vehicle_time` (s of its clock)
+  // that arrived at `received`: the stamp mapped by the clock sync, never
+  // later than the arrival; the arrival time while the clock is not synced.
+  double MeasurementTime(double received, double vehicle_time) const;
+  const ClockSync& clock_sync() const { return clock_; }
 
   // What to send at time t (call at the streaming rate, t non-decreasing).
   ControllerOutput Tick(double t);
@@ -242,6 +301,11 @@ class OnlineController {
   const std::optional<Setpoint>& last_setpoint() const { return last_setpoint_; }
   // The reference at time t while flying (blended during a splice).
   std::optional<Setpoint> Reference(double t) const;
+  // The reference the vehicle was following at time t: the one we streamed
+  // an uplink latency earlier.
+  std::optional<Setpoint> ReferenceFollowedAt(double t) const;
+  // The speed limit the link allows now (m/s; infinite without a known latency).
+  double LinkSpeedLimit(double t) const;
 
   // For tests and tools: whether the worker is planning, and waiting for it.
   bool planning() const;
@@ -264,6 +328,16 @@ class OnlineController {
   // A replan from the measured state at t; `periodic`: started by
   // replan_period with the tracking error below the threshold.
   void MaybeReplan(double t, bool periodic, double error);
+  // At a tick: replans due from the newest state, and the link budget.
+  void CheckTracking(double t);
+  void CheckLink(double t);
+  void RequestFirstPlan(double t);
+  double UplinkLatency() const;     // s, 0 without a synced clock
+  double BlindTime(double t) const; // age of the newest state + uplink (median)
+  double PlanningSpeedLimit() const;
+  // The setpoint while braking for the link: the plan's path, its clock
+  // slowing to a stop over link_brake_duration_.
+  std::optional<Setpoint> LinkHoldReference(double t) const;
   void Fail(Phase phase, const std::string& why);
   planner::BoundaryState MeasuredBoundaryState() const;
   void RunHandshake(double t, ControllerOutput* out);
@@ -281,7 +355,19 @@ class OnlineController {
   Quat attitude_ = Quat::Identity();
   Vec3 body_rate_ = Vec3::Zero();
   VecX joints_, joint_rates_;
+  double attitude_time_ = -1e300, joints_time_ = -1e300;
   bool vehicle_armed_ = false, vehicle_offboard_ = false, seen_heartbeat_ = false;
+  ClockSync clock_;
+  bool position_checked_ = true;    // the newest position was looked at by CheckTracking
+  bool age_noted_ = true;           // the newest position's age is in the stats
+  double last_error_ = 0.0;         // tracking error of the newest position
+  double planned_speed_limit_ = 0.0;  // v_max of the plan being flown (the task's, or the link's)
+  bool link_hold_ = false;          // braking / holding for the link (phase flying)
+  double link_hold_start_ = 0.0;
+  double link_brake_duration_ = 1.0;
+  std::deque<std::pair<double, double>> blind_history_;  // (tick time, blind time)
+  bool first_plan_requested_ = false;
+  bool waiting_for_link_noted_ = false;
 
   // Handshake.
   double hold_start_ = 0.0;
@@ -304,6 +390,8 @@ class OnlineController {
   double last_trigger_ = -1e300;
   bool replan_pending_ = false;
   double pending_splice_time_ = 0.0;
+  double pending_speed_limit_ = 0.0;  // v_max of the pending replan
+  bool pending_resume_ = false;        // the pending plan resumes after a link hold
   std::shared_ptr<const planner::PlanResult> pending_base_;  // the plan the pending replan started from
   double arrival_time_ = 0.0;
   bool arrival_settled_ = false;

@@ -9,7 +9,8 @@
 // The measured acceleration is not sent by the vehicle: it is the backward
 // difference of the measured velocities (0 in the first row). yaw is the Hopf
 // yaw of the measured attitude, yaw_rate the matching rate of the body rates.
-// Times are the controller's clock in seconds.
+// Times are the controller's clock in seconds: a state's time is the time
+// the vehicle stamped it (mapped by TIMESYNC), not its arrival.
 #pragma once
 
 #include <limits>
@@ -42,6 +43,8 @@ class FlightLog {
   std::vector<FlightSample> samples_;
 };
 
+constexpr double kNoEndTime = -1.0;
+
 struct FlightMetrics {
   static constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
   long flying_samples = 0;          // rows in the flying phase
@@ -57,10 +60,17 @@ struct FlightMetrics {
   // tool goal), and the base vs `terminal`.
   double final_tool_error = kNan;
   double final_base_error = kNan;
+  // The states the clearance was judged on (from the first flying row on)
+  // and the longest time between two of them (s; from the last one to
+  // `end_time` too, when given), with the time the gap ended.
+  long judged_samples = 0;
+  double max_state_gap = 0.0;
+  double max_state_gap_time = kNan;
 };
 
 FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
                              const env::ExactMeshModel& exact, const planner::Task& task,
-                             const Vec3& terminal_position, double reach = 0.3);
+                             const Vec3& terminal_position, double reach = 0.3,
+                             double end_time = kNoEndTime);
 
 }  // namespace quadhand::online

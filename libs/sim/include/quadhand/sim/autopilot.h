@@ -18,6 +18,8 @@
 //   is what PX4's commander answers to a refused mode change.
 // - Offboard loss: no SET_POSITION_TARGET_LOCAL_NED for `offboard_timeout` s
 //   in OFFBOARD -> POSITION, holding where the vehicle is, with a STATUSTEXT.
+// - TIMESYNC: a request (tc1 = 0) is answered with tc1 = the simulated time
+//   in ns (the clock of every time stamp it sends) and the request's ts1.
 // - Sends HEARTBEAT every `heartbeat_period` and LOCAL_POSITION_NED,
 //   ATTITUDE_QUATERNION and DEBUG_FLOAT_ARRAY "JOINTS" every
 //   `telemetry_period` of simulated time.
