@@ -24,6 +24,7 @@
 #include "quadhand/robot/robot_model.h"
 #include "quadhand/sim/plan_io.h"
 #include "support/run_command.h"
+#include "support/window_cup_scene.h"
 #include "support/window_cup_task.h"
 
 extern char** environ;
@@ -40,6 +41,7 @@ using testing::RunCommand;
 const std::string kRoot = QUADHAND_SOURCE_DIR;
 const std::string kOnline = std::string(QUADHAND_BIN_DIR) + "/quadhand-online";
 const std::string kSim = std::string(QUADHAND_BIN_DIR) + "/quadhand-sim";
+const std::string kProxy = std::string(QUADHAND_BIN_DIR) + "/quadhand-linkproxy";
 
 const bool kSanitizedBuild = core::BuiltWithAddressSanitizer();
 
@@ -173,6 +175,100 @@ TEST_F(OnlineCliTest, FliesTheDefaultTaskToTheCupOverLoopback) {
   EXPECT_LT(std::stod(m[1]), 0.15) << out;
 }
 
+// The defect of stop 26: over 150 +- 50 ms with 10 % loss in bursts of 5,
+// quadhand-online said "arrived" (exit 0) after a flight into the scene.
+// Now it measures the latency, plans for it, and the simulator's own record
+// of the flight keeps the safety distance (checked here against the exact
+// meshes, independently of the program's figures).
+TEST_F(OnlineCliTest, ASlowLossyLinkIsFlownWithinItsClearance) {
+  const std::string task = WriteTask();
+  const int sim_port = FreeUdpPort(), proxy_port = FreeUdpPort();
+  const std::string vehicle = "udp://127.0.0.1:" + std::to_string(sim_port);
+  const std::string proxy = "udp://127.0.0.1:" + std::to_string(proxy_port);
+  const std::string flown = (dir_ / "sim_flown.csv").string();
+  sim_ = Spawn({kSim, "--udp", vehicle, "--realtime", "--start-task", task, "--duration", "120", "-q", "--config",
+                kRoot + "/data/sim/quadhand_sim.yaml", "--log", flown},
+               (dir_ / "sim").string());
+  Child link = Spawn({kProxy, "--listen", proxy, "--vehicle", vehicle, "--delay", "0.15", "--jitter", "0.05", "--loss",
+                      "0.1", "--burst", "5", "--seed", "3"},
+                     (dir_ / "proxy").string());
+  Child online = Spawn({kOnline, task, "--vehicle", proxy, "--max-duration", "80"}, (dir_ / "online").string());
+  const int code = Wait(&online, 100.0);
+  const std::string out = ReadAll(online.out);
+  Stop(&link);
+  Stop(&sim_);
+  EXPECT_NE(ReadAll(link.err).find("reordered"), std::string::npos) << ReadAll(link.err);
+  // Exit 0 claims a kept clearance; exit 6 says it was lost: either is honest
+  // and is checked against the simulator's record below; the plan must not
+  // have failed.
+  ASSERT_TRUE(code == 0 || code == 6) << code << "\n" << out << ReadAll(online.err);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("uplink median ([0-9.]+) ms"))) << out;
+  EXPECT_GT(std::stod(m[1]), 100.0) << out;
+  EXPECT_LT(std::stod(m[1]), 200.0) << out;
+
+  auto robot = robot::RobotModel::LoadFromUrdfFile(kRoot + "/meshes/quadhand/quadhand.urdf");
+  ASSERT_TRUE(robot.ok());
+  auto rows = sim::LoadPlanCsv(flown, robot->ActuatedJointNames());
+  ASSERT_TRUE(rows.ok()) << rows.status().message();
+  robot::KinematicsState kinematics;
+  double least = 1.0;
+  for (const sim::PlanRow& row : rows->rows) {
+    robot::ComputeKinematics(*robot, MakePose(row.position, row.attitude.toRotationMatrix()), row.joints, &kinematics);
+    least = std::min(least, env::WholeBodyClearance(kinematics, *testing::WindowCup().exact, 0.3, {}));
+  }
+  const double required = 0.03 - 0.002;
+  if (code == 0) {
+    EXPECT_GE(least, required) << "exit 0 after a flight that came within " << least << " m\n" << out;
+    const sim::PlanRow& last = rows->rows.back();
+    robot::ComputeKinematics(*robot, MakePose(last.position, last.attitude.toRotationMatrix()), last.joints,
+                             &kinematics);
+    EXPECT_LT((kinematics.link_poses[robot->LinkIndex("tool")].translation() - Vec3(-3.2, 0.0, 0.86)).norm(), 0.01);
+  } else {
+    EXPECT_NE(out.find("CLEARANCE"), std::string::npos) << out;
+  }
+  EXPECT_GE(least, 0.0) << "the simulated vehicle went into the scene\n" << out;
+}
+
+// A flight not seen densely enough is not called safe: with a judged gap
+// shorter than the telemetry period, every flight is "not verified".
+TEST_F(OnlineCliTest, AFlightNotSeenDenselyEnoughExitsWithSix) {
+  const std::string task = WriteTask();
+  const std::string vehicle = StartVehicle(task);
+  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--max-judged-gap", "0.001", "--max-duration", "60"},
+                       (dir_ / "online").string());
+  const int code = Wait(&online, 90.0);
+  const std::string out = ReadAll(online.out);
+  EXPECT_EQ(code, 6) << out << ReadAll(online.err);
+  EXPECT_NE(out.find("CLEARANCE NOT VERIFIED"), std::string::npos) << out;
+}
+
+TEST_F(OnlineCliTest, TheLinkProxyRefusesBadFaultsInOneLine) {
+  const std::string bad_yaml = (dir_ / "faults.yaml").string();
+  std::ofstream(bad_yaml) << "both: {loss: 0.1, wind: 3}\n";
+  const std::pair<std::string, std::string> cases[] = {
+      {"--loss 1.5", "--loss"},
+      {"--burst 0", "--burst"},
+      {"--delay -1", "--delay"},
+      {"--outage 3", "--outage"},
+      {"--faults " + bad_yaml, "both.wind"},
+      {"--faults " + (dir_ / "missing.yaml").string(), "missing.yaml"},
+      {"--duration -2", "--duration"},
+  };
+  for (const auto& [args, expected] : cases) {
+    const auto r = RunCommand(kProxy + " --listen udp://127.0.0.1:0 --vehicle udp://127.0.0.1:9 " + args);
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_EQ(CountLines(r.err), 1) << args << ": " << r.err;
+    EXPECT_NE(r.err.find(expected), std::string::npos) << args << ": " << r.err;
+  }
+  const auto help = RunCommand(kProxy + " --help");
+  EXPECT_EQ(help.exit_code, 0);
+  for (const char* option : {"--listen", "--vehicle", "--faults", "--loss", "--burst", "--delay", "--jitter", "--fifo",
+                             "--duplicate", "--corrupt", "--outage", "--seed", "--duration"}) {
+    EXPECT_NE(help.out.find(option), std::string::npos) << option;
+  }
+}
+
 TEST_F(OnlineCliTest, ExitsWithThreeSoonAfterTheVehicleFallsSilent) {
   const std::string task = WriteTask();
   const std::string vehicle = StartVehicle(task);
@@ -279,6 +375,12 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {task + vehicle + " --arrival-settle-speed 0", "--arrival-settle-speed must be in (0, 1] m/s"},
       {task + vehicle + " --arrival-settle-speed 2", "--arrival-settle-speed must be in (0, 1] m/s"},
       {task + vehicle + " --arrival-settle-speed inf", "--arrival-settle-speed"},
+      {task + vehicle + " --max-state-age 0", "--max-state-age"},
+      {task + vehicle + " --link-budget nan", "--link-budget"},
+      {task + vehicle + " --max-blind-time -1", "--max-blind-time"},
+      {task + vehicle + " --min-link-speed 0", "--min-link-speed"},
+      {task + vehicle + " --clearance-tolerance 0.5", "--clearance-tolerance"},
+      {task + vehicle + " --max-judged-gap 0", "--max-judged-gap"},
       {task + vehicle + " --arrival-hold 2 --arrival-timeout 1", "--arrival-timeout must be in [--arrival-hold, 60] s"},
       {task + vehicle + " --arrival-hold 20 --arrival-timeout 61", "--arrival-timeout must be in [--arrival-hold, 60] s"},
       {task + vehicle + " --replan-period -1", "--replan-period"},
@@ -312,7 +414,9 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
   EXPECT_EQ(r.exit_code, 0);
   for (const char* option : {"--vehicle", "--bind", "--rate", "--signing-key", "--require-signing", "--log",
                              "--dry-run", "--vehicle-timeout", "--replan-threshold", "--hold-time", "--quiet",
-                             "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-settle-speed", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "--threads", "--package-path", "Exit codes"}) {
+                             "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-settle-speed", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "--threads", "--package-path",
+                             "--no-timesync", "--max-state-age", "--link-budget", "--max-blind-time", "--min-link-speed",
+                             "--clearance-tolerance", "--max-judged-gap", "Exit codes"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }

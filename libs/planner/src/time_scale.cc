@@ -13,7 +13,7 @@ bool AtRest(const Eigen::MatrixXd& boundary) {
   return boundary.rows() <= 1 || boundary.bottomRows(boundary.rows() - 1).cwiseAbs().maxCoeff() < 1e-9;
 }
 
-core::Result<traj::Minco> Scaled(const traj::Minco& m, double factor) {
+core::Result<traj::Minco> Scaled(const traj::Minco& m, double factor, bool keep_last_piece) {
   traj::Minco out;
   QUADHAND_RETURN_IF_ERROR(out.Reset(m.order(), m.dims(), m.num_pieces()));
   Eigen::MatrixXd head = m.head(), tail = m.tail();
@@ -24,7 +24,9 @@ core::Result<traj::Minco> Scaled(const traj::Minco& m, double factor) {
   Eigen::MatrixXd waypoints(m.dims(), m.num_pieces() - 1);
   for (int i = 0; i + 1 < m.num_pieces(); ++i) waypoints.col(i) = m.Evaluate(i, m.durations()[i], 0);
   QUADHAND_RETURN_IF_ERROR(out.SetBoundary(head, tail));
-  QUADHAND_RETURN_IF_ERROR(out.Generate(waypoints, m.durations() * factor));
+  Eigen::VectorXd durations = m.durations() * factor;
+  if (keep_last_piece) durations[durations.size() - 1] = m.durations()[durations.size() - 1];
+  QUADHAND_RETURN_IF_ERROR(out.Generate(waypoints, durations));
   return out;
 }
 
@@ -52,9 +54,10 @@ core::Result<PlanResult> SlowDown(const PlanResult& plan, double factor, const P
       return core::Status::InvalidArgument("SlowDown: the plan does not start and end at rest");
     }
   }
-  auto position = Scaled(original.position(), factor);
+  const bool keep_last = plan.insertion.enabled && original.position().num_pieces() > 1;
+  auto position = Scaled(original.position(), factor, keep_last);
   if (!position.ok()) return position.status();
-  auto aux = Scaled(original.aux(), factor);
+  auto aux = Scaled(original.aux(), factor, keep_last);
   if (!aux.ok()) return aux.status();
   PlanResult slowed = plan;
   slowed.trajectory.emplace(std::move(*position), std::move(*aux), original.flatness());

@@ -1,10 +1,15 @@
-// A plan flown slower: the same path of the base, the yaw and the joints
-// with every duration multiplied by `factor` >= 1. A MINCO trajectory
-// scaled in time is again the MINCO of the same waypoints with the scaled
-// durations and the boundary derivatives divided by factor^k, so the slowed
-// plan is exact, not a resampling. Its attitudes follow from its (smaller)
-// accelerations and differ from the original's, so the original's
-// certificate does not carry over: the slowed plan is post-checked afresh.
+// A plan flown slower: the same waypoints of the base, the yaw and the
+// joints with every duration multiplied by `factor` >= 1. A MINCO
+// trajectory scaled in time is again the MINCO of the same waypoints with
+// the scaled durations and the boundary derivatives divided by factor^k, so
+// without an insertion the slowed plan is the original in scaled time,
+// exactly. With an insertion, its last piece (the straight descent) keeps
+// its own duration: the tool stays on the insertion line only with the
+// attitudes it was planned with (slowed uniformly, the arm no longer makes
+// up for the tilt, and the tool leaves the line); the transit through the
+// same waypoints is then a new MINCO, not a rescaling. Either way the
+// attitudes follow from new accelerations, so the original's certificate
+// does not carry over: the slowed plan is post-checked afresh.
 // quadhand-online flies plans slowed to the speed its link allows
 // (docs/online.md, "Latency").
 #pragma once
