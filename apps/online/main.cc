@@ -420,7 +420,7 @@ int main(int argc, char** argv) {
     metrics = online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
                                      controller.current_plan()->terminal.position, 0.3,
                                      code == kExitSuccess ? last_tick : online::kNoEndTime);
-    const double required = ctx.task().safety_distance - clearance_tolerance;
+    const double required = ctx.task().safety_distance - options.clearance_tolerance;
     if (metrics->min_clearance < required) {
       code = kExitClearanceLost;
       outcome = "CLEARANCE LOST";
@@ -428,12 +428,12 @@ int main(int argc, char** argv) {
                                "distance less the tolerance is %.4f m",
                                metrics->min_clearance, metrics->closest_link.c_str(), metrics->min_clearance_time,
                                required);
-    } else if (code == kExitSuccess && metrics->max_state_gap > max_judged_gap) {
+    } else if (code == kExitSuccess && metrics->max_state_gap > options.max_judged_gap) {
       code = kExitClearanceLost;
       outcome = "CLEARANCE NOT VERIFIED";
       judgement = core::Format("no state from the vehicle for %.3f s while flying (t = %.2f s; limit %.3f s): the "
                                "path in between was not seen",
-                               metrics->max_state_gap, metrics->max_state_gap_time, max_judged_gap);
+                               metrics->max_state_gap, metrics->max_state_gap_time, options.max_judged_gap);
     }
   }
 

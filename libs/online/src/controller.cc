@@ -478,7 +478,6 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   worker_->Submit(std::move(job));
   replan_pending_ = true;
   pending_resume_ = false;
-  pending_speed_limit_ = planned_speed_limit_;
   pending_splice_time_ = t_splice;
   last_trigger_ = t;
   ++stats_.replans_triggered;
@@ -512,7 +511,8 @@ void OnlineController::CollectPlan(double t) {
     ++stats_.link_resumes;
     Event(Format("link good again: flying a fresh plan from the measured state (%.2f s long, ",
                  done->plan->trajectory->duration()) +
-          Format("speed limit %.2f m/s, planned in %.1f ms)", record.speed_limit, record.latency_ms));
+          Format("slowed down %.2fx to %.2f m/s, planned in %.1f ms)", record.slowdown, record.speed_limit,
+                 record.latency_ms));
     return;
   }
   if (!record.replan) {
@@ -525,8 +525,8 @@ void OnlineController::CollectPlan(double t) {
     planned_speed_limit_ = record.speed_limit;
     Event(Format("plan ready: %.2f s long, ", first_plan_->trajectory->duration()) +
           Format("planned in %.1f ms", record.latency_ms) +
-          (record.speed_limit < setup_.task->limits.v_max
-               ? Format(" (speed limit %.2f m/s for the link's latency)", record.speed_limit)
+          (record.slowdown > 1.0
+               ? Format(" (slowed down %.2fx to %.2f m/s for the link's latency)", record.slowdown, record.speed_limit)
                : std::string()));
     return;
   }

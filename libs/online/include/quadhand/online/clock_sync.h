@@ -60,7 +60,6 @@ class ClockSync {
     double received = 0.0;  // our time
     double round_trip = 0.0;
     double offset = 0.0;    // vehicle - ours, s
-    double uplink = 0.0;    // filled from the current estimate when asked
     double vehicle_time = 0.0;
     double sent = 0.0;
   };

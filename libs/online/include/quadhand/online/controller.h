@@ -240,7 +240,6 @@ struct OnlineStats {
   long stale_states_dropped = 0;       // arrived after a newer one (reordered, duplicated)
   double max_state_age = 0.0;          // s, largest age of a state at its arrival
   double sum_state_age = 0.0;          // over position_measurements
-  int link_slowdowns = 0;              // replans with a lower speed limit for the link
   int link_holds = 0;                  // holds waiting for the link
   int link_resumes = 0;                // fresh plans after such a hold
   int replans_skipped_stale = 0;       // triggers refused: the newest state was too old
@@ -390,7 +389,6 @@ class OnlineController {
   double last_trigger_ = -1e300;
   bool replan_pending_ = false;
   double pending_splice_time_ = 0.0;
-  double pending_speed_limit_ = 0.0;  // v_max of the pending replan
   bool pending_resume_ = false;        // the pending plan resumes after a link hold
   std::shared_ptr<const planner::PlanResult> pending_base_;  // the plan the pending replan started from
   double arrival_time_ = 0.0;
