@@ -18,6 +18,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include "app_options.h"
+#include "quadhand/robot/link_meshes.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/opt/solver_registry.h"
@@ -165,6 +166,9 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "loaded %s and built %zu representation(s)\n", config->task_path.c_str(),
                representations.size());
   const planner::Task* task = &(*context)->task();
+  for (const std::string& repair : robot::TakeMeshRepairReports()) {
+    std::fprintf(stderr, "quadhand-bench: %s\n", repair.c_str());
+  }
   for (const std::string& caution : planner::TaskCautions(*task)) {
     std::fprintf(stderr, "quadhand-bench: caution: %s\n", caution.c_str());
   }

@@ -27,6 +27,7 @@
 #include <CLI/CLI.hpp>
 
 #include "app_options.h"
+#include "quadhand/robot/link_meshes.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/core/text.h"
@@ -297,6 +298,9 @@ int main(int argc, char** argv) {
   auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;
+  for (const std::string& repair : robot::TakeMeshRepairReports()) {
+    std::fprintf(stderr, "quadhand-online: %s\n", repair.c_str());
+  }
   for (const std::string& caution : planner::TaskCautions(ctx.task())) {
     std::fprintf(stderr, "quadhand-online: caution: %s\n", caution.c_str());
   }

@@ -195,6 +195,7 @@ int main(int argc, char** argv) {
     core::LogInfo("%s: dropped %ld non-finite points", task.scene_path.c_str(),
                   (*context)->dropped_non_finite_points());
   }
+  for (const std::string& repair : robot::TakeMeshRepairReports()) core::LogInfo("quadhand-plan: %s", repair.c_str());
   for (const std::string& caution : planner::TaskCautions(task)) core::LogInfo("quadhand-plan: caution: %s", caution.c_str());
   core::LogInfo("quadhand-plan: %s, %zu scene points (%zu post-checked) loaded in %.0f ms, robot %s",
                 task_path.c_str(), (*context)->points().size(), (*context)->checked_points().size(),

@@ -20,9 +20,11 @@
 #include <CLI/CLI.hpp>
 
 #include "app_options.h"
+#include "quadhand/robot/link_meshes.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/geometry/mesh_io.h"
+#include "quadhand/geometry/mesh_repair.h"
 #include "quadhand/geometry/mesh_to_sdf.h"
 #include "quadhand/geometry/sdf_grid.h"
 #include "quadhand/robot/link_sdfs.h"
@@ -194,18 +196,23 @@ int main(int argc, char** argv) {
   if (std::string why; !options.IsValid(&why)) return Fail("invalid option: " + why);
 
   std::vector<robot::LinkSdfJob> jobs;
+  std::string mesh_repairs;  // --mesh: what its repair changed, printed once it is accepted
   if (!urdf_path.empty()) {
     auto from_urdf = robot::LinkSdfJobsFromUrdf(urdf_path, only_links);
     if (!from_urdf.ok()) return Fail(from_urdf.status().message());
     jobs = std::move(*from_urdf);
   } else {
-    auto mesh = geometry::ReadMesh(mesh_path);
-    if (!mesh.ok()) return Fail(mesh.status().message());
-    jobs.push_back({link_name, mesh_path, {std::move(*mesh)}});
+    geometry::MeshRepairReport repairs;
+    auto shells = geometry::ReadMeshShells(mesh_path, geometry::MeshRepairOptions{}, &repairs);
+    if (!shells.ok()) return Fail(shells.status().message());
+    for (const std::string& line : repairs.Lines()) mesh_repairs += (mesh_repairs.empty() ? "" : "; ") + line;
+    jobs.push_back({link_name, mesh_path, std::move(*shells)});
   }
   // Check every mesh before generating anything, so a bad last link fails in
   // seconds rather than after the others were computed.
   if (core::Status s = robot::CheckLinkSdfJobs(jobs, options); !s.ok()) return Fail(s.message());
+  if (!mesh_repairs.empty()) core::LogInfo("quadhand-sdfgen: mesh '%s' repaired: %s", mesh_path.c_str(), mesh_repairs.c_str());
+  for (const std::string& repair : robot::TakeMeshRepairReports()) core::LogInfo("quadhand-sdfgen: %s", repair.c_str());
   core::LogInfo("quadhand-sdfgen: %zu link(s), resolution %.4g m, padding %.4g m", jobs.size(),
                 options.resolution, options.padding);
   return Generate(jobs, out_dir, options);

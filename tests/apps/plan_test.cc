@@ -210,6 +210,29 @@ TEST_F(PlanCliTest, KeepsTheRobotsLinksApart) {
 // Outputs that would destroy something or alias each other are refused
 // before anything is written: exit 2, one line naming the option and path,
 // every input byte for byte as it was, and no file left in the folder.
+// The CAD-export test robot plans the default task, with its repairs named
+// on stderr, and one with a real hole is refused in one line.
+TEST_F(PlanCliTest, PlansWithTheCadExportTestRobot) {
+  const std::string root = QUADHAND_SOURCE_DIR;
+  const std::string sdf = (dir_ / "cad_sdf").string();
+  ASSERT_EQ(RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-sdfgen -q --urdf " + root +
+                       "/tests/data/cad_robot/cad_robot.urdf --out " + sdf + " --resolution 0.005 --padding 0.05")
+                .exit_code,
+            0);
+  const std::string task = WriteTask({{"robot:", "robot: " + root + "/tests/data/cad_robot/cad_robot.urdf"},
+                                      {"sdf_dir:", "sdf_dir: " + sdf}});
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const auto r = RunCommand(kPlan + " " + task + " --out " + out + " --report " + report);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.err.find("link1_fin.stl' (link 'link1') repaired"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(out));
+  fs::remove(out);
+  fs::remove(report);
+  ExpectBadInput(WriteTask({{"robot:", "robot: " + root + "/tests/data/cad_robot/cad_robot_holed.urdf"},
+                            {"sdf_dir:", "sdf_dir: " + sdf}}),
+                 "link2_holed.stl' does not bound a volume, even repaired: not closed: 1 hole");
+}
+
 TEST_F(PlanCliTest, RefusesOutputsThatWouldDestroySomething) {
   const std::string scene = (dir_ / "scene.pcd").string();
   fs::copy_file(std::string(QUADHAND_SOURCE_DIR) + "/data/scenes/window_cup.pcd", scene);

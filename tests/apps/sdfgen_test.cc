@@ -162,6 +162,43 @@ TEST_F(SdfgenTest, OpenMeshNeedsUnsigned) {
   EXPECT_FALSE(grid->info().is_signed);
 }
 
+// The CAD-export test robot (tests/data/cad_robot): the reference robot with
+// a reversed duplicate face, a sliver, a crack under the tolerance and a
+// two-shell mesh inside the base. Repaired, its SDFs are the reference
+// robot's, value for value; each repair is one line naming the file and link.
+TEST_F(SdfgenTest, CadExportDefectsGiveTheReferenceSdfsBitForBit) {
+  const std::string root = QUADHAND_SOURCE_DIR;
+  const std::string reference = Path("reference"), cad = Path("cad");
+  const std::string args = " --resolution 0.005 --padding 0.05";
+  ASSERT_EQ(RunCommand(kSdfgen + " -q --urdf " + root + "/meshes/quadhand/quadhand.urdf --out " + reference + args)
+                .exit_code,
+            0);
+  const auto r = RunCommand(kSdfgen + " --urdf " + root + "/tests/data/cad_robot/cad_robot.urdf --out " + cad + args);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("link1_fin.stl' (link 'link1') repaired: removed 1 pair of reversed duplicate faces"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("link2_sliver_crack.stl' (link 'link2') repaired: merged 2 vertices"), std::string::npos)
+      << r.err;
+  for (const char* link : {"base_link", "link1", "link2", "link3", "battery"}) {
+    auto a = geometry::SdfGrid::Load(reference + "/" + link + ".qhsdf");
+    auto b = geometry::SdfGrid::Load(cad + "/" + link + ".qhsdf");
+    ASSERT_TRUE(a.ok() && b.ok()) << link;
+    EXPECT_EQ(a->info().dims, b->info().dims) << link;
+    EXPECT_EQ(a->info().origin, b->info().origin) << link;
+    EXPECT_TRUE(a->values() == b->values()) << link << ": the repaired mesh's SDF differs";
+  }
+}
+
+TEST_F(SdfgenTest, AMeshWithARealHoleIsRefusedWithTheTrueDiagnosis) {
+  const std::string out = Path("out");
+  ExpectBadInput("--urdf " + std::string(QUADHAND_SOURCE_DIR) + "/tests/data/cad_robot/cad_robot_holed.urdf --out " +
+                     out + " --resolution 0.005 --padding 0.05",
+                 "link2_holed.stl' does not bound a volume, even repaired: not closed: 1 hole (a border of 3 edges",
+                 out);
+  EXPECT_FALSE(fs::exists(out));
+}
+
 TEST_F(SdfgenTest, TruncatedFileIsRejected) {
   const std::string cube = WriteCube();
   const std::string out = Path("out");

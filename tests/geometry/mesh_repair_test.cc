@@ -71,9 +71,9 @@ TEST(MeshRepairTest, DuplicatesDegenerateFacesAndSplitVerticesAreRemoved) {
   TriangleMesh mesh = UnitBox();
   mesh.triangles.push_back(mesh.triangles[3]);                                   // an exact duplicate
   mesh.triangles.push_back(Eigen::Vector3i(mesh.triangles[5][0], mesh.triangles[5][0], mesh.triangles[5][1]));
-  // A vertex written twice, 1 um apart, used by one face: a crack closed by merging.
+  // A vertex written twice, 0.5 um apart, used by one face: a crack closed by merging.
   const int split = static_cast<int>(mesh.vertices.size());
-  mesh.vertices.push_back(mesh.vertices[mesh.triangles[7][2]] + Vec3(1e-6, 0, 0));
+  mesh.vertices.push_back(mesh.vertices[mesh.triangles[7][2]] + Vec3(5e-7, 0, 0));
   mesh.triangles[7][2] = split;
   EXPECT_FALSE(CheckMesh(mesh).bounds_volume);
   const RepairedMesh r = Repaired(mesh);

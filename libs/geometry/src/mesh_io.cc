@@ -49,6 +49,7 @@
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/numbers.h"
 #include "quadhand/core/ply_header.h"
+#include "quadhand/geometry/mesh_repair.h"
 
 namespace quadhand::geometry {
 namespace {
@@ -378,7 +379,36 @@ std::string OffTextProblem(const std::string& path) {
 
 }  // namespace
 
+namespace {
+
+// The file's faces as a triangle soup, before any repair; false (and no
+// soup) when a face has more than three corners.
+bool AsTriangleSoup(const std::vector<InexactKernel::Point_3>& points, const std::vector<std::vector<std::size_t>>& polygons,
+                  TriangleMesh* soup) {
+  for (const auto& polygon : polygons) {
+    if (polygon.size() != 3) return false;
+  }
+  soup->vertices.reserve(points.size());
+  for (const auto& p : points) soup->vertices.emplace_back(p.x(), p.y(), p.z());
+  soup->triangles.reserve(polygons.size());
+  for (const auto& polygon : polygons) {
+    soup->triangles.emplace_back(static_cast<int>(polygon[0]), static_cast<int>(polygon[1]),
+                                 static_cast<int>(polygon[2]));
+  }
+  return true;
+}
+
+}  // namespace
+
 core::Result<TriangleMesh> ReadMesh(const std::string& path) {
+  auto shells = ReadMeshShells(path, MeshRepairOptions{}, nullptr);
+  if (!shells.ok()) return shells.status();
+  return shells->size() == 1 ? std::move(shells->front()) : Concatenated(*shells);
+}
+
+core::Result<std::vector<TriangleMesh>> ReadMeshShells(const std::string& path, const MeshRepairOptions& options,
+                                                       MeshRepairReport* report) {
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument(path + ": " + why);
   std::error_code error;
   if (!std::filesystem::exists(path, error)) {
     return core::Status::NotFound(path + ": no such mesh file");
@@ -451,8 +481,22 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
       }
     }
   }
-  // What read_polygon_mesh does after reading: merge duplicate points, drop
-  // degenerate and duplicate faces, orient the soup, build the mesh.
+  // A triangle soup (STL, most exports) goes through RepairMesh, which
+  // counts what it changes and says truly what it cannot repair.
+  TriangleMesh soup;
+  std::string repair_problem;
+  if (AsTriangleSoup(points, polygons, &soup)) {
+    auto repaired = RepairMesh(soup, options);
+    if (repaired.ok()) {
+      if (report != nullptr) *report = repaired->report;
+      return std::move(repaired->shells);
+    }
+    repair_problem = repaired.status().message();
+  }
+  // Polygons of more corners, and soups RepairMesh refused: what
+  // read_polygon_mesh does after reading (merge duplicate points, drop
+  // degenerate and duplicate faces, orient the soup, build the mesh), then
+  // RepairMesh on the result.
   InexactMesh mesh;
   bool read = false;
   PMP::repair_polygon_soup(points, polygons);
@@ -472,6 +516,7 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
     read = true;
   }
   if (!read) {
+    if (!repair_problem.empty()) return core::Status::InvalidArgument(path + ": " + repair_problem);
     return core::Status::InvalidArgument(
         path + ": cannot read mesh (malformed " + extension.substr(1) +
         " file, or its faces do not form a manifold surface)" +
@@ -483,7 +528,19 @@ core::Result<TriangleMesh> ReadMesh(const std::string& path) {
   if (!CGAL::is_triangle_mesh(mesh) && !PMP::triangulate_faces(mesh)) {
     return core::Status::InvalidArgument(path + ": a face could not be triangulated (not a simple polygon)");
   }
-  return FromSurfaceMesh(mesh);
+  const TriangleMesh read_mesh = FromSurfaceMesh(mesh);
+  auto repaired = RepairMesh(read_mesh, options);
+  if (repaired.ok()) {
+    if (report != nullptr) *report = repaired->report;
+    return std::move(repaired->shells);
+  }
+  // Not a volume: the mesh as read, for callers that accept open surfaces
+  // (unsigned distances); the diagnosis of the soup when there was one.
+  if (report != nullptr) {
+    *report = MeshRepairReport{};
+    report->problem = repair_problem.empty() ? repaired.status().message() : repair_problem;
+  }
+  return std::vector<TriangleMesh>{read_mesh};
 }
 
 core::Status WriteMesh(const std::string& path, const TriangleMesh& mesh) {

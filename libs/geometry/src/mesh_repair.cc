@@ -133,6 +133,10 @@ bool MeshRepairOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = Format("the repair tolerance %g m must be in (0, 0.001] m", tolerance);
     return false;
   }
+  if (!(std::isfinite(metres_per_unit) && metres_per_unit > 0.0)) {
+    if (why != nullptr) *why = Format("the mesh's scale %g m per unit must be positive", metres_per_unit);
+    return false;
+  }
   return true;
 }
 
@@ -168,7 +172,8 @@ core::Result<RepairedMesh> RepairMesh(const TriangleMesh& mesh, const MeshRepair
 
   RepairedMesh result;
   MeshRepairReport& report = result.report;
-  const std::vector<int> same = MergeVertices(mesh.vertices, options.tolerance, &report.merged_vertices);
+  const std::vector<int> same =
+      MergeVertices(mesh.vertices, options.tolerance / options.metres_per_unit, &report.merged_vertices);
 
   // Faces on the merged vertices; degenerate ones dropped.
   std::vector<Face> faces;

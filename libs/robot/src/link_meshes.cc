@@ -1,10 +1,13 @@
 #include "quadhand/robot/link_meshes.h"
 
 #include <algorithm>
+#include <mutex>
+#include <set>
 #include <utility>
 #include <vector>
 
 #include "quadhand/geometry/mesh_io.h"
+#include "quadhand/geometry/mesh_repair.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/geometry/primitives.h"
 
@@ -14,24 +17,11 @@ namespace {
 using core::Result;
 using core::Status;
 
-// One collision element as a closed mesh in the link frame.
+// A primitive collision element as a closed mesh in the link frame.
 Result<geometry::TriangleMesh> ElementMesh(const CollisionGeometry& element) {
   switch (element.type) {
-    case GeometryType::kMesh: {
-      Result<geometry::TriangleMesh> mesh = geometry::ReadMesh(element.mesh_path);
-      if (!mesh.ok()) return mesh.status();
-      // Transformed() flips the winding for a mirroring scale, so outward stays outward.
-      geometry::TriangleMesh placed = geometry::Transformed(*mesh, element.origin, element.mesh_scale);
-      // The same bound as the primitives' sizes and the joints' origins: CGAL's
-      // exact distances overflow (and abort) on far larger coordinates.
-      for (const Vec3& vertex : placed.vertices) {
-        if (!(vertex.allFinite() && vertex.cwiseAbs().maxCoeff() <= 1000.0)) {
-          return Status::InvalidArgument("mesh '" + element.mesh_path +
-                                         "': scaled and placed, a vertex lies more than 1000 m from the link frame");
-        }
-      }
-      return placed;
-    }
+    case GeometryType::kMesh:
+      return Status::Internal("ElementMesh: a mesh file is read by ElementMeshes");
     case GeometryType::kBox:
       return geometry::TessellateBox(geometry::Box{element.origin, element.box_size});
     case GeometryType::kCylinder:
@@ -46,6 +36,70 @@ Result<geometry::TriangleMesh> ElementMesh(const CollisionGeometry& element) {
   return Status::Internal("unknown collision geometry type");
 }
 
+// Each mesh file's repairs are kept once per process, for the program to
+// print when it is done loading (TakeMeshRepairReports): the SDFs, the exact
+// model, the self-collision pairs and the drawing all load the same files,
+// and one line per file is what a user needs.
+struct RepairLog {
+  std::mutex mutex;
+  std::set<std::string> files;
+  std::vector<std::string> untaken;
+};
+RepairLog& Repairs() {
+  static RepairLog log;
+  return log;
+}
+
+void ReportRepairs(const std::string& where, const std::string& path, const geometry::MeshRepairReport& report) {
+  const std::vector<std::string> lines = report.Lines();
+  if (lines.empty()) return;
+  RepairLog& log = Repairs();
+  std::lock_guard<std::mutex> lock(log.mutex);
+  if (!log.files.insert(path).second) return;
+  std::string text;
+  for (const std::string& line : lines) text += (text.empty() ? "" : "; ") + line;
+  log.untaken.push_back("mesh '" + path + "' (" + where + ") repaired: " + text);
+}
+
+// One collision element as closed meshes in the link frame: a mesh file
+// gives one per shell (mesh_repair.h), their union being the element.
+Result<std::vector<geometry::TriangleMesh>> ElementMeshes(const CollisionGeometry& element, const std::string& where) {
+  switch (element.type) {
+    case GeometryType::kMesh: {
+      geometry::MeshRepairReport report;
+      geometry::MeshRepairOptions repair;
+      repair.metres_per_unit = element.mesh_scale.cwiseAbs().maxCoeff();
+      auto shells = geometry::ReadMeshShells(element.mesh_path, repair, &report);
+      if (!shells.ok()) return shells.status();
+      if (!report.problem.empty()) {
+        return Status::InvalidArgument("mesh '" + element.mesh_path + "' does not bound a volume, even repaired: " +
+                                       report.problem);
+      }
+      ReportRepairs(where, element.mesh_path, report);
+      std::vector<geometry::TriangleMesh> placed_shells;
+      for (const geometry::TriangleMesh& shell : *shells) {
+        // Transformed() flips the winding for a mirroring scale, so outward stays outward.
+        geometry::TriangleMesh placed = geometry::Transformed(shell, element.origin, element.mesh_scale);
+        // The same bound as the primitives' sizes and the joints' origins: CGAL's
+        // exact distances overflow (and abort) on far larger coordinates.
+        for (const Vec3& vertex : placed.vertices) {
+          if (!(vertex.allFinite() && vertex.cwiseAbs().maxCoeff() <= 1000.0)) {
+            return Status::InvalidArgument("mesh '" + element.mesh_path +
+                                           "': scaled and placed, a vertex lies more than 1000 m from the link frame");
+          }
+        }
+        placed_shells.push_back(std::move(placed));
+      }
+      return placed_shells;
+    }
+    default: {
+      Result<geometry::TriangleMesh> primitive = ElementMesh(element);
+      if (!primitive.ok()) return primitive.status();
+      return std::vector<geometry::TriangleMesh>{std::move(*primitive)};
+    }
+  }
+}
+
 }  // namespace
 
 Result<std::vector<geometry::TriangleMesh>> LinkCollisionElements(const RobotModel& model, int link) {
@@ -58,11 +112,17 @@ Result<std::vector<geometry::TriangleMesh>> LinkCollisionElements(const RobotMod
   std::vector<geometry::TriangleMesh> parts;
   parts.reserve(data.collisions.size());
   for (const CollisionGeometry& element : data.collisions) {
-    Result<geometry::TriangleMesh> part = ElementMesh(element);
-    if (!part.ok()) return part.status().WithPrefix(where);
-    parts.push_back(std::move(part).value());
+    auto element_parts = ElementMeshes(element, where);
+    if (!element_parts.ok()) return element_parts.status().WithPrefix(where);
+    for (geometry::TriangleMesh& part : *element_parts) parts.push_back(std::move(part));
   }
   return parts;
+}
+
+std::vector<std::string> TakeMeshRepairReports() {
+  RepairLog& log = Repairs();
+  std::lock_guard<std::mutex> lock(log.mutex);
+  return std::exchange(log.untaken, {});
 }
 
 Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int link) {

@@ -52,7 +52,7 @@ core::Status CheckLinkSdfJobs(const std::vector<LinkSdfJob>& jobs, const geometr
       const std::string which =
           job.elements.size() > 1 ? "collision element " + std::to_string(e + 1) + " of link '" : "mesh of link '";
       return core::Status::InvalidArgument(job.source + ": " + which + job.link_name + "' does not bound a volume (" +
-                                           check.problem + "); pass --unsigned to accept it with unsigned distances");
+                                           check.problem + ")");
     }
   }
   return core::Status::Ok();

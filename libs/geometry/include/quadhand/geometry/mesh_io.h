@@ -10,8 +10,18 @@
 
 namespace quadhand::geometry {
 
-// Reads a mesh; triangle soups (e.g. STL) are merged, repaired and oriented
-// where possible. Fails with a message naming the file if unreadable or empty.
+struct MeshRepairOptions;
+struct MeshRepairReport;
+
+// Reads a mesh and repairs it (mesh_repair.h) into the closed shells it
+// means, reporting the repairs in *report (may be null). A mesh that does
+// not bound a volume even so is returned as read, one "shell" (open
+// surfaces are allowed for unsigned distances; CheckMesh tells). Fails with
+// a message naming the file if unreadable or empty.
+core::Result<std::vector<TriangleMesh>> ReadMeshShells(const std::string& path, const MeshRepairOptions& options,
+                                                       MeshRepairReport* report);
+
+// ReadMeshShells with the default repair, its shells as one mesh.
 core::Result<TriangleMesh> ReadMesh(const std::string& path);
 
 // Writes by extension (.stl is written binary, .off/.obj/.ply ascii).

@@ -19,9 +19,15 @@ namespace quadhand::geometry {
 struct MeshRepairOptions {
   // Vertices closer than this (m) are one vertex: cracks and slivers
   // narrower than it close. Far under any SDF resolution (the SDF's own
-  // error is half a voxel), far over float rounding of CAD coordinates.
-  double tolerance = 1e-5;
-  bool IsValid(std::string* why) const;  // finite, > 0 and <= 1 mm
+  // error is half a voxel) and under the finest features of real meshes
+  // (the reference robot's base has distinct vertices 8 um apart), over the
+  // rounding of single-precision coordinates (0.1 um at 1 m).
+  double tolerance = 1e-6;
+  // Metres per unit of the mesh's coordinates (a URDF's mesh scale: 0.001
+  // for a mesh in millimetres), so that the tolerance is in metres whatever
+  // the file's units.
+  double metres_per_unit = 1.0;
+  bool IsValid(std::string* why) const;  // tolerance finite, > 0 and <= 1 mm; metres_per_unit finite, > 0
 };
 
 struct MeshRepairReport {
@@ -32,6 +38,9 @@ struct MeshRepairReport {
   long flipped_faces = 0;            // faces turned to agree with their neighbours
   long outward_shells = 0;           // shells turned inside out to face outward
   long shells = 0;                   // closed shells in the result
+  // ReadMeshShells: why the mesh, returned as read, does not bound a volume
+  // (RepairMesh's diagnosis); empty when it does.
+  std::string problem;
   // One line per repair made, with its count ("removed 1 pair of reversed
   // duplicate faces (a zero-volume fin)"); empty when nothing was changed.
   std::vector<std::string> Lines() const;

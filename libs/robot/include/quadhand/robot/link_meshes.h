@@ -18,10 +18,19 @@ namespace quadhand::robot {
 // Tolerance used to tessellate URDF cylinders and spheres, metres.
 inline constexpr double kPrimitiveTessellationTolerance = 1e-4;
 
-// Every collision element of the link, each a closed mesh when its source
-// is (primitives always are). Fails if the link has no collision geometry or
-// a mesh cannot be read.
+// Every collision element of the link, each a closed mesh: primitives
+// tessellated, and each mesh file repaired (geometry/mesh_repair.h: the
+// defects CAD exporters write) into its closed shells, one element each
+// (their union is the file's solid). Fails, naming the file and the
+// defect, if the link has no collision geometry or a mesh cannot be read or
+// does not bound a volume even repaired.
 core::Result<std::vector<geometry::TriangleMesh>> LinkCollisionElements(const RobotModel& model, int link);
+
+// One line for each mesh file that needed repairs ("mesh 'arm.stl' (link
+// 'link2') repaired: removed 1 pair of reversed duplicate faces ..."), for
+// every file loaded in this process since the last call; each file once.
+// Programs print them when loading succeeded: nothing is repaired silently.
+std::vector<std::string> TakeMeshRepairReports();
 
 // One surface for the link: the single element as read, else the boolean
 // union of the elements, or, where that union cannot be computed (elements
