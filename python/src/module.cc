@@ -20,6 +20,7 @@
 #include "quadhand/core/log.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/plan_output.h"
+#include "quadhand/robot/link_meshes.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
@@ -191,7 +192,10 @@ PlanOutput RunPlan(const PlanArguments& args) {
   planner::PlanResult result = Take(planner::Plan(context->Scene(), context->task(), options, *solver));
 
   PlanOutput output;
-  output.cautions = planner::TaskCautions(context->task());
+  // The meshes' repairs (each file once per process) come first: they are
+  // what the plan's geometry is, the task's cautions what it may not mean.
+  output.cautions = robot::TakeMeshRepairReports();
+  for (std::string& caution : planner::TaskCautions(context->task())) output.cautions.push_back(std::move(caution));
   output.success = result.success;
   output.status = planner::PlanStatusName(result.status);
   output.message = result.message;
