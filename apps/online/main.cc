@@ -21,6 +21,7 @@
 #include <csignal>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -84,6 +85,63 @@ void PrintWireSetpoint(double t, const online::Setpoint& s) {
   for (int k = 0; k < s.joint_rates.size(); ++k) std::printf("%s%.3f", k ? " " : "", s.joint_rates[k]);
   std::printf(")\n");
 }
+
+// The --log file as the flight goes: LOG.partial gets the header and, every
+// second, the rows recorded since (all but the newest, which a state at the
+// same time may still replace); at the end the rest, and it is renamed to
+// LOG. A program killed in flight leaves LOG.partial, whose name says that
+// it is incomplete, with all but about the last second.
+class GrowingLog {
+ public:
+  GrowingLog(std::string path, std::vector<std::string> joints)
+      : path_(std::move(path)), partial_(path_ + ".partial"), joints_(std::move(joints)) {}
+  ~GrowingLog() {
+    if (file_ != nullptr) std::fclose(file_);
+  }
+  GrowingLog(const GrowingLog&) = delete;
+  GrowingLog& operator=(const GrowingLog&) = delete;
+
+  void Flush(const online::FlightLog& log) {
+    if (log.samples().size() >= 2) Write(log, log.samples().size() - 1);
+  }
+  // Writes the rest and renames the file; the error names the file.
+  core::Status Finish(const online::FlightLog& log) {
+    Write(log, log.samples().size());
+    if (file_ != nullptr && std::fclose(file_) != 0 && error_.empty()) error_ = "cannot write " + partial_;
+    file_ = nullptr;
+    if (error_.empty() && std::rename(partial_.c_str(), path_.c_str()) != 0) {
+      error_ = "cannot rename " + partial_ + " to " + path_;
+    }
+    return error_.empty() ? core::Status::Ok() : core::Status::InvalidArgument(error_);
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  void Write(const online::FlightLog& log, size_t end) {
+    if (!error_.empty()) return;
+    if (file_ == nullptr) {
+      file_ = std::fopen(partial_.c_str(), "w");
+      if (file_ == nullptr) {
+        error_ = "cannot create " + partial_;
+        return;
+      }
+      const std::string header = log.CsvHeader(joints_);
+      std::fwrite(header.data(), 1, header.size(), file_);
+    }
+    if (end > written_) {
+      const std::string rows = log.CsvRows(joints_, written_, end);
+      if (std::fwrite(rows.data(), 1, rows.size(), file_) != rows.size()) error_ = "cannot write " + partial_;
+      written_ = end;
+    }
+    if (std::fflush(file_) != 0 && error_.empty()) error_ = "cannot write " + partial_;
+  }
+
+  std::string path_, partial_;
+  std::vector<std::string> joints_;
+  std::FILE* file_ = nullptr;
+  size_t written_ = 0;
+  std::string error_;
+};
 
 int DryRun(const planner::PlanningContext& context, const online::PlanningSetup& setup, double rate) {
   const auto begin = Clock::now();
@@ -158,7 +216,8 @@ int main(int argc, char** argv) {
   app.add_flag("--require-signing", require_signing,
                "Drop unsigned, wrongly signed and replayed frames (needs --signing-key)");
   app.add_option("--log", log_path, "Write the flight (CSV): measured states in the plan file's columns, then the "
-                                    "setpoints sent (docs/online.md)");
+                                    "setpoints sent (docs/online.md); written as it flies to LOG.partial (every\n"
+                                    "second), renamed to LOG at the end");
   app.add_flag("--dry-run", dry_run,
                "No vehicle: plan from the task's start state and print what would be streamed (exit 0 or 1)");
   app.add_option("--vehicle-timeout", vehicle_timeout,
@@ -353,6 +412,9 @@ int main(int argc, char** argv) {
   const double period = 1.0 / rate;
   double next_tick = 0.0;
   online::FlightLog log;
+  std::optional<GrowingLog> growing_log;
+  if (!log_path.empty()) growing_log.emplace(log_path, ctx.robot().ActuatedJointNames());
+  double last_log_flush = 0.0;
   std::vector<double> send_times;  // of each setpoint
   long send_errors = 0;
   std::string first_send_error;
@@ -378,6 +440,10 @@ int main(int argc, char** argv) {
     }
     const online::ControllerOutput out = controller.Tick(t);
     last_tick = t;
+    if (growing_log && t - last_log_flush >= 1.0) {
+      growing_log->Flush(log);
+      last_log_flush = t;
+    }
     for (const link::Message& m : online::MessagesFor(out, t, targets)) {
       if (core::Status s = connection.Send(m); !s.ok()) {
         if (send_errors++ == 0) first_send_error = s.message();
@@ -510,10 +576,8 @@ int main(int argc, char** argv) {
               static_cast<unsigned long long>(link_stats.replayed),
               static_cast<unsigned long long>(link_stats.unknown_message),
               static_cast<unsigned long long>(link_stats.bytes_skipped));
-  if (!log_path.empty()) {
-    core::AtomicFileSet files;
-    core::Status s = files.Stage(log_path, log.Csv(ctx.robot().ActuatedJointNames()));
-    if (s.ok()) s = files.Commit();
+  if (growing_log) {
+    const core::Status s = growing_log->Finish(log);
     if (!s.ok()) {
       core::PrintError("quadhand-online", "--log " + s.message());
       if (code == kExitSuccess) code = kExitBadInput;

@@ -164,6 +164,7 @@ TEST_F(OnlineCliTest, FliesTheDefaultTaskToTheCupOverLoopback) {
   ASSERT_TRUE(robot.ok());
   auto flown = sim::LoadPlanCsv(log, robot->ActuatedJointNames());
   ASSERT_TRUE(flown.ok()) << flown.status().message();
+  EXPECT_FALSE(fs::exists(log + ".partial"));  // renamed once complete
   const sim::PlanRow& last = flown->rows.back();
   robot::KinematicsState kinematics;
   robot::ComputeKinematics(*robot, MakePose(last.position, last.attitude.toRotationMatrix()), last.joints, &kinematics);
@@ -267,6 +268,36 @@ TEST_F(OnlineCliTest, TheLinkProxyRefusesBadFaultsInOneLine) {
                              "--duplicate", "--corrupt", "--outage", "--seed", "--duration"}) {
     EXPECT_NE(help.out.find(option), std::string::npos) << option;
   }
+}
+
+// The log is written as the flight goes: killed in flight, quadhand-online
+// leaves LOG.partial (its name says it is incomplete) with all but about the
+// last second, readable as a plan file.
+TEST_F(OnlineCliTest, AKilledOnlineModeLeavesItsLogSoFar) {
+  const std::string task = WriteTask();
+  const std::string vehicle = StartVehicle(task);
+  const std::string log = (dir_ / "flight.csv").string();
+  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--log", log, "--max-duration", "60"},
+                       (dir_ / "online").string());
+  const auto start = Clock::now();
+  while (ReadAll(online.out).find("flying the plan") == std::string::npos && Seconds(start) < 30.0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_NE(ReadAll(online.out).find("flying the plan"), std::string::npos) << ReadAll(online.out);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  kill(online.pid, SIGKILL);
+  Wait(&online, 5.0);
+  EXPECT_FALSE(fs::exists(log));
+  ASSERT_TRUE(fs::exists(log + ".partial"));
+  auto robot = robot::RobotModel::LoadFromUrdfFile(kRoot + "/meshes/quadhand/quadhand.urdf");
+  ASSERT_TRUE(robot.ok());
+  auto rows = sim::LoadPlanCsv(log + ".partial", robot->ActuatedJointNames());
+  ASSERT_TRUE(rows.ok()) << rows.status().message();
+  // The rows reach into the flight: at least 1.5 s of the 2.5 s flown.
+  std::smatch m;
+  const std::string out = ReadAll(online.out);
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("\\[ *([0-9.]+) s\\] flying the plan"))) << out;
+  EXPECT_GT(rows->rows.back().t, std::stod(m[1]) + 1.0) << "last row at " << rows->rows.back().t;
 }
 
 TEST_F(OnlineCliTest, ExitsWithThreeSoonAfterTheVehicleFallsSilent) {

@@ -44,14 +44,25 @@ void FlightLog::Record(const MeasuredState& measured, const std::optional<Setpoi
 }
 
 std::string FlightLog::Csv(const std::vector<std::string>& joint_names) const {
+  return CsvHeader(joint_names) + CsvRows(joint_names, 0, samples_.size());
+}
+
+std::string FlightLog::CsvHeader(const std::vector<std::string>& joint_names) const {
   std::string out;
   for (const std::string& column : io::PlanColumns(joint_names)) out += (out.empty() ? "" : ",") + column;
   out += ",sp_px,sp_py,sp_pz,sp_vx,sp_vy,sp_vz,sp_ax,sp_ay,sp_az,sp_yaw,sp_yaw_rate";
   for (const auto& name : joint_names) out += ",sp_" + name;
   for (const auto& name : joint_names) out += ",sp_" + name + "_rate";
   out += ",err_pos,phase\n";
+  return out;
+}
+
+std::string FlightLog::CsvRows(const std::vector<std::string>& joint_names, size_t begin, size_t end) const {
+  std::string out;
   const size_t n = joint_names.size();
-  for (const FlightSample& s : samples_) {
+  end = std::min(end, samples_.size());
+  for (size_t row = begin; row < end; ++row) {
+    const FlightSample& s = samples_[row];
     const MeasuredState& m = s.measured;
     char buffer[40];
     std::snprintf(buffer, sizeof(buffer), "%.10g", m.time);

@@ -37,7 +37,10 @@ class FlightLog {
   // Appends one row (times must increase; a row at the same time replaces the last).
   void Record(const MeasuredState& measured, const std::optional<Setpoint>& setpoint, Phase phase);
   const std::vector<FlightSample>& samples() const { return samples_; }
-  std::string Csv(const std::vector<std::string>& joint_names) const;
+  std::string Csv(const std::vector<std::string>& joint_names) const;  // CsvHeader + every row
+  // The header line, and rows [begin, end) (for a log written as it grows).
+  std::string CsvHeader(const std::vector<std::string>& joint_names) const;
+  std::string CsvRows(const std::vector<std::string>& joint_names, size_t begin, size_t end) const;
 
  private:
   std::vector<FlightSample> samples_;
