@@ -86,61 +86,33 @@ void PrintWireSetpoint(double t, const online::Setpoint& s) {
   std::printf(")\n");
 }
 
-// The --log file as the flight goes: LOG.partial gets the header and, every
-// second, the rows recorded since (all but the newest, which a state at the
-// same time may still replace); at the end the rest, and it is renamed to
-// LOG. A program killed in flight leaves LOG.partial, whose name says that
-// it is incomplete, with all but about the last second.
+// The --log file as the flight goes (core::GrowingFile): the header, then
+// every second the rows recorded since (all but the newest, which a state at
+// the same time may still replace); at the end the rest, renamed to LOG.
 class GrowingLog {
  public:
-  GrowingLog(std::string path, std::vector<std::string> joints)
-      : path_(std::move(path)), partial_(path_ + ".partial"), joints_(std::move(joints)) {}
-  ~GrowingLog() {
-    if (file_ != nullptr) std::fclose(file_);
-  }
-  GrowingLog(const GrowingLog&) = delete;
-  GrowingLog& operator=(const GrowingLog&) = delete;
-
+  GrowingLog(std::string path, std::vector<std::string> joints) : file_(std::move(path)), joints_(std::move(joints)) {}
   void Flush(const online::FlightLog& log) {
     if (log.samples().size() >= 2) Write(log, log.samples().size() - 1);
   }
-  // Writes the rest and renames the file; the error names the file.
   core::Status Finish(const online::FlightLog& log) {
     Write(log, log.samples().size());
-    if (file_ != nullptr && std::fclose(file_) != 0 && error_.empty()) error_ = "cannot write " + partial_;
-    file_ = nullptr;
-    if (error_.empty() && std::rename(partial_.c_str(), path_.c_str()) != 0) {
-      error_ = "cannot rename " + partial_ + " to " + path_;
-    }
-    return error_.empty() ? core::Status::Ok() : core::Status::InvalidArgument(error_);
+    return file_.Finish();
   }
-  const std::string& path() const { return path_; }
 
  private:
   void Write(const online::FlightLog& log, size_t end) {
-    if (!error_.empty()) return;
-    if (file_ == nullptr) {
-      file_ = std::fopen(partial_.c_str(), "w");
-      if (file_ == nullptr) {
-        error_ = "cannot create " + partial_;
-        return;
-      }
-      const std::string header = log.CsvHeader(joints_);
-      std::fwrite(header.data(), 1, header.size(), file_);
-    }
-    if (end > written_) {
-      const std::string rows = log.CsvRows(joints_, written_, end);
-      if (std::fwrite(rows.data(), 1, rows.size(), file_) != rows.size()) error_ = "cannot write " + partial_;
-      written_ = end;
-    }
-    if (std::fflush(file_) != 0 && error_.empty()) error_ = "cannot write " + partial_;
+    std::string text = header_written_ ? std::string() : log.CsvHeader(joints_);
+    header_written_ = true;
+    if (end > written_) text += log.CsvRows(joints_, written_, end);
+    written_ = std::max(written_, end);
+    file_.Append(text);
   }
 
-  std::string path_, partial_;
+  core::GrowingFile file_;
   std::vector<std::string> joints_;
-  std::FILE* file_ = nullptr;
+  bool header_written_ = false;
   size_t written_ = 0;
-  std::string error_;
 };
 
 int DryRun(const planner::PlanningContext& context, const online::PlanningSetup& setup, double rate) {

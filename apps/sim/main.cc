@@ -88,7 +88,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--start", start_text, "--udp: hover start X,Y,Z[,YAW] (ENU m, rad; joints at mid-range; default 0,0,1)");
   app.add_option("--start-task", start_task, "--udp: start at a task file's start state (position, yaw, joints)");
-  app.add_option("--log", log_path, "--udp: write the flown states (plan CSV columns, 50 Hz) here on exit");
+  app.add_option("--log", log_path,
+                 "--udp: write the flown states (plan CSV columns, 50 Hz) here: to LOG.partial every second,\n"
+                 "renamed to LOG at the end");
   app.add_option("--signing-key", key_path, "--udp: MAVLink 2 signing key (64 hex digits or 32 raw bytes): signs what is sent, verifies what is received");
   app.add_flag("--require-signing", require_signing,
                "--udp: drop unsigned, wrongly signed and replayed frames (needs --signing-key)");

@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <variant>
 
 #include "quadhand/core/file_util.h"
@@ -75,6 +76,21 @@ int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const st
     return s;
   };
 
+  // The flown record as it grows (core::GrowingFile): every second of
+  // simulated time the rows since, so that a killed simulator leaves all but
+  // the last second in LOG.partial.
+  std::optional<core::GrowingFile> flown_log;
+  size_t flown_written = 0;
+  double next_log_flush = 1.0;
+  auto flush_log = [&]() {
+    if (!flown_log) return;
+    std::string text = flown_written == 0 ? sim::PlanCsvHeader(joint_names) + "\n" : std::string();
+    const std::vector<sim::PlanRow>& rows = autopilot.flown();
+    for (; flown_written < rows.size(); ++flown_written) text += sim::PlanCsvRow(rows[flown_written]) + "\n";
+    flown_log->Append(text);
+  };
+  if (!options.log_path.empty()) flown_log.emplace(options.log_path);
+
   const Clock::time_point wall_start = Clock::now();
   Clock::time_point last_advance = wall_start;
   double next_status = 0.0;
@@ -98,6 +114,10 @@ int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const st
       status = advance(autopilot.time() + Seconds(now - last_advance));
       last_advance = now;
     }
+    if (flown_log && autopilot.time() >= next_log_flush) {
+      flush_log();
+      next_log_flush = std::floor(autopilot.time()) + 1.0;
+    }
     if (!options.quiet && autopilot.time() >= next_status) {
       const Vec3& p = autopilot.state().position;
       std::fprintf(stderr, "t %7.2f s  %-8s %-8s  ENU (%7.3f, %7.3f, %7.3f) m  rx %llu tx %llu\n", autopilot.time(),
@@ -107,13 +127,12 @@ int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const st
       next_status = std::floor(autopilot.time()) + 1.0;
     }
   }
-  if (!status.ok()) return Fail(status.message(), 1);
-
-  if (!options.log_path.empty()) {
-    std::string csv = sim::PlanCsvHeader(joint_names) + "\n";
-    for (const sim::PlanRow& row : autopilot.flown()) csv += sim::PlanCsvRow(row) + "\n";
-    if (core::Status s = core::WriteFileAtomically(options.log_path, csv); !s.ok()) return Fail(s.message(), 2);
+  // The record ends where the simulation did, diverged or not.
+  if (flown_log) {
+    flush_log();
+    if (core::Status s = flown_log->Finish(); !s.ok()) return Fail(s.message(), 2);
   }
+  if (!status.ok()) return Fail(status.message(), 1);
   if (!options.quiet) {
     const link::ParserStats& st = connection.stats();
     std::fprintf(stderr,

@@ -36,6 +36,34 @@ TEST_F(FileUtilTest, AtomicWriteLeavesOnlyTheFinalFile) {
   EXPECT_EQ(entries, 1);
 }
 
+TEST_F(FileUtilTest, AGrowingFileIsPartialUntilFinished) {
+  const std::string path = (dir_ / "log.csv").string();
+  {
+    GrowingFile file(path);
+    file.Append("a\n");
+    // Readable as written so far, under a name that says it is incomplete.
+    EXPECT_EQ(*ReadFileToString(path + ".partial"), "a\n");
+    EXPECT_FALSE(fs::exists(path));
+    file.Append("b\n");
+    ASSERT_TRUE(file.Finish().ok());
+  }
+  EXPECT_EQ(*ReadFileToString(path), "a\nb\n");
+  EXPECT_FALSE(fs::exists(path + ".partial"));
+  // Abandoned (the program killed): the partial file stays as it was.
+  {
+    GrowingFile file((dir_ / "killed.csv").string());
+    file.Append("x\n");
+  }
+  EXPECT_EQ(*ReadFileToString((dir_ / "killed.csv.partial").string()), "x\n");
+  EXPECT_FALSE(fs::exists(dir_ / "killed.csv"));
+  // A folder that does not exist: the error names the file.
+  GrowingFile nowhere((dir_ / "missing" / "log.csv").string());
+  nowhere.Append("y\n");
+  const Status s = nowhere.Finish();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("log.csv.partial"), std::string::npos) << s.message();
+}
+
 TEST_F(FileUtilTest, UncommittedSetLeavesNothingBehind) {
   {
     AtomicFileSet set;

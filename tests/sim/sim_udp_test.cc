@@ -341,5 +341,20 @@ TEST_F(SimUdpTest, RealTimeRunEndsAfterItsDuration) {
   EXPECT_NE(flown.find("\n0,0.5,0.2,1.2,"), std::string::npos) << flown.substr(0, 300);  // the task's start
 }
 
+// The record is written as the run goes: a simulator killed after 2.5 s
+// leaves rt.csv.partial with at least the first 1.5 s, and no rt.csv.
+TEST_F(SimUdpTest, AKilledSimulatorLeavesItsRecordSoFar) {
+  const uint16_t port = FreePort();
+  const std::string log = (dir_ / "rt.csv").string();
+  const auto r = RunCommand("timeout -s KILL 2.5 " + kSim + " --config " + kConfig + " --udp udp://127.0.0.1:" +
+                            std::to_string(port) + " --realtime --duration 10 -q --start-task " + QUADHAND_SOURCE_DIR +
+                            "/data/tasks/window_cup.yaml --log " + log);
+  EXPECT_NE(r.exit_code, 0);  // killed
+  EXPECT_FALSE(std::filesystem::exists(log));
+  const std::string partial = ReadAll(log + ".partial");
+  EXPECT_GE(CountLines(partial), 1 + 75) << partial.substr(0, 200);  // header, then >= 1.5 s at 50 Hz
+  EXPECT_EQ(partial.rfind("t,", 0), 0u);
+}
+
 }  // namespace
 }  // namespace quadhand

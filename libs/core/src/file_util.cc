@@ -12,6 +12,7 @@
 #include <istream>
 #include <sstream>
 #include <system_error>
+#include <utility>
 
 namespace quadhand::core {
 namespace {
@@ -203,6 +204,36 @@ Status AtomicFileSet::Commit() {
   }
   staged_.clear();
   return Status::Ok();
+}
+
+GrowingFile::GrowingFile(std::string path) : path_(std::move(path)) {}
+
+GrowingFile::~GrowingFile() {
+  if (file_ != nullptr) std::fclose(file_);
+}
+
+void GrowingFile::Append(const std::string& text) {
+  if (!error_.empty()) return;
+  if (file_ == nullptr) {
+    file_ = std::fopen(partial_path().c_str(), "w");
+    if (file_ == nullptr) {
+      error_ = partial_path() + ": cannot create it";
+      return;
+    }
+  }
+  if (std::fwrite(text.data(), 1, text.size(), file_) != text.size() || std::fflush(file_) != 0) {
+    error_ = partial_path() + ": cannot write it (disk full?)";
+  }
+}
+
+Status GrowingFile::Finish() {
+  if (file_ == nullptr && error_.empty()) Append("");
+  if (file_ != nullptr && std::fclose(file_) != 0 && error_.empty()) error_ = partial_path() + ": cannot write it";
+  file_ = nullptr;
+  if (error_.empty() && std::rename(partial_path().c_str(), path_.c_str()) != 0) {
+    error_ = path_ + ": cannot rename " + partial_path() + " to it";
+  }
+  return error_.empty() ? Status::Ok() : Status::InvalidArgument(error_);
 }
 
 std::string DirectoryOf(const std::string& path) {

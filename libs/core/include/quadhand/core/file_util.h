@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <iosfwd>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -64,6 +65,30 @@ class AtomicFileSet {
   std::vector<std::pair<std::string, std::string>> staged_;  // (temporary, final)
   std::vector<std::string> protected_;
   std::vector<int> slots_;  // the temporaries' entries in the signal cleanup table
+};
+
+// A record that grows while a program runs (a flight log): PATH.partial is
+// created at the first Append(), each Append() writes and flushes, Finish()
+// closes it and renames it to PATH. A program killed in between leaves
+// PATH.partial, whose name says that it is incomplete, holding everything
+// appended so far. The first error is kept and returned by Finish() (naming
+// the file); later appends do nothing.
+class GrowingFile {
+ public:
+  explicit GrowingFile(std::string path);
+  GrowingFile(const GrowingFile&) = delete;
+  GrowingFile& operator=(const GrowingFile&) = delete;
+  ~GrowingFile();
+
+  void Append(const std::string& text);
+  Status Finish();
+  const std::string& path() const { return path_; }
+  std::string partial_path() const { return path_ + ".partial"; }
+
+ private:
+  std::string path_;
+  std::FILE* file_ = nullptr;
+  std::string error_;
 };
 
 // Directory of `path` ("." if none), and `relative` resolved against `base_dir`
