@@ -131,7 +131,7 @@ int main(int argc, char** argv) {
     return Fail("--first + --trials must stay below 2^31 (trial indices are seeds)");
   }
   // The output is checked before any trial runs, not after the last.
-  if (core::Status s = core::CheckOutputPath(out_path); !s.ok()) return Fail("--out: " + s.message());
+  if (core::Status s = core::CheckOutputPathAndFolder(out_path); !s.ok()) return Fail("--out: " + s.message());
   for (const std::string& input : {config_path, planner_config_path}) {
     if (!input.empty() && core::SameFile(out_path, input)) {
       return Fail("--out " + out_path + ": is an input of this run; refusing to overwrite it");

@@ -12,7 +12,6 @@
 // 6 the flown path, judged on the vehicle's own time-stamped states against
 // the exact meshes, did not keep the safety distance (less
 // --clearance-tolerance), or was not seen densely enough to be judged.
-#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -314,8 +313,8 @@ int main(int argc, char** argv) {
       if (!loaded.ok()) return Fail("--signing-key " + loaded.status().message());
       key = *loaded;
     }
-    if (!log_path.empty() && access(core::DirectoryOf(log_path).c_str(), W_OK) != 0) {
-      return Fail("--log " + log_path + ": its folder does not exist or is not writable");
+    if (!log_path.empty()) {
+      if (core::Status s = core::CheckOutputPathAndFolder(log_path); !s.ok()) return Fail("--log: " + s.message());
     }
   }
 

@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
   if (app.count("--html") > 0) outputs_given.emplace_back("--html", html_path);
   for (size_t i = 0; i < outputs_given.size(); ++i) {
     const auto& [option, path] = outputs_given[i];
-    if (core::Status s = core::CheckOutputPath(path); !s.ok()) return Fail(option + ": " + s.message());
+    if (core::Status s = core::CheckOutputPathAndFolder(path); !s.ok()) return Fail(option + ": " + s.message());
     for (size_t j = 0; j < i; ++j) {
       if (core::SameFile(path, outputs_given[j].second)) {
         return Fail(option + " and " + outputs_given[j].first + " name the same file: " + path);

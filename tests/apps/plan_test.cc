@@ -254,6 +254,11 @@ TEST_F(PlanCliTest, RefusesOutputsThatWouldDestroySomething) {
       {"--out '' --report " + report, "empty"},
       {"--out " + (dir_ / "link.csv").string() + " --report " + report, "symbolic link"},
       {"--out " + out + " --report " + report + " --html /dev/null", "not a regular file"},
+      // Outputs that cannot be made fail before any work, in one line naming them.
+      {"--out " + (dir_ / "missing" / "plan.csv").string() + " --report " + report, "its folder"},
+      {"--out " + out + " --report " + (dir_ / "missing" / "r.json").string(), "--report"},
+      {"--out " + out + " --report " + report + " --html " + (dir_ / "missing" / "x.html").string(), "--html"},
+      {"--out /proc/plan.csv --report " + report, "cannot create a file in /proc"},
   };
   for (const auto& [args, fragment] : cases) {
     const auto r = RunCommand(kPlan + " " + task + " " + args);

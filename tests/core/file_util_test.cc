@@ -64,6 +64,18 @@ TEST_F(FileUtilTest, AGrowingFileIsPartialUntilFinished) {
   EXPECT_NE(s.message().find("log.csv.partial"), std::string::npos) << s.message();
 }
 
+TEST_F(FileUtilTest, AnOutputsFolderMustAcceptANewFile) {
+  EXPECT_TRUE(CheckOutputPathAndFolder((dir_ / "out.csv").string()).ok());
+  int entries = 0;
+  for (const auto& entry : fs::directory_iterator(dir_)) entries += entry.is_regular_file();
+  EXPECT_EQ(entries, 0);  // the probe is gone
+  const Status missing = CheckOutputPathAndFolder((dir_ / "missing" / "out.csv").string());
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.message().find("does not exist"), std::string::npos) << missing.message();
+  EXPECT_FALSE(CheckOutputPathAndFolder("/proc/out.csv").ok());
+  EXPECT_FALSE(CheckOutputPathAndFolder(dir_.string()).ok());  // a directory, as CheckOutputPath says
+}
+
 TEST_F(FileUtilTest, UncommittedSetLeavesNothingBehind) {
   {
     AtomicFileSet set;

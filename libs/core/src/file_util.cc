@@ -1,5 +1,6 @@
 #include "quadhand/core/file_util.h"
 
+#include <fcntl.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -156,6 +157,35 @@ Status CheckOutputPath(const std::string& path) {
     return Status::InvalidArgument(path + ": is not a regular file (a device, FIFO or socket); refusing to replace it");
   }
   return Status::Ok();
+}
+
+namespace {
+
+// Whether a new file can be made in `path`'s folder: a uniquely named probe
+// is created and removed at once (permissions alone do not tell: root may
+// "write" to /proc, where no file can be made).
+Status CheckOutputFolder(const std::string& path) {
+  namespace fs = std::filesystem;
+  const std::string folder = DirectoryOf(path);
+  std::error_code error;
+  if (!fs::is_directory(folder, error)) return Status::InvalidArgument(path + ": its folder " + folder + " does not exist");
+  static std::atomic<unsigned> counter{0};
+  const std::string probe =
+      (fs::path(folder) / (".quadhand-probe-" + std::to_string(getpid()) + "-" + std::to_string(counter++))).string();
+  const int fd = open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd < 0) {
+    return Status::InvalidArgument(path + ": cannot create a file in " + folder + " (" + std::strerror(errno) + ")");
+  }
+  close(fd);
+  unlink(probe.c_str());
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status CheckOutputPathAndFolder(const std::string& path) {
+  QUADHAND_RETURN_IF_ERROR(CheckOutputPath(path));
+  return CheckOutputFolder(path);
 }
 
 bool SameFile(const std::string& a, const std::string& b) {

@@ -38,6 +38,10 @@ Status WriteFileAtomically(const std::string& path, const std::string& contents)
 // existing directory, device, FIFO, socket or symbolic link (a rename would
 // replace the link or the device itself). InvalidArgument naming the path.
 Status CheckOutputPath(const std::string& path);
+// CheckOutputPath, and that a file can be made in its folder (it exists and
+// accepts a new file): what a program checks before any work, so that an
+// output that cannot be written fails at once, in one line naming it.
+Status CheckOutputPathAndFolder(const std::string& path);
 
 // Whether two paths name the same file (the same existing file, or the same
 // normalised absolute path).
