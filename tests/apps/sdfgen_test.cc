@@ -199,6 +199,19 @@ TEST_F(SdfgenTest, AMeshWithARealHoleIsRefusedWithTheTrueDiagnosis) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// The grids are computed before the output folder is made: a run killed
+// while computing (SIGKILL: nothing can clean up) leaves no --out behind.
+TEST_F(SdfgenTest, AKilledRunLeavesNoOutputFolder) {
+  const std::string out = Path("killed");
+  const auto r = RunCommand("timeout -s KILL 1.5 " + kSdfgen + " -q --urdf " + std::string(QUADHAND_SOURCE_DIR) +
+                            "/meshes/quadhand/quadhand.urdf --out " + out + " --resolution 0.0008 --threads 1");
+  EXPECT_NE(r.exit_code, 0) << "finished within the second and a half: the test needs a slower run";
+  EXPECT_FALSE(fs::exists(out));
+  // A folder that cannot be made still fails at once.
+  ExpectBadInput("--urdf " + std::string(QUADHAND_SOURCE_DIR) + "/meshes/quadhand/quadhand.urdf --out /proc/sdf",
+                 "/proc/sdf");
+}
+
 TEST_F(SdfgenTest, TruncatedFileIsRejected) {
   const std::string cube = WriteCube();
   const std::string out = Path("out");

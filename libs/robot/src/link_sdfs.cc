@@ -81,6 +81,32 @@ core::Result<std::vector<WrittenLinkSdf>> WriteLinkSdfs(const std::vector<LinkSd
     paths.push_back(*path);
   }
   std::error_code error;
+  // Whether the folder can be made is known at once (a bad --out fails in
+  // seconds, not after the grids); but a folder made here is removed again
+  // until the grids are done, so a run killed while computing (minutes, for
+  // a fine grid) leaves nothing behind.
+  const bool existed = std::filesystem::exists(out_dir, error);
+  std::filesystem::create_directories(out_dir, error);
+  if (!std::filesystem::is_directory(out_dir)) {
+    return core::Status::IoError(out_dir + ": cannot create output directory" +
+                                 (error ? ": " + error.message() : ""));
+  }
+  if (!existed) std::filesystem::remove(out_dir, error);
+
+  std::vector<std::string> bytes;
+  std::vector<WrittenLinkSdf> written;
+  for (size_t i = 0; i < jobs.size(); ++i) {
+    const LinkSdfJob& job = jobs[i];
+    geometry::ProgressCallback link_progress;
+    if (progress) link_progress = [&](long done, long total) { progress(job.link_name, done, total); };
+    auto grid = geometry::GenerateSdf(job.elements, job.link_name, job.source, options, link_progress);
+    if (!grid.ok()) return grid.status();
+    bytes.push_back(grid->Serialize());
+    int triangles = 0;
+    for (const geometry::TriangleMesh& element : job.elements) triangles += element.num_triangles();
+    written.push_back({paths[i], grid->info(), grid->MemoryBytes(), triangles});
+  }
+
   // A folder made here and left empty by a failure is removed again (after
   // the staged files, which `outputs` removes first).
   struct RemoveIfEmptyOnFailure {
@@ -90,26 +116,14 @@ core::Result<std::vector<WrittenLinkSdf>> WriteLinkSdfs(const std::vector<LinkSd
       std::error_code ignored;
       if (!dir.empty() && !committed) std::filesystem::remove(dir, ignored);  // only an empty folder goes
     }
-  } made_here{std::filesystem::exists(out_dir, error) ? std::string() : out_dir};
+  } made_here{existed ? std::string() : out_dir};
   std::filesystem::create_directories(out_dir, error);
   if (!std::filesystem::is_directory(out_dir)) {
     return core::Status::IoError(out_dir + ": cannot create output directory" +
                                  (error ? ": " + error.message() : ""));
   }
   core::AtomicFileSet outputs;
-  std::vector<WrittenLinkSdf> written;
-  for (size_t i = 0; i < jobs.size(); ++i) {
-    const LinkSdfJob& job = jobs[i];
-    geometry::ProgressCallback link_progress;
-    if (progress) link_progress = [&](long done, long total) { progress(job.link_name, done, total); };
-    auto grid = geometry::GenerateSdf(job.elements, job.link_name, job.source, options, link_progress);
-    if (!grid.ok()) return grid.status();
-    const std::string& path = paths[i];
-    QUADHAND_RETURN_IF_ERROR(outputs.Stage(path, grid->Serialize()));
-    int triangles = 0;
-    for (const geometry::TriangleMesh& element : job.elements) triangles += element.num_triangles();
-    written.push_back({path, grid->info(), grid->MemoryBytes(), triangles});
-  }
+  for (size_t i = 0; i < jobs.size(); ++i) QUADHAND_RETURN_IF_ERROR(outputs.Stage(paths[i], bytes[i]));
   QUADHAND_RETURN_IF_ERROR(outputs.Commit());
   made_here.committed = true;
   return written;

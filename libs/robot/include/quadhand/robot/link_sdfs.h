@@ -54,7 +54,10 @@ struct WrittenLinkSdf {
 };
 
 // Generates every job's grid and writes all files into `out_dir` (created if
-// missing) together, or none of them.
+// missing) together, or none of them. Whether `out_dir` can be made is
+// checked first; a folder made here exists only once every grid is
+// computed (they are held in memory until then), so a run killed while
+// computing leaves nothing behind.
 core::Result<std::vector<WrittenLinkSdf>> WriteLinkSdfs(const std::vector<LinkSdfJob>& jobs, const std::string& out_dir,
                                                      const geometry::SdfGenerationOptions& options,
                                                      const LinkSdfProgress& progress = {});
