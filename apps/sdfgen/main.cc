@@ -190,21 +190,10 @@ int main(int argc, char** argv) {
   options.allow_unsigned = allow_unsigned;
   if (urdf_path.empty() == mesh_path.empty()) return Fail("give exactly one of --urdf or --mesh (see --help)");
   if (out_dir.empty()) return Fail("--out DIR is required");
-  {
-    // Whether --out can be made, before any work or output (the folder
-    // itself is made only once the grids are computed: WriteLinkSdfs).
-    namespace fs = std::filesystem;
-    std::error_code error;
-    std::vector<fs::path> missing;  // the folders the probe makes, deepest first
-    for (fs::path p = fs::path(out_dir).lexically_normal(); !p.empty() && !fs::exists(p, error); p = p.parent_path()) {
-      missing.push_back(p);
-      if (p == p.parent_path()) break;
-    }
-    fs::create_directories(out_dir, error);
-    const bool made = fs::is_directory(out_dir, error);
-    for (const fs::path& p : missing) fs::remove(p, error);
-    if (!made) return Fail("--out " + out_dir + ": cannot create the output folder");
-  }
+  // Whether --out can be made, before any work or output (the folder
+  // itself is made only once the grids are computed: WriteLinkSdfs).
+  if (core::Status s = core::CheckFolderCanBeMade(out_dir); !s.ok()) return Fail("--out " + s.message());
+
   if (!mesh_path.empty() && link_name.empty()) return Fail("--mesh needs --link NAME");
   if (!urdf_path.empty() && !link_name.empty()) return Fail("--link goes with --mesh; use --links with --urdf");
   if (!mesh_path.empty() && !only_links.empty()) return Fail("--links goes with --urdf");

@@ -183,6 +183,20 @@ Status CheckOutputFolder(const std::string& path) {
 
 }  // namespace
 
+Status CheckFolderCanBeMade(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  std::vector<fs::path> missing;  // the folders made here, deepest first
+  for (fs::path p = fs::path(dir).lexically_normal(); !p.empty() && !fs::exists(p, error); p = p.parent_path()) {
+    missing.push_back(p);
+    if (p == p.parent_path()) break;
+  }
+  fs::create_directories(dir, error);
+  const bool made = fs::is_directory(dir, error);
+  for (const fs::path& p : missing) fs::remove(p, error);
+  return made ? Status::Ok() : Status::InvalidArgument(dir + ": cannot create the output folder");
+}
+
 Status CheckOutputPathAndFolder(const std::string& path) {
   QUADHAND_RETURN_IF_ERROR(CheckOutputPath(path));
   return CheckOutputFolder(path);

@@ -86,12 +86,7 @@ core::Result<std::vector<WrittenLinkSdf>> WriteLinkSdfs(const std::vector<LinkSd
   // until the grids are done, so a run killed while computing (minutes, for
   // a fine grid) leaves nothing behind.
   const bool existed = std::filesystem::exists(out_dir, error);
-  std::filesystem::create_directories(out_dir, error);
-  if (!std::filesystem::is_directory(out_dir)) {
-    return core::Status::IoError(out_dir + ": cannot create output directory" +
-                                 (error ? ": " + error.message() : ""));
-  }
-  if (!existed) std::filesystem::remove(out_dir, error);
+  QUADHAND_RETURN_IF_ERROR(core::CheckFolderCanBeMade(out_dir));
 
   std::vector<std::string> bytes;
   std::vector<WrittenLinkSdf> written;

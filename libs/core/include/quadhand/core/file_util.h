@@ -43,6 +43,11 @@ Status CheckOutputPath(const std::string& path);
 // output that cannot be written fails at once, in one line naming it.
 Status CheckOutputPathAndFolder(const std::string& path);
 
+// Whether the folder `dir` exists or can be made: made (with any missing
+// parents) and removed again, so that a program can fail at once on a bad
+// output folder yet make it only when its outputs are ready.
+Status CheckFolderCanBeMade(const std::string& dir);
+
 // Whether two paths name the same file (the same existing file, or the same
 // normalised absolute path).
 bool SameFile(const std::string& a, const std::string& b);
