@@ -154,6 +154,11 @@ int main(int argc, char** argv) {
   app.add_option("--padding", options.padding, "Margin around each mesh's bounding box in metres")
       ->capture_default_str();
   app.add_option("--threads", options.num_threads, "Worker threads (0: all cores)")->capture_default_str();
+  geometry::MeshRepairOptions repair;
+  app.add_option("--repair-tolerance", repair.tolerance,
+                 "Mesh repair: vertices closer than this (m) are merged, closing cracks narrower than it; "
+                 "in (0, resolution] and at most 0.001 (docs/sdfgen.md); give quadhand-plan the same")
+      ->capture_default_str();
   app.add_flag("--unsigned", allow_unsigned,
                "Accept meshes that are not closed or self-intersect; distances are then unsigned");
   std::vector<std::string> package_path;
@@ -198,17 +203,23 @@ int main(int argc, char** argv) {
   if (!urdf_path.empty() && !link_name.empty()) return Fail("--link goes with --mesh; use --links with --urdf");
   if (!mesh_path.empty() && !only_links.empty()) return Fail("--links goes with --urdf");
   if (std::string why; !options.IsValid(&why)) return Fail("invalid option: " + why);
+  if (core::Status s = geometry::CheckRepairTolerance(repair.tolerance, options.resolution); !s.ok()) {
+    return Fail("invalid option: --repair-tolerance: " + s.message());
+  }
 
   std::vector<robot::LinkSdfJob> jobs;
   std::string mesh_repairs;  // --mesh: what its repair changed, printed once it is accepted
   if (!urdf_path.empty()) {
-    auto from_urdf = robot::LinkSdfJobsFromUrdf(urdf_path, only_links);
+    auto from_urdf = robot::LinkSdfJobsFromUrdf(urdf_path, only_links, repair.tolerance);
     if (!from_urdf.ok()) return Fail(from_urdf.status().message());
     jobs = std::move(*from_urdf);
   } else {
     geometry::MeshRepairReport repairs;
-    auto shells = geometry::ReadMeshShells(mesh_path, geometry::MeshRepairOptions{}, &repairs);
+    auto shells = geometry::ReadMeshShells(mesh_path, repair, &repairs);
     if (!shells.ok()) return Fail(shells.status().message());
+    if (!repairs.problem.empty() && !allow_unsigned) {
+      return Fail(mesh_path + " (link '" + link_name + "'): does not bound a volume, even repaired: " + repairs.problem);
+    }
     for (const std::string& line : repairs.Lines()) mesh_repairs += (mesh_repairs.empty() ? "" : "; ") + line;
     jobs.push_back({link_name, mesh_path, std::move(*shells)});
   }

@@ -231,6 +231,16 @@ TEST_F(PlanCliTest, PlansWithTheCadExportTestRobot) {
   ExpectBadInput(WriteTask({{"robot:", "robot: " + root + "/tests/data/cad_robot/cad_robot_holed.urdf"},
                             {"sdf_dir:", "sdf_dir: " + sdf}}),
                  "link2_holed.stl' does not bound a volume, even repaired: not closed: 1 hole");
+  // The planner's repair tolerance (meshes.repair_tolerance) is checked like sdfgen's.
+  const std::string config = (dir_ / "zero_tolerance.yaml").string();
+  std::ofstream(config) << "meshes:\n  repair_tolerance: 0\n";
+  const auto bad = RunCommand(kPlan + " " + task + " --out " + out + " --report " + report + " --planner-config " + config);
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;
+  EXPECT_NE(bad.err.find("zero_tolerance.yaml: meshes: the repair tolerance 0 m must be in (0, 0.001] m"),
+            std::string::npos)
+      << bad.err;
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(report));
 }
 
 TEST_F(PlanCliTest, RefusesOutputsThatWouldDestroySomething) {

@@ -199,6 +199,32 @@ TEST_F(SdfgenTest, AMeshWithARealHoleIsRefusedWithTheTrueDiagnosis) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+TEST_F(SdfgenTest, BadRepairTolerancesAndAMeshOfOnlyDegenerateFacesAreRefused) {
+  const std::string cube = WriteCube(), out = Path("out");
+  const std::string args = " --link cube --out " + out + " --resolution 0.01 --padding 0.02";
+  ExpectBadInput("--mesh " + cube + args + " --repair-tolerance 0", "repair tolerance 0 m must be in (0, 0.001]", out);
+  ExpectBadInput("--mesh " + cube + args + " --repair-tolerance nan", "repair tolerance nan m", out);
+  ExpectBadInput("--mesh " + cube + " --link cube --out " + out + " --resolution 0.0005 --padding 0.02 --repair-tolerance 0.0008",
+                 "the repair tolerance 0.0008 m is larger than the SDF resolution 0.0005 m", out);
+  EXPECT_FALSE(fs::exists(out));
+  // Within the bounds it is used (and the cube needs no repair).
+  const auto ok = RunCommand(kSdfgen + " -q --mesh " + cube + args + " --repair-tolerance 0.0001");
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+
+  // Two triangles whose corners lie on lines: no surface at all.
+  geometry::TriangleMesh needles;
+  needles.vertices = {Vec3(0, 0, 0), Vec3(0.05, 0, 0), Vec3(0.1, 0, 0), Vec3(0, 0.05, 0), Vec3(0, 0.1, 0)};
+  needles.triangles = {Eigen::Vector3i(0, 1, 2), Eigen::Vector3i(0, 3, 4)};
+  const std::string path = Path("needles.stl");
+  ASSERT_TRUE(geometry::WriteMesh(path, needles).ok());
+  const std::string out2 = Path("out2");
+  ExpectBadInput("--mesh " + path + " --link needles --out " + out2,
+                 "needles.stl (link 'needles'): does not bound a volume, even repaired: every one of its 2 faces is "
+                 "degenerate",
+                 out2);
+  EXPECT_FALSE(fs::exists(out2));
+}
+
 // The grids are computed before the output folder is made: a run killed
 // while computing (SIGKILL: nothing can clean up) leaves no --out behind.
 TEST_F(SdfgenTest, AKilledRunLeavesNoOutputFolder) {

@@ -4,6 +4,7 @@
 // refused with the true diagnosis.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <string>
 
 #include "quadhand/geometry/mesh_io.h"
@@ -65,6 +66,34 @@ TEST(MeshRepairTest, AReversedDuplicateFaceOnAnEdgeIsAFinAndGoesWithItsCopy) {
   EXPECT_EQ(r.report.reversed_duplicate_pairs, 1);
   ASSERT_EQ(r.report.Lines().size(), 1u);
   EXPECT_NE(r.report.Lines()[0].find("reversed duplicate"), std::string::npos);
+}
+
+TEST(MeshRepairTest, AFaceOfTheSurfaceWrittenAgainReversedKeepsOneCopy) {
+  // A face of the solid itself written a second time, reversed (3 faces on
+  // each of its edges): removing both would open a hole; one copy, the one
+  // its neighbours agree with, is the surface. Either order in the file.
+  for (const bool reversed_first : {false, true}) {
+    TriangleMesh mesh = UnitBox();
+    const Eigen::Vector3i face = mesh.triangles[4];
+    const Eigen::Vector3i reversed(face[0], face[2], face[1]);
+    if (reversed_first) {
+      mesh.triangles[4] = reversed;
+      mesh.triangles.push_back(face);
+    } else {
+      mesh.triangles.push_back(reversed);
+    }
+    EXPECT_FALSE(CheckMesh(mesh).bounds_volume);
+    const RepairedMesh r = Repaired(mesh);
+    ASSERT_EQ(r.shells.size(), 1u);
+    EXPECT_EQ(r.shells[0].triangles.size(), UnitBox().triangles.size());
+    EXPECT_TRUE(CheckMesh(r.shells[0]).outward);
+    EXPECT_NEAR(SignedVolume(r.shells[0]), 0.1 * 0.2 * 0.3, 1e-12);
+    EXPECT_EQ(r.report.reversed_duplicate_faces, 1);
+    EXPECT_EQ(r.report.reversed_duplicate_pairs, 0);
+    EXPECT_EQ(r.report.flipped_faces, 0);  // the copy kept already agrees
+    ASSERT_EQ(r.report.Lines().size(), 1u) << r.report.Lines()[0];
+    EXPECT_NE(r.report.Lines()[0].find("reversed duplicate face"), std::string::npos);
+  }
 }
 
 TEST(MeshRepairTest, DuplicatesDegenerateFacesAndSplitVerticesAreRemoved) {
@@ -155,6 +184,24 @@ TEST(MeshRepairTest, BadMeshesAndTolerancesAreRefusedByName) {
   r = RepairMesh(fan);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("shared by more than two faces"), std::string::npos) << r.status().message();
+}
+
+}  // namespace
+}  // namespace quadhand::geometry
+
+namespace quadhand::geometry {
+namespace {
+
+TEST(MeshRepairTest, ARepairToleranceMustBePositiveAtMostAMillimetreAndTheResolution) {
+  EXPECT_TRUE(CheckRepairTolerance(1e-6, 0.002).ok());
+  EXPECT_TRUE(CheckRepairTolerance(0.001, 0.001).ok());
+  EXPECT_FALSE(CheckRepairTolerance(0.0, 0.002).ok());
+  EXPECT_FALSE(CheckRepairTolerance(-1e-6, 0.002).ok());
+  EXPECT_FALSE(CheckRepairTolerance(std::nan(""), 0.002).ok());
+  EXPECT_FALSE(CheckRepairTolerance(0.002, 0.005).ok());  // over 1 mm
+  const core::Status coarse = CheckRepairTolerance(0.0008, 0.0005);
+  ASSERT_FALSE(coarse.ok());
+  EXPECT_NE(coarse.message().find("larger than the SDF resolution 0.0005 m"), std::string::npos) << coarse.message();
 }
 
 }  // namespace

@@ -499,6 +499,7 @@ core::Result<std::vector<TriangleMesh>> ReadMeshShells(const std::string& path, 
   // RepairMesh on the result.
   InexactMesh mesh;
   bool read = false;
+  const size_t points_before = points.size(), polygons_before = polygons.size();
   PMP::repair_polygon_soup(points, polygons);
   // A face that visits a vertex twice (as written, or once duplicate points
   // are merged) is not a simple polygon: CGAL's face triangulation followed
@@ -531,7 +532,12 @@ core::Result<std::vector<TriangleMesh>> ReadMeshShells(const std::string& path, 
   const TriangleMesh read_mesh = FromSurfaceMesh(mesh);
   auto repaired = RepairMesh(read_mesh, options);
   if (repaired.ok()) {
-    if (report != nullptr) *report = repaired->report;
+    if (report != nullptr) {
+      *report = repaired->report;
+      // What CGAL's soup repair changed is reported too: nothing is repaired silently.
+      report->soup_points_merged = static_cast<long>(points_before - std::min(points_before, points.size()));
+      report->soup_faces_removed = static_cast<long>(polygons_before - std::min(polygons_before, polygons.size()));
+    }
     return std::move(repaired->shells);
   }
   // Not a volume: the mesh as read, for callers that accept open surfaces
@@ -565,7 +571,9 @@ core::Status WriteMesh(const std::string& path, const TriangleMesh& mesh) {
   return core::WriteFileAtomically(path, contents);
 }
 
-MeshCheck CheckMesh(const TriangleMesh& mesh) {
+namespace {
+
+MeshCheck CheckMeshUncached(const TriangleMesh& mesh) {
   MeshCheck check;
   if (mesh.triangles.empty()) {
     check.problem = "mesh has no triangles";
@@ -621,6 +629,69 @@ MeshCheck CheckMesh(const TriangleMesh& mesh) {
   for (size_t i = 0; i < problems.size(); ++i) {
     check.problem += (i == 0 ? "" : "; ") + problems[i];
   }
+  return check;
+}
+
+// A hash of the mesh's exact bytes, to find it in the memo.
+uint64_t MeshFingerprint(const TriangleMesh& mesh) {
+  uint64_t hash = 1469598103934665603ull;  // FNV-1a over 64-bit words
+  auto mix = [&hash](uint64_t word) { hash = (hash ^ word) * 1099511628211ull; };
+  mix(mesh.vertices.size());
+  mix(mesh.triangles.size());
+  for (const Vec3& v : mesh.vertices) {
+    for (int k = 0; k < 3; ++k) {
+      uint64_t bits;
+      std::memcpy(&bits, &v[k], sizeof bits);
+      mix(bits);
+    }
+  }
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    mix((static_cast<uint64_t>(static_cast<uint32_t>(t[0])) << 32) | static_cast<uint32_t>(t[1]));
+    mix(static_cast<uint32_t>(t[2]));
+  }
+  return hash;
+}
+
+bool SameMesh(const TriangleMesh& a, const TriangleMesh& b) {
+  if (a.vertices.size() != b.vertices.size() || a.triangles.size() != b.triangles.size()) return false;
+  for (size_t v = 0; v < a.vertices.size(); ++v) {
+    if (std::memcmp(a.vertices[v].data(), b.vertices[v].data(), 3 * sizeof(double)) != 0) return false;
+  }
+  return std::equal(a.triangles.begin(), a.triangles.end(), b.triangles.begin());
+}
+
+// The meshes checked most recently, kept whole: a hit must be the same mesh
+// to the last bit, not only the same hash, so a memo can never vouch for a
+// mesh it has not checked.
+struct CheckedMesh {
+  uint64_t fingerprint;
+  TriangleMesh mesh;
+  MeshCheck check;
+};
+constexpr size_t kCheckMemoSize = 64;
+constexpr size_t kCheckMemoMinTriangles = 1000;  // smaller meshes check faster than they copy
+std::mutex check_memo_mutex;
+std::vector<CheckedMesh> check_memo;  // most recent last
+
+}  // namespace
+
+// The same mesh is checked by its repair, by quadhand-sdfgen's early check,
+// by the SDF generator and by every signed distance query built on it; the
+// self-intersection test is the costly part (seconds for 400,000 triangles),
+// so it runs once per mesh and process.
+MeshCheck CheckMesh(const TriangleMesh& mesh) {
+  if (mesh.triangles.size() < kCheckMemoMinTriangles) return CheckMeshUncached(mesh);
+  const uint64_t fingerprint = MeshFingerprint(mesh);
+  {
+    const std::lock_guard<std::mutex> lock(check_memo_mutex);
+    for (const CheckedMesh& entry : check_memo) {
+      if (entry.fingerprint == fingerprint && SameMesh(entry.mesh, mesh)) return entry.check;
+    }
+  }
+  MeshCheck check = CheckMeshUncached(mesh);
+  const std::lock_guard<std::mutex> lock(check_memo_mutex);
+  if (check_memo.size() >= kCheckMemoSize) check_memo.erase(check_memo.begin());
+  check_memo.push_back({fingerprint, mesh, check});
   return check;
 }
 

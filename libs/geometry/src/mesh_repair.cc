@@ -12,6 +12,8 @@
 #include <queue>
 #include <unordered_map>
 
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
 #include "quadhand/core/text.h"
 #include "quadhand/geometry/mesh_io.h"
 
@@ -140,11 +142,33 @@ bool MeshRepairOptions::IsValid(std::string* why) const {
   return true;
 }
 
+core::Status CheckRepairTolerance(double tolerance, double resolution) {
+  MeshRepairOptions options;
+  options.tolerance = tolerance;
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument(why);
+  if (!(tolerance <= resolution)) {
+    return core::Status::InvalidArgument(Format("the repair tolerance %g m is larger than the SDF resolution %g m",
+                                                tolerance, resolution));
+  }
+  return core::Status::Ok();
+}
+
 std::vector<std::string> MeshRepairReport::Lines() const {
   std::vector<std::string> lines;
   if (merged_vertices > 0) lines.push_back("merged " + Plural(merged_vertices, "vertex", "vertices") + " into a neighbour within the tolerance");
   if (degenerate_faces > 0) lines.push_back("removed " + Plural(degenerate_faces, "degenerate face", "degenerate faces") + " (two corners at one vertex)");
   if (duplicate_faces > 0) lines.push_back("removed " + Plural(duplicate_faces, "duplicate face", "duplicate faces"));
+  if (soup_points_merged > 0) {
+    lines.push_back("CGAL's polygon soup repair merged " + Plural(soup_points_merged, "duplicate point", "duplicate points"));
+  }
+  if (soup_faces_removed > 0) {
+    lines.push_back("CGAL's polygon soup repair removed " +
+                    Plural(soup_faces_removed, "duplicate or degenerate face", "duplicate or degenerate faces"));
+  }
+  if (reversed_duplicate_faces > 0) {
+    lines.push_back("removed " + Plural(reversed_duplicate_faces, "reversed duplicate face", "reversed duplicate faces") +
+                    " (a face of the surface written again, reversed)");
+  }
   if (reversed_duplicate_pairs > 0) {
     lines.push_back("removed " + Plural(reversed_duplicate_pairs, "pair", "pairs") +
                     " of reversed duplicate faces (a face and its reversed copy: a zero-volume fin)");
@@ -190,9 +214,27 @@ core::Result<RepairedMesh> RepairMesh(const TriangleMesh& mesh, const MeshRepair
     return core::Status::InvalidArgument(Format("every one of its %zu faces is degenerate (no area at a tolerance of %g m)",
                                                 mesh.triangles.size(), options.tolerance));
   }
+  // Faces whose three distinct corners lie on one line (exact predicate):
+  // a mesh of nothing else has no surface at all.
+  {
+    using Point = CGAL::Exact_predicates_inexact_constructions_kernel::Point_3;
+    auto point = [&mesh](int v) { return Point(mesh.vertices[v].x(), mesh.vertices[v].y(), mesh.vertices[v].z()); };
+    size_t collinear = 0;
+    for (const Face& f : faces) collinear += CGAL::collinear(point(f[0]), point(f[1]), point(f[2])) ? 1 : 0;
+    if (collinear == faces.size()) {
+      return core::Status::InvalidArgument(
+          Format("every one of its %zu faces is degenerate (zero area: its corners lie on one line)", mesh.triangles.size()));
+    }
+  }
 
-  // Copies of one face: the same vertex set. Same orientation: one is kept.
-  // Opposite orientations pair up into zero-volume fins: both go.
+  // Copies of one face: the same vertex set. How many copies the surface
+  // needs follows from the faces around them: with one other face on each
+  // of its edges, the face belongs to the surface once (a face written
+  // again, perhaps reversed: one copy is kept, the one that agrees with its
+  // neighbour); with two on each edge, the copies stand on the surface as a
+  // zero-volume fin (a face and its reversed copy: all go). Otherwise copies
+  // of opposite orientations cancel in pairs and one of the rest is kept,
+  // and whatever is still wrong is diagnosed below.
   {
     std::map<std::array<int, 3>, std::vector<int>> copies;
     for (size_t i = 0; i < faces.size(); ++i) {
@@ -200,12 +242,46 @@ core::Result<RepairedMesh> RepairMesh(const TriangleMesh& mesh, const MeshRepair
       std::sort(key.begin(), key.end());
       copies[key].push_back(static_cast<int>(i));
     }
+    // Per edge: the faces on it, each set of copies counted once.
+    std::unordered_map<uint64_t, std::vector<int>> edge_groups;
+    for (const auto& [key, group] : copies) {
+      for (int k = 0; k < 3; ++k) edge_groups[EdgeKey(key[k], key[(k + 1) % 3])].push_back(group[0]);
+    }
     std::vector<bool> keep(faces.size(), true);
     for (auto& [key, group] : copies) {
       if (group.size() < 2) continue;
       const Face& first = faces[group[0]];
       std::vector<int> forward, backward;
       for (int i : group) (Traverses(faces[i], first[0], first[1]) ? forward : backward).push_back(i);
+      int others_min = 3, others_max = 0;
+      for (int k = 0; k < 3; ++k) {
+        const int others = static_cast<int>(edge_groups[EdgeKey(key[k], key[(k + 1) % 3])].size()) - 1;
+        others_min = std::min(others_min, others);
+        others_max = std::max(others_max, others);
+      }
+      if (others_min == 1 && others_max == 1) {
+        // Keep the copy its neighbour across first[0]-first[1] agrees with
+        // (traversing that edge the other way), if both orientations exist.
+        int neighbour = -1;
+        for (int g : edge_groups[EdgeKey(first[0], first[1])]) {
+          if (g != group[0]) neighbour = g;
+        }
+        const bool forward_agrees = neighbour < 0 || !Traverses(faces[neighbour], first[0], first[1]);
+        const std::vector<int>& kept_side = (forward_agrees && !forward.empty()) || backward.empty() ? forward : backward;
+        const std::vector<int>& other_side = &kept_side == &forward ? backward : forward;
+        for (size_t p = 1; p < kept_side.size(); ++p) {
+          keep[kept_side[p]] = false;
+          ++report.duplicate_faces;
+        }
+        for (int i : other_side) keep[i] = false;
+        report.reversed_duplicate_faces += static_cast<long>(other_side.size());
+        continue;
+      }
+      if (others_min == 2 && others_max == 2 && forward.size() == backward.size()) {
+        for (int i : group) keep[i] = false;
+        report.reversed_duplicate_pairs += static_cast<long>(forward.size());
+        continue;
+      }
       const size_t pairs = std::min(forward.size(), backward.size());
       report.reversed_duplicate_pairs += static_cast<long>(pairs);
       for (size_t p = 0; p < pairs; ++p) keep[forward[p]] = keep[backward[p]] = false;

@@ -12,6 +12,7 @@
 
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/yaml_text.h"
+#include "quadhand/geometry/mesh_repair.h"
 
 namespace quadhand::planner {
 namespace {
@@ -143,6 +144,7 @@ void Visit(Config& c, Visitor&& v) {
   v("representations.sfc.surface_spacing", m.sfc.surface_spacing);
   v("representations.sfc.max_faces", m.sfc.max_faces);
   v("representations.sfc.cell_size", m.sfc.cell_size);
+  v("meshes.repair_tolerance", c.mesh_repair_tolerance);
 }
 
 std::string Number(double value) {
@@ -310,6 +312,9 @@ bool PlannerConfig::IsValid(std::string* why) const {
   if (!front_end.IsValid(&inner)) return fail("front_end");
   if (!replan.IsValid(&inner)) return fail("replan");
   if (!representations.IsValid(&inner)) return fail("representations");
+  geometry::MeshRepairOptions repair;
+  repair.tolerance = mesh_repair_tolerance;
+  if (!repair.IsValid(&inner)) return fail("meshes");
   return true;
 }
 
@@ -333,6 +338,7 @@ PlanningContextOptions ContextOptions(const PlannerConfig& config, std::vector<s
   options.representations = std::move(representations);
   options.front_end = config.front_end;
   options.representation_options = config.representations;
+  options.mesh_repair_tolerance = config.mesh_repair_tolerance;
   return options;
 }
 

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "quadhand/geometry/mesh_repair.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/link_meshes.h"
 #include "quadhand/robot/srdf.h"
@@ -51,6 +52,10 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
     }
   }
   QUADHAND_RETURN_IF_ERROR(ApplyRobot(robot, &task));
+  geometry::MeshRepairOptions repair;
+  repair.tolerance = options.mesh_repair_tolerance;
+  if (std::string why; !repair.IsValid(&why)) return core::Status::InvalidArgument(why);
+  robot.set_mesh_repair_tolerance(options.mesh_repair_tolerance);
   std::unique_ptr<PlanningContext> context(new PlanningContext(std::move(task), std::move(robot)));
   context->points_ = std::move(points);
   context->checked_points_ = std::move(checked_points);
@@ -95,6 +100,12 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
     // keeps the pairs apart, with the exact meshes).
     if (!loaded.ok() && mrc_sdf) return loaded;
     if (loaded.ok()) {
+      for (size_t g = 0; g < grids.size(); ++g) {
+        const core::Status tolerance_fits = geometry::CheckRepairTolerance(options.mesh_repair_tolerance, grids[g].info().resolution);
+        if (!tolerance_fits.ok()) {
+          return tolerance_fits.WithPrefix(t.sdf_dir + ": link '" + context->robot_.link(links[g]).name + "'");
+        }
+      }
       sdf_grids = std::make_shared<const std::vector<geometry::SdfGrid>>(std::move(grids));
       sdf_load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start).count();
       if (!context->self_collision_->pairs().empty()) {

@@ -63,11 +63,13 @@ void ReportRepairs(const std::string& where, const std::string& path, const geom
 
 // One collision element as closed meshes in the link frame: a mesh file
 // gives one per shell (mesh_repair.h), their union being the element.
-Result<std::vector<geometry::TriangleMesh>> ElementMeshes(const CollisionGeometry& element, const std::string& where) {
+Result<std::vector<geometry::TriangleMesh>> ElementMeshes(const CollisionGeometry& element, const std::string& where,
+                                                          double repair_tolerance) {
   switch (element.type) {
     case GeometryType::kMesh: {
       geometry::MeshRepairReport report;
       geometry::MeshRepairOptions repair;
+      repair.tolerance = repair_tolerance;
       repair.metres_per_unit = element.mesh_scale.cwiseAbs().maxCoeff();
       auto shells = geometry::ReadMeshShells(element.mesh_path, repair, &report);
       if (!shells.ok()) return shells.status();
@@ -112,7 +114,7 @@ Result<std::vector<geometry::TriangleMesh>> LinkCollisionElements(const RobotMod
   std::vector<geometry::TriangleMesh> parts;
   parts.reserve(data.collisions.size());
   for (const CollisionGeometry& element : data.collisions) {
-    auto element_parts = ElementMeshes(element, where);
+    auto element_parts = ElementMeshes(element, where, model.mesh_repair_tolerance());
     if (!element_parts.ok()) return element_parts.status().WithPrefix(where);
     for (geometry::TriangleMesh& part : *element_parts) parts.push_back(std::move(part));
   }

@@ -11,9 +11,11 @@
 namespace quadhand::robot {
 
 core::Result<std::vector<LinkSdfJob>> LinkSdfJobsFromUrdf(const std::string& urdf_path,
-                                                          const std::vector<std::string>& only_links) {
+                                                          const std::vector<std::string>& only_links,
+                                                          double mesh_repair_tolerance) {
   auto model = RobotModel::LoadFromUrdfFile(urdf_path);
   if (!model.ok()) return model.status();
+  model->set_mesh_repair_tolerance(mesh_repair_tolerance);
   for (const std::string& name : only_links) {
     const int index = model->LinkIndex(name);
     if (index < 0) return core::Status::InvalidArgument(urdf_path + ": no link named '" + name + "'");

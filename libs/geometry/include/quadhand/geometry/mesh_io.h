@@ -36,6 +36,8 @@ struct MeshCheck {
   std::string problem;
 };
 
+// Thread-safe. A large mesh is checked once per process: the answer is
+// remembered for the recent meshes, matched bit for bit.
 MeshCheck CheckMesh(const TriangleMesh& mesh);
 
 // Boolean union of closed meshes (overlapping or touching), one closed surface

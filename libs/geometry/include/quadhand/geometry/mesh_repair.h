@@ -30,14 +30,25 @@ struct MeshRepairOptions {
   bool IsValid(std::string* why) const;  // tolerance finite, > 0 and <= 1 mm; metres_per_unit finite, > 0
 };
 
+// A repair tolerance a user gave, for a robot whose SDFs have spacing
+// `resolution` (m): finite, positive, at most 1 mm and at most the
+// resolution (merging vertices farther apart than the grid's spacing would
+// close openings the grid itself resolves). The message names the values.
+core::Status CheckRepairTolerance(double tolerance, double resolution);
+
 struct MeshRepairReport {
   long merged_vertices = 0;          // vertices merged into another within the tolerance
   long degenerate_faces = 0;         // faces with two corners at one vertex (after merging), removed
   long duplicate_faces = 0;          // extra copies of a face, removed
   long reversed_duplicate_pairs = 0; // a face and its reversed copy (a zero-volume fin), both removed
+  long reversed_duplicate_faces = 0; // reversed extra copies of a face of the surface, removed (one copy kept)
   long flipped_faces = 0;            // faces turned to agree with their neighbours
   long outward_shells = 0;           // shells turned inside out to face outward
   long shells = 0;                   // closed shells in the result
+  // ReadMeshShells, for polygon files and soups RepairMesh refused as read:
+  // what CGAL's general polygon-soup repair (run first there) changed.
+  long soup_points_merged = 0;
+  long soup_faces_removed = 0;
   // ReadMeshShells: why the mesh, returned as read, does not bound a volume
   // (RepairMesh's diagnosis); empty when it does.
   std::string problem;

@@ -30,6 +30,8 @@ struct PlannerConfig {
   FrontEndOptions front_end;
   ReplanOptions replan = DefaultReplanOptions();
   RepresentationOptions representations;
+  // meshes.repair_tolerance: PlanningContextOptions::mesh_repair_tolerance.
+  double mesh_repair_tolerance = 1e-6;
 
   // Every part's own IsValid, the failing one named ("cost: ...").
   bool IsValid(std::string* why) const;

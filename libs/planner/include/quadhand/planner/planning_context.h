@@ -29,6 +29,10 @@ struct PlanningContextOptions {
   // its terminal state and (for a tool-pose goal) the arm's reach around the
   // tool: e.g. the corners of a benchmark's start box.
   std::vector<Vec3> front_end_also_contain;
+  // The tolerance the robot's meshes are repaired with
+  // (robot::RobotModel::mesh_repair_tolerance): the one quadhand-sdfgen
+  // used for the link SDFs, and at most their resolution.
+  double mesh_repair_tolerance = 1e-6;
 };
 
 class PlanningContext {

@@ -32,9 +32,11 @@ struct LinkSdfJob {
 };
 
 // A job for every link of the URDF with collision geometry, or only for
-// `only_links` (each must exist and have collision geometry).
+// `only_links` (each must exist and have collision geometry); meshes are
+// repaired with `mesh_repair_tolerance` (RobotModel::mesh_repair_tolerance).
 core::Result<std::vector<LinkSdfJob>> LinkSdfJobsFromUrdf(const std::string& urdf_path,
-                                                          const std::vector<std::string>& only_links);
+                                                          const std::vector<std::string>& only_links,
+                                                          double mesh_repair_tolerance = 1e-6);
 
 // Fails, naming the link, its source and the element, if a link's name
 // cannot be a file name (LinkSdfPath), or if an element does not bound a

@@ -105,6 +105,13 @@ class RobotModel {
 
   double TotalMass() const;
 
+  // The tolerance the robot's collision meshes are repaired with, metres
+  // (geometry::MeshRepairOptions::tolerance; LinkCollisionElements). The
+  // SDF generator and the planner must use the same one, so that both see
+  // the same geometry.
+  double mesh_repair_tolerance() const { return mesh_repair_tolerance_; }
+  void set_mesh_repair_tolerance(double metres) { mesh_repair_tolerance_ = metres; }
+
  private:
   static core::Result<RobotModel> Load(const std::string& xml, const std::string& base_dir,
                                        const std::string& source);
@@ -114,6 +121,7 @@ class RobotModel {
   std::vector<Joint> joints_;
   std::vector<int> actuated_joints_;
   std::vector<std::vector<int>> joints_to_link_;
+  double mesh_repair_tolerance_ = 1e-6;
 };
 
 }  // namespace quadhand::robot
