@@ -131,6 +131,9 @@ void Visit(Config& c, Visitor&& v) {
   v("replan.horizon_attempts", r.horizon_attempts);
   solver("replan.solver.", r.solver);
 
+  v("meshes.repair_tolerance", c.mesh_repair_tolerance);
+
+  // Last: representations registered from outside follow as their own sections.
   auto& m = c.representations;
   v("representations.mrc_sdf.cell_size", m.mrc_sdf.cell_size);
   v("representations.mrc_sdf.far_cell_size", m.mrc_sdf.far_cell_size);
@@ -144,7 +147,6 @@ void Visit(Config& c, Visitor&& v) {
   v("representations.sfc.surface_spacing", m.sfc.surface_spacing);
   v("representations.sfc.max_faces", m.sfc.max_faces);
   v("representations.sfc.cell_size", m.sfc.cell_size);
-  v("meshes.repair_tolerance", c.mesh_repair_tolerance);
 }
 
 std::string Number(double value) {

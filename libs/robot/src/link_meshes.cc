@@ -1,7 +1,10 @@
 #include "quadhand/robot/link_meshes.h"
 
 #include <algorithm>
+#include <filesystem>
+#include <map>
 #include <mutex>
+#include <tuple>
 #include <set>
 #include <utility>
 #include <vector>
@@ -61,18 +64,62 @@ void ReportRepairs(const std::string& where, const std::string& path, const geom
   log.untaken.push_back("mesh '" + path + "' (" + where + ") repaired: " + text);
 }
 
+// Mesh files read and repaired in this process: the exact model, the
+// self-collision pairs and the front end's robot size all load the same
+// files, and a 400,000-triangle export takes seconds to read and repair.
+// The key holds the file's size and modification time, so a file rewritten
+// in between is read again.
+struct ReadShells {
+  std::vector<geometry::TriangleMesh> shells;
+  geometry::MeshRepairReport report;
+};
+using ReadKey = std::tuple<std::string, std::uintmax_t, std::filesystem::file_time_type::rep, double, double>;
+struct ReadMemo {
+  std::mutex mutex;
+  std::map<ReadKey, ReadShells> entries;
+};
+ReadMemo& Reads() {
+  static ReadMemo memo;
+  return memo;
+}
+constexpr size_t kReadMemoSize = 256;  // mesh files; beyond it the memo starts over
+
+Result<ReadShells> ReadRepairedShells(const std::string& path, const geometry::MeshRepairOptions& repair) {
+  std::error_code error;
+  const std::uintmax_t size = std::filesystem::file_size(path, error);
+  const auto modified = error ? std::filesystem::file_time_type{} : std::filesystem::last_write_time(path, error);
+  const bool keyed = !error;
+  const ReadKey key{path, size, modified.time_since_epoch().count(), repair.tolerance, repair.metres_per_unit};
+  ReadMemo& memo = Reads();
+  if (keyed) {
+    std::lock_guard<std::mutex> lock(memo.mutex);
+    if (auto it = memo.entries.find(key); it != memo.entries.end()) return it->second;
+  }
+  ReadShells read;
+  auto shells = geometry::ReadMeshShells(path, repair, &read.report);
+  if (!shells.ok()) return shells.status();
+  read.shells = std::move(*shells);
+  if (keyed) {
+    std::lock_guard<std::mutex> lock(memo.mutex);
+    if (memo.entries.size() >= kReadMemoSize) memo.entries.clear();
+    memo.entries.emplace(key, read);
+  }
+  return read;
+}
+
 // One collision element as closed meshes in the link frame: a mesh file
 // gives one per shell (mesh_repair.h), their union being the element.
 Result<std::vector<geometry::TriangleMesh>> ElementMeshes(const CollisionGeometry& element, const std::string& where,
                                                           double repair_tolerance) {
   switch (element.type) {
     case GeometryType::kMesh: {
-      geometry::MeshRepairReport report;
       geometry::MeshRepairOptions repair;
       repair.tolerance = repair_tolerance;
       repair.metres_per_unit = element.mesh_scale.cwiseAbs().maxCoeff();
-      auto shells = geometry::ReadMeshShells(element.mesh_path, repair, &report);
-      if (!shells.ok()) return shells.status();
+      auto read = ReadRepairedShells(element.mesh_path, repair);
+      if (!read.ok()) return read.status();
+      const geometry::MeshRepairReport& report = read->report;
+      const std::vector<geometry::TriangleMesh>* shells = &read->shells;
       if (!report.problem.empty()) {
         return Status::InvalidArgument("mesh '" + element.mesh_path + "' does not bound a volume, even repaired: " +
                                        report.problem);
