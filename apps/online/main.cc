@@ -156,17 +156,12 @@ int main(int argc, char** argv) {
       "3 vehicle silent for --vehicle-timeout; 4 vehicle refused or left OFFBOARD/arming; 5 interrupted;\n"
       "6 the flown path (the vehicle's time-stamped states) did not keep the safety distance, or was not seen."};
   std::string task_path, vehicle_url, bind_url = "udp://0.0.0.0:0", key_path, log_path;
-  double rate = 50.0, vehicle_timeout = 1.0, replan_threshold = 0.10, replan_period = 1.0, hold_time = 1.2, max_duration = 0.0;
-  double arrival_hold = online::OnlineOptions{}.arrival_hold;
-  double arrival_tolerance = online::OnlineOptions{}.arrival_tolerance;
-  double arrival_settle_speed = online::OnlineOptions{}.arrival_settle_speed;
-  double arrival_timeout = online::OnlineOptions{}.arrival_timeout;
+  double rate = 50.0, max_duration = 0.0;
   int target_system = 1, target_component = 1, system_id = 1, component_id = 191;
   bool require_signing = false, dry_run = false, quiet = false, no_replan = false, no_timesync = false;
-  const online::OnlineOptions defaults;
-  double max_state_age = defaults.max_state_age, link_budget = defaults.link_budget;
-  double min_link_speed = defaults.min_link_speed, clearance_tolerance = defaults.clearance_tolerance;
-  double max_judged_gap = defaults.max_judged_gap, max_blind_time = defaults.max_blind_time;
+  // The controller's options are bound to the command line directly; their
+  // defaults are the command line's.
+  online::OnlineOptions options;
   app.add_option("task", task_path, "Task file (YAML, docs/task_format.md)")->required();
   app.add_option("--vehicle", vehicle_url, "The vehicle's MAVLink address, udp://HOST:PORT (required unless --dry-run)");
   app.add_option("--bind", bind_url, "Local address to receive on, udp://ADDR:PORT (port 0: any free port)")
@@ -191,27 +186,27 @@ int main(int argc, char** argv) {
                                     "second), renamed to LOG at the end");
   app.add_flag("--dry-run", dry_run,
                "No vehicle: plan from the task's start state and print what would be streamed (exit 0 or 1)");
-  app.add_option("--vehicle-timeout", vehicle_timeout,
+  app.add_option("--vehicle-timeout", options.vehicle_timeout,
                  "Seconds without LOCAL_POSITION_NED before streaming stops and the program exits with 3")
       ->capture_default_str();
-  app.add_option("--replan-threshold", replan_threshold, "3-D tracking error (m) that triggers a warm-started replan")
+  app.add_option("--replan-threshold", options.replan_threshold, "3-D tracking error (m) that triggers a warm-started replan")
       ->capture_default_str();
-  app.add_option("--replan-period", replan_period,
+  app.add_option("--replan-period", options.replan_period,
                  "Seconds between replans while on track (continuous replanning; 0: only above the threshold)")
       ->capture_default_str();
   app.add_flag("--no-replan", no_replan, "Never replan (fly the first plan only)");
-  app.add_option("--hold-time", hold_time, "Seconds of hold setpoints before OFFBOARD is requested (>= 1, PX4's rule)")
+  app.add_option("--hold-time", options.hold_time, "Seconds of hold setpoints before OFFBOARD is requested (>= 1, PX4's rule)")
       ->capture_default_str();
-  app.add_option("--arrival-hold", arrival_hold, "Least seconds of holding at the goal after the plan ends")
+  app.add_option("--arrival-hold", options.arrival_hold, "Least seconds of holding at the goal after the plan ends")
       ->capture_default_str();
-  app.add_option("--arrival-tolerance", arrival_tolerance,
+  app.add_option("--arrival-tolerance", options.arrival_tolerance,
                  "After --arrival-hold, hold on until the tool is this close (m) to its goal (no tool goal: the base\n"
                  "to the plan's end) and the base slower than --arrival-settle-speed")
       ->capture_default_str();
-  app.add_option("--arrival-settle-speed", arrival_settle_speed,
+  app.add_option("--arrival-settle-speed", options.arrival_settle_speed,
                  "Base speed (m/s) below which the vehicle counts as settled at the goal")
       ->capture_default_str();
-  app.add_option("--arrival-timeout", arrival_timeout,
+  app.add_option("--arrival-timeout", options.arrival_timeout,
                  "Most seconds of holding at the goal, settled or not (equal to --arrival-hold: a fixed hold)")
       ->capture_default_str();
   app.add_option("--max-duration", max_duration, "Stop streaming and exit after this many seconds (0: no limit)")
@@ -219,24 +214,24 @@ int main(int argc, char** argv) {
   app.add_flag("--no-timesync", no_timesync,
                "Fly without TIMESYNC: a state's arrival time is taken as its time, the latency is unknown and the\n"
                "link budget is off (only for a vehicle that does not answer TIMESYNC, over a fast link)");
-  app.add_option("--max-state-age", max_state_age,
+  app.add_option("--max-state-age", options.max_state_age,
                  "Replan only from a state at most this old (s, the vehicle's stamp to now), in (0, 5]")
       ->capture_default_str();
-  app.add_option("--link-budget", link_budget,
+  app.add_option("--link-budget", options.link_budget,
                  "Fly at most link-budget safety distances in the time the vehicle is unseen (the newest state's\n"
                  "age + the uplink latency): plans are slowed down to it, and a vehicle much faster than it brakes\n"
                  "along the plan and holds until the link is good, in (0, 1000]")
       ->capture_default_str();
-  app.add_option("--max-blind-time", max_blind_time,
+  app.add_option("--max-blind-time", options.max_blind_time,
                  "Brake along the plan and hold when no state is fresher than this (age + uplink, s), in (0, 60]")
       ->capture_default_str();
-  app.add_option("--min-link-speed", min_link_speed,
+  app.add_option("--min-link-speed", options.min_link_speed,
                  "Below this speed (m/s) allowed by the link, wait instead of planning, in (0, 10]")
       ->capture_default_str();
-  app.add_option("--clearance-tolerance", clearance_tolerance,
+  app.add_option("--clearance-tolerance", options.clearance_tolerance,
                  "Exit 0 needs the flown path to keep the safety distance less this (m), in [0, 0.05]")
       ->capture_default_str();
-  app.add_option("--max-judged-gap", max_judged_gap,
+  app.add_option("--max-judged-gap", options.max_judged_gap,
                  "Exit 0 needs a state at least every this many seconds while flying, in (0, 5]")
       ->capture_default_str();
   app.add_option("--target-system", target_system, "The vehicle's MAVLink system id")->capture_default_str();
@@ -259,25 +254,25 @@ int main(int argc, char** argv) {
   if (!(std::isfinite(rate) && rate >= 1.0 && rate <= 500.0)) return Fail("--rate must be in [1, 500] Hz");
   // Upper bounds: a minute of silence, of holding before OFFBOARD or of
   // holding at the goal is already far beyond any use; more is a typo.
-  if (!(std::isfinite(vehicle_timeout) && vehicle_timeout > 0.0 && vehicle_timeout <= 60.0)) {
+  if (!(std::isfinite(options.vehicle_timeout) && options.vehicle_timeout > 0.0 && options.vehicle_timeout <= 60.0)) {
     return Fail("--vehicle-timeout must be in (0, 60] s");
   }
-  if (!(std::isfinite(replan_threshold) && replan_threshold > 0.0)) return Fail("--replan-threshold must be positive");
-  if (!(std::isfinite(replan_period) && replan_period >= 0.0)) return Fail("--replan-period must be >= 0 (0: off)");
-  if (!(std::isfinite(hold_time) && hold_time >= 1.0 && hold_time <= 60.0)) return Fail("--hold-time must be in [1, 60] s");
+  if (!(std::isfinite(options.replan_threshold) && options.replan_threshold > 0.0)) return Fail("--replan-threshold must be positive");
+  if (!(std::isfinite(options.replan_period) && options.replan_period >= 0.0)) return Fail("--replan-period must be >= 0 (0: off)");
+  if (!(std::isfinite(options.hold_time) && options.hold_time >= 1.0 && options.hold_time <= 60.0)) return Fail("--hold-time must be in [1, 60] s");
   if (!(std::isfinite(max_duration) && max_duration >= 0.0)) return Fail("--max-duration must be >= 0");
-  if (!(std::isfinite(arrival_hold) && arrival_hold >= 0.0 && arrival_hold <= 60.0)) {
+  if (!(std::isfinite(options.arrival_hold) && options.arrival_hold >= 0.0 && options.arrival_hold <= 60.0)) {
     return Fail("--arrival-hold must be in [0, 60] s");
   }
-  if (!(std::isfinite(arrival_tolerance) && arrival_tolerance > 0.0 && arrival_tolerance <= 1.0)) {
+  if (!(std::isfinite(options.arrival_tolerance) && options.arrival_tolerance > 0.0 && options.arrival_tolerance <= 1.0)) {
     return Fail("--arrival-tolerance must be in (0, 1] m");
   }
-  if (!(std::isfinite(arrival_settle_speed) && arrival_settle_speed > 0.0 && arrival_settle_speed <= 1.0)) {
+  if (!(std::isfinite(options.arrival_settle_speed) && options.arrival_settle_speed > 0.0 && options.arrival_settle_speed <= 1.0)) {
     return Fail("--arrival-settle-speed must be in (0, 1] m/s");
   }
   // A longer --arrival-hold alone raises the default timeout with it.
-  if (app.count("--arrival-timeout") == 0) arrival_timeout = std::max(arrival_timeout, arrival_hold);
-  if (!(std::isfinite(arrival_timeout) && arrival_timeout >= arrival_hold && arrival_timeout <= 60.0)) {
+  if (app.count("--arrival-timeout") == 0) options.arrival_timeout = std::max(options.arrival_timeout, options.arrival_hold);
+  if (!(std::isfinite(options.arrival_timeout) && options.arrival_timeout >= options.arrival_hold && options.arrival_timeout <= 60.0)) {
     return Fail("--arrival-timeout must be in [--arrival-hold, 60] s");
   }
   const std::pair<int, const char*> ids[] = {{target_system, "--target-system"},
@@ -290,12 +285,12 @@ int main(int argc, char** argv) {
   auto in_range = [](double v, double lo, double hi, bool open_low) {
     return std::isfinite(v) && (open_low ? v > lo : v >= lo) && v <= hi;
   };
-  if (!in_range(max_state_age, 0.0, 5.0, true)) return Fail("--max-state-age must be in (0, 5] s");
-  if (!in_range(link_budget, 0.0, 1000.0, true)) return Fail("--link-budget must be in (0, 1000]");
-  if (!in_range(max_blind_time, 0.0, 60.0, true)) return Fail("--max-blind-time must be in (0, 60] s");
-  if (!in_range(min_link_speed, 0.0, 10.0, true)) return Fail("--min-link-speed must be in (0, 10] m/s");
-  if (!in_range(clearance_tolerance, 0.0, 0.05, false)) return Fail("--clearance-tolerance must be in [0, 0.05] m");
-  if (!in_range(max_judged_gap, 0.0, 5.0, true)) return Fail("--max-judged-gap must be in (0, 5] s");
+  if (!in_range(options.max_state_age, 0.0, 5.0, true)) return Fail("--max-state-age must be in (0, 5] s");
+  if (!in_range(options.link_budget, 0.0, 1000.0, true)) return Fail("--link-budget must be in (0, 1000]");
+  if (!in_range(options.max_blind_time, 0.0, 60.0, true)) return Fail("--max-blind-time must be in (0, 60] s");
+  if (!in_range(options.min_link_speed, 0.0, 10.0, true)) return Fail("--min-link-speed must be in (0, 10] m/s");
+  if (!in_range(options.clearance_tolerance, 0.0, 0.05, false)) return Fail("--clearance-tolerance must be in [0, 0.05] m");
+  if (!in_range(options.max_judged_gap, 0.0, 5.0, true)) return Fail("--max-judged-gap must be in (0, 5] s");
   if (require_signing && key_path.empty()) return Fail("--require-signing needs --signing-key FILE");
   if (dry_run && !log_path.empty()) return Fail("--log: --dry-run streams nothing, so there is no flight to log");
   if (!dry_run && vehicle_url.empty()) return Fail("--vehicle udp://HOST:PORT is required (or --dry-run)");
@@ -337,23 +332,8 @@ int main(int argc, char** argv) {
   online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config->planner, config->replan, solver->get()};
   if (dry_run) return DryRun(ctx, setup, rate);
 
-  online::OnlineOptions options;
-  options.hold_time = hold_time;
-  options.vehicle_timeout = vehicle_timeout;
-  options.replan_threshold = replan_threshold;
-  options.replan_period = replan_period;
   options.replanning = !no_replan;
-  options.arrival_hold = arrival_hold;
-  options.arrival_tolerance = arrival_tolerance;
-  options.arrival_settle_speed = arrival_settle_speed;
-  options.arrival_timeout = arrival_timeout;
   options.require_clock_sync = !no_timesync;
-  options.max_state_age = max_state_age;
-  options.link_budget = link_budget;
-  options.max_blind_time = max_blind_time;
-  options.min_link_speed = min_link_speed;
-  options.clearance_tolerance = clearance_tolerance;
-  options.max_judged_gap = max_judged_gap;
   auto controller_or = online::OnlineController::Create(setup, options);
   if (!controller_or.ok()) return Fail(controller_or.status().message());
   online::OnlineController& controller = **controller_or;
