@@ -47,6 +47,7 @@
 
 #include "assimp_mesh_reader.h"
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/hash.h"
 #include "quadhand/core/numbers.h"
 #include "quadhand/core/ply_header.h"
 #include "quadhand/geometry/mesh_repair.h"
@@ -632,32 +633,20 @@ MeshCheck CheckMeshUncached(const TriangleMesh& mesh) {
   return check;
 }
 
+// Vec3 and Eigen::Vector3i are plain arrays, so a mesh's arrays are its
+// exact bytes.
+static_assert(sizeof(Vec3) == 3 * sizeof(double) && sizeof(Eigen::Vector3i) == 3 * sizeof(int));
+
 // A hash of the mesh's exact bytes, to find it in the memo.
 uint64_t MeshFingerprint(const TriangleMesh& mesh) {
-  uint64_t hash = 1469598103934665603ull;  // FNV-1a over 64-bit words
-  auto mix = [&hash](uint64_t word) { hash = (hash ^ word) * 1099511628211ull; };
-  mix(mesh.vertices.size());
-  mix(mesh.triangles.size());
-  for (const Vec3& v : mesh.vertices) {
-    for (int k = 0; k < 3; ++k) {
-      uint64_t bits;
-      std::memcpy(&bits, &v[k], sizeof bits);
-      mix(bits);
-    }
-  }
-  for (const Eigen::Vector3i& t : mesh.triangles) {
-    mix((static_cast<uint64_t>(static_cast<uint32_t>(t[0])) << 32) | static_cast<uint32_t>(t[1]));
-    mix(static_cast<uint32_t>(t[2]));
-  }
-  return hash;
+  const uint64_t vertices = core::Fnv1a64(mesh.vertices.data(), mesh.vertices.size() * sizeof(Vec3));
+  return core::Fnv1a64(mesh.triangles.data(), mesh.triangles.size() * sizeof(Eigen::Vector3i), vertices);
 }
 
 bool SameMesh(const TriangleMesh& a, const TriangleMesh& b) {
-  if (a.vertices.size() != b.vertices.size() || a.triangles.size() != b.triangles.size()) return false;
-  for (size_t v = 0; v < a.vertices.size(); ++v) {
-    if (std::memcmp(a.vertices[v].data(), b.vertices[v].data(), 3 * sizeof(double)) != 0) return false;
-  }
-  return std::equal(a.triangles.begin(), a.triangles.end(), b.triangles.begin());
+  return a.vertices.size() == b.vertices.size() && a.triangles.size() == b.triangles.size() &&
+         std::memcmp(a.vertices.data(), b.vertices.data(), a.vertices.size() * sizeof(Vec3)) == 0 &&
+         std::memcmp(a.triangles.data(), b.triangles.data(), a.triangles.size() * sizeof(Eigen::Vector3i)) == 0;
 }
 
 // The meshes checked most recently, kept whole: a hit must be the same mesh

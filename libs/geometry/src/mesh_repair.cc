@@ -231,10 +231,10 @@ core::Result<RepairedMesh> RepairMesh(const TriangleMesh& mesh, const MeshRepair
   // needs follows from the faces around them: with one other face on each
   // of its edges, the face belongs to the surface once (a face written
   // again, perhaps reversed: one copy is kept, the one that agrees with its
-  // neighbour); with two on each edge, the copies stand on the surface as a
-  // zero-volume fin (a face and its reversed copy: all go). Otherwise copies
-  // of opposite orientations cancel in pairs and one of the rest is kept,
-  // and whatever is still wrong is diagnosed below.
+  // neighbour). Otherwise copies of opposite orientations cancel in pairs
+  // (a face and its reversed copy standing on the surface, as on an edge of
+  // four faces, are a zero-volume fin) and one of the rest is kept; whatever
+  // is still wrong is diagnosed below.
   {
     std::map<std::array<int, 3>, std::vector<int>> copies;
     for (size_t i = 0; i < faces.size(); ++i) {
@@ -253,13 +253,11 @@ core::Result<RepairedMesh> RepairMesh(const TriangleMesh& mesh, const MeshRepair
       const Face& first = faces[group[0]];
       std::vector<int> forward, backward;
       for (int i : group) (Traverses(faces[i], first[0], first[1]) ? forward : backward).push_back(i);
-      int others_min = 3, others_max = 0;
+      bool one_other_face_per_edge = true;
       for (int k = 0; k < 3; ++k) {
-        const int others = static_cast<int>(edge_groups[EdgeKey(key[k], key[(k + 1) % 3])].size()) - 1;
-        others_min = std::min(others_min, others);
-        others_max = std::max(others_max, others);
+        one_other_face_per_edge = one_other_face_per_edge && edge_groups[EdgeKey(key[k], key[(k + 1) % 3])].size() == 2;
       }
-      if (others_min == 1 && others_max == 1) {
+      if (one_other_face_per_edge) {
         // Keep the copy its neighbour across first[0]-first[1] agrees with
         // (traversing that edge the other way), if both orientations exist.
         int neighbour = -1;
@@ -275,11 +273,6 @@ core::Result<RepairedMesh> RepairMesh(const TriangleMesh& mesh, const MeshRepair
         }
         for (int i : other_side) keep[i] = false;
         report.reversed_duplicate_faces += static_cast<long>(other_side.size());
-        continue;
-      }
-      if (others_min == 2 && others_max == 2 && forward.size() == backward.size()) {
-        for (int i : group) keep[i] = false;
-        report.reversed_duplicate_pairs += static_cast<long>(forward.size());
         continue;
       }
       const size_t pairs = std::min(forward.size(), backward.size());

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/hash.h"
 
 namespace quadhand::geometry {
 namespace {
@@ -17,16 +18,6 @@ constexpr char kMagic[8] = {'Q', 'H', 'S', 'D', 'F', '\n', '\x1a', '\0'};
 constexpr uint32_t kFlagSigned = 1u;
 // Strings longer than this mean a corrupted header rather than a real name.
 constexpr uint32_t kMaxStringBytes = 4096;
-
-// FNV-1a, 64 bit: detects truncation and bit rot, not tampering.
-uint64_t Fnv1a64(const char* data, size_t size) {
-  uint64_t hash = 0xcbf29ce484222325ull;
-  for (size_t i = 0; i < size; ++i) {
-    hash ^= static_cast<unsigned char>(data[i]);
-    hash *= 0x100000001b3ull;
-  }
-  return hash;
-}
 
 class Writer {
  public:
@@ -139,7 +130,7 @@ std::string SdfGrid::Serialize() const {
   w.PutString(info_.source);
   w.Put<uint64_t>(values_.size());
   w.PutBytes(values_.data(), values_.size() * sizeof(float));
-  const uint64_t checksum = Fnv1a64(w.bytes().data(), w.bytes().size());
+  const uint64_t checksum = core::Fnv1a64(w.bytes().data(), w.bytes().size());
   w.Put<uint64_t>(checksum);
   return std::move(w.bytes());
 }
@@ -190,7 +181,7 @@ core::Result<SdfGrid> SdfGrid::Deserialize(const std::string& bytes, const std::
   std::memcpy(values.data(), bytes.data() + r.offset(), count * sizeof(float));
   uint64_t stored_checksum = 0;
   std::memcpy(&stored_checksum, bytes.data() + expected_size - sizeof(uint64_t), sizeof(uint64_t));
-  if (stored_checksum != Fnv1a64(bytes.data(), expected_size - sizeof(uint64_t))) {
+  if (stored_checksum != core::Fnv1a64(bytes.data(), expected_size - sizeof(uint64_t))) {
     return invalid("checksum mismatch (file corrupted)");
   }
   for (float v : values) {
