@@ -210,6 +210,8 @@ int main(int argc, char** argv) {
                                seed,              representation_ms, total_ms,
                                &config, config_path.empty() ? "defaults" : config_path};
   info.scene_load_ms = (*context)->scene_load_seconds() * 1e3;
+  info.robot_load_ms = (*context)->robot_load_seconds() * 1e3;
+  info.sdf_load_ms = (*context)->sdf_load_seconds() * 1e3;
   info.scene_points = static_cast<long>((*context)->points().size());
   info.checked_points = static_cast<long>((*context)->checked_points().size());
   info.self_collision = &(*context)->self_collision();

@@ -113,7 +113,7 @@ int Info(const std::string& path) {
   const geometry::SdfGridInfo& info = grid->info();
   const Vec3 grid_max = info.GridMax();
   std::printf("file: %s\n", path.c_str());
-  std::printf("format_version: %u\n", geometry::SdfGrid::kFormatVersion);
+  std::printf("format_version: %u\n", info.file_version);
   std::printf("link: %s\n", info.link_name.c_str());
   std::printf("frame: %s\n", info.frame.c_str());
   std::printf("source: %s\n", info.source.c_str());
@@ -227,8 +227,20 @@ int main(int argc, char** argv) {
   // seconds rather than after the others were computed.
   if (core::Status s = robot::CheckLinkSdfJobs(jobs, options); !s.ok()) return Fail(s.message());
   if (!mesh_repairs.empty()) core::LogInfo("quadhand-sdfgen: mesh '%s' repaired: %s", mesh_path.c_str(), mesh_repairs.c_str());
-  for (const std::string& repair : robot::TakeMeshRepairReports()) core::LogInfo("quadhand-sdfgen: %s", repair.c_str());
+  for (const std::string& line : robot::TakeMeshRepairReports()) core::LogInfo("quadhand-sdfgen: %s", line.c_str());
   core::LogInfo("quadhand-sdfgen: %zu link(s), resolution %.4g m, padding %.4g m", jobs.size(),
                 options.resolution, options.padding);
-  return Generate(jobs, out_dir, options);
+  const int generated = Generate(jobs, out_dir, options);
+  if (generated != 0 || urdf_path.empty()) return generated;
+  // The repairs, for plans with these SDFs to load the meshes without
+  // repairing them again; only a speed-up, so a failure is a warning.
+  const std::string cache_dir = robot::MeshCacheDirOf(out_dir);
+  auto cached = robot::SaveMeshRepairCache(cache_dir);
+  if (!cached.ok()) {
+    std::fprintf(stderr, "quadhand-sdfgen: warning: the mesh repairs were not cached (plans will repair the meshes again): %s\n",
+                     cached.status().message().c_str());
+  } else if (*cached > 0) {
+    core::LogInfo("cached %d mesh repair(s) in %s", *cached, cache_dir.c_str());
+  }
+  return 0;
 }

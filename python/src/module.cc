@@ -206,6 +206,8 @@ PlanOutput RunPlan(const PlanArguments& args) {
   info.self_collision = &context->self_collision();
   info.front_end_inflation = context->front_end_inflation();
   info.scene_load_ms = scene_load_ms;
+  info.robot_load_ms = context->robot_load_seconds() * 1e3;
+  info.sdf_load_ms = context->sdf_load_seconds() * 1e3;
   info.scene_points = static_cast<long>(context->points().size());
   info.checked_points = static_cast<long>(context->checked_points().size());
   output.report_json = planner::PlanReportJson(result, context->robot(), info);

@@ -226,6 +226,22 @@ TEST_F(PlanCliTest, PlansWithTheCadExportTestRobot) {
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.err.find("link1_fin.stl' (link 'link1') repaired"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::exists(out));
+  // quadhand-sdfgen cached the repairs next to the SDFs, and the plan above
+  // read them (its repair lines come from the cache); without the cache the
+  // meshes are repaired again into the same geometry: the same plan.
+  int entries = 0;
+  for (const auto& file : fs::directory_iterator(fs::path(sdf) / "meshes")) entries += file.path().extension() == ".qhmesh";
+  EXPECT_GE(entries, 3);
+  auto read = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string cached_plan = read(out);
+  fs::remove_all(fs::path(sdf) / "meshes");
+  fs::remove(out);
+  const auto uncached = RunCommand(kPlan + " " + task + " --out " + out + " --report " + report);
+  EXPECT_EQ(uncached.exit_code, 0) << uncached.err;
+  EXPECT_EQ(read(out), cached_plan);
   fs::remove(out);
   fs::remove(report);
   ExpectBadInput(WriteTask({{"robot:", "robot: " + root + "/tests/data/cad_robot/cad_robot_holed.urdf"},

@@ -101,7 +101,7 @@ TEST_F(SdfgenTest, MeshToSdfThenProbeAndInfo) {
   ASSERT_EQ(info.exit_code, 0) << info.err;
   EXPECT_NE(info.out.find("link: cube"), std::string::npos);
   EXPECT_NE(info.out.find("resolution: 0.005"), std::string::npos);
-  EXPECT_NE(info.out.find("format_version: 1"), std::string::npos);
+  EXPECT_NE(info.out.find("format_version: 2"), std::string::npos);
 }
 
 TEST_F(SdfgenTest, RejectsBadInputWithOneLineAndNoFiles) {

@@ -1,5 +1,7 @@
 #include "quadhand/geometry/sdf_grid.h"
 
+#include "quadhand/core/hash.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -196,9 +198,27 @@ TEST(SdfGridTest, RejectsTruncatedCorruptedAndForeignFiles) {
   corrupted[bytes.size() / 2] ^= 0x40;
   expect_error(corrupted, "checksum");
   std::string other_version = bytes;
-  const uint32_t version = 2;
+  const uint32_t version = 3;
   std::memcpy(&other_version[8], &version, sizeof(version));
-  expect_error(other_version, "format version 2");
+  expect_error(other_version, "format version 3");
+}
+
+TEST(SdfGridTest, ReadsVersionOneFilesWithTheirByteWiseChecksum) {
+  const SdfGrid grid = SphereGrid(0.02);
+  std::string old_bytes = grid.Serialize();
+  const uint32_t version = 1;
+  std::memcpy(&old_bytes[8], &version, sizeof(version));
+  const uint64_t checksum = core::Fnv1a64(old_bytes.data(), old_bytes.size() - sizeof(uint64_t));
+  std::memcpy(&old_bytes[old_bytes.size() - sizeof(uint64_t)], &checksum, sizeof(checksum));
+  auto loaded = SdfGrid::Deserialize(old_bytes, "old.qhsdf");
+  ASSERT_TRUE(loaded.ok()) << loaded.status().message();
+  EXPECT_EQ(loaded->values(), grid.values());
+  // A version-1 file with the new checksum is corrupted, not new.
+  std::string mixed = grid.Serialize();
+  std::memcpy(&mixed[8], &version, sizeof(version));
+  auto refused = SdfGrid::Deserialize(mixed, "mixed.qhsdf");
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("checksum"), std::string::npos);
 }
 
 TEST(SdfGridTest, LoadReportsMissingFile) {

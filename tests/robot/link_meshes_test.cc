@@ -3,12 +3,19 @@
 // for missing mesh files.
 #include "quadhand/robot/link_meshes.h"
 
+#include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <string>
+
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
 #include "quadhand/geometry/mesh_io.h"
+#include "quadhand/geometry/primitives.h"
+#include "quadhand/geometry/repaired_mesh_cache.h"
 #include "robot/robot_test_util.h"
 
 namespace quadhand::robot {
@@ -186,6 +193,76 @@ TEST(LinkMeshesTest, StowedHalfWidthIsTheNarrowerHorizontalReach) {
   auto bare = RobotModel::LoadFromUrdfString(R"(<robot name="bare"><link name="base"/></robot>)", ".");
   ASSERT_TRUE(bare.ok());
   EXPECT_EQ(*StowedHalfWidth(*bare), 0.0);
+}
+
+}  // namespace
+}  // namespace quadhand::robot
+
+namespace quadhand::robot {
+namespace {
+
+// A robot whose one link is a mesh file, written in a fresh folder.
+struct MeshRobot {
+  std::filesystem::path dir;
+  std::string mesh_path;
+  std::string urdf_path;
+};
+
+MeshRobot WriteMeshRobot(const std::string& name, const Vec3& box_size) {
+  MeshRobot robot;
+  robot.dir = std::filesystem::temp_directory_path() / ("quadhand_link_meshes_" + std::to_string(getpid()) + "_" + name);
+  std::filesystem::remove_all(robot.dir);
+  std::filesystem::create_directories(robot.dir);
+  robot.mesh_path = (robot.dir / "body.stl").string();
+  EXPECT_TRUE(geometry::WriteMesh(robot.mesh_path, geometry::TessellateBox(geometry::Box{Pose::Identity(), box_size})).ok());
+  robot.urdf_path = (robot.dir / "robot.urdf").string();
+  std::ofstream(robot.urdf_path) << "<robot name='r'><link name='base'><collision><origin xyz='0.1 0 0'/><geometry>"
+                                    "<mesh filename='body.stl'/></geometry></collision></link></robot>\n";
+  return robot;
+}
+
+TEST(LinkMeshesTest, TheRepairCacheIsWrittenAndReadForTheSameFileAndIgnoredForAChangedOne) {
+  const MeshRobot files = WriteMeshRobot("cache", Vec3(0.1, 0.2, 0.3));
+  const std::string cache_dir = MeshCacheDirOf(files.dir.string());
+  RobotModel model = Load(files.urdf_path);
+  auto repaired = LinkCollisionElements(model, 0);
+  ASSERT_TRUE(repaired.ok()) << repaired.status().message();
+  auto saved = SaveMeshRepairCache(cache_dir);
+  ASSERT_TRUE(saved.ok()) << saved.status().message();
+  EXPECT_GE(*saved, 1);
+
+  // The entry written is the placed repair: forge it with another solid,
+  // and a fresh read of the same file (the process memo misses on the new
+  // modification time) returns the forgery, proof that the cache is read.
+  auto key = geometry::RepairedMeshCacheKeyOf(files.mesh_path, geometry::MeshRepairOptions{});
+  ASSERT_TRUE(key.ok());
+  key->placement.translation() = Vec3(0.1, 0.0, 0.0);
+  const std::string entry = geometry::RepairedMeshCachePath(cache_dir, *key);
+  ASSERT_TRUE(std::filesystem::exists(entry)) << entry;
+  auto cached = geometry::ReadRepairedMeshCache(entry, *key);
+  ASSERT_TRUE(cached.ok()) << cached.status().message();
+  ASSERT_EQ(cached->shells.size(), repaired->size());
+  EXPECT_EQ(cached->shells[0].vertices, (*repaired)[0].vertices);
+  geometry::RepairedMesh forged = *cached;
+  forged.shells[0] = geometry::TessellateBox(geometry::Box{Pose::Identity(), Vec3::Constant(0.05)});
+  ASSERT_TRUE(geometry::WriteRepairedMeshCache(entry, *key, forged).ok());
+  std::filesystem::last_write_time(files.mesh_path,
+                                   std::filesystem::last_write_time(files.mesh_path) + std::chrono::seconds(2));
+  model.set_mesh_cache_dir(cache_dir);
+  auto from_cache = LinkCollisionElements(model, 0);
+  ASSERT_TRUE(from_cache.ok());
+  EXPECT_EQ((*from_cache)[0].vertices, forged.shells[0].vertices);
+
+  // A changed mesh file misses the entry and is repaired afresh.
+  ASSERT_TRUE(geometry::WriteMesh(files.mesh_path,
+                                  geometry::TessellateBox(geometry::Box{Pose::Identity(), Vec3(0.1, 0.2, 0.4)}))
+                  .ok());
+  auto changed = LinkCollisionElements(model, 0);
+  ASSERT_TRUE(changed.ok());
+  const geometry::AxisAlignedBox box = geometry::BoundingBox((*changed)[0]);
+  EXPECT_NEAR(box.size().z(), 0.4, 1e-6);  // STL stores single precision
+  EXPECT_NEAR(box.min.x(), 0.05, 1e-6);
+  std::filesystem::remove_all(files.dir);
 }
 
 }  // namespace

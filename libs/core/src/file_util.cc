@@ -131,10 +131,24 @@ Result<std::string> ReadFileToString(const std::string& path, unsigned long long
     return Status(errno == ENOENT ? StatusCode::kNotFound : StatusCode::kIoError,
                   path + ": cannot open: " + std::strerror(errno));
   }
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
+  // One read into a buffer of the file's size (a stream copy grows and
+  // copies its buffer: a quarter of a second for 70 MB of SDFs), then
+  // whatever is left if the file grew since it was measured.
+  std::string contents(error ? 0 : static_cast<size_t>(size), '\0');
+  in.read(contents.data(), static_cast<std::streamsize>(contents.size()));
+  contents.resize(static_cast<size_t>(in.gcount()));
   if (in.bad()) return Status::IoError(path + ": read failed");
-  return buffer.str();
+  if (in) {
+    std::ostringstream rest;
+    rest << in.rdbuf();
+    if (in.bad()) return Status::IoError(path + ": read failed");
+    contents += rest.str();
+    if (contents.size() > max_bytes) {
+      return Status::InvalidArgument(path + ": more than the " + std::to_string(max_bytes) +
+                                     " bytes this file may have");
+    }
+  }
+  return contents;
 }
 
 Status WriteFileAtomically(const std::string& path, const std::string& contents) {

@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 
+#include "quadhand/geometry/mesh_io.h"
 #include "quadhand/opt/penalty.h"
 #include "quadhand/robot/link_meshes.h"
 
@@ -15,6 +18,23 @@ ExactMeshModel::ExactMeshModel(std::vector<int> links, std::vector<LinkGeometry>
       points_(std::move(points)) {}
 
 ExactMeshModel::~ExactMeshModel() = default;
+
+ExactMeshModel::Element::Element(geometry::TriangleMesh mesh, const Vec3& mesh_min, const Vec3& mesh_max)
+    : box_min(mesh_min), box_max(mesh_max), mesh_(std::move(mesh)) {}
+
+const geometry::MeshDistanceQuery& ExactMeshModel::Element::Query() const {
+  std::call_once(built_, [this] {
+    auto query = geometry::MeshDistanceQuery::Create(mesh_, /*is_signed=*/true);
+    if (!query.ok()) {
+      // Create checked every condition of MeshDistanceQuery::Create.
+      std::fprintf(stderr, "quadhand: internal error: exact model: %s\n", query.status().message().c_str());
+      std::abort();
+    }
+    query_ = std::move(*query);
+    mesh_ = geometry::TriangleMesh{};
+  });
+  return *query_;
+}
 
 core::Result<std::unique_ptr<ExactMeshModel>> ExactMeshModel::Create(const robot::RobotModel& robot,
                                                                     const std::vector<Vec3>& points) {
@@ -30,13 +50,27 @@ core::Result<std::unique_ptr<ExactMeshModel>> ExactMeshModel::Create(const robot
     auto meshes = robot::LinkCollisionElements(robot, link);
     if (!meshes.ok()) return meshes.status();
     LinkGeometry g;
-    for (const geometry::TriangleMesh& mesh : *meshes) {
-      auto query = geometry::MeshDistanceQuery::Create(mesh, /*is_signed=*/true);
-      if (!query.ok()) return query.status().WithPrefix("link '" + robot.link(link).name + "'");
+    for (geometry::TriangleMesh& mesh : *meshes) {
+      // Everything the query's construction could refuse is checked now,
+      // so that building it on first use cannot fail (the bounds-volume
+      // check comes from CheckMesh's memo: the repair ran it, or the
+      // repaired-mesh cache's writer did).
+      const std::string where = "link '" + robot.link(link).name + "'";
+      if (mesh.triangles.empty()) return core::Status::InvalidArgument(where + ": a collision element without triangles");
+      const int num_vertices = static_cast<int>(mesh.vertices.size());
+      for (const Eigen::Vector3i& t : mesh.triangles) {
+        if ((t.array() < 0).any() || (t.array() >= num_vertices).any()) {
+          return core::Status::InvalidArgument(where + ": a triangle indexes a missing vertex");
+        }
+      }
+      if (const geometry::MeshCheck check = geometry::CheckMesh(mesh); !check.bounds_volume) {
+        return core::Status::InvalidArgument(where + ": signed distance needs a mesh that bounds a volume: " +
+                                             check.problem);
+      }
       const geometry::AxisAlignedBox box = geometry::BoundingBox(mesh);
       g.box_min = g.elements.empty() ? box.min : g.box_min.cwiseMin(box.min);
       g.box_max = g.elements.empty() ? box.max : g.box_max.cwiseMax(box.max);
-      g.elements.push_back({std::move(*query), box.min, box.max});
+      g.elements.push_back(std::make_unique<Element>(std::move(mesh), box.min, box.max));
     }
     geometry.push_back(std::move(g));
   }
@@ -55,7 +89,8 @@ void ExactMeshModel::VisitBoxNeighbours(const LinkGeometry& g, const Pose& X_WL,
     // outside the box; inside it, a point may be inside the element (no
     // bound). The union's distance is the smallest over the elements.
     double bound = std::numeric_limits<double>::infinity();
-    for (const Element& e : g.elements) {
+    for (const auto& element : g.elements) {
+      const Element& e = *element;
       const double outside = (e.box_min - local).cwiseMax(local - e.box_max).cwiseMax(0.0).norm();
       bound = std::min(bound, outside > 0.0 ? outside : -std::numeric_limits<double>::infinity());
     }
@@ -67,19 +102,20 @@ double ExactMeshModel::UnionDistance(const LinkGeometry& g, const Vec3& local, H
   double best = std::numeric_limits<double>::infinity();
   if (gradient != nullptr) gradient->setZero();
   for (size_t i = 0; i < g.elements.size(); ++i) {
-    const Element& e = g.elements[i];
+    const Element& e = *g.elements[i];
     // Outside an element's box a point is outside the element and at least
     // the box distance away: no query when that cannot beat the minimum.
     const double outside = (e.box_min - local).cwiseMax(local - e.box_max).cwiseMax(0.0).norm();
     if (outside > 0.0 && outside >= best) continue;
     Vec3 closest;
-    double d = hints != nullptr && hints->have[i] ? e.query->UnsignedDistanceWithHint(local, hints->closest[i], &closest)
-                                                 : e.query->UnsignedDistance(local, &closest);
+    const geometry::MeshDistanceQuery& query = e.Query();
+    double d = hints != nullptr && hints->have[i] ? query.UnsignedDistanceWithHint(local, hints->closest[i], &closest)
+                                                 : query.UnsignedDistance(local, &closest);
     if (hints != nullptr) {
       hints->closest[i] = closest;
       hints->have[i] = true;
     }
-    const bool inside = outside == 0.0 && d > 0.0 && e.query->IsInside(local);
+    const bool inside = outside == 0.0 && d > 0.0 && query.IsInside(local);
     if (inside) d = -d;
     if (d >= best) continue;
     best = d;

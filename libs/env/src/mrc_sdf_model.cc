@@ -1,8 +1,11 @@
 #include "quadhand/env/mrc_sdf_model.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <optional>
 
+#include "quadhand/core/worker_pool.h"
 #include "quadhand/opt/penalty.h"
 #include "quadhand/robot/link_sdfs.h"
 
@@ -143,13 +146,25 @@ core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> 
 core::Status LoadLinkSdfGrids(const robot::RobotModel& robot, const std::string& sdf_dir, std::vector<int>* links_out,
                               std::vector<geometry::SdfGrid>* grids_out) {
   std::vector<int> links = robot.CollisionLinks();
-  std::vector<geometry::SdfGrid> grids;
+  std::vector<std::string> paths;
   for (int link : links) {
-    const std::string& name = robot.link(link).name;
-    auto sdf_path = robot::LinkSdfPath(sdf_dir, name);
+    auto sdf_path = robot::LinkSdfPath(sdf_dir, robot.link(link).name);
     if (!sdf_path.ok()) return sdf_path.status();
-    const std::string& path = *sdf_path;
-    auto grid = geometry::SdfGrid::Load(path);
+    paths.push_back(*sdf_path);
+  }
+  // The files are read and verified in parallel (tens of megabytes each for
+  // a CAD robot); errors are reported in link order, whatever the threads.
+  std::vector<std::optional<core::Result<geometry::SdfGrid>>> loaded(links.size());
+  std::atomic<size_t> next{0};
+  core::WorkerPool pool(core::WorkerCount(0, static_cast<int>(std::max<size_t>(1, links.size()))));
+  pool.Run([&](int) {
+    for (size_t i = next++; i < links.size(); i = next++) loaded[i].emplace(geometry::SdfGrid::Load(paths[i]));
+  });
+  std::vector<geometry::SdfGrid> grids;
+  for (size_t i = 0; i < links.size(); ++i) {
+    const std::string& name = robot.link(links[i]).name;
+    const std::string& path = paths[i];
+    core::Result<geometry::SdfGrid>& grid = *loaded[i];
     if (!grid.ok()) {
       if (grid.status().code() == core::StatusCode::kNotFound) {
         return core::Status::NotFound(path + ": missing link SDF (generate it with quadhand-sdfgen --urdf)");

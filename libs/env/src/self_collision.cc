@@ -1,11 +1,13 @@
 #include "quadhand/env/self_collision.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <set>
 
+#include "quadhand/core/worker_pool.h"
 #include "quadhand/opt/penalty.h"
 #include "quadhand/robot/link_meshes.h"
 
@@ -133,19 +135,32 @@ core::Result<std::unique_ptr<SelfCollisionModel>> SelfCollisionModel::Create(
   model->anchors_.resize(num_links);
   model->boxes_.resize(num_links);
   std::vector<size_t> sample_count(num_links, 0);
+  std::vector<std::vector<geometry::TriangleMesh>> link_elements(num_links);
   for (int link : collision_links) {
     auto elements = robot::LinkCollisionElements(robot, link);
     if (!elements.ok()) return elements.status();
     for (const geometry::TriangleMesh& mesh : *elements) {
       if (!mesh.vertices.empty()) model->anchors_[link].push_back(mesh.vertices.front());
     }
-    SampledLink& s = model->sampled_[link];
-    SampleElements(*elements, options.sample_spacing, &s.samples, &s.center, &s.radius);
-    SampledLink& p = model->penalty_samples_[link];
-    SampleElements(*elements, options.penalty_spacing, &p.samples, &p.center, &p.radius);
-    sample_count[link] = s.samples.points.size();
+    link_elements[link] = std::move(*elements);
     exact.LinkBox(link, &model->boxes_[link].first, &model->boxes_[link].second);
   }
+  // Sampling a CAD link's hundreds of thousands of triangles takes tens of
+  // milliseconds per spacing: links and spacings in parallel. Each job
+  // writes only its own link's samples, so the result does not depend on
+  // the threads.
+  const int num_jobs = 2 * static_cast<int>(collision_links.size());
+  std::atomic<int> next{0};
+  core::WorkerPool pool(core::WorkerCount(0, std::max(1, num_jobs)));
+  pool.Run([&](int) {
+    for (int job = next++; job < num_jobs; job = next++) {
+      const int link = collision_links[job / 2];
+      SampledLink& s = job % 2 == 0 ? model->sampled_[link] : model->penalty_samples_[link];
+      SampleElements(link_elements[link], job % 2 == 0 ? options.sample_spacing : options.penalty_spacing,
+                     &s.samples, &s.center, &s.radius);
+    }
+  });
+  for (int link : collision_links) sample_count[link] = model->sampled_[link].samples.points.size();
 
   // The zero configuration, within the limits.
   VecX q(robot.num_actuated());

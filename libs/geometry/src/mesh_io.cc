@@ -3,6 +3,8 @@
 // compile); the rest of QuadHand sees only TriangleMesh.
 #include "quadhand/geometry/mesh_io.h"
 
+#include "mesh_check_memo.h"
+
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -639,8 +641,8 @@ static_assert(sizeof(Vec3) == 3 * sizeof(double) && sizeof(Eigen::Vector3i) == 3
 
 // A hash of the mesh's exact bytes, to find it in the memo.
 uint64_t MeshFingerprint(const TriangleMesh& mesh) {
-  const uint64_t vertices = core::Fnv1a64(mesh.vertices.data(), mesh.vertices.size() * sizeof(Vec3));
-  return core::Fnv1a64(mesh.triangles.data(), mesh.triangles.size() * sizeof(Eigen::Vector3i), vertices);
+  const uint64_t vertices = core::FastHash64(mesh.vertices.data(), mesh.vertices.size() * sizeof(Vec3));
+  return core::FastHash64(mesh.triangles.data(), mesh.triangles.size() * sizeof(Eigen::Vector3i), vertices);
 }
 
 bool SameMesh(const TriangleMesh& a, const TriangleMesh& b) {
@@ -657,10 +659,23 @@ struct CheckedMesh {
   TriangleMesh mesh;
   MeshCheck check;
 };
-constexpr size_t kCheckMemoSize = 64;
-constexpr size_t kCheckMemoMinTriangles = 1000;  // smaller meshes check faster than they copy
+// Meshes; a CAD export's small shells (bolts, washers) are many. Smaller
+// meshes than kCheckMemoMinTriangles are kept only when the repaired-mesh
+// cache vouches for them (checking them again costs little, but a robot may
+// have hundreds).
+constexpr size_t kCheckMemoSize = 1024;
+constexpr size_t kCheckMemoMinTriangles = 1000;
 std::mutex check_memo_mutex;
 std::vector<CheckedMesh> check_memo;  // most recent last
+
+void RememberCheck(uint64_t fingerprint, const TriangleMesh& mesh, const MeshCheck& check) {
+  const std::lock_guard<std::mutex> lock(check_memo_mutex);
+  for (const CheckedMesh& entry : check_memo) {
+    if (entry.fingerprint == fingerprint && SameMesh(entry.mesh, mesh)) return;
+  }
+  if (check_memo.size() >= kCheckMemoSize) check_memo.erase(check_memo.begin());
+  check_memo.push_back({fingerprint, mesh, check});
+}
 
 }  // namespace
 
@@ -669,7 +684,6 @@ std::vector<CheckedMesh> check_memo;  // most recent last
 // self-intersection test is the costly part (seconds for 400,000 triangles),
 // so it runs once per mesh and process.
 MeshCheck CheckMesh(const TriangleMesh& mesh) {
-  if (mesh.triangles.size() < kCheckMemoMinTriangles) return CheckMeshUncached(mesh);
   const uint64_t fingerprint = MeshFingerprint(mesh);
   {
     const std::lock_guard<std::mutex> lock(check_memo_mutex);
@@ -678,10 +692,16 @@ MeshCheck CheckMesh(const TriangleMesh& mesh) {
     }
   }
   MeshCheck check = CheckMeshUncached(mesh);
-  const std::lock_guard<std::mutex> lock(check_memo_mutex);
-  if (check_memo.size() >= kCheckMemoSize) check_memo.erase(check_memo.begin());
-  check_memo.push_back({fingerprint, mesh, check});
+  if (mesh.triangles.size() >= kCheckMemoMinTriangles) RememberCheck(fingerprint, mesh, check);
   return check;
+}
+
+void RememberMeshBoundsVolume(const TriangleMesh& mesh) {
+  MeshCheck check;
+  check.closed = true;
+  check.bounds_volume = true;
+  check.outward = true;
+  RememberCheck(MeshFingerprint(mesh), mesh, check);
 }
 
 core::Result<TriangleMesh> UnionOfClosedMeshes(const std::vector<TriangleMesh>& parts) {

@@ -130,7 +130,7 @@ std::string SdfGrid::Serialize() const {
   w.PutString(info_.source);
   w.Put<uint64_t>(values_.size());
   w.PutBytes(values_.data(), values_.size() * sizeof(float));
-  const uint64_t checksum = core::Fnv1a64(w.bytes().data(), w.bytes().size());
+  const uint64_t checksum = core::FastHash64(w.bytes().data(), w.bytes().size());
   w.Put<uint64_t>(checksum);
   return std::move(w.bytes());
 }
@@ -147,9 +147,10 @@ core::Result<SdfGrid> SdfGrid::Deserialize(const std::string& bytes, const std::
   for (char& c : magic) r.Get(&c);
   uint32_t version = 0;
   if (!r.Get(&version)) return invalid("truncated header");
-  if (version != kFormatVersion) {
-    return invalid("format version " + std::to_string(version) + ", this build reads version " +
-                   std::to_string(kFormatVersion) + " (regenerate it with quadhand-sdfgen)");
+  if (version < kOldestReadableVersion || version > kFormatVersion) {
+    return invalid("format version " + std::to_string(version) + ", this build reads versions " +
+                   std::to_string(kOldestReadableVersion) + " to " + std::to_string(kFormatVersion) +
+                   " (regenerate it with quadhand-sdfgen)");
   }
   SdfGridInfo info;
   uint32_t flags = 0;
@@ -163,6 +164,7 @@ core::Result<SdfGrid> SdfGrid::Deserialize(const std::string& bytes, const std::
   if (!header_read) return invalid("truncated or corrupted header");
   if ((flags & ~kFlagSigned) != 0) return invalid("unknown flags " + std::to_string(flags));
   info.is_signed = (flags & kFlagSigned) != 0;
+  info.file_version = version;
   if (!(std::isfinite(info.resolution) && info.resolution > 0.0)) return invalid("resolution is not positive");
   if (!info.origin.allFinite() || !info.geometry_min.allFinite() || !info.geometry_max.allFinite()) {
     return invalid("non-finite origin or bounds");
@@ -181,7 +183,10 @@ core::Result<SdfGrid> SdfGrid::Deserialize(const std::string& bytes, const std::
   std::memcpy(values.data(), bytes.data() + r.offset(), count * sizeof(float));
   uint64_t stored_checksum = 0;
   std::memcpy(&stored_checksum, bytes.data() + expected_size - sizeof(uint64_t), sizeof(uint64_t));
-  if (stored_checksum != core::Fnv1a64(bytes.data(), expected_size - sizeof(uint64_t))) {
+  const size_t hashed = expected_size - sizeof(uint64_t);
+  const uint64_t checksum =
+      version == 1 ? core::Fnv1a64(bytes.data(), hashed) : core::FastHash64(bytes.data(), hashed);
+  if (stored_checksum != checksum) {
     return invalid("checksum mismatch (file corrupted)");
   }
   for (float v : values) {

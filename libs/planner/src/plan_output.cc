@@ -50,6 +50,8 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   report["post_check_ms"] = result.post_check_ms;
   report["representation_build_ms"] = info.representation_build_ms + result.per_plan_collision_ms;
   if (info.scene_load_ms >= 0.0) report["scene_load_ms"] = info.scene_load_ms;
+  if (info.robot_load_ms >= 0.0) report["robot_load_ms"] = info.robot_load_ms;
+  if (info.sdf_load_ms >= 0.0) report["sdf_load_ms"] = info.sdf_load_ms;
   if (info.scene_points >= 0) report["scene_points"] = info.scene_points;
   if (info.checked_points >= 0) report["checked_points"] = info.checked_points;
   report["total_ms"] = info.total_ms;

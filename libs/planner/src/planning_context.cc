@@ -56,6 +56,8 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
   repair.tolerance = options.mesh_repair_tolerance;
   if (std::string why; !repair.IsValid(&why)) return core::Status::InvalidArgument(why);
   robot.set_mesh_repair_tolerance(options.mesh_repair_tolerance);
+  // quadhand-sdfgen cached its repairs of the meshes next to the SDFs.
+  if (!task.sdf_dir.empty()) robot.set_mesh_cache_dir(robot::MeshCacheDirOf(task.sdf_dir));
   std::unique_ptr<PlanningContext> context(new PlanningContext(std::move(task), std::move(robot)));
   context->points_ = std::move(points);
   context->checked_points_ = std::move(checked_points);
@@ -69,6 +71,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
       std::make_shared<const scene::PointGrid>(context->checked_points(), env::ExactMeshModel::kIndexCellSize);
   const bool same_points = context->checked_points_ == context->points_;
   auto index = same_points ? checked_index : nullptr;
+  const auto robot_load_start = std::chrono::steady_clock::now();
   auto exact = env::ExactMeshModel::Create(context->robot_, checked_index);
   if (!exact.ok()) return exact.status().WithPrefix(t.robot_path);
   context->exact_ = std::move(*exact);
@@ -113,6 +116,10 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
       }
     }
   }
+
+  context->robot_load_seconds_ =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - robot_load_start).count();
+  context->sdf_load_seconds_ = sdf_load_ms / 1e3;
 
   std::vector<Vec3> contain = options.front_end_also_contain;
   contain.push_back(t.start.position);

@@ -1,6 +1,8 @@
 #include "quadhand/robot/link_meshes.h"
 
 #include <algorithm>
+#include <array>
+#include <optional>
 #include <filesystem>
 #include <map>
 #include <mutex>
@@ -11,6 +13,7 @@
 
 #include "quadhand/geometry/mesh_io.h"
 #include "quadhand/geometry/mesh_repair.h"
+#include "quadhand/geometry/repaired_mesh_cache.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/geometry/primitives.h"
 
@@ -64,82 +67,126 @@ void ReportRepairs(const std::string& where, const std::string& path, const geom
   log.untaken.push_back("mesh '" + path + "' (" + where + ") repaired: " + text);
 }
 
-// Mesh files read and repaired in this process: the exact model, the
-// self-collision pairs and the front end's robot size all load the same
-// files, and a 400,000-triangle export takes seconds to read and repair.
-// The key holds the file's size and modification time, so a file rewritten
-// in between is read again.
-struct ReadShells {
-  std::vector<geometry::TriangleMesh> shells;
-  geometry::MeshRepairReport report;
-};
-using ReadKey = std::tuple<std::string, std::uintmax_t, std::filesystem::file_time_type::rep, double, double>;
-struct ReadMemo {
+// Mesh files read and repaired in this process, placed as their elements
+// place them: the exact model, the self-collision pairs and the front end's
+// robot size all load the same files, and a 400,000-triangle export takes
+// seconds to read and repair. The key holds the file's size and
+// modification time, so a file rewritten in between is read again.
+using FileKey = std::tuple<std::string, std::uintmax_t, std::filesystem::file_time_type::rep, double, double>;
+using PlacementKey = std::array<double, 15>;  // the origin's 3 x 4 matrix, then the scale
+using PlacedKey = std::pair<FileKey, PlacementKey>;
+struct PlacedMemo {
   std::mutex mutex;
-  std::map<ReadKey, ReadShells> entries;
+  std::map<PlacedKey, geometry::RepairedMesh> entries;  // shells in the link frame
 };
-ReadMemo& Reads() {
-  static ReadMemo memo;
+PlacedMemo& Placed() {
+  static PlacedMemo memo;
   return memo;
 }
-constexpr size_t kReadMemoSize = 256;  // mesh files; beyond it the memo starts over
+constexpr size_t kPlacedMemoSize = 256;  // elements; beyond it the memo starts over
 
-Result<ReadShells> ReadRepairedShells(const std::string& path, const geometry::MeshRepairOptions& repair) {
+// The memo's key for the file as it is now; false if it cannot be stat'ed.
+bool CurrentFileKey(const std::string& path, const geometry::MeshRepairOptions& repair, FileKey* key) {
   std::error_code error;
   const std::uintmax_t size = std::filesystem::file_size(path, error);
-  const auto modified = error ? std::filesystem::file_time_type{} : std::filesystem::last_write_time(path, error);
-  const bool keyed = !error;
-  const ReadKey key{path, size, modified.time_since_epoch().count(), repair.tolerance, repair.metres_per_unit};
-  ReadMemo& memo = Reads();
+  if (error) return false;
+  const auto modified = std::filesystem::last_write_time(path, error);
+  if (error) return false;
+  *key = FileKey{path, size, modified.time_since_epoch().count(), repair.tolerance, repair.metres_per_unit};
+  return true;
+}
+
+PlacementKey PlacementOf(const CollisionGeometry& element) {
+  PlacementKey key;
+  const Eigen::Matrix<double, 3, 4> matrix = element.origin.affine();
+  for (int i = 0; i < 12; ++i) key[i] = matrix(i % 3, i / 3);
+  for (int i = 0; i < 3; ++i) key[12 + i] = element.mesh_scale[i];
+  return key;
+}
+
+geometry::RepairedMeshCacheKey CacheKeyOf(const geometry::RepairedMeshCacheKey& file_key,
+                                          const CollisionGeometry& element) {
+  geometry::RepairedMeshCacheKey key = file_key;
+  key.placement = element.origin;
+  key.scale = element.mesh_scale;
+  return key;
+}
+
+// The element's repaired shells, scaled and placed in the link frame.
+Result<geometry::RepairedMesh> ReadAndPlace(const CollisionGeometry& element, const geometry::MeshRepairOptions& repair) {
+  geometry::RepairedMesh placed;
+  auto shells = geometry::ReadMeshShells(element.mesh_path, repair, &placed.report);
+  if (!shells.ok()) return shells.status();
+  if (!placed.report.problem.empty()) return placed;
+  for (const geometry::TriangleMesh& shell : *shells) {
+    // Transformed() flips the winding for a mirroring scale, so outward stays outward.
+    geometry::TriangleMesh moved = geometry::Transformed(shell, element.origin, element.mesh_scale);
+    // The same bound as the primitives' sizes and the joints' origins: CGAL's
+    // exact distances overflow (and abort) on far larger coordinates.
+    for (const Vec3& vertex : moved.vertices) {
+      if (!(vertex.allFinite() && vertex.cwiseAbs().maxCoeff() <= 1000.0)) {
+        return Status::InvalidArgument("mesh '" + element.mesh_path +
+                                       "': scaled and placed, a vertex lies more than 1000 m from the link frame");
+      }
+    }
+    placed.shells.push_back(std::move(moved));
+  }
+  return placed;
+}
+
+// From the process memo, else from the repaired-mesh cache in `cache_dir`
+// (when given, and holding this file's repair so placed), else read,
+// repaired and placed.
+Result<geometry::RepairedMesh> PlacedShells(const CollisionGeometry& element, const geometry::MeshRepairOptions& repair,
+                                            const std::string& cache_dir) {
+  FileKey file_key;
+  const bool keyed = CurrentFileKey(element.mesh_path, repair, &file_key);
+  const PlacedKey key{file_key, PlacementOf(element)};
+  PlacedMemo& memo = Placed();
   if (keyed) {
     std::lock_guard<std::mutex> lock(memo.mutex);
     if (auto it = memo.entries.find(key); it != memo.entries.end()) return it->second;
   }
-  ReadShells read;
-  auto shells = geometry::ReadMeshShells(path, repair, &read.report);
-  if (!shells.ok()) return shells.status();
-  read.shells = std::move(*shells);
+  std::optional<geometry::RepairedMesh> placed;
+  if (!cache_dir.empty()) {
+    // A miss or an unusable entry (corrupted, another revision) only costs
+    // the repair below: the cache never needs to be right.
+    if (auto file_hash = geometry::RepairedMeshCacheKeyOf(element.mesh_path, repair); file_hash.ok()) {
+      const geometry::RepairedMeshCacheKey cache_key = CacheKeyOf(*file_hash, element);
+      auto entry = geometry::ReadRepairedMeshCache(geometry::RepairedMeshCachePath(cache_dir, cache_key), cache_key);
+      if (entry.ok()) placed = std::move(*entry);
+    }
+  }
+  if (!placed) {
+    auto read = ReadAndPlace(element, repair);
+    if (!read.ok()) return read.status();
+    placed = std::move(*read);
+  }
   if (keyed) {
     std::lock_guard<std::mutex> lock(memo.mutex);
-    if (memo.entries.size() >= kReadMemoSize) memo.entries.clear();
-    memo.entries.emplace(key, read);
+    if (memo.entries.size() >= kPlacedMemoSize) memo.entries.clear();
+    memo.entries.emplace(key, *placed);
   }
-  return read;
+  return std::move(*placed);
 }
 
 // One collision element as closed meshes in the link frame: a mesh file
 // gives one per shell (mesh_repair.h), their union being the element.
 Result<std::vector<geometry::TriangleMesh>> ElementMeshes(const CollisionGeometry& element, const std::string& where,
-                                                          double repair_tolerance) {
+                                                          double repair_tolerance, const std::string& cache_dir) {
   switch (element.type) {
     case GeometryType::kMesh: {
       geometry::MeshRepairOptions repair;
       repair.tolerance = repair_tolerance;
       repair.metres_per_unit = element.mesh_scale.cwiseAbs().maxCoeff();
-      auto read = ReadRepairedShells(element.mesh_path, repair);
-      if (!read.ok()) return read.status();
-      const geometry::MeshRepairReport& report = read->report;
-      const std::vector<geometry::TriangleMesh>* shells = &read->shells;
-      if (!report.problem.empty()) {
+      auto placed = PlacedShells(element, repair, cache_dir);
+      if (!placed.ok()) return placed.status();
+      if (!placed->report.problem.empty()) {
         return Status::InvalidArgument("mesh '" + element.mesh_path + "' does not bound a volume, even repaired: " +
-                                       report.problem);
+                                       placed->report.problem);
       }
-      ReportRepairs(where, element.mesh_path, report);
-      std::vector<geometry::TriangleMesh> placed_shells;
-      for (const geometry::TriangleMesh& shell : *shells) {
-        // Transformed() flips the winding for a mirroring scale, so outward stays outward.
-        geometry::TriangleMesh placed = geometry::Transformed(shell, element.origin, element.mesh_scale);
-        // The same bound as the primitives' sizes and the joints' origins: CGAL's
-        // exact distances overflow (and abort) on far larger coordinates.
-        for (const Vec3& vertex : placed.vertices) {
-          if (!(vertex.allFinite() && vertex.cwiseAbs().maxCoeff() <= 1000.0)) {
-            return Status::InvalidArgument("mesh '" + element.mesh_path +
-                                           "': scaled and placed, a vertex lies more than 1000 m from the link frame");
-          }
-        }
-        placed_shells.push_back(std::move(placed));
-      }
-      return placed_shells;
+      ReportRepairs(where, element.mesh_path, placed->report);
+      return std::move(placed->shells);
     }
     default: {
       Result<geometry::TriangleMesh> primitive = ElementMesh(element);
@@ -161,11 +208,54 @@ Result<std::vector<geometry::TriangleMesh>> LinkCollisionElements(const RobotMod
   std::vector<geometry::TriangleMesh> parts;
   parts.reserve(data.collisions.size());
   for (const CollisionGeometry& element : data.collisions) {
-    auto element_parts = ElementMeshes(element, where, model.mesh_repair_tolerance());
+    auto element_parts = ElementMeshes(element, where, model.mesh_repair_tolerance(), model.mesh_cache_dir());
     if (!element_parts.ok()) return element_parts.status().WithPrefix(where);
     for (geometry::TriangleMesh& part : *element_parts) parts.push_back(std::move(part));
   }
   return parts;
+}
+
+std::string MeshCacheDirOf(const std::string& sdf_dir) {
+  return (std::filesystem::path(sdf_dir) / "meshes").string();
+}
+
+core::Result<int> SaveMeshRepairCache(const std::string& cache_dir) {
+  std::vector<std::pair<PlacedKey, geometry::RepairedMesh>> entries;
+  {
+    PlacedMemo& memo = Placed();
+    std::lock_guard<std::mutex> lock(memo.mutex);
+    for (const auto& [key, placed] : memo.entries) {
+      if (placed.report.problem.empty() && !placed.shells.empty()) entries.emplace_back(key, placed);
+    }
+  }
+  int written = 0;
+  for (const auto& [key, placed] : entries) {
+    const auto& [file_key, placement] = key;
+    geometry::MeshRepairOptions repair;
+    repair.tolerance = std::get<3>(file_key);
+    repair.metres_per_unit = std::get<4>(file_key);
+    const std::string& path = std::get<0>(file_key);
+    // A file changed since it was repaired is not this repair's source.
+    if (FileKey now; !CurrentFileKey(path, repair, &now) || now != file_key) continue;
+    // Placing can, in principle, round two faces into each other: only
+    // shells that still bound a volume in the link frame are vouched for
+    // (quadhand-sdfgen checked them already; CheckMesh remembers).
+    bool bounds_volume = true;
+    for (const geometry::TriangleMesh& shell : placed.shells) bounds_volume &= geometry::CheckMesh(shell).bounds_volume;
+    if (!bounds_volume) continue;
+    auto file_hash = geometry::RepairedMeshCacheKeyOf(path, repair);
+    if (!file_hash.ok()) continue;
+    geometry::RepairedMeshCacheKey cache_key = *file_hash;
+    Eigen::Matrix<double, 3, 4> matrix;
+    for (int i = 0; i < 12; ++i) matrix(i % 3, i / 3) = placement[i];
+    cache_key.placement.affine() = matrix;
+    cache_key.scale = Vec3(placement[12], placement[13], placement[14]);
+    const core::Status saved =
+        geometry::WriteRepairedMeshCache(geometry::RepairedMeshCachePath(cache_dir, cache_key), cache_key, placed);
+    if (!saved.ok()) return saved;
+    ++written;
+  }
+  return written;
 }
 
 std::vector<std::string> TakeMeshRepairReports() {

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "quadhand/core/status.h"
@@ -59,12 +60,23 @@ class ExactMeshModel final : public CollisionModel {
   void LinkBox(int link, Vec3* box_min, Vec3* box_max) const;
 
  private:
-  struct Element {
-    std::unique_ptr<geometry::MeshDistanceQuery> query;
+  // An element's distance query (an AABB tree over its triangles: a tenth
+  // of a second per 100,000) is built on its first query, not at Create:
+  // most elements of a large robot are never near enough to a point to be
+  // queried, and a plan should not wait for trees it does not use.
+  class Element {
+   public:
+    Element(geometry::TriangleMesh mesh, const Vec3& box_min, const Vec3& box_max);
+    const geometry::MeshDistanceQuery& Query() const;  // thread-safe
     Vec3 box_min, box_max;  // link-frame bounding box of the element
+
+   private:
+    mutable geometry::TriangleMesh mesh_;  // released once the query is built
+    mutable std::once_flag built_;
+    mutable std::unique_ptr<geometry::MeshDistanceQuery> query_;
   };
   struct LinkGeometry {
-    std::vector<Element> elements;
+    std::vector<std::unique_ptr<Element>> elements;
     Vec3 box_min, box_max;  // of all elements
   };
   // Signed distance of x_L to the union of the link's elements, and the

@@ -8,6 +8,7 @@
 // a hole wider than the tolerance stays a hole and is refused.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,12 @@
 #include "quadhand/geometry/triangle_mesh.h"
 
 namespace quadhand::geometry {
+
+// The revision of RepairMesh and ReadMeshShells' repairs. Increment it with
+// any change that can give other shells or other counts for the same file
+// and options: cached repairs of another revision (repaired_mesh_cache.h)
+// are then ignored, not trusted.
+inline constexpr uint32_t kMeshRepairRevision = 1;
 
 struct MeshRepairOptions {
   // Vertices closer than this (m) are one vertex: cracks and slivers

@@ -22,6 +22,7 @@ struct SdfGridInfo {
   Eigen::Vector3i dims = Eigen::Vector3i::Zero();  // nodes along x, y, z
   bool is_signed = true;     // false: distances are unsigned (mesh was not closed)
   Vec3 geometry_min = Vec3::Zero();  // bounding box of the geometry in `frame`
+  unsigned file_version = 0;  // the format version of the file it was read from; 0: built in memory
   Vec3 geometry_max = Vec3::Zero();
 
   // Interpolation domain: [origin, origin + (dims - 1) * resolution].
@@ -31,7 +32,10 @@ struct SdfGridInfo {
 
 class SdfGrid {
  public:
-  static constexpr unsigned kFormatVersion = 1;
+  // Written: version 2 (core::FastHash64 checksum). Read: 2, and 1 (the same
+  // layout with a byte-wise FNV-1a checksum, ten times slower to verify).
+  static constexpr unsigned kFormatVersion = 2;
+  static constexpr unsigned kOldestReadableVersion = 1;
 
   SdfGrid() = default;
   // `values` has info.NumNodes() entries, x fastest, then y, then z.

@@ -34,6 +34,11 @@ struct PlanReportInfo {
   // (ms), the points planned against and the points post-checked against
   // (more when a voxel filter reduced the former); not recorded when negative.
   double scene_load_ms = -1.0;
+  // Loading the robot's meshes and link SDFs (PlanningContext::
+  // robot_load_seconds), and of it the SDFs (also in
+  // representation_build_ms for MRC-SDF); not recorded when negative.
+  double robot_load_ms = -1.0;
+  double sdf_load_ms = -1.0;
   long scene_points = -1;
   long checked_points = -1;
   // The robot's self-collision pairs (checked and excluded, with why); none

@@ -59,6 +59,11 @@ class PlanningContext {
   const std::vector<Vec3>& points() const { return *points_; }  // planned against
   const std::vector<Vec3>& checked_points() const { return *checked_points_; }  // post-checked against
   double scene_load_seconds() const { return scene_load_seconds_; }  // Load(): reading and filtering the scans
+  // Loading the robot's collision geometry: its meshes (their exact model
+  // and self-collision samples) and its link SDFs, the latter also counted
+  // in MRC-SDF's build time.
+  double robot_load_seconds() const { return robot_load_seconds_; }
+  double sdf_load_seconds() const { return sdf_load_seconds_; }
   long dropped_non_finite_points() const { return dropped_non_finite_; }
   const env::ExactMeshModel& exact() const { return *exact_; }
   // The robot's self-collision pairs (task keys self_safety_distance, srdf).
@@ -80,6 +85,8 @@ class PlanningContext {
   std::shared_ptr<const std::vector<Vec3>> checked_points_;  // points_ unless a voxel filter reduced them
   long dropped_non_finite_ = 0;
   double scene_load_seconds_ = 0.0;
+  double robot_load_seconds_ = 0.0;
+  double sdf_load_seconds_ = 0.0;
   std::unique_ptr<env::ExactMeshModel> exact_;
   std::unique_ptr<env::SelfCollisionModel> self_collision_;
   std::unique_ptr<FrontEndMap> front_end_;

@@ -26,6 +26,18 @@ inline constexpr double kPrimitiveTessellationTolerance = 1e-4;
 // does not bound a volume even repaired.
 core::Result<std::vector<geometry::TriangleMesh>> LinkCollisionElements(const RobotModel& model, int link);
 
+// The folder of a robot's cached mesh repairs next to its link SDFs:
+// "<sdf_dir>/meshes".
+std::string MeshCacheDirOf(const std::string& sdf_dir);
+
+// Writes the repair of every mesh file read in this process (by
+// LinkCollisionElements, LinkSdfJobsFromUrdf) whose shells bound a volume
+// and whose file is unchanged since, into `cache_dir`
+// (geometry/repaired_mesh_cache.h). quadhand-sdfgen calls it once the SDFs
+// are written, so that later plans with them skip the repairs. The number
+// of entries written; fails, naming the file, if one cannot be written.
+core::Result<int> SaveMeshRepairCache(const std::string& cache_dir);
+
 // One line for each mesh file that needed repairs ("mesh 'arm.stl' (link
 // 'link2') repaired: removed 1 pair of reversed duplicate faces ..."), for
 // every file loaded in this process since the last call; each file once.

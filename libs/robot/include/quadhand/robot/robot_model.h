@@ -112,6 +112,13 @@ class RobotModel {
   double mesh_repair_tolerance() const { return mesh_repair_tolerance_; }
   void set_mesh_repair_tolerance(double metres) { mesh_repair_tolerance_ = metres; }
 
+  // A folder of cached mesh repairs (geometry/repaired_mesh_cache.h) that
+  // LinkCollisionElements reads before repairing a mesh file itself; empty
+  // (the default): none. The planner sets it to the SDF folder's `meshes/`,
+  // where quadhand-sdfgen writes them (robot::SaveMeshRepairCache).
+  const std::string& mesh_cache_dir() const { return mesh_cache_dir_; }
+  void set_mesh_cache_dir(std::string dir) { mesh_cache_dir_ = std::move(dir); }
+
  private:
   static core::Result<RobotModel> Load(const std::string& xml, const std::string& base_dir,
                                        const std::string& source);
@@ -122,6 +129,7 @@ class RobotModel {
   std::vector<int> actuated_joints_;
   std::vector<std::vector<int>> joints_to_link_;
   double mesh_repair_tolerance_ = 1e-6;
+  std::string mesh_cache_dir_;
 };
 
 }  // namespace quadhand::robot
