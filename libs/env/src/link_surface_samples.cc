@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <tuple>
 
 namespace quadhand::env {
@@ -20,16 +21,16 @@ Key Quantize(const Vec3& p, double step) {
 LinkSurfaceSamples SampleLinkSurface(const geometry::TriangleMesh& mesh, double spacing, double cluster_size) {
   LinkSurfaceSamples out;
   out.vertices = mesh.vertices;
-  // Corners of the sub-triangles, keyed by a 1e-7 m quantisation so the points
-  // on an edge shared by two triangles are kept once.
-  std::vector<std::pair<Key, Vec3>> raw;  // (quantised key, point)
-  // A triangle no larger than one row of one step yields only its corners:
-  // they are taken once per vertex below instead of once per triangle (a
-  // CAD mesh of small triangles would otherwise put each vertex six times
-  // into the sort).
-  std::vector<bool> corner_only(mesh.vertices.size(), false);
+  // Every vertex of a triangle is a sample, taken once per vertex: a CAD
+  // mesh's small triangles give nothing else, and its vertices are most of
+  // the samples. The other points (on the edges and inside larger
+  // triangles) are keyed by a 1e-7 m quantisation, so the points on an edge
+  // shared by two triangles are kept once.
+  std::vector<bool> is_corner(mesh.vertices.size(), false);
+  std::vector<std::pair<Key, Vec3>> inner;  // (quantised key, point)
   const double row_gap = spacing * std::sqrt(3.0) / 2.0;
   for (const Eigen::Vector3i& t : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) is_corner[t[k]] = true;
     // Rows parallel to the longest edge pq, from it to the opposite vertex r.
     int e = 0;
     double longest = -1.0;
@@ -46,51 +47,69 @@ LinkSurfaceSamples SampleLinkSurface(const geometry::TriangleMesh& mesh, double 
     const Vec3 pr = r - p;
     const double height = longest > 0.0 ? pr.cross(q - p).norm() / longest : 0.0;
     const int rows = std::max(1, static_cast<int>(std::ceil(height / row_gap - 1e-9)));
-    if (rows == 1 && std::max(1, static_cast<int>(std::ceil(longest / spacing - 1e-9))) == 1) {
-      for (int k = 0; k < 3; ++k) corner_only[t[k]] = true;
-      continue;
-    }
-    for (int k = 0; k <= rows; ++k) {
-      if (k == rows) {
-        raw.emplace_back(Quantize(r, 1e-7), r);
-        break;
-      }
+    // Row k < rows runs from a on pr to b on qr in n steps; the last row is r.
+    for (int k = 0; k < rows; ++k) {
       const double f = static_cast<double>(k) / rows;
       const Vec3 a = k == 0 ? p : Vec3(p + f * pr);
       const Vec3 b = k == 0 ? q : Vec3(q + f * (r - q));
       const int n = std::max(1, static_cast<int>(std::ceil((1.0 - f) * longest / spacing - 1e-9)));
       for (int i = 0; i <= n; ++i) {
+        if (k == 0 && (i == 0 || i == n)) continue;  // p and q: corners
         const Vec3 x = i == 0 ? a : i == n ? b : Vec3(a + (static_cast<double>(i) / n) * (b - a));
-        raw.emplace_back(Quantize(x, 1e-7), x);
+        inner.emplace_back(Quantize(x, 1e-7), x);
       }
     }
   }
+  std::sort(inner.begin(), inner.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  inner.erase(std::unique(inner.begin(), inner.end(), [](const auto& x, const auto& y) { return x.first == y.first; }),
+              inner.end());
+  std::vector<Vec3> samples;
+  samples.reserve(mesh.vertices.size() + inner.size());
   for (size_t v = 0; v < mesh.vertices.size(); ++v) {
-    if (corner_only[v]) raw.emplace_back(Quantize(mesh.vertices[v], 1e-7), mesh.vertices[v]);
+    if (is_corner[v]) samples.push_back(mesh.vertices[v]);
   }
-  // One sort by cluster cell, then quantised position: duplicates become
-  // neighbours (the cell is taken from the quantised position, so copies of
-  // a point share it) and each cluster one run.
+  for (const auto& [unused, x] : inner) samples.push_back(x);
+
+  // Group by cluster cell: one sort of (cell, sample index), the cell packed
+  // into 64 bits (21 bits an axis, relative to the lowest cell) whenever the
+  // link spans fewer than two million cells an axis, as any real one does.
+  std::vector<Key> cells(samples.size());
+  Key lowest = {0, 0, 0}, highest = {0, 0, 0};
+  for (size_t i = 0; i < samples.size(); ++i) {
+    for (int axis = 0; axis < 3; ++axis) {
+      cells[i][axis] = static_cast<long long>(std::floor(samples[i][axis] / cluster_size));
+      lowest[axis] = i == 0 ? cells[i][axis] : std::min(lowest[axis], cells[i][axis]);
+      highest[axis] = i == 0 ? cells[i][axis] : std::max(highest[axis], cells[i][axis]);
+    }
+  }
+  constexpr long long kAxisCells = 1ll << 21;
+  const bool packable = highest[0] - lowest[0] < kAxisCells && highest[1] - lowest[1] < kAxisCells &&
+                        highest[2] - lowest[2] < kAxisCells;
+  std::vector<std::pair<uint64_t, uint32_t>> order;  // (packed cell, sample)
+  std::vector<uint32_t> unpacked;
+  if (packable) {
+    order.reserve(samples.size());
+    for (size_t i = 0; i < samples.size(); ++i) {
+      const auto offset = [&](int axis) { return static_cast<uint64_t>(cells[i][axis] - lowest[axis]); };
+      order.emplace_back((offset(0) << 42) | (offset(1) << 21) | offset(2), static_cast<uint32_t>(i));
+    }
+    std::sort(order.begin(), order.end());
+  } else {
+    unpacked.resize(samples.size());
+    for (size_t i = 0; i < samples.size(); ++i) unpacked[i] = static_cast<uint32_t>(i);
+    std::sort(unpacked.begin(), unpacked.end(),
+              [&](uint32_t x, uint32_t y) { return std::tie(cells[x], x) < std::tie(cells[y], y); });
+  }
   struct Keyed {
     Key cell;
-    Key quantised;
     Vec3 point;
   };
   std::vector<Keyed> keyed;
-  keyed.reserve(raw.size());
-  const double cell_per_step = 1e-7 / cluster_size;
-  for (const auto& [quantised, p] : raw) {
-    keyed.push_back({Key{static_cast<long long>(std::floor(static_cast<double>(quantised[0]) * cell_per_step)),
-                         static_cast<long long>(std::floor(static_cast<double>(quantised[1]) * cell_per_step)),
-                         static_cast<long long>(std::floor(static_cast<double>(quantised[2]) * cell_per_step))},
-                     quantised, p});
+  keyed.reserve(samples.size());
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const uint32_t sample = packable ? order[i].second : unpacked[i];
+    keyed.push_back({cells[sample], samples[sample]});
   }
-  std::sort(keyed.begin(), keyed.end(), [](const Keyed& x, const Keyed& y) {
-    return std::tie(x.cell, x.quantised) < std::tie(y.cell, y.quantised);
-  });
-  keyed.erase(std::unique(keyed.begin(), keyed.end(),
-                          [](const Keyed& x, const Keyed& y) { return x.quantised == y.quantised; }),
-              keyed.end());
   out.points.reserve(keyed.size());
   for (size_t i = 0; i < keyed.size();) {
     size_t j = i;

@@ -64,9 +64,7 @@ using InexactMesh = CGAL::Surface_mesh<InexactKernel::Point_3>;
 using ExactMesh = CGAL::Surface_mesh<ExactKernel::Point_3>;
 using Triangle = std::array<std::size_t, 3>;
 
-// Largest mesh file read (every format is read whole by its reader), and
-// the longest line of a text OFF file checked before CGAL reads it.
-constexpr std::uintmax_t kMaxMeshBytes = 256ull << 20;
+// The longest line of a text OFF file checked before CGAL reads it.
 constexpr std::size_t kMaxOffLineBytes = 65536;
 
 std::string LowerCaseExtension(const std::string& path) {

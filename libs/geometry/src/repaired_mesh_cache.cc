@@ -9,6 +9,7 @@
 
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/hash.h"
+#include "quadhand/geometry/mesh_io.h"
 
 #include "mesh_check_memo.h"
 
@@ -80,12 +81,18 @@ class Reader {
 }  // namespace
 
 core::Result<RepairedMeshCacheKey> RepairedMeshCacheKeyOf(const std::string& path, const MeshRepairOptions& options) {
-  auto bytes = core::ReadFileToString(path);
-  if (!bytes.ok()) return bytes.status();
   RepairedMeshCacheKey key;
+  key.options = options;
+  // No larger file is a mesh (ReadMeshShells refuses it, naming the limit).
+  if (const core::MappedFile file(path, kMaxMeshBytes); file.mapped()) {
+    key.source_hash = core::FastHash64(file.bytes().data(), file.bytes().size());
+    key.source_size = file.bytes().size();
+    return key;
+  }
+  auto bytes = core::ReadFileToString(path, kMaxMeshBytes);
+  if (!bytes.ok()) return bytes.status();
   key.source_hash = core::FastHash64(bytes->data(), bytes->size());
   key.source_size = bytes->size();
-  key.options = options;
   return key;
 }
 

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <algorithm>
 #include <cstring>
+#include <string_view>
 #include <limits>
 
 #include "quadhand/core/file_util.h"
@@ -41,7 +42,7 @@ class Writer {
 
 class Reader {
  public:
-  explicit Reader(const std::string& bytes) : bytes_(bytes) {}
+  explicit Reader(std::string_view bytes) : bytes_(bytes) {}
   template <typename T>
   bool Get(T* value) {
     if (bytes_.size() - offset_ < sizeof(T)) return false;
@@ -60,7 +61,7 @@ class Reader {
   size_t offset() const { return offset_; }
 
  private:
-  const std::string& bytes_;
+  std::string_view bytes_;
   size_t offset_ = 0;
 };
 
@@ -136,6 +137,10 @@ std::string SdfGrid::Serialize() const {
 }
 
 core::Result<SdfGrid> SdfGrid::Deserialize(const std::string& bytes, const std::string& name) {
+  return DeserializeView(bytes, name);
+}
+
+core::Result<SdfGrid> SdfGrid::DeserializeView(std::string_view bytes, const std::string& name) {
   auto invalid = [&name](const std::string& why) {
     return core::Status::InvalidArgument(name + ": not a valid QuadHand SDF file: " + why);
   };
@@ -196,6 +201,11 @@ core::Result<SdfGrid> SdfGrid::Deserialize(const std::string& bytes, const std::
 }
 
 core::Result<SdfGrid> SdfGrid::Load(const std::string& path) {
+  // Mapped, the file is hashed and its values copied once, straight from
+  // the page cache: no buffer of the file's size to allocate and fill.
+  if (const core::MappedFile file(path); file.mapped()) {
+    return DeserializeView(file.bytes(), path);
+  }
   core::Result<std::string> bytes = core::ReadFileToString(path);
   if (!bytes.ok()) return bytes.status();
   return Deserialize(*bytes, path);

@@ -6,6 +6,7 @@
 #include <iosfwd>
 #include <cstdio>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "quadhand/core/status.h"
@@ -21,6 +22,28 @@ inline constexpr unsigned long long kMaxReadBytes = 1ull << 30;
 // so a FIFO cannot block and /dev/zero cannot fill the memory) or a file
 // larger than `max_bytes`, each naming the path.
 Result<std::string> ReadFileToString(const std::string& path, unsigned long long max_bytes = kMaxReadBytes);
+
+// A regular file mapped read-only (and read ahead at once) for as long as
+// this lives: large inputs (link SDFs, CAD meshes) are hashed and copied
+// straight from the page cache, without a buffer of the file's size to
+// allocate and fill. Not mapped (mapped() false) for anything else: a
+// missing, empty or non-regular file, one larger than `max_bytes` (a huge
+// sparse file must not be read in), or no mapping; read it with
+// ReadFileToString then, for its error messages. Files are replaced by
+// renaming, never truncated in place, so a mapping stays valid.
+class MappedFile {
+ public:
+  explicit MappedFile(const std::string& path, unsigned long long max_bytes = kMaxReadBytes);
+  ~MappedFile();
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  bool mapped() const { return data_ != nullptr; }
+  std::string_view bytes() const { return {static_cast<const char*>(data_), size_}; }
+
+ private:
+  void* data_ = nullptr;
+  std::size_t size_ = 0;
+};
 
 // std::getline with a limit: a file without line breaks (a disk image, a
 // sparse file of zeros) must not be read whole into one line. kLine with the

@@ -4,10 +4,11 @@
 //
 // Every triangle of the link mesh is covered by rows parallel to its longest
 // edge, at most spacing * sqrt(3)/2 apart (from that edge to the opposite
-// vertex), each sampled at most `spacing` apart, ends included (duplicates on
-// shared edges merged). So every mesh vertex is a sample, every surface point
-// is within `spacing` of a sample, and the count is close to
-// area / (spacing^2 sqrt(3)/2) even for sliver triangles.
+// vertex), each sampled at most `spacing` apart, ends included (each vertex
+// once, and the points of an edge shared by two triangles once). So every
+// mesh vertex is a sample, every surface point is within `spacing` of a
+// sample, and the count is close to area / (spacing^2 sqrt(3)/2) even for
+// sliver triangles.
 //
 // The samples are grouped into clusters (cells of `cluster_size` in the link
 // frame), each with a bounding sphere, so a query can skip a whole cluster

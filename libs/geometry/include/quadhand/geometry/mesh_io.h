@@ -13,6 +13,9 @@ namespace quadhand::geometry {
 struct MeshRepairOptions;
 struct MeshRepairReport;
 
+// Largest mesh file read (every format is read whole by its reader).
+inline constexpr unsigned long long kMaxMeshBytes = 256ull << 20;
+
 // Reads a mesh and repairs it (mesh_repair.h) into the closed shells it
 // means, reporting the repairs in *report (may be null). A mesh that does
 // not bound a volume even so is returned as read, one "shell" (open

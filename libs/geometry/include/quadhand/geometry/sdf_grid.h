@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -72,9 +73,10 @@ class SdfGrid {
   std::string Serialize() const;
   // `name` is used in error messages (usually the file path).
   static core::Result<SdfGrid> Deserialize(const std::string& bytes, const std::string& name);
-  static core::Result<SdfGrid> Load(const std::string& path);
+  static core::Result<SdfGrid> Load(const std::string& path);  // memory-mapped when it can be
 
  private:
+  static core::Result<SdfGrid> DeserializeView(std::string_view bytes, const std::string& name);
   bool EvaluateOutside(const Vec3& p, double* distance, Vec3* gradient) const;
   void BuildBlockMinima();
   // True when the grid coordinates u = (p - origin) / resolution lie in a cell.
