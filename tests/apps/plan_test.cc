@@ -259,6 +259,49 @@ TEST_F(PlanCliTest, PlansWithTheCadExportTestRobot) {
   EXPECT_FALSE(fs::exists(report));
 }
 
+// The default task with its goal written as a mission: one reach, then the
+// given steps (indented as list items).
+std::string WindowCupMission(const std::string& more_steps) {
+  std::string text = testing::WindowCupTaskText({});
+  const size_t goal = text.find("\ngoal:\n"), limits = text.find("\nlimits:\n");
+  EXPECT_NE(goal, std::string::npos);
+  EXPECT_NE(limits, std::string::npos);
+  std::string block = text.substr(goal + 7, limits + 1 - (goal + 7));
+  std::string indented;
+  for (size_t at = 0; at < block.size();) {
+    const size_t end = block.find('\n', at);
+    indented += "    " + block.substr(at, end + 1 - at);
+    at = end + 1;
+  }
+  return text.substr(0, goal + 1) + "mission:\n  - reach:\n" + indented + more_steps + text.substr(limits + 1);
+}
+
+TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalAndLongerOnesAreRefusedForNow) {
+  auto read = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const auto goal = RunCommand(kPlan + " " + WriteTask({}) + " --out " + out + " --report " + report);
+  ASSERT_EQ(goal.exit_code, 0) << goal.err;
+  const std::string goal_plan = read(out);
+  fs::remove(out);
+  fs::remove(report);
+  const std::string mission = (dir_ / "mission.yaml").string();
+  std::ofstream(mission) << WindowCupMission("");
+  const auto one_reach = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
+  ASSERT_EQ(one_reach.exit_code, 0) << one_reach.err << read(mission);
+  EXPECT_EQ(read(out), goal_plan);
+  fs::remove(out);
+  fs::remove(report);
+
+  std::ofstream(mission, std::ios::trunc) << WindowCupMission("  - hold: {duration: 1.0}\n");
+  ExpectBadInput(mission, "mission.yaml: mission: 2 steps (reach, hold) read and checked, but this version plans only "
+                          "a mission of one reach");
+  std::ofstream(mission, std::ios::trunc) << WindowCupMission("  - release: {}\n");
+  ExpectBadInput(mission, "mission.yaml: mission[1].release: nothing is held");
+}
+
 TEST_F(PlanCliTest, RefusesOutputsThatWouldDestroySomething) {
   const std::string scene = (dir_ / "scene.pcd").string();
   fs::copy_file(std::string(QUADHAND_SOURCE_DIR) + "/data/scenes/window_cup.pcd", scene);

@@ -52,6 +52,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
     }
   }
   QUADHAND_RETURN_IF_ERROR(ApplyRobot(robot, &task));
+  QUADHAND_RETURN_IF_ERROR(CheckPlannable(task));
   geometry::MeshRepairOptions repair;
   repair.tolerance = options.mesh_repair_tolerance;
   if (std::string why; !repair.IsValid(&why)) return core::Status::InvalidArgument(why);

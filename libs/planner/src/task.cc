@@ -1,6 +1,9 @@
 #include "quadhand/planner/task.h"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <optional>
 #include <set>
 
 #include <yaml-cpp/yaml.h>
@@ -148,20 +151,287 @@ core::Status ReadScene(const Reader& r, const YAML::Node& node, Task* task) {
   return core::Status::Ok();
 }
 
-core::Status ReadTool(const Reader& r, const YAML::Node& node, ToolGoal* tool) {
-  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(node, "goal.tool", {"position", "orientation", "insertion"}));
-  QUADHAND_RETURN_IF_ERROR(r.Vector3(node["position"], "goal.tool.position", &tool->position));
-  QUADHAND_RETURN_IF_ERROR(ReadUnitQuaternion(r, node["orientation"], "goal.tool.orientation", &tool->orientation));
+core::Status ReadTool(const Reader& r, const YAML::Node& node, const std::string& where, ToolGoal* tool) {
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(node, where, {"position", "orientation", "insertion"}));
+  QUADHAND_RETURN_IF_ERROR(r.Vector3(node["position"], where + ".position", &tool->position));
+  QUADHAND_RETURN_IF_ERROR(ReadUnitQuaternion(r, node["orientation"], where + ".orientation", &tool->orientation));
   if (const YAML::Node insertion = node["insertion"]) {
-    QUADHAND_RETURN_IF_ERROR(r.CheckKeys(insertion, "goal.tool.insertion", {"direction", "length"}));
-    QUADHAND_RETURN_IF_ERROR(r.Vector3(insertion["direction"], "goal.tool.insertion.direction", &tool->insertion_direction));
-    QUADHAND_RETURN_IF_ERROR(r.Number(insertion["length"], "goal.tool.insertion.length", &tool->insertion_length));
-    if (tool->insertion_direction.norm() < 1e-9) return r.Error("goal.tool.insertion.direction", "must not be zero");
+    QUADHAND_RETURN_IF_ERROR(r.CheckKeys(insertion, where + ".insertion", {"direction", "length"}));
+    QUADHAND_RETURN_IF_ERROR(r.Vector3(insertion["direction"], where + ".insertion.direction", &tool->insertion_direction));
+    QUADHAND_RETURN_IF_ERROR(r.Number(insertion["length"], where + ".insertion.length", &tool->insertion_length));
+    if (tool->insertion_direction.norm() < 1e-9) return r.Error(where + ".insertion.direction", "must not be zero");
     if (!(tool->insertion_length > 0.0 && tool->insertion_length <= 10.0)) {
-      return r.Error("goal.tool.insertion.length", "must be in (0, 10] m");
+      return r.Error(where + ".insertion.length", "must be in (0, 10] m");
     }
     tool->insertion_direction.normalize();
     tool->has_insertion = true;
+  }
+  return core::Status::Ok();
+}
+
+// The keys of `goal` (or of a `reach` step): a terminal state and/or a tool pose.
+core::Status ReadGoal(const Reader& r, const YAML::Node& node, const std::string& where,
+                      std::optional<BoundaryState>* terminal, std::optional<ToolGoal>* tool) {
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(node, where, {"position", "yaw", "joints", "tool"}));
+  if (node["position"] || node["yaw"] || node["joints"]) {
+    BoundaryState state;
+    QUADHAND_RETURN_IF_ERROR(ReadState(r, node, where, false, &state));
+    *terminal = state;
+  }
+  if (node["tool"]) {
+    ToolGoal goal;
+    QUADHAND_RETURN_IF_ERROR(ReadTool(r, node["tool"], where + ".tool", &goal));
+    *tool = goal;
+  }
+  if (!*terminal && !*tool) return r.Error(where, "needs a terminal state (position, yaw, joints) or a tool pose");
+  return core::Status::Ok();
+}
+
+// A number of a step in [low, high].
+core::Status ReadRanged(const Reader& r, const YAML::Node& node, const std::string& key, double low, double high,
+                        const char* range, double* out) {
+  QUADHAND_RETURN_IF_ERROR(r.Number(node, key, out));
+  if (!(*out >= low && *out <= high)) return r.Error(key, std::string("must be ") + range);
+  return core::Status::Ok();
+}
+
+core::Status ReadObject(const Reader& r, const YAML::Node& node, const std::string& where, MissionObject* object) {
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(node, where, {"shape", "pose", "mass"}));
+  const YAML::Node shape = node["shape"];
+  const std::string shape_key = where + ".shape";
+  if (!shape || !shape.IsMap() || shape.size() != 1) {
+    return r.Error(shape_key, "expected one of {box: {size: [x, y, z]}}, {cylinder: {radius, length}}, "
+                              "{sphere: {radius}}, {mesh: path}");
+  }
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(shape, shape_key, {"box", "cylinder", "sphere", "mesh"}));
+  ObjectShape& s = object->shape;
+  constexpr double kMaxSize = 5.0;  // m: beyond it an object is a typo or a unit mix-up
+  if (const YAML::Node box = shape["box"]) {
+    s.kind = ObjectShape::Kind::kBox;
+    QUADHAND_RETURN_IF_ERROR(r.CheckKeys(box, shape_key + ".box", {"size"}));
+    QUADHAND_RETURN_IF_ERROR(r.Vector3(box["size"], shape_key + ".box.size", &s.box_size));
+    if (!(s.box_size.minCoeff() > 0.0 && s.box_size.maxCoeff() <= kMaxSize)) {
+      return r.Error(shape_key + ".box.size", "every edge must be in (0, 5] m");
+    }
+  } else if (const YAML::Node cylinder = shape["cylinder"]) {
+    s.kind = ObjectShape::Kind::kCylinder;
+    QUADHAND_RETURN_IF_ERROR(r.CheckKeys(cylinder, shape_key + ".cylinder", {"radius", "length"}));
+    QUADHAND_RETURN_IF_ERROR(ReadRanged(r, cylinder["radius"], shape_key + ".cylinder.radius", 1e-6, kMaxSize,
+                                        "in (0, 5] m", &s.radius));
+    QUADHAND_RETURN_IF_ERROR(ReadRanged(r, cylinder["length"], shape_key + ".cylinder.length", 1e-6, kMaxSize,
+                                        "in (0, 5] m", &s.length));
+  } else if (const YAML::Node sphere = shape["sphere"]) {
+    s.kind = ObjectShape::Kind::kSphere;
+    QUADHAND_RETURN_IF_ERROR(r.CheckKeys(sphere, shape_key + ".sphere", {"radius"}));
+    QUADHAND_RETURN_IF_ERROR(ReadRanged(r, sphere["radius"], shape_key + ".sphere.radius", 1e-6, kMaxSize,
+                                        "in (0, 5] m", &s.radius));
+  } else {
+    s.kind = ObjectShape::Kind::kMesh;
+    QUADHAND_RETURN_IF_ERROR(r.Path(shape["mesh"], shape_key + ".mesh", &s.mesh_path));
+  }
+  const YAML::Node pose = node["pose"];
+  if (!pose) return r.Error(where + ".pose", "missing (the object's pose at the grasp: {position, orientation})");
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(pose, where + ".pose", {"position", "orientation"}));
+  Vec3 position;
+  Quat orientation;
+  QUADHAND_RETURN_IF_ERROR(r.Vector3(pose["position"], where + ".pose.position", &position));
+  QUADHAND_RETURN_IF_ERROR(ReadUnitQuaternion(r, pose["orientation"], where + ".pose.orientation", &orientation));
+  object->pose = MakePose(position, orientation.toRotationMatrix());
+  if (node["mass"]) {
+    // The robot's payload limit is checked with the robot (planner
+    // configuration); this range only catches typos and unit mix-ups.
+    QUADHAND_RETURN_IF_ERROR(ReadRanged(r, node["mass"], where + ".mass", 0.0, 100.0, "in [0, 100] kg", &object->mass));
+  }
+  return core::Status::Ok();
+}
+
+// The step's one key is its kind; its value holds the step's keys.
+core::Status ReadStep(const Reader& r, const YAML::Node& node, size_t index, std::vector<MissionStep>* mission) {
+  const std::string at = "mission[" + std::to_string(index) + "]";
+  static const std::map<std::string, StepKind> kKinds = {{"reach", StepKind::kReach}, {"move", StepKind::kMove},
+                                                         {"via", StepKind::kVia},     {"grasp", StepKind::kGrasp},
+                                                         {"release", StepKind::kRelease}, {"hold", StepKind::kHold}};
+  if (!node.IsMap() || node.size() != 1) {
+    return r.Error(at, "expected one step kind as the only key (reach, move, via, grasp, release or hold)");
+  }
+  const std::string kind_name = node.begin()->first.as<std::string>();
+  const auto kind = kKinds.find(kind_name);
+  if (kind == kKinds.end()) {
+    return r.Error(at, "unknown step kind '" + kind_name + "' (expected reach, move, via, grasp, release or hold)");
+  }
+  const std::string where = at + "." + kind_name;
+  const YAML::Node body = node.begin()->second;
+  MissionStep step;
+  step.kind = kind->second;
+  // A step with nothing to give (a release with its default time) may be
+  // written `- release: {}` or `- release:`.
+  const bool empty_body = !body || body.IsNull();
+  if (!empty_body && !body.IsMap()) return r.Error(where, "expected a mapping of the step's keys");
+  const YAML::Node keys = empty_body ? YAML::Node(YAML::NodeType::Map) : body;
+
+  // What is held before this step: the open grasp, if any.
+  constexpr size_t kNothing = static_cast<size_t>(-1);
+  size_t held = kNothing;
+  for (size_t i = 0; i < mission->size(); ++i) {
+    if ((*mission)[i].kind == StepKind::kGrasp) held = i;
+    if ((*mission)[i].kind == StepKind::kRelease) held = kNothing;
+  }
+  const StepKind previous = mission->empty() ? StepKind::kHold : mission->back().kind;
+
+  switch (step.kind) {
+    case StepKind::kReach:
+      QUADHAND_RETURN_IF_ERROR(ReadGoal(r, keys, where, &step.reach_state, &step.reach_tool));
+      break;
+    case StepKind::kMove: {
+      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(keys, where, {"direction", "length", "max_speed"}));
+      if (!keys["length"]) return r.Error(where + ".length", "missing (the tool line's length, m)");
+      QUADHAND_RETURN_IF_ERROR(r.Number(keys["length"], where + ".length", &step.move_length));
+      if (!(step.move_length > 0.0)) return r.Error(where + ".length", "must be positive (a zero or negative move)");
+      if (step.move_length > 10.0) return r.Error(where + ".length", "must be at most 10 m");
+      if (keys["direction"]) {
+        Vec3 direction;
+        QUADHAND_RETURN_IF_ERROR(r.Vector3(keys["direction"], where + ".direction", &direction));
+        if (direction.norm() < 1e-9) return r.Error(where + ".direction", "must not be zero");
+        step.move_direction = direction.normalized();
+      } else if (previous != StepKind::kGrasp && previous != StepKind::kRelease) {
+        return r.Error(where + ".direction",
+                       "missing: it may be left out only right after a grasp or a release (the tool then backs out "
+                       "along the insertion)");
+      }
+      if (keys["max_speed"]) {
+        double speed = 0.0;
+        QUADHAND_RETURN_IF_ERROR(ReadRanged(r, keys["max_speed"], where + ".max_speed", 1e-3, 100.0,
+                                            "in [0.001, 100] m/s", &speed));
+        step.move_max_speed = speed;
+      }
+      break;
+    }
+    case StepKind::kVia:
+      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(keys, where, {"position", "tolerance"}));
+      QUADHAND_RETURN_IF_ERROR(r.Vector3(keys["position"], where + ".position", &step.via_position));
+      if (keys["tolerance"]) {
+        QUADHAND_RETURN_IF_ERROR(ReadRanged(r, keys["tolerance"], where + ".tolerance", 1e-3, 1.0, "in [0.001, 1] m",
+                                            &step.via_tolerance));
+      }
+      break;
+    case StepKind::kGrasp:
+      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(keys, where, {"object", "scene_margin", "close_time"}));
+      if (held != kNothing) {
+        return r.Error(where, "a second grasp while the object of " + StepName(*mission, held) +
+                                  " is held (release it first)");
+      }
+      if (!keys["object"]) return r.Error(where + ".object", "missing (shape, pose and mass of what is grasped)");
+      QUADHAND_RETURN_IF_ERROR(ReadObject(r, keys["object"], where + ".object", &step.object));
+      if (keys["scene_margin"]) {
+        QUADHAND_RETURN_IF_ERROR(ReadRanged(r, keys["scene_margin"], where + ".scene_margin", 0.0, 0.5, "in [0, 0.5] m",
+                                            &step.scene_margin));
+      }
+      if (keys["close_time"]) {
+        QUADHAND_RETURN_IF_ERROR(ReadRanged(r, keys["close_time"], where + ".close_time", 0.0, 60.0, "in [0, 60] s",
+                                            &step.close_time));
+      }
+      step.held_at_start = mission->empty();
+      break;
+    case StepKind::kRelease:
+      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(keys, where, {"open_time"}));
+      if (held == kNothing) return r.Error(where, "nothing is held (no grasp before it, or its object was released already)");
+      if (keys["open_time"]) {
+        QUADHAND_RETURN_IF_ERROR(ReadRanged(r, keys["open_time"], where + ".open_time", 0.0, 60.0, "in [0, 60] s",
+                                            &step.open_time));
+      }
+      break;
+    case StepKind::kHold:
+      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(keys, where, {"duration"}));
+      if (!keys["duration"]) return r.Error(where + ".duration", "missing (s)");
+      QUADHAND_RETURN_IF_ERROR(ReadRanged(r, keys["duration"], where + ".duration", 1e-3, 3600.0, "in [0.001, 3600] s",
+                                          &step.hold_duration));
+      break;
+  }
+  mission->push_back(step);
+  return core::Status::Ok();
+}
+
+// The tool's position where step `index` acts, when the mission's steps
+// give it without the robot: the last reach's tool pose, moved by the moves
+// after it. None when a reach gives only a whole-body state (then the robot's
+// kinematics tell, and the check waits for them).
+std::optional<Vec3> ToolPositionBefore(const std::vector<MissionStep>& mission, size_t index) {
+  std::optional<Vec3> tool;
+  for (size_t i = 0; i < index; ++i) {
+    const MissionStep& step = mission[i];
+    if (step.kind == StepKind::kReach) {
+      tool.reset();
+      if (step.reach_tool) tool = step.reach_tool->position;
+    } else if (step.kind == StepKind::kMove && tool) {
+      if (!step.move_direction) return std::nullopt;
+      *tool += step.move_length * *step.move_direction;
+    } else if (step.kind == StepKind::kVia) {
+      return std::nullopt;
+    }
+  }
+  return tool;
+}
+
+// The distance from `x` (world) to the object's surface at its pose; a
+// lower bound of 0 inside it; for a mesh, the distance to its frame's origin
+// less nothing (its vertices come with the robot).
+double DistanceToObject(const MissionObject& object, const Vec3& x) {
+  const Vec3 local = object.pose.inverse() * x;
+  const ObjectShape& s = object.shape;
+  switch (s.kind) {
+    case ObjectShape::Kind::kBox:
+      return (local.cwiseAbs() - 0.5 * s.box_size).cwiseMax(0.0).norm();
+    case ObjectShape::Kind::kCylinder: {
+      const double radial = std::max(0.0, local.head<2>().norm() - s.radius);
+      const double axial = std::max(0.0, std::abs(local.z()) - 0.5 * s.length);
+      return std::hypot(radial, axial);
+    }
+    case ObjectShape::Kind::kSphere:
+      return std::max(0.0, local.norm() - s.radius);
+    case ObjectShape::Kind::kMesh:
+      return local.norm();
+  }
+  return local.norm();
+}
+
+// A grasp closes on an object the tool touches: its surface no farther from
+// the tool point than this (docs/missions.md).
+constexpr double kGraspReach = 0.05;
+
+core::Status ReadMission(const Reader& r, const YAML::Node& node, std::vector<MissionStep>* mission) {
+  if (!node.IsSequence() || node.size() == 0) return r.Error("mission", "expected a non-empty list of steps");
+  for (size_t i = 0; i < node.size(); ++i) QUADHAND_RETURN_IF_ERROR(ReadStep(r, node[i], i, mission));
+  for (size_t i = 0; i < mission->size(); ++i) {
+    const MissionStep& step = (*mission)[i];
+    if (step.kind != StepKind::kGrasp || step.held_at_start) continue;
+    const std::optional<Vec3> tool = ToolPositionBefore(*mission, i);
+    if (!tool) continue;
+    const double gap = DistanceToObject(step.object, *tool);
+    if (gap > kGraspReach) {
+      return r.Error(StepName(*mission, i), core::Format("the object is not within reach of the tool: its surface is "
+                                                         "%.3f m from the tool's position at this step (at most %.2f m)",
+                                                         gap, kGraspReach));
+    }
+  }
+  // A move without a direction backs out along an insertion: the reach
+  // before its grasp or release must have one.
+  for (size_t i = 0; i < mission->size(); ++i) {
+    const MissionStep& step = (*mission)[i];
+    if (step.kind != StepKind::kMove || step.move_direction) continue;
+    bool found = false;
+    for (size_t j = i; j-- > 0;) {
+      const MissionStep& before = (*mission)[j];
+      if (before.kind == StepKind::kReach) {
+        found = before.reach_tool && before.reach_tool->has_insertion;
+        break;
+      }
+      if (before.kind == StepKind::kMove || before.kind == StepKind::kVia) break;
+    }
+    if (!found) {
+      return r.Error("mission[" + std::to_string(i) + "].move.direction",
+                     "missing, and no insertion to back out along (the reach before the grasp or release has no "
+                     "tool insertion): give a direction");
+    }
   }
   return core::Status::Ok();
 }
@@ -177,8 +447,8 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
   const Reader r(name, base_dir);
   Task task;
   task.file = name;
-  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(root, "", {"robot", "sdf_dir", "scene", "start", "goal", "limits", "safety_distance", "tool_link",
-                                                  "self_safety_distance", "srdf"}));
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(root, "", {"robot", "sdf_dir", "scene", "start", "goal", "mission", "limits",
+                                                  "safety_distance", "tool_link", "self_safety_distance", "srdf"}));
   QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "robot", sources.robot_given, &task.robot_path));
   QUADHAND_RETURN_IF_ERROR(ReadSource(r, root, "sdf_dir", sources.robot_given, &task.sdf_dir));
   if (!sources.scene_given || root["scene"]) {
@@ -192,20 +462,18 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
   QUADHAND_RETURN_IF_ERROR(ReadState(r, start, "start", true, &task.start));
 
   const YAML::Node goal = root["goal"];
-  if (!goal) return r.Error("goal", "missing");
-  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(goal, "goal", {"position", "yaw", "joints", "tool"}));
-  const bool any_state_key = goal["position"] || goal["yaw"] || goal["joints"];
-  if (any_state_key) {
-    BoundaryState terminal;
-    QUADHAND_RETURN_IF_ERROR(ReadState(r, goal, "goal", false, &terminal));
-    task.terminal = terminal;
+  const YAML::Node mission = root["mission"];
+  if (goal && mission) return r.Error("mission", "a task has goal or mission, not both");
+  if (!goal && !mission) return r.Error("goal", "missing (a goal, or a mission: a list of steps)");
+  if (goal) QUADHAND_RETURN_IF_ERROR(ReadGoal(r, goal, "goal", &task.terminal, &task.tool));
+  if (mission) {
+    QUADHAND_RETURN_IF_ERROR(ReadMission(r, mission, &task.mission));
+    // A mission of one reach is that goal (contracts.md).
+    if (task.mission.size() == 1 && task.mission[0].kind == StepKind::kReach) {
+      task.terminal = task.mission[0].reach_state;
+      task.tool = task.mission[0].reach_tool;
+    }
   }
-  if (goal["tool"]) {
-    ToolGoal tool;
-    QUADHAND_RETURN_IF_ERROR(ReadTool(r, goal["tool"], &tool));
-    task.tool = tool;
-  }
-  if (!task.terminal && !task.tool) return r.Error("goal", "needs a terminal state (position, yaw, joints) or a tool pose");
 
   if (const YAML::Node limits = root["limits"]) {
     QUADHAND_RETURN_IF_ERROR(r.CheckKeys(limits, "limits", {"v_max", "a_max", "yaw_rate_max", "body_rate_xy_max"}));
@@ -302,6 +570,17 @@ std::vector<std::string> TaskCautions(const Task& task) {
   return cautions;
 }
 
+core::Status CheckPlannable(const Task& task) {
+  if (task.mission.empty() || (task.mission.size() == 1 && task.mission[0].kind == StepKind::kReach)) {
+    return core::Status::Ok();
+  }
+  std::string kinds;
+  for (const MissionStep& step : task.mission) kinds += (kinds.empty() ? "" : ", ") + std::string(StepKindName(step.kind));
+  return core::Status::InvalidArgument(
+      task.file + ": mission: " + std::to_string(task.mission.size()) + " steps (" + kinds +
+      ") read and checked, but this version plans only a mission of one reach (docs/missions.md)");
+}
+
 core::Status ApplyRobot(const robot::RobotModel& robot, Task* task) {
   const int n = robot.num_actuated();
   const VecX lower = robot.LowerLimits(), upper = robot.UpperLimits();
@@ -322,13 +601,23 @@ core::Status ApplyRobot(const robot::RobotModel& robot, Task* task) {
     return core::Status::Ok();
   };
   QUADHAND_RETURN_IF_ERROR(check(task->start.joints, "start.joints"));
-  if (task->terminal) QUADHAND_RETURN_IF_ERROR(check(task->terminal->joints, "goal.joints"));
+  const bool terminal_from_mission = !task->mission.empty();
+  if (task->terminal && !terminal_from_mission) QUADHAND_RETURN_IF_ERROR(check(task->terminal->joints, "goal.joints"));
+  bool mission_uses_tool = false;
+  for (size_t i = 0; i < task->mission.size(); ++i) {
+    MissionStep& step = task->mission[i];
+    if (step.reach_state) {
+      QUADHAND_RETURN_IF_ERROR(check(step.reach_state->joints, "mission[" + std::to_string(i) + "].reach.joints"));
+      step.reach_state->joint_rates = VecX::Zero(n);
+    }
+    mission_uses_tool |= step.reach_tool.has_value() || step.kind == StepKind::kMove || step.kind == StepKind::kGrasp;
+  }
   task->start.joint_rates = VecX::Zero(n);
   if (task->terminal) task->terminal->joint_rates = VecX::Zero(n);
   task->limits.joint_lower = lower;
   task->limits.joint_upper = upper;
   task->limits.joint_rate_max = robot.VelocityLimits();
-  if (robot.LinkIndex(task->tool_link) < 0 && (task->tool_link_given || task->tool)) {
+  if (robot.LinkIndex(task->tool_link) < 0 && (task->tool_link_given || task->tool || mission_uses_tool)) {
     std::string links;
     for (int i = 0; i < robot.num_links(); ++i) links += (links.empty() ? "" : ", ") + robot.link(i).name;
     return core::Status::InvalidArgument(task->file + ": tool_link: the robot (" + task->robot_path +

@@ -1,6 +1,7 @@
 // The task file of quadhand-plan (docs/task_format.md; contract in
 // shared/spec/contracts.md): robot, SDFs, scene, start state, goal (a full
-// terminal state and/or a tool pose with an insertion), limits, safety distance.
+// terminal state and/or a tool pose with an insertion) or mission (steps),
+// limits, safety distance.
 #pragma once
 
 #include <optional>
@@ -8,19 +9,12 @@
 #include <vector>
 
 #include "quadhand/core/status.h"
+#include "quadhand/planner/mission.h"
 #include "quadhand/planner/whole_body_problem.h"
 #include "quadhand/robot/robot_model.h"
 #include "quadhand/scene/scans.h"
 
 namespace quadhand::planner {
-
-struct ToolGoal {
-  Vec3 position = Vec3::Zero();
-  Quat orientation = Quat::Identity();
-  bool has_insertion = false;
-  Vec3 insertion_direction = -Vec3::UnitZ();  // unit
-  double insertion_length = 0.0;              // metres
-};
 
 struct Task {
   std::string file;        // the task file itself, for messages
@@ -33,6 +27,9 @@ struct Task {
   BoundaryState start;                   // joints sized by the file
   std::optional<BoundaryState> terminal;  // goal.position/yaw/joints, at rest
   std::optional<ToolGoal> tool;           // goal.tool
+  // mission: (mission.h), instead of goal:. A mission of one reach also
+  // sets `terminal` and `tool` from it: it plans as that goal.
+  std::vector<MissionStep> mission;
   Limits limits;                          // joint entries filled by ApplyRobot()
   double safety_distance = 0.03;
   // The end-effector frame: a link of the URDF (task key tool_link, default
@@ -70,6 +67,12 @@ core::Result<Task> ParseTaskText(const std::string& text, const std::string& nam
 // leaf in millimetres by mistake collapses a room to a few points). The
 // applications print them after loading.
 std::vector<std::string> TaskCautions(const Task& task);
+
+// Whether this version plans the task: a goal, or a mission of one reach.
+// A longer mission is read and checked in full, then refused here with
+// InvalidArgument naming the file and its steps (contracts.md: a planner
+// refuses what it does not plan yet; docs/missions.md).
+core::Status CheckPlannable(const Task& task);
 
 // Checks the task against the robot (joint counts, start and terminal joints
 // within limits), fills the joint limits from the URDF and checks tool_link:
