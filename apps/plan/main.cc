@@ -76,9 +76,10 @@ core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robo
   }
   char summary[512];
   std::snprintf(summary, sizeof(summary),
-                "%s\nduration %.2f s, optimisation %.1f ms\nmin clearance %.4f m (exact link meshes)\n%s",
+                "%s\nduration %.2f s, optimisation %.1f ms\nmin clearance %s%.4f m (exact link meshes)\n%s",
                 result.success ? "SUCCESS: passed the post-check" : "FAILED the post-check", trajectory.duration(),
-                result.solve_ms, result.post_check.min_clearance_exact, result.message.c_str());
+                result.solve_ms, result.post_check.min_clearance_exact_is_bound ? ">= " : "",
+                result.post_check.min_clearance_exact, result.message.c_str());
   data.summary = summary;
   return viz::RenderHtmlView(data);
 }
@@ -232,10 +233,12 @@ int main(int argc, char** argv) {
   if (core::Status s = outputs.Commit(); !s.ok()) return Fail(s.message());
 
   std::printf("%s: %s in %.1f ms of optimisation (%d iterations, %d evaluations, %zu attempt(s)), "
-              "duration %.2f s, min clearance %.4f m (exact %.4f m)\n",
+              "duration %.2f s, min clearance %.4f m (exact %s%.4f m%s)\n",
               result->success ? "success" : "FAILED", result->message.c_str(), result->solve_ms, result->iterations,
               result->evaluations, result->attempts.size(), result->trajectory ? result->trajectory->duration() : 0.0,
-              result->post_check.min_clearance_model, result->post_check.min_clearance_exact);
+              result->post_check.min_clearance_model, result->post_check.min_clearance_exact_is_bound ? ">= " : "",
+              result->post_check.min_clearance_exact,
+              result->post_check.min_clearance_exact_is_bound ? ": nothing nearer than the search reach" : "");
   if (result->trajectory && (result->success || keep_failed_plan)) std::printf("plan:   %s\n", out_path.c_str());
   std::printf("report: %s\n", report_path.c_str());
   if (!html_path.empty() && result->trajectory) std::printf("page:   %s\n", html_path.c_str());

@@ -302,6 +302,31 @@ TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalAndLongerOnesAreRefusedForNo
   ExpectBadInput(mission, "mission.yaml: mission[1].release: nothing is held");
 }
 
+TEST_F(PlanCliTest, AnExactClearanceNobodyMeasuredIsReportedAsABound) {
+  auto read = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  // The default scene: the cup and the windows are measured.
+  const auto near = RunCommand(kPlan + " " + WriteTask({}) + " --out " + out + " --report " + report);
+  ASSERT_EQ(near.exit_code, 0) << near.err;
+  EXPECT_NE(read(report).find("\"min_clearance_exact_is_lower_bound\": false"), std::string::npos);
+  EXPECT_EQ(near.out.find("exact >= "), std::string::npos) << near.out;
+  // One scene point 20 m away: nothing is ever within the search reach.
+  const std::string scene = (dir_ / "far.pcd").string();
+  std::ofstream(scene) << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\n"
+                          "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n0 20 1\n";
+  const auto far = RunCommand(kPlan + " " + WriteTask({{"scene:", "scene: " + scene}}) + " --out " + out + " --report " +
+                              report);
+  ASSERT_EQ(far.exit_code, 0) << far.err;
+  const std::string text = read(report);
+  EXPECT_NE(text.find("\"min_clearance_exact_is_lower_bound\": true"), std::string::npos) << text;
+  EXPECT_NE(text.find("\"closest_link\": \"\""), std::string::npos);
+  EXPECT_NE(far.out.find("(exact >= 0."), std::string::npos) << far.out;
+  EXPECT_NE(far.out.find("nothing nearer than the search reach"), std::string::npos) << far.out;
+}
+
 TEST_F(PlanCliTest, RefusesOutputsThatWouldDestroySomething) {
   const std::string scene = (dir_ / "scene.pcd").string();
   fs::copy_file(std::string(QUADHAND_SOURCE_DIR) + "/data/scenes/window_cup.pcd", scene);

@@ -80,6 +80,7 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   report["duration_s"] = result.trajectory ? result.trajectory->duration() : 0.0;
   report["min_clearance_m"] = result.post_check.min_clearance_model;
   report["min_clearance_exact_m"] = result.post_check.min_clearance_exact;
+  report["min_clearance_exact_is_lower_bound"] = result.post_check.min_clearance_exact_is_bound;
   report["closest_link"] = result.post_check.closest_link >= 0 ? robot.link(result.post_check.closest_link).name : "";
   report["certified"] = result.post_check.certified;
   report["certified_clearance_m"] = result.post_check.certified_clearance;

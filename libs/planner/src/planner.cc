@@ -255,7 +255,7 @@ core::Result<bool> ResolveGoal(const PlanningScene& scene, const Task& task, con
 // plan can pass the post-check.
 core::Status CheckEndPoints(const PlanningScene& scene, const Task& task, const BoundaryState& terminal,
                             const PlannerOptions& options) {
-  const double reach = task.safety_distance + 0.05;
+  const double reach = ClearanceSearchReach(task);
   const std::pair<const char*, const BoundaryState*> ends[] = {{"start", &task.start}, {"goal", &terminal}};
   for (const auto& [name, state] : ends) {
     int link = -1;

@@ -107,7 +107,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     return report;
   }
   const int steps = std::max(1, static_cast<int>(wanted_steps));
-  const double reach = task.safety_distance + 0.05;
+  const double reach = ClearanceSearchReach(task);
 
   const bool check_self = self_collision != nullptr && !self_collision->pairs().empty();
   const double self_reach = task.self_safety_distance + 0.02;
@@ -435,6 +435,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   report.min_clearance_exact = min_exact;
   report.min_clearance_model = min_model;
   report.closest_link = closest;
+  report.min_clearance_exact_is_bound = closest < 0;
   report.recovery = recovery;
   report.certificate_samples = added;
   report.certified_clearance = certified_lower;

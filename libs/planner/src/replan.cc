@@ -340,7 +340,7 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   // is refused: no plan from there can be trusted.
   {
     int link = -1;
-    const double clearance = StateClearance(scene, replan_task.start, options.cost.flatness, task.safety_distance + 0.05,
+    const double clearance = StateClearance(scene, replan_task.start, options.cost.flatness, ClearanceSearchReach(task),
                                             &link);
     if (clearance < -replan.max_start_penetration) {
       result.status = PlanStatus::kStartInCollision;

@@ -199,7 +199,7 @@ core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& rob
     const Pose& tool_pose = kinematics.link_poses[tool_link];
     const double position_error = (tool_pose.translation() - tool.position).norm();
     const double angle_error = Eigen::AngleAxisd(tool_pose.linear() * tool.orientation.toRotationMatrix().transpose()).angle();
-    const double reach = task.safety_distance + 0.05;
+    const double reach = ClearanceSearchReach(task);
     double clearance = env::WholeBodyClearance(kinematics, exact, reach, {}, nullptr);
     if (tool.has_insertion) {
       robot::ComputeKinematics(robot, HoverPose(y.head<3>() - tool.insertion_direction * tool.insertion_length, y[3]),

@@ -98,6 +98,11 @@ struct PostCheckReport {
   double min_clearance_exact = 0.0;   // link meshes vs raw points, least over the samples
   double min_clearance_model = 0.0;   // as the planner's collision model measures it
   int closest_link = -1;
+  // min_clearance_exact is where a sample's search stopped with nothing
+  // found (each sample searches out to at least the safety distance + 1 cm
+  // and at most ClearanceSearchReach): a lower bound, not a measured
+  // distance, and there is no closest link.
+  bool min_clearance_exact_is_bound = false;
   // Lower bound of the smallest distance between checked robot link pairs
   // (env/self_collision.h), capped at self_safety_distance + 0.02 m, and the
   // pair's index in SelfCollisionModel::pairs() (-1: none that close).

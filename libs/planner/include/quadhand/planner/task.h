@@ -68,6 +68,13 @@ core::Result<Task> ParseTaskText(const std::string& text, const std::string& nam
 // applications print them after loading.
 std::vector<std::string> TaskCautions(const Task& task);
 
+// How far clearances to the scene are searched (the post-check, the
+// end-state checks, the terminal-state search, replanning): the safety
+// distance plus 5 cm, enough to show the margin a plan keeps while the
+// queries stay local. A clearance found at this reach means nothing was
+// nearer: it is a lower bound, and reports say so.
+inline double ClearanceSearchReach(const Task& task) { return task.safety_distance + 0.05; }
+
 // Whether this version plans the task: a goal, or a mission of one reach.
 // A longer mission is read and checked in full, then refused here with
 // InvalidArgument naming the file and its steps (contracts.md: a planner
