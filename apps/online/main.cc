@@ -323,6 +323,8 @@ int main(int argc, char** argv) {
   auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;
+  // A replan in flight must not wait for an exact-mesh tree to be built.
+  ctx.exact().BuildAllQueries();
   for (const std::string& repair : robot::TakeMeshRepairReports()) {
     std::fprintf(stderr, "quadhand-online: %s\n", repair.c_str());
   }

@@ -183,6 +183,12 @@ double ExactMeshModel::LinkSignedDistance(int link, const Vec3& x_L, Vec3* gradi
   return UnionDistance(geometry_[slot_of_link_[link]], x_L, nullptr, gradient);
 }
 
+void ExactMeshModel::BuildAllQueries() const {
+  for (const LinkGeometry& g : geometry_) {
+    for (const auto& element : g.elements) element->Query();
+  }
+}
+
 void ExactMeshModel::LinkBox(int link, Vec3* box_min, Vec3* box_max) const {
   const LinkGeometry& g = geometry_[slot_of_link_[link]];
   *box_min = g.box_min;

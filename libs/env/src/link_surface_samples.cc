@@ -21,11 +21,9 @@ Key Quantize(const Vec3& p, double step) {
 LinkSurfaceSamples SampleLinkSurface(const geometry::TriangleMesh& mesh, double spacing, double cluster_size) {
   LinkSurfaceSamples out;
   out.vertices = mesh.vertices;
-  // Every vertex of a triangle is a sample, taken once per vertex: a CAD
+  // The samples: every vertex of a triangle, taken once per vertex (a CAD
   // mesh's small triangles give nothing else, and its vertices are most of
-  // the samples. The other points (on the edges and inside larger
-  // triangles) are keyed by a 1e-7 m quantisation, so the points on an edge
-  // shared by two triangles are kept once.
+  // the samples), and the points on the edges and inside larger triangles.
   std::vector<bool> is_corner(mesh.vertices.size(), false);
   std::vector<std::pair<Key, Vec3>> inner;  // (quantised key, point)
   const double row_gap = spacing * std::sqrt(3.0) / 2.0;
@@ -60,56 +58,55 @@ LinkSurfaceSamples SampleLinkSurface(const geometry::TriangleMesh& mesh, double 
       }
     }
   }
-  std::sort(inner.begin(), inner.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-  inner.erase(std::unique(inner.begin(), inner.end(), [](const auto& x, const auto& y) { return x.first == y.first; }),
-              inner.end());
-  std::vector<Vec3> samples;
-  samples.reserve(mesh.vertices.size() + inner.size());
-  for (size_t v = 0; v < mesh.vertices.size(); ++v) {
-    if (is_corner[v]) samples.push_back(mesh.vertices[v]);
-  }
-  for (const auto& [unused, x] : inner) samples.push_back(x);
-
-  // Group by cluster cell: one sort of (cell, sample index), the cell packed
-  // into 64 bits (21 bits an axis, relative to the lowest cell) whenever the
-  // link spans fewer than two million cells an axis, as any real one does.
-  std::vector<Key> cells(samples.size());
-  Key lowest = {0, 0, 0}, highest = {0, 0, 0};
-  for (size_t i = 0; i < samples.size(); ++i) {
-    for (int axis = 0; axis < 3; ++axis) {
-      cells[i][axis] = static_cast<long long>(std::floor(samples[i][axis] / cluster_size));
-      lowest[axis] = i == 0 ? cells[i][axis] : std::min(lowest[axis], cells[i][axis]);
-      highest[axis] = i == 0 ? cells[i][axis] : std::max(highest[axis], cells[i][axis]);
-    }
-  }
-  constexpr long long kAxisCells = 1ll << 21;
-  const bool packable = highest[0] - lowest[0] < kAxisCells && highest[1] - lowest[1] < kAxisCells &&
-                        highest[2] - lowest[2] < kAxisCells;
-  std::vector<std::pair<uint64_t, uint32_t>> order;  // (packed cell, sample)
-  std::vector<uint32_t> unpacked;
-  if (packable) {
-    order.reserve(samples.size());
-    for (size_t i = 0; i < samples.size(); ++i) {
-      const auto offset = [&](int axis) { return static_cast<uint64_t>(cells[i][axis] - lowest[axis]); };
-      order.emplace_back((offset(0) << 42) | (offset(1) << 21) | offset(2), static_cast<uint32_t>(i));
-    }
-    std::sort(order.begin(), order.end());
-  } else {
-    unpacked.resize(samples.size());
-    for (size_t i = 0; i < samples.size(); ++i) unpacked[i] = static_cast<uint32_t>(i);
-    std::sort(unpacked.begin(), unpacked.end(),
-              [&](uint32_t x, uint32_t y) { return std::tie(cells[x], x) < std::tie(cells[y], y); });
-  }
+  // Grouped by cluster cell, each cell in order of quantised position (a
+  // 1e-7 m grid), a position kept once: the points of an edge shared by two
+  // triangles, and a vertex another triangle's row meets. Among near-equal
+  // points the least by coordinates is kept, whatever order they came in.
+  // One sort; the cell is packed into 64 bits (21 bits an axis, from the
+  // lowest cell) whenever the link spans fewer than two million cells an
+  // axis, as any real one does, so most comparisons are of one integer.
   struct Keyed {
+    uint64_t packed;  // the cell, packed; 0 for all when it does not fit
     Key cell;
+    Key quantised;
     Vec3 point;
   };
   std::vector<Keyed> keyed;
-  keyed.reserve(samples.size());
-  for (size_t i = 0; i < samples.size(); ++i) {
-    const uint32_t sample = packable ? order[i].second : unpacked[i];
-    keyed.push_back({cells[sample], samples[sample]});
+  keyed.reserve(inner.size() + mesh.vertices.size());
+  auto add = [&](const Key& quantised, const Vec3& x) {
+    const Key cell = {static_cast<long long>(std::floor(x.x() / cluster_size)),
+                      static_cast<long long>(std::floor(x.y() / cluster_size)),
+                      static_cast<long long>(std::floor(x.z() / cluster_size))};
+    keyed.push_back({0, cell, quantised, x});
+  };
+  for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+    if (is_corner[v]) add(Quantize(mesh.vertices[v], 1e-7), mesh.vertices[v]);
   }
+  for (const auto& [quantised, x] : inner) add(quantised, x);
+  if (!keyed.empty()) {
+    Key lowest = keyed.front().cell, highest = lowest;
+    for (const Keyed& k : keyed) {
+      for (int axis = 0; axis < 3; ++axis) {
+        lowest[axis] = std::min(lowest[axis], k.cell[axis]);
+        highest[axis] = std::max(highest[axis], k.cell[axis]);
+      }
+    }
+    constexpr long long kAxisCells = 1ll << 21;
+    if (highest[0] - lowest[0] < kAxisCells && highest[1] - lowest[1] < kAxisCells &&
+        highest[2] - lowest[2] < kAxisCells) {
+      for (Keyed& k : keyed) {
+        const auto offset = [&](int axis) { return static_cast<uint64_t>(k.cell[axis] - lowest[axis]); };
+        k.packed = (offset(0) << 42) | (offset(1) << 21) | offset(2);
+      }
+    }
+  }
+  std::sort(keyed.begin(), keyed.end(), [](const Keyed& x, const Keyed& y) {
+    return std::tie(x.packed, x.cell, x.quantised, x.point.x(), x.point.y(), x.point.z()) <
+           std::tie(y.packed, y.cell, y.quantised, y.point.x(), y.point.y(), y.point.z());
+  });
+  keyed.erase(std::unique(keyed.begin(), keyed.end(),
+                          [](const Keyed& x, const Keyed& y) { return x.cell == y.cell && x.quantised == y.quantised; }),
+              keyed.end());
   out.points.reserve(keyed.size());
   for (size_t i = 0; i < keyed.size();) {
     size_t j = i;

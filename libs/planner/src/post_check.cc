@@ -10,22 +10,12 @@
 #include "quadhand/planner/motion_bound.h"
 #include "quadhand/robot/kinematics.h"
 
+#include "sampled_checks.h"
+
 namespace quadhand::planner {
 namespace {
 
 using core::Format;
-
-// Tracks the worst value of one quantity over the samples.
-struct Worst {
-  double value = -1e300;
-  double time = 0.0;
-  void Update(double v, double t) {
-    if (v > value) {
-      value = v;
-      time = t;
-    }
-  }
-};
 
 // Tracks the least value of one quantity, when and where (a link or pair
 // index) it occurred; the first of equal values is kept.
@@ -41,8 +31,6 @@ struct Least {
     }
   }
 };
-
-double WrapAngle(double a) { return std::remainder(a, 2.0 * M_PI); }
 
 // More samples than this is a trajectory far longer than any plan, or a dt
 // far finer than any check needs: refused (a failed check) rather than run
@@ -93,8 +81,6 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
                           const env::SelfCollisionModel* self_collision, const PostCheckOptions& options) {
   PostCheckReport report;
   const Limits& limits = task.limits;
-  const int n = robot.num_actuated();
-  const std::vector<std::string> joint_names = robot.ActuatedJointNames();
   const double duration = trajectory.duration();
   const double wanted_steps = std::ceil(duration / options.dt - 1e-9);
   if (!(wanted_steps <= kMaxPostCheckSamples)) {  // also a non-finite duration
@@ -304,12 +290,11 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   core::WorkerPool pool(core::WorkerCount(options.threads, std::min(steps + 1, block_size)));
   auto run_on_workers = [&](auto&& work) { pool.Run([&](int worker) { work(worker, pool.size()); }); };
 
-  Worst speed, acceleration, yaw_rate, body_rate, joint_excess;
-  std::vector<Worst> joint_rate(n);
+  // The checks judged at the regular samples (sampled_checks.h), fed in time order.
+  const CheckInputs check_inputs{trajectory, robot, task, terminal, insertion, options};
+  const std::vector<std::unique_ptr<SampledCheck>> sampled_checks = MakeSampledChecks(check_inputs);
   Least exact_least{reach};  // over every sample measured, regular and added
   double min_model = reach;
-  std::vector<std::pair<double, double>> tool_track;  // (along line, off line) per sample
-  std::vector<double> times;
   Least self_least{self_reach};
   // The certificate: the least slack over the intervals, and where.
   double certified_slack = 1e300, certified_lower = 0.0, certified_time = 0.0, certified_against = clearance_bound;
@@ -403,20 +388,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       previous_clearance_time = t;
       previous_clearance_value = m.d_exact;
     }
-    speed.Update(s.velocity.norm() / limits.v_max, t);
-    acceleration.Update(s.acceleration.norm() / limits.a_max, t);
-    yaw_rate.Update(std::abs(s.yaw_rate) / limits.yaw_rate_max, t);
-    body_rate.Update(s.body_rate.head<2>().norm() / limits.body_rate_xy_max, t);
-    for (int q = 0; q < n; ++q) {
-      joint_rate[q].Update(std::abs(s.joint_rates[q]) / limits.joint_rate_max[q], t);
-      joint_excess.Update(std::max(s.joints[q] - limits.joint_upper[q], limits.joint_lower[q] - s.joints[q]), t);
-    }
-    if (insertion.enabled) {
-      const Vec3 offset = m.tool - insertion.tool_position;
-      const double along = insertion.direction.dot(offset);
-      tool_track.emplace_back(along, (offset - along * insertion.direction).norm());
-      times.push_back(t);
-    }
+    for (const auto& check : sampled_checks) check->Observe(CheckedSample{t, &s, m.tool});
   }
     if (previous_clearance_step(block_end) >= block_begin) {
       previous = measured[previous_clearance_step(block_end) - block_begin];
@@ -497,65 +469,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   report.certified_margin = certified_slack - options.clearance_tolerance;
   report.certified = true;
   for (const CheckResult& check : report.checks) report.certified = report.certified && check.passed;
-  const double ratio_bound = 1.0 + options.limit_tolerance;
-  auto add_limit = [&](CheckKind kind, int joint, const std::string& name, const Worst& w) {
-    report.violations.emplace_back(name, w.value);
-    add(kind, joint, name, w.value <= ratio_bound, w.value, 1.0, w.time,
-        Format("peak %.3f of the limit (accepted up to %.3f) at t = %.2f s", w.value, ratio_bound, w.time));
-  };
-  add_limit(CheckKind::kVelocity, -1, "velocity", speed);
-  add_limit(CheckKind::kAcceleration, -1, "acceleration", acceleration);
-  add_limit(CheckKind::kYawRate, -1, "yaw_rate", yaw_rate);
-  add_limit(CheckKind::kBodyRateXY, -1, "body_rate_xy", body_rate);
-  for (int q = 0; q < n; ++q) add_limit(CheckKind::kJointRate, q, joint_names[q] + "_rate", joint_rate[q]);
-  add(CheckKind::kJointLimits, -1, "joint_limits", joint_excess.value <= 1e-3, joint_excess.value, 0.0, joint_excess.time,
-      Format("worst excess %.4f rad beyond a joint limit (accepted up to %.4f) at t = %.2f s", joint_excess.value,
-             1e-3, joint_excess.time));
-
-  // Start and end states.
-  const WholeBodySample first = trajectory.Sample(0.0), last = trajectory.Sample(duration);
-  double start_error = (first.position - task.start.position).norm();
-  double start_angle = std::abs(WrapAngle(first.yaw - task.start.yaw));
-  double end_angle = std::abs(WrapAngle(last.yaw - terminal.yaw));
-  start_angle = std::max(start_angle, (first.joints - task.start.joints).cwiseAbs().maxCoeff());
-  end_angle = std::max(end_angle, (last.joints - terminal.joints).cwiseAbs().maxCoeff());
-  const double end_error = (last.position - terminal.position).norm();
-  const VecX terminal_joint_rates =
-      terminal.joint_rates.size() == n ? terminal.joint_rates : VecX::Zero(n);
-  const double end_rate = std::max({(last.velocity - terminal.velocity).norm(), std::abs(last.yaw_rate - terminal.yaw_rate),
-                                    (last.joint_rates - terminal_joint_rates).cwiseAbs().maxCoeff()});
-  add(CheckKind::kStartState, -1, "start_state", start_error <= options.position_tolerance && start_angle <= options.angle_tolerance, start_error,
-      options.position_tolerance, 0.0, Format("position error %.4f m, angle error %.4f rad", start_error, start_angle));
-  add(CheckKind::kEndState, -1, "end_state",
-      end_error <= options.position_tolerance && end_angle <= options.angle_tolerance && end_rate <= options.rate_tolerance,
-      end_error, options.position_tolerance, duration,
-      Format("position error %.4f m, angle error %.4f rad, residual rate %.4f", end_error, end_angle, end_rate));
-
-  if (insertion.enabled) {
-    // The final approach starts at the last sample where the tool was at least
-    // `length` back along the line; from there on it must stay on the line.
-    int approach_start = -1;
-    for (int i = static_cast<int>(tool_track.size()) - 1; i >= 0; --i) {
-      if (tool_track[i].first <= -insertion.length + 1e-3) {
-        approach_start = i;
-        break;
-      }
-    }
-    if (approach_start < 0) {
-      add(CheckKind::kInsertion, -1, "insertion", false, 0.0, insertion.length, 0.0,
-          Format("the tool never backs off %.3f m along the insertion line (closest approach start %.3f m)",
-                 insertion.length, -tool_track.front().first));
-    } else {
-      Worst off_line;
-      for (size_t i = approach_start; i < tool_track.size(); ++i) off_line.Update(tool_track[i].second, times[i]);
-      const double tool_end_error = std::hypot(tool_track.back().first, tool_track.back().second);
-      add(CheckKind::kInsertion, -1, "insertion", off_line.value <= options.insertion_tolerance && tool_end_error <= options.position_tolerance,
-          off_line.value, options.insertion_tolerance, off_line.time,
-          Format("tool up to %.4f m off the insertion line (accepted %.4f m), ends %.4f m from the goal",
-                 off_line.value, options.insertion_tolerance, tool_end_error) +
-              Format(", over the approach from t = %.2f s", times[approach_start]));
-    }
-  }
+  for (const auto& check : sampled_checks) check->Finish(&report);
   report.passed = true;
   for (const CheckResult& check : report.checks) report.passed = report.passed && check.passed;
   return report;

@@ -59,6 +59,11 @@ class ExactMeshModel final : public CollisionModel {
   // The link-frame bounding box of the link's elements.
   void LinkBox(int link, Vec3* box_min, Vec3* box_max) const;
 
+  // Builds every element's distance query now instead of on its first
+  // query: for a program whose later queries must not wait (the online
+  // mode's replans in flight). Thread-safe.
+  void BuildAllQueries() const;
+
  private:
   // An element's distance query (an AABB tree over its triangles: a tenth
   // of a second per 100,000) is built on its first query, not at Create:
