@@ -302,6 +302,24 @@ TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalAndLongerOnesAreRefusedForNo
   ExpectBadInput(mission, "mission.yaml: mission[1].release: nothing is held");
 }
 
+TEST_F(PlanCliTest, AGraspTooHeavyOrOfAnOpenMeshIsRefusedNamingTheStep) {
+  const std::string root = QUADHAND_SOURCE_DIR;
+  const std::string mission = (dir_ / "mission.yaml").string();
+  // A mesh object is in reach when its frame's origin is (its vertices
+  // come with the robot): 2 cm below the tool.
+  auto grasp = [](const std::string& shape, const std::string& mass, const std::string& z) {
+    return "  - grasp:\n      object:\n        shape: " + shape + "\n        pose: {position: [-3.2, 0.0, " + z +
+           "], orientation: [1, 0, 0, 0]}\n        mass: " + mass + "\n";
+  };
+  std::ofstream(mission) << WindowCupMission(grasp("{cylinder: {radius: 0.04, length: 0.10}}", "0.5", "0.80"));
+  ExpectBadInput(mission, "mission.yaml: mission[1] (grasp): the object's mass 0.5 kg is above the robot's payload "
+                          "limit 0.3 kg (planner configuration mission.payload_limit)");
+  std::ofstream(mission, std::ios::trunc)
+      << WindowCupMission(grasp("{mesh: " + root + "/tests/data/cad_robot/link2_holed.stl}", "0.05", "0.84"));
+  ExpectBadInput(mission, "mission[1] (grasp): the object mesh '" + root +
+                              "/tests/data/cad_robot/link2_holed.stl' does not bound a volume, even repaired: not closed");
+}
+
 TEST_F(PlanCliTest, AnExactClearanceNobodyMeasuredIsReportedAsABound) {
   auto read = [](const std::string& path) {
     std::ifstream in(path, std::ios::binary);

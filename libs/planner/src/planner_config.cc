@@ -132,6 +132,7 @@ void Visit(Config& c, Visitor&& v) {
   solver("replan.solver.", r.solver);
 
   v("meshes.repair_tolerance", c.mesh_repair_tolerance);
+  v("mission.payload_limit", c.payload_limit);
 
   // Last: representations registered from outside follow as their own sections.
   auto& m = c.representations;
@@ -317,6 +318,10 @@ bool PlannerConfig::IsValid(std::string* why) const {
   geometry::MeshRepairOptions repair;
   repair.tolerance = mesh_repair_tolerance;
   if (!repair.IsValid(&inner)) return fail("meshes");
+  if (!(std::isfinite(payload_limit) && payload_limit >= 0.0 && payload_limit <= 100.0)) {
+    inner = "payload_limit must be in [0, 100] kg";
+    return fail("mission");
+  }
   return true;
 }
 
@@ -341,6 +346,7 @@ PlanningContextOptions ContextOptions(const PlannerConfig& config, std::vector<s
   options.front_end = config.front_end;
   options.representation_options = config.representations;
   options.mesh_repair_tolerance = config.mesh_repair_tolerance;
+  options.payload_limit = config.payload_limit;
   return options;
 }
 

@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "quadhand/core/text.h"
+#include "quadhand/geometry/mesh_io.h"
 #include "quadhand/geometry/mesh_repair.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/link_meshes.h"
@@ -16,6 +18,34 @@ namespace {
 
 core::Status CheckRepresentationNames(const PlanningContextOptions& options) {
   for (const std::string& name : options.representations) QUADHAND_RETURN_IF_ERROR(CheckRepresentationName(name));
+  return core::Status::Ok();
+}
+
+// What a mission's grasps can only be checked against once the robot and
+// the configuration are known: the payload limit, and that a mesh object
+// bounds a volume (repaired as the robot's meshes are).
+core::Status CheckMissionObjects(const Task& task, const PlanningContextOptions& options) {
+  for (size_t i = 0; i < task.mission.size(); ++i) {
+    const MissionStep& step = task.mission[i];
+    if (step.kind != StepKind::kGrasp) continue;
+    const std::string where = task.file + ": " + StepName(task.mission, i);
+    if (step.object.mass > options.payload_limit) {
+      return core::Status::InvalidArgument(
+          where + core::Format(": the object's mass %g kg is above the robot's payload limit %g kg (planner "
+                               "configuration mission.payload_limit)",
+                               step.object.mass, options.payload_limit));
+    }
+    if (step.object.shape.kind != ObjectShape::Kind::kMesh) continue;
+    geometry::MeshRepairOptions repair;
+    repair.tolerance = options.mesh_repair_tolerance;
+    geometry::MeshRepairReport report;
+    auto shells = geometry::ReadMeshShells(step.object.shape.mesh_path, repair, &report);
+    if (!shells.ok()) return shells.status().WithPrefix(where);
+    if (!report.problem.empty()) {
+      return core::Status::InvalidArgument(where + ": the object mesh '" + step.object.shape.mesh_path +
+                                           "' does not bound a volume, even repaired: " + report.problem);
+    }
+  }
   return core::Status::Ok();
 }
 
@@ -52,6 +82,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
     }
   }
   QUADHAND_RETURN_IF_ERROR(ApplyRobot(robot, &task));
+  QUADHAND_RETURN_IF_ERROR(CheckMissionObjects(task, options));
   QUADHAND_RETURN_IF_ERROR(CheckPlannable(task));
   geometry::MeshRepairOptions repair;
   repair.tolerance = options.mesh_repair_tolerance;

@@ -32,6 +32,8 @@ struct PlannerConfig {
   RepresentationOptions representations;
   // meshes.repair_tolerance: PlanningContextOptions::mesh_repair_tolerance.
   double mesh_repair_tolerance = 1e-6;
+  // mission.payload_limit: PlanningContextOptions::payload_limit.
+  double payload_limit = 0.3;
 
   // Every part's own IsValid, the failing one named ("cost: ...").
   bool IsValid(std::string* why) const;

@@ -33,6 +33,10 @@ struct PlanningContextOptions {
   // (robot::RobotModel::mesh_repair_tolerance): the one quadhand-sdfgen
   // used for the link SDFs, and at most their resolution.
   double mesh_repair_tolerance = 1e-6;
+  // The heaviest object a mission may grasp, kg: the paper's platform
+  // (1.7 kg) flies a 150 g payload; twice that by default. A grasp of a
+  // heavier one is refused (exit 2) naming the step.
+  double payload_limit = 0.3;
 };
 
 class PlanningContext {
