@@ -27,8 +27,18 @@ LinkSurfaceSamples SampleLinkSurface(const geometry::TriangleMesh& mesh, double 
   std::vector<bool> is_corner(mesh.vertices.size(), false);
   std::vector<std::pair<Key, Vec3>> inner;  // (quantised key, point)
   const double row_gap = spacing * std::sqrt(3.0) / 2.0;
+  const double small_squared = row_gap * row_gap;
   for (const Eigen::Vector3i& t : mesh.triangles) {
     for (int k = 0; k < 3; ++k) is_corner[t[k]] = true;
+    // No edge longer than the row gap: one row of one step, its corners
+    // only (most of a CAD mesh's triangles; no root taken).
+    const Vec3& v0 = mesh.vertices[t[0]];
+    const Vec3& v1 = mesh.vertices[t[1]];
+    const Vec3& v2 = mesh.vertices[t[2]];
+    if ((v1 - v0).squaredNorm() <= small_squared && (v2 - v1).squaredNorm() <= small_squared &&
+        (v0 - v2).squaredNorm() <= small_squared) {
+      continue;
+    }
     // Rows parallel to the longest edge pq, from it to the opposite vertex r.
     int e = 0;
     double longest = -1.0;
@@ -67,6 +77,7 @@ LinkSurfaceSamples SampleLinkSurface(const geometry::TriangleMesh& mesh, double 
   // axis, as any real one does, so most comparisons are of one integer.
   struct Keyed {
     uint64_t packed;  // the cell, packed; 0 for all when it does not fit
+    uint64_t local;   // the quantised position within its cell, packed; 0 for all when it does not fit
     Key cell;
     Key quantised;
     Vec3 point;
@@ -77,7 +88,7 @@ LinkSurfaceSamples SampleLinkSurface(const geometry::TriangleMesh& mesh, double 
     const Key cell = {static_cast<long long>(std::floor(x.x() / cluster_size)),
                       static_cast<long long>(std::floor(x.y() / cluster_size)),
                       static_cast<long long>(std::floor(x.z() / cluster_size))};
-    keyed.push_back({0, cell, quantised, x});
+    keyed.push_back({0, 0, cell, quantised, x});
   };
   for (size_t v = 0; v < mesh.vertices.size(); ++v) {
     if (is_corner[v]) add(Quantize(mesh.vertices[v], 1e-7), mesh.vertices[v]);
@@ -98,11 +109,32 @@ LinkSurfaceSamples SampleLinkSurface(const geometry::TriangleMesh& mesh, double 
         const auto offset = [&](int axis) { return static_cast<uint64_t>(k.cell[axis] - lowest[axis]); };
         k.packed = (offset(0) << 42) | (offset(1) << 21) | offset(2);
       }
+      // Within a cell the quantised positions span cluster_size / 1e-7 steps
+      // an axis (19 bits at the default 4 cm): packed too, relative to a
+      // base below the cell's corner, when three of them fit in 64 bits.
+      const double steps_per_cell = cluster_size / 1e-7;
+      const int bits = static_cast<int>(std::ceil(std::log2(steps_per_cell + 16.0)));
+      if (bits <= 21) {
+        bool fits = true;
+        for (Keyed& k : keyed) {
+          uint64_t local = 0;
+          for (int axis = 0; axis < 3; ++axis) {
+            const long long base = static_cast<long long>(std::floor(static_cast<double>(k.cell[axis]) * steps_per_cell)) - 4;
+            const long long offset = k.quantised[axis] - base;
+            fits = fits && offset >= 0 && offset < (1ll << bits);
+            local = (local << bits) | static_cast<uint64_t>(std::max(0ll, offset));
+          }
+          k.local = local;
+        }
+        if (!fits) {
+          for (Keyed& k : keyed) k.local = 0;
+        }
+      }
     }
   }
   std::sort(keyed.begin(), keyed.end(), [](const Keyed& x, const Keyed& y) {
-    return std::tie(x.packed, x.cell, x.quantised, x.point.x(), x.point.y(), x.point.z()) <
-           std::tie(y.packed, y.cell, y.quantised, y.point.x(), y.point.y(), y.point.z());
+    return std::tie(x.packed, x.local, x.cell, x.quantised, x.point.x(), x.point.y(), x.point.z()) <
+           std::tie(y.packed, y.local, y.cell, y.quantised, y.point.x(), y.point.y(), y.point.z());
   });
   keyed.erase(std::unique(keyed.begin(), keyed.end(),
                           [](const Keyed& x, const Keyed& y) { return x.cell == y.cell && x.quantised == y.quantised; }),

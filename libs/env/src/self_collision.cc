@@ -22,11 +22,11 @@ int Root(std::vector<int>& parent, int i) {
   return i;
 }
 
-// Samples of every element of a link, with their bounding sphere.
-void SampleElements(const std::vector<geometry::TriangleMesh>& elements, double spacing,
-                    LinkSurfaceSamples* samples, Vec3* center, double* radius) {
-  for (const geometry::TriangleMesh& mesh : elements) {
-    LinkSurfaceSamples part = SampleLinkSurface(mesh, spacing);
+// The samples of a link's elements (each sampled on its own, in element
+// order) as one set, with their bounding sphere.
+void MergeElementSamples(std::vector<LinkSurfaceSamples>& parts, LinkSurfaceSamples* samples, Vec3* center,
+                         double* radius) {
+  for (LinkSurfaceSamples& part : parts) {
     const int offset = static_cast<int>(samples->points.size());
     samples->points.insert(samples->points.end(), part.points.begin(), part.points.end());
     for (LinkSurfaceSamples::Cluster c : part.clusters) {
@@ -34,6 +34,7 @@ void SampleElements(const std::vector<geometry::TriangleMesh>& elements, double 
       c.end += offset;
       samples->clusters.push_back(c);
     }
+    part = LinkSurfaceSamples{};
   }
   *center = Vec3::Zero();
   *radius = 0.0;
@@ -146,20 +147,45 @@ core::Result<std::unique_ptr<SelfCollisionModel>> SelfCollisionModel::Create(
     exact.LinkBox(link, &model->boxes_[link].first, &model->boxes_[link].second);
   }
   // Sampling a CAD link's hundreds of thousands of triangles takes tens of
-  // milliseconds per spacing: links and spacings in parallel. Each job
-  // writes only its own link's samples, so the result does not depend on
-  // the threads.
-  const int num_jobs = 2 * static_cast<int>(collision_links.size());
-  std::atomic<int> next{0};
-  core::WorkerPool pool(core::WorkerCount(0, std::max(1, num_jobs)));
+  // milliseconds per spacing: every element at both spacings in parallel
+  // (elements rather than links: one link often holds most of the
+  // triangles). Each job writes only its own part, and the parts are merged
+  // in element order, so the result does not depend on the threads.
+  struct Job {
+    int link, element;
+    bool penalty;
+  };
+  std::vector<Job> jobs;
+  std::vector<std::vector<LinkSurfaceSamples>> check_parts(num_links), penalty_parts(num_links);
+  for (int link : collision_links) {
+    const int elements = static_cast<int>(link_elements[link].size());
+    check_parts[link].resize(elements);
+    penalty_parts[link].resize(elements);
+    for (int e = 0; e < elements; ++e) {
+      jobs.push_back({link, e, false});
+      jobs.push_back({link, e, true});
+    }
+  }
+  // The largest elements first, so that no thread is left with one at the end.
+  std::stable_sort(jobs.begin(), jobs.end(), [&](const Job& a, const Job& b) {
+    return link_elements[a.link][a.element].triangles.size() > link_elements[b.link][b.element].triangles.size();
+  });
+  std::atomic<size_t> next{0};
+  core::WorkerPool pool(core::WorkerCount(0, std::max<int>(1, static_cast<int>(jobs.size()))));
   pool.Run([&](int) {
-    for (int job = next++; job < num_jobs; job = next++) {
-      const int link = collision_links[job / 2];
-      SampledLink& s = job % 2 == 0 ? model->sampled_[link] : model->penalty_samples_[link];
-      SampleElements(link_elements[link], job % 2 == 0 ? options.sample_spacing : options.penalty_spacing,
-                     &s.samples, &s.center, &s.radius);
+    for (size_t i = next++; i < jobs.size(); i = next++) {
+      const Job& job = jobs[i];
+      auto& parts = job.penalty ? penalty_parts : check_parts;
+      parts[job.link][job.element] = SampleLinkSurface(link_elements[job.link][job.element],
+                                                       job.penalty ? options.penalty_spacing : options.sample_spacing);
     }
   });
+  for (int link : collision_links) {
+    SampledLink& s = model->sampled_[link];
+    MergeElementSamples(check_parts[link], &s.samples, &s.center, &s.radius);
+    SampledLink& p = model->penalty_samples_[link];
+    MergeElementSamples(penalty_parts[link], &p.samples, &p.center, &p.radius);
+  }
   for (int link : collision_links) sample_count[link] = model->sampled_[link].samples.points.size();
 
   // The zero configuration, within the limits.
