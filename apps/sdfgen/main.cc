@@ -23,6 +23,8 @@
 #include "quadhand/robot/link_meshes.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
+#include "quadhand/env/self_collision.h"
+#include "quadhand/env/surface_sample_cache.h"
 #include "quadhand/geometry/mesh_io.h"
 #include "quadhand/geometry/mesh_repair.h"
 #include "quadhand/geometry/mesh_to_sdf.h"
@@ -34,6 +36,7 @@ namespace {
 
 using quadhand::Vec3;
 namespace core = quadhand::core;
+namespace env = quadhand::env;
 namespace geometry = quadhand::geometry;
 namespace robot = quadhand::robot;
 
@@ -242,5 +245,21 @@ int main(int argc, char** argv) {
   } else if (*cached > 0) {
     core::LogInfo("cached %d mesh repair(s) in %s", *cached, cache_dir.c_str());
   }
+  // And each element's surface samples at the self-collision model's
+  // default spacings, which a plan would otherwise compute again.
+  const env::SelfCollisionOptions defaults;
+  int sampled = 0;
+  for (const robot::LinkSdfJob& job : jobs) {
+    for (const geometry::TriangleMesh& element : job.elements) {
+      for (double spacing : {defaults.sample_spacing, defaults.penalty_spacing}) {
+        if (core::Status s = env::WriteLinkSurfaceSamples(element, spacing, cache_dir); !s.ok()) {
+          std::fprintf(stderr, "quadhand-sdfgen: warning: surface samples not cached: %s\n", s.message().c_str());
+          return 0;
+        }
+        ++sampled;
+      }
+    }
+  }
+  core::LogInfo("cached %d element surface sampling(s) in %s", sampled, cache_dir.c_str());
   return 0;
 }

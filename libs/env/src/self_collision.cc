@@ -8,6 +8,7 @@
 #include <set>
 
 #include "quadhand/core/worker_pool.h"
+#include "quadhand/env/surface_sample_cache.h"
 #include "quadhand/opt/penalty.h"
 #include "quadhand/robot/link_meshes.h"
 
@@ -176,8 +177,9 @@ core::Result<std::unique_ptr<SelfCollisionModel>> SelfCollisionModel::Create(
     for (size_t i = next++; i < jobs.size(); i = next++) {
       const Job& job = jobs[i];
       auto& parts = job.penalty ? penalty_parts : check_parts;
-      parts[job.link][job.element] = SampleLinkSurface(link_elements[job.link][job.element],
-                                                       job.penalty ? options.penalty_spacing : options.sample_spacing);
+      parts[job.link][job.element] =
+          CachedLinkSurfaceSamples(link_elements[job.link][job.element],
+                                   job.penalty ? options.penalty_spacing : options.sample_spacing, options.sample_cache_dir);
     }
   });
   for (int link : collision_links) {

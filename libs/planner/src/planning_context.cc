@@ -116,6 +116,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
   }
   env::SelfCollisionOptions self_options;
   self_options.safety_distance = t.self_safety_distance;
+  if (!t.sdf_dir.empty()) self_options.sample_cache_dir = robot::MeshCacheDirOf(t.sdf_dir);
   auto self_collision = env::SelfCollisionModel::Create(context->robot_, *context->exact_, srdf_disabled, self_options);
   if (!self_collision.ok()) return self_collision.status().WithPrefix(t.robot_path);
   context->self_collision_ = std::move(*self_collision);

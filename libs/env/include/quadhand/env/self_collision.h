@@ -57,6 +57,10 @@ struct SelfCollisionOptions {
   double sample_spacing = 0.003;
   // Surface sample spacing of the penalty's samples, metres.
   double penalty_spacing = 0.01;
+  // A folder of cached surface samples (surface_sample_cache.h) read before
+  // sampling an element; empty: none. The planner gives the SDF folder's
+  // `meshes/`, where quadhand-sdfgen writes them at the default spacings.
+  std::string sample_cache_dir;
   bool IsValid(std::string* why) const;
 };
 
