@@ -217,13 +217,15 @@ int main(int argc, char** argv) {
   info.checked_points = static_cast<long>((*context)->checked_points().size());
   info.self_collision = &(*context)->self_collision();
   info.front_end_inflation = (*context)->front_end_inflation();
+  info.mission = &(*context)->task().mission;
+  info.step_end_times = planner::MissionStepEndTimes((*context)->task(), *result);
   if (core::Status s = outputs.Stage(report_path, planner::PlanReportJson(*result, robot, info)); !s.ok()) {
     return Fail(s.message());
   }
   if (result->trajectory && (result->success || keep_failed_plan)) {
-    if (core::Status s = outputs.Stage(out_path, io::PlanTableCsv(planner::SamplePlanTable(*result->trajectory, robot, dt))); !s.ok()) {
-      return Fail(s.message());
-    }
+    io::PlanTable table = planner::SamplePlanTable(*result->trajectory, robot, dt);
+    planner::AppendMissionColumns((*context)->task().mission, info.step_end_times, &table);
+    if (core::Status s = outputs.Stage(out_path, io::PlanTableCsv(table)); !s.ok()) return Fail(s.message());
   }
   if (!html_path.empty() && result->trajectory) {
     auto page = HtmlPage(*result, robot, (*context)->points(), task_path, (*context)->task().tool_link);

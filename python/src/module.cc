@@ -210,9 +210,12 @@ PlanOutput RunPlan(const PlanArguments& args) {
   info.sdf_load_ms = context->sdf_load_seconds() * 1e3;
   info.scene_points = static_cast<long>(context->points().size());
   info.checked_points = static_cast<long>(context->checked_points().size());
+  info.mission = &context->task().mission;
+  info.step_end_times = planner::MissionStepEndTimes(context->task(), result);
   output.report_json = planner::PlanReportJson(result, context->robot(), info);
   if (result.trajectory && (result.success || args.keep_failed_plan)) {
     io::PlanTable table = planner::SamplePlanTable(*result.trajectory, context->robot(), args.dt);
+    planner::AppendMissionColumns(context->task().mission, info.step_end_times, &table);
     output.csv = io::PlanTableCsv(table);
     output.columns = std::move(table.columns);
     output.table = std::move(table.values);

@@ -18,6 +18,18 @@ namespace quadhand::planner {
 // the duration, into the plan file's columns for the robot's joints.
 io::PlanTable SamplePlanTable(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, double dt);
 
+// For a task with a mission (contracts.md 0.3): appends the columns `step`
+// (the index of the step flown at each row's time) and `gripper` (1 while
+// an object is held: from the start of its grasp to the start of its
+// release; else 0). `step_end_times` holds each step's end, s, increasing
+// (the last is the plan's duration). Nothing for a task without one.
+void AppendMissionColumns(const std::vector<MissionStep>& mission, const std::vector<double>& step_end_times,
+                          io::PlanTable* table);
+
+// Each step's end time in a plan of `task`: today a mission plans only as
+// one reach, which ends with the plan. Empty for a task without a mission.
+std::vector<double> MissionStepEndTimes(const Task& task, const PlanResult& result);
+
 // What the report records besides the result itself.
 struct PlanReportInfo {
   std::string task;            // the task file, or a description of where the task came from
@@ -45,6 +57,10 @@ struct PlanReportInfo {
   // recorded when null.
   const env::SelfCollisionModel* self_collision = nullptr;
   double front_end_inflation = -1.0;  // m; not recorded when negative
+  // The task's mission, for the report's `steps` (contracts.md 0.3); none
+  // recorded when null or empty. `step_end_times`: MissionStepEndTimes.
+  const std::vector<MissionStep>* mission = nullptr;
+  std::vector<double> step_end_times = {};
 };
 
 // The report as pretty-printed JSON text (two-space indent, newline at the end).
