@@ -114,7 +114,8 @@ class GrowingLog {
   size_t written_ = 0;
 };
 
-int DryRun(const planner::PlanningContext& context, const online::PlanningSetup& setup, double rate) {
+int DryRun(const planner::PlanningContext& context, const online::PlanningSetup& setup, double rate,
+           double hold_time) {
   const auto begin = Clock::now();
   auto result = planner::Plan(setup.scene, context.task(), setup.plan_options, *setup.solver);
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - begin).count();
@@ -133,7 +134,7 @@ int DryRun(const planner::PlanningContext& context, const online::PlanningSetup&
               trajectory.duration(), ms, result->post_check.min_clearance_exact);
   std::printf("would stream %ld SET_POSITION_TARGET_LOCAL_NED + JOINT_SP pairs at %.1f Hz (type_mask 0, "
               "MAV_FRAME_LOCAL_NED) after >= %.1f s of hold, OFFBOARD and arming; peak speed %.2f m/s\n",
-              count, rate, online::OnlineOptions{}.hold_time, max_speed);
+              count, rate, hold_time, max_speed);
   std::printf("first setpoints (plan time):\n");
   for (long k = 0; k < std::min<long>(count, 5); ++k) {
     PrintWireSetpoint(k * period, online::FromSample(trajectory.Sample(k * period)));
@@ -332,7 +333,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "quadhand-online: caution: %s\n", caution.c_str());
   }
   online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config->planner, config->replan, solver->get()};
-  if (dry_run) return DryRun(ctx, setup, rate);
+  if (dry_run) return DryRun(ctx, setup, rate, options.hold_time);
 
   options.replanning = !no_replan;
   options.require_clock_sync = !no_timesync;

@@ -454,9 +454,11 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
 
 TEST_F(OnlineCliTest, DryRunPrintsWhatWouldBeStreamed) {
   // (A long --arrival-hold alone is accepted: the default --arrival-timeout grows with it.)
-  const auto r = RunCommand(kOnline + " " + WriteTask() + " --dry-run --rate 25 --arrival-hold 20 --threads 1 --arrival-settle-speed 0.02");
+  const auto r = RunCommand(kOnline + " " + WriteTask() +
+                            " --dry-run --rate 25 --arrival-hold 20 --threads 1 --arrival-settle-speed 0.02 --hold-time 2.5");
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("at 25.0 Hz"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("after >= 2.5 s of hold"), std::string::npos) << r.out;  // the --hold-time given
   EXPECT_NE(r.out.find("first setpoints"), std::string::npos) << r.out;
   // The task's start in NED: north 0.2, east 0.5, down -1.2; yaw pi (west) is -pi/2 from north.
   EXPECT_NE(r.out.find("NED p=(  0.200   0.500  -1.200)"), std::string::npos) << r.out;
