@@ -19,6 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::CountLines;
+using testing::ReadAll;
 using testing::RunCommand;
 
 const std::string kPlan = std::string(QUADHAND_BIN_DIR) + "/quadhand-plan";
@@ -232,16 +233,12 @@ TEST_F(PlanCliTest, PlansWithTheCadExportTestRobot) {
   int entries = 0;
   for (const auto& file : fs::directory_iterator(fs::path(sdf) / "meshes")) entries += file.path().extension() == ".qhmesh";
   EXPECT_GE(entries, 3);
-  auto read = [](const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  };
-  const std::string cached_plan = read(out);
+  const std::string cached_plan = ReadAll(out);
   fs::remove_all(fs::path(sdf) / "meshes");
   fs::remove(out);
   const auto uncached = RunCommand(kPlan + " " + task + " --out " + out + " --report " + report);
   EXPECT_EQ(uncached.exit_code, 0) << uncached.err;
-  EXPECT_EQ(read(out), cached_plan);
+  EXPECT_EQ(ReadAll(out), cached_plan);
   fs::remove(out);
   fs::remove(report);
   ExpectBadInput(WriteTask({{"robot:", "robot: " + root + "/tests/data/cad_robot/cad_robot_holed.urdf"},
@@ -277,23 +274,19 @@ std::string WindowCupMission(const std::string& more_steps) {
 }
 
 TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalWithStepColumnsAndLongerOnesAreRefusedForNow) {
-  auto read = [](const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  };
   const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
   const auto goal = RunCommand(kPlan + " " + WriteTask({}) + " --out " + out + " --report " + report);
   ASSERT_EQ(goal.exit_code, 0) << goal.err;
-  const std::string goal_plan = read(out), goal_report = read(report);
+  const std::string goal_plan = ReadAll(out), goal_report = ReadAll(report);
   fs::remove(out);
   fs::remove(report);
   const std::string mission = (dir_ / "mission.yaml").string();
   std::ofstream(mission) << WindowCupMission("");
   const auto one_reach = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
-  ASSERT_EQ(one_reach.exit_code, 0) << one_reach.err << read(mission);
+  ASSERT_EQ(one_reach.exit_code, 0) << one_reach.err << ReadAll(mission);
   // The goal's plan, each row with the mission's columns (contracts.md 0.3):
   // step 0, gripper open.
-  std::istringstream goal_lines(goal_plan), mission_lines(read(out));
+  std::istringstream goal_lines(goal_plan), mission_lines(ReadAll(out));
   std::string goal_line, mission_line;
   ASSERT_TRUE(std::getline(goal_lines, goal_line) && std::getline(mission_lines, mission_line));
   EXPECT_EQ(mission_line, goal_line + ",step,gripper");
@@ -305,7 +298,7 @@ TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalWithStepColumnsAndLongerOnes
   }
   EXPECT_FALSE(std::getline(mission_lines, mission_line));
   EXPECT_GT(rows, 100);
-  const std::string mission_report = read(report);
+  const std::string mission_report = ReadAll(report);
   EXPECT_NE(mission_report.find("\"steps\": ["), std::string::npos) << mission_report;
   EXPECT_NE(mission_report.find("\"kind\": \"reach\""), std::string::npos);
   EXPECT_NE(mission_report.find("\"held_object_min_clearance_m\": null"), std::string::npos);
@@ -339,15 +332,11 @@ TEST_F(PlanCliTest, AGraspTooHeavyOrOfAnOpenMeshIsRefusedNamingTheStep) {
 }
 
 TEST_F(PlanCliTest, AnExactClearanceNobodyMeasuredIsReportedAsABound) {
-  auto read = [](const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  };
   const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
   // The default scene: the cup and the windows are measured.
   const auto near = RunCommand(kPlan + " " + WriteTask({}) + " --out " + out + " --report " + report);
   ASSERT_EQ(near.exit_code, 0) << near.err;
-  EXPECT_NE(read(report).find("\"min_clearance_exact_is_lower_bound\": false"), std::string::npos);
+  EXPECT_NE(ReadAll(report).find("\"min_clearance_exact_is_lower_bound\": false"), std::string::npos);
   EXPECT_EQ(near.out.find("exact >= "), std::string::npos) << near.out;
   // One scene point 20 m away: nothing is ever within the search reach.
   const std::string scene = (dir_ / "far.pcd").string();
@@ -356,7 +345,7 @@ TEST_F(PlanCliTest, AnExactClearanceNobodyMeasuredIsReportedAsABound) {
   const auto far = RunCommand(kPlan + " " + WriteTask({{"scene:", "scene: " + scene}}) + " --out " + out + " --report " +
                               report);
   ASSERT_EQ(far.exit_code, 0) << far.err;
-  const std::string text = read(report);
+  const std::string text = ReadAll(report);
   EXPECT_NE(text.find("\"min_clearance_exact_is_lower_bound\": true"), std::string::npos) << text;
   EXPECT_NE(text.find("\"closest_link\": \"\""), std::string::npos);
   EXPECT_NE(far.out.find("(exact >= 0."), std::string::npos) << far.out;
@@ -369,11 +358,7 @@ TEST_F(PlanCliTest, RefusesOutputsThatWouldDestroySomething) {
   const std::string task = WriteTask({{"scene:", "scene: " + scene}});
   fs::create_directories(dir_ / "folder");
   fs::create_symlink(dir_ / "elsewhere.csv", dir_ / "link.csv");
-  auto read = [](const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  };
-  const std::string task_bytes = read(task), scene_bytes = read(scene);
+  const std::string task_bytes = ReadAll(task), scene_bytes = ReadAll(scene);
   const std::string report = (dir_ / "report.json").string(), out = (dir_ / "plan.csv").string();
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"--out " + task + " --report " + report, "is an input of this run"},
@@ -395,8 +380,8 @@ TEST_F(PlanCliTest, RefusesOutputsThatWouldDestroySomething) {
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
     EXPECT_EQ(CountLines(r.err), 1) << r.err;
     EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
-    EXPECT_EQ(read(task), task_bytes) << args;
-    EXPECT_EQ(read(scene), scene_bytes) << args;
+    EXPECT_EQ(ReadAll(task), task_bytes) << args;
+    EXPECT_EQ(ReadAll(scene), scene_bytes) << args;
     EXPECT_FALSE(fs::exists(report)) << args;
     EXPECT_FALSE(fs::exists(out)) << args;
     EXPECT_FALSE(fs::exists(dir_ / "elsewhere.csv")) << args;

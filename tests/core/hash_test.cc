@@ -59,5 +59,19 @@ TEST(HashTest, FastHash64SeesSwappedWordsAndDependsOnTheSeed) {
   EXPECT_NE(FastHash64(base.data(), base.size(), 1), FastHash64(base.data(), base.size(), 2));
 }
 
+TEST(HashTest, AChecksummedBodyReadsBackOnlyUnchanged) {
+  std::string bytes = "the body of a file";
+  core::AppendFastHash64Checksum(&bytes);
+  ASSERT_EQ(bytes.size(), 18u + 8u);
+  const auto body = FastHash64ChecksummedBody(bytes);
+  ASSERT_TRUE(body.has_value());
+  EXPECT_EQ(*body, "the body of a file");
+  std::string corrupted = bytes;
+  corrupted[3] ^= 0x01;
+  EXPECT_FALSE(FastHash64ChecksummedBody(corrupted).has_value());
+  EXPECT_FALSE(FastHash64ChecksummedBody(bytes.substr(0, bytes.size() - 1)).has_value());
+  EXPECT_FALSE(FastHash64ChecksummedBody("short").has_value());
+}
+
 }  // namespace
 }  // namespace quadhand::core

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <string_view>
 
 #include "quadhand/core/file_util.h"
@@ -46,10 +47,9 @@ bool ReadEntry(const std::string& path, const std::string& key, LinkSurfaceSampl
   if (!file.mapped()) return false;
   const std::string_view bytes = file.bytes();
   if (bytes.size() < sizeof(kMagic) + 4 + key.size() + 3 * 8 + 8) return false;
-  const size_t end = bytes.size() - sizeof(uint64_t);
-  uint64_t checksum = 0;
-  std::memcpy(&checksum, bytes.data() + end, sizeof(checksum));
-  if (checksum != core::FastHash64(bytes.data(), end)) return false;
+  const std::optional<std::string_view> body = core::FastHash64ChecksummedBody(bytes);
+  if (!body) return false;
+  const size_t end = body->size();
   size_t at = 0;
   auto get = [&](void* data, size_t size) {
     if (end - at < size) return false;
@@ -121,8 +121,7 @@ core::Status WriteLinkSurfaceSamples(const geometry::TriangleMesh& mesh, double 
     put(range, sizeof(range));
     put(sphere, sizeof(sphere));
   }
-  const uint64_t checksum = core::FastHash64(out.data(), out.size());
-  put(&checksum, sizeof(checksum));
+  core::AppendFastHash64Checksum(&out);
   std::error_code error;
   std::filesystem::create_directories(cache_dir, error);
   if (error) return core::Status::InvalidArgument(cache_dir + ": cannot create the folder: " + error.message());

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <optional>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -124,7 +126,7 @@ core::Status WriteRepairedMeshCache(const std::string& path, const RepairedMeshC
     out.append(reinterpret_cast<const char*>(shell.triangles.data()),
                shell.triangles.size() * sizeof(Eigen::Vector3i));
   }
-  Put<uint64_t>(&out, core::FastHash64(out.data(), out.size()));
+  core::AppendFastHash64Checksum(&out);
   std::error_code error;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), error);
   if (error) return core::Status::InvalidArgument(path + ": cannot create its folder: " + error.message());
@@ -143,10 +145,9 @@ core::Result<RepairedMesh> ReadRepairedMeshCache(const std::string& path, const 
   if (bytes->size() < sizeof(kMagic) + sizeof(uint64_t) || std::memcmp(bytes->data(), kMagic, sizeof(kMagic)) != 0) {
     return invalid("bad magic bytes");
   }
-  const size_t end = bytes->size() - sizeof(uint64_t);
-  uint64_t stored_checksum = 0;
-  std::memcpy(&stored_checksum, bytes->data() + end, sizeof(stored_checksum));
-  if (stored_checksum != core::FastHash64(bytes->data(), end)) return invalid("checksum mismatch (file corrupted)");
+  const std::optional<std::string_view> body = core::FastHash64ChecksummedBody(*bytes);
+  if (!body) return invalid("checksum mismatch (file corrupted)");
+  const size_t end = body->size();
 
   Reader r(*bytes, end);
   char magic[sizeof(kMagic)];

@@ -131,8 +131,7 @@ std::string SdfGrid::Serialize() const {
   w.PutString(info_.source);
   w.Put<uint64_t>(values_.size());
   w.PutBytes(values_.data(), values_.size() * sizeof(float));
-  const uint64_t checksum = core::FastHash64(w.bytes().data(), w.bytes().size());
-  w.Put<uint64_t>(checksum);
+  core::AppendFastHash64Checksum(&w.bytes());
   return std::move(w.bytes());
 }
 

@@ -11,6 +11,7 @@
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/text.h"
 #include "quadhand/core/yaml_text.h"
+#include "quadhand/geometry/primitives.h"
 
 namespace quadhand::planner {
 namespace {
@@ -372,26 +373,22 @@ std::optional<Vec3> ToolPositionBefore(const std::vector<MissionStep>& mission, 
   return tool;
 }
 
-// The distance from `x` (world) to the object's surface at its pose; a
-// lower bound of 0 inside it; for a mesh, the distance to its frame's origin
-// less nothing (its vertices come with the robot).
+// The distance from `x` (world) to the object's surface at its pose, 0
+// inside it (geometry/primitives.h); for a mesh, the distance to its
+// frame's origin (its vertices are read with the robot).
 double DistanceToObject(const MissionObject& object, const Vec3& x) {
-  const Vec3 local = object.pose.inverse() * x;
   const ObjectShape& s = object.shape;
   switch (s.kind) {
     case ObjectShape::Kind::kBox:
-      return (local.cwiseAbs() - 0.5 * s.box_size).cwiseMax(0.0).norm();
-    case ObjectShape::Kind::kCylinder: {
-      const double radial = std::max(0.0, local.head<2>().norm() - s.radius);
-      const double axial = std::max(0.0, std::abs(local.z()) - 0.5 * s.length);
-      return std::hypot(radial, axial);
-    }
+      return std::max(0.0, geometry::SignedDistance(geometry::Box{object.pose, s.box_size}, x));
+    case ObjectShape::Kind::kCylinder:
+      return std::max(0.0, geometry::SignedDistance(geometry::Cylinder{object.pose, s.radius, s.length}, x));
     case ObjectShape::Kind::kSphere:
-      return std::max(0.0, local.norm() - s.radius);
+      return std::max(0.0, geometry::SignedDistance(geometry::Sphere{object.pose.translation(), s.radius}, x));
     case ObjectShape::Kind::kMesh:
-      return local.norm();
+      break;
   }
-  return local.norm();
+  return (x - object.pose.translation()).norm();
 }
 
 // A grasp closes on an object the tool touches: its surface no farther from

@@ -75,9 +75,14 @@ void ReportRepairs(const std::string& where, const std::string& path, const geom
 using FileKey = std::tuple<std::string, std::uintmax_t, std::filesystem::file_time_type::rep, double, double>;
 using PlacementKey = std::array<double, 15>;  // the origin's 3 x 4 matrix, then the scale
 using PlacedKey = std::pair<FileKey, PlacementKey>;
+struct PlacedElement {
+  geometry::RepairedMesh repaired;  // shells in the link frame
+  Pose origin = Pose::Identity();   // the element's placement, for the cache's key
+  Vec3 scale = Vec3::Ones();
+};
 struct PlacedMemo {
   std::mutex mutex;
-  std::map<PlacedKey, geometry::RepairedMesh> entries;  // shells in the link frame
+  std::map<PlacedKey, PlacedElement> entries;
 };
 PlacedMemo& Placed() {
   static PlacedMemo memo;
@@ -104,11 +109,11 @@ PlacementKey PlacementOf(const CollisionGeometry& element) {
   return key;
 }
 
-geometry::RepairedMeshCacheKey CacheKeyOf(const geometry::RepairedMeshCacheKey& file_key,
-                                          const CollisionGeometry& element) {
+geometry::RepairedMeshCacheKey CacheKeyOf(const geometry::RepairedMeshCacheKey& file_key, const Pose& origin,
+                                          const Vec3& scale) {
   geometry::RepairedMeshCacheKey key = file_key;
-  key.placement = element.origin;
-  key.scale = element.mesh_scale;
+  key.placement = origin;
+  key.scale = scale;
   return key;
 }
 
@@ -145,14 +150,14 @@ Result<geometry::RepairedMesh> PlacedShells(const CollisionGeometry& element, co
   PlacedMemo& memo = Placed();
   if (keyed) {
     std::lock_guard<std::mutex> lock(memo.mutex);
-    if (auto it = memo.entries.find(key); it != memo.entries.end()) return it->second;
+    if (auto it = memo.entries.find(key); it != memo.entries.end()) return it->second.repaired;
   }
   std::optional<geometry::RepairedMesh> placed;
   if (!cache_dir.empty()) {
     // A miss or an unusable entry (corrupted, another revision) only costs
     // the repair below: the cache never needs to be right.
     if (auto file_hash = geometry::RepairedMeshCacheKeyOf(element.mesh_path, repair); file_hash.ok()) {
-      const geometry::RepairedMeshCacheKey cache_key = CacheKeyOf(*file_hash, element);
+      const geometry::RepairedMeshCacheKey cache_key = CacheKeyOf(*file_hash, element.origin, element.mesh_scale);
       auto entry = geometry::ReadRepairedMeshCache(geometry::RepairedMeshCachePath(cache_dir, cache_key), cache_key);
       if (entry.ok()) placed = std::move(*entry);
     }
@@ -165,7 +170,7 @@ Result<geometry::RepairedMesh> PlacedShells(const CollisionGeometry& element, co
   if (keyed) {
     std::lock_guard<std::mutex> lock(memo.mutex);
     if (memo.entries.size() >= kPlacedMemoSize) memo.entries.clear();
-    memo.entries.emplace(key, *placed);
+    memo.entries.emplace(key, PlacedElement{*placed, element.origin, element.mesh_scale});
   }
   return std::move(*placed);
 }
@@ -220,17 +225,19 @@ std::string MeshCacheDirOf(const std::string& sdf_dir) {
 }
 
 core::Result<int> SaveMeshRepairCache(const std::string& cache_dir) {
-  std::vector<std::pair<PlacedKey, geometry::RepairedMesh>> entries;
+  std::vector<std::pair<FileKey, PlacedElement>> entries;
   {
     PlacedMemo& memo = Placed();
     std::lock_guard<std::mutex> lock(memo.mutex);
-    for (const auto& [key, placed] : memo.entries) {
-      if (placed.report.problem.empty() && !placed.shells.empty()) entries.emplace_back(key, placed);
+    for (const auto& [key, element] : memo.entries) {
+      if (element.repaired.report.problem.empty() && !element.repaired.shells.empty()) {
+        entries.emplace_back(key.first, element);
+      }
     }
   }
   int written = 0;
-  for (const auto& [key, placed] : entries) {
-    const auto& [file_key, placement] = key;
+  for (const auto& [file_key, element] : entries) {
+    const geometry::RepairedMesh& placed = element.repaired;
     geometry::MeshRepairOptions repair;
     repair.tolerance = std::get<3>(file_key);
     repair.metres_per_unit = std::get<4>(file_key);
@@ -245,11 +252,7 @@ core::Result<int> SaveMeshRepairCache(const std::string& cache_dir) {
     if (!bounds_volume) continue;
     auto file_hash = geometry::RepairedMeshCacheKeyOf(path, repair);
     if (!file_hash.ok()) continue;
-    geometry::RepairedMeshCacheKey cache_key = *file_hash;
-    Eigen::Matrix<double, 3, 4> matrix;
-    for (int i = 0; i < 12; ++i) matrix(i % 3, i / 3) = placement[i];
-    cache_key.placement.affine() = matrix;
-    cache_key.scale = Vec3(placement[12], placement[13], placement[14]);
+    const geometry::RepairedMeshCacheKey cache_key = CacheKeyOf(*file_hash, element.origin, element.scale);
     const core::Status saved =
         geometry::WriteRepairedMeshCache(geometry::RepairedMeshCachePath(cache_dir, cache_key), cache_key, placed);
     if (!saved.ok()) return saved;

@@ -6,6 +6,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <optional>
+#include <string>
+#include <string_view>
 
 namespace quadhand::core {
 
@@ -50,6 +53,25 @@ inline uint64_t FastHash64(const void* data, size_t size, uint64_t hash = kFnv1a
   hash = Fnv1a64(bytes + 32 * blocks, size - 32 * blocks, hash);
   const uint64_t length = size;
   return Fnv1a64(&length, sizeof(length), hash);
+}
+
+// The project's binary files (SDFs from version 2, the repaired-mesh and
+// surface-sample caches) end with a FastHash64 of every byte before it,
+// little-endian. Appends that checksum to `bytes`.
+inline void AppendFastHash64Checksum(std::string* bytes) {
+  const uint64_t checksum = FastHash64(bytes->data(), bytes->size());
+  bytes->append(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
+}
+
+// The bytes before such a checksum, when it matches them; nullopt when it
+// does not (a corrupted or truncated file) or there are not 8 bytes.
+inline std::optional<std::string_view> FastHash64ChecksummedBody(std::string_view bytes) {
+  if (bytes.size() < sizeof(uint64_t)) return std::nullopt;
+  const size_t end = bytes.size() - sizeof(uint64_t);
+  uint64_t stored = 0;
+  std::memcpy(&stored, bytes.data() + end, sizeof(stored));
+  if (stored != FastHash64(bytes.data(), end)) return std::nullopt;
+  return bytes.substr(0, end);
 }
 
 }  // namespace quadhand::core
