@@ -72,9 +72,9 @@ def cup_points(cx, cy, z_bottom, height, r_outer, r_inner, step):
     return points
 
 
-def write_binary_pcd(path, points):
+def write_binary_pcd(path, points, title="window-and-cup benchmark scene (scripts/make_window_cup_scene.py)"):
     header = (
-        "# .PCD v0.7 - window-and-cup benchmark scene (scripts/make_window_cup_scene.py)\n"
+        f"# .PCD v0.7 - {title}\n"
         "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
         f"WIDTH {len(points)}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {len(points)}\nDATA binary\n"
     )

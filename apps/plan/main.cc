@@ -18,6 +18,7 @@
 #include "quadhand/planner/plan_output.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planner_config.h"
+#include "quadhand/planner/mission_plan.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/robot/kinematics.h"
@@ -188,7 +189,7 @@ int main(int argc, char** argv) {
   const double representation_ms = (*context)->representations().front().build_ms;
 
   const planner::PlannerOptions options = planner::RunPlannerOptions(config, dt, seed, verbose);
-  auto result = planner::Plan((*context)->Scene(), task, options, **solver);
+  auto result = planner::PlanTask(**context, 0, options, **solver);
   if (!result.ok()) return Fail(result.status().message());
   // Printed once the input is known to be good, so that bad input gives its
   // error line alone.

@@ -23,6 +23,7 @@
 #include "quadhand/robot/link_meshes.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planner_config.h"
+#include "quadhand/planner/mission_plan.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/planner/post_check.h"
 #include "quadhand/planner/representation.h"
@@ -189,7 +190,7 @@ PlanOutput RunPlan(const PlanArguments& args) {
   const double representation_ms = context->representations().front().build_ms;
 
   const planner::PlannerOptions options = planner::RunPlannerOptions(config, args.dt, args.seed, args.verbose);
-  planner::PlanResult result = Take(planner::Plan(context->Scene(), context->task(), options, *solver));
+  planner::PlanResult result = Take(planner::PlanTask(*context, 0, options, *solver));
 
   PlanOutput output;
   // The meshes' repairs (each file once per process) come first: they are

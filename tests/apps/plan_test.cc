@@ -273,7 +273,7 @@ std::string WindowCupMission(const std::string& more_steps) {
   return text.substr(0, goal + 1) + "mission:\n  - reach:\n" + indented + more_steps + text.substr(limits + 1);
 }
 
-TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalWithStepColumnsAndLongerOnesAreRefusedForNow) {
+TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalWithStepColumns) {
   const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
   const auto goal = RunCommand(kPlan + " " + WriteTask({}) + " --out " + out + " --report " + report);
   ASSERT_EQ(goal.exit_code, 0) << goal.err;
@@ -306,11 +306,98 @@ TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalWithStepColumnsAndLongerOnes
   fs::remove(out);
   fs::remove(report);
 
-  std::ofstream(mission, std::ios::trunc) << WindowCupMission("  - hold: {duration: 1.0}\n");
-  ExpectBadInput(mission, "mission.yaml: mission: 2 steps (reach, hold) read and checked, but this version plans only "
-                          "a mission of one reach");
   std::ofstream(mission, std::ios::trunc) << WindowCupMission("  - release: {}\n");
   ExpectBadInput(mission, "mission.yaml: mission[1].release: nothing is held");
+}
+
+// The cup of the default scene: a cylinder of radius 0.04 m, z 0.80 to 0.90 m.
+const std::string kGraspTheCup =
+    "  - grasp:\n"
+    "      object:\n"
+    "        shape: {cylinder: {radius: 0.04, length: 0.10}}\n"
+    "        pose: {position: [-3.2, 0.0, 0.85], orientation: [1, 0, 0, 0]}\n"
+    "        mass: 0.08\n";
+
+// Reads the report's steps and the plan's step and gripper columns.
+struct MissionOutput {
+  nlohmann::json report;
+  std::vector<std::vector<double>> rows;  // t, z, step, gripper
+};
+
+MissionOutput ReadMissionOutput(const std::string& plan, const std::string& report) {
+  MissionOutput output;
+  output.report = nlohmann::json::parse(ReadAll(report));
+  std::istringstream lines(ReadAll(plan));
+  std::string line;
+  std::getline(lines, line);
+  EXPECT_NE(line.find(",step,gripper"), std::string::npos) << line;
+  while (std::getline(lines, line)) {
+    std::vector<double> values;
+    std::istringstream cells(line);
+    for (std::string cell; std::getline(cells, cell, ',');) values.push_back(std::stod(cell));
+    output.rows.push_back({values[0], values[3], values[values.size() - 2], values.back()});
+  }
+  return output;
+}
+
+TEST_F(PlanCliTest, GraspsTheCupLiftsItAndHoldsAsOnePlan) {
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const std::string mission = (dir_ / "mission.yaml").string();
+  std::ofstream(mission) << WindowCupMission(kGraspTheCup + "  - move: {length: 0.15}\n  - hold: {duration: 0.5}\n");
+  const auto r = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const MissionOutput output = ReadMissionOutput(out, report);
+  const nlohmann::json& steps = output.report["steps"];
+  ASSERT_EQ(steps.size(), 4u);
+  const char* kinds[] = {"reach", "grasp", "move", "hold"};
+  for (size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(steps[i]["kind"], kinds[i]);
+    EXPECT_TRUE(steps[i]["certified"].get<bool>()) << steps[i];
+    if (i > 0) {
+      EXPECT_DOUBLE_EQ(steps[i]["start_s"].get<double>(), steps[i - 1]["end_s"].get<double>());
+    }
+  }
+  EXPECT_TRUE(steps[0]["held_object_min_clearance_m"].is_null());
+  for (size_t i = 1; i < 4; ++i) EXPECT_GE(steps[i]["held_object_min_clearance_m"].get<double>(), 0.0) << steps[i];
+  // Resting on its pedestal, the cup is only the scene margin (1 cm) from
+  // what is left of it; lifted 15 cm, it keeps the safety distance.
+  EXPECT_LT(steps[1]["held_object_min_clearance_m"].get<double>(), 0.03);
+  EXPECT_GE(steps[3]["held_object_min_clearance_m"].get<double>(), 0.028);
+  EXPECT_GT(steps[2]["end_s"].get<double>(), steps[2]["start_s"].get<double>());
+  // The columns follow the steps; the gripper closes at the grasp; the
+  // base ends 0.15 m above where it grasped, at rest.
+  double grasp_z = 0.0;
+  for (const auto& row : output.rows) {
+    const int step = static_cast<int>(row[2]);
+    EXPECT_EQ(row[3], step >= 1 ? 1.0 : 0.0) << row[0];
+    if (step == 1) grasp_z = row[1];
+  }
+  EXPECT_EQ(output.rows.back()[2], 3.0);
+  EXPECT_NEAR(output.rows.back()[1] - grasp_z, 0.15, 1e-6);
+  EXPECT_NEAR(output.rows.back()[0], output.report["duration_s"].get<double>(), 1e-9);
+  bool held_check = false;
+  for (const auto& check : output.report["checks"]) held_check = held_check || check["name"] == "held_object_clearance";
+  EXPECT_TRUE(held_check) << output.report["checks"];
+}
+
+TEST_F(PlanCliTest, AHeldObjectThatCannotKeepItsDistanceFailsNamingTheStep) {
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const std::string mission = (dir_ / "mission.yaml").string();
+  // Pushed sideways along the pedestal's top, the cup would have to leave
+  // its support's 1 cm margin behind: a move not right after the grasp
+  // keeps the safety distance, and this one cannot.
+  std::ofstream(mission) << WindowCupMission(kGraspTheCup + "  - hold: {duration: 0.2}\n"
+                                             "  - move: {direction: [0, 1, 0], length: 0.05}\n");
+  const auto r = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
+  ASSERT_EQ(r.exit_code, 1) << r.err << r.out;
+  EXPECT_FALSE(fs::exists(out));
+  const nlohmann::json result = nlohmann::json::parse(ReadAll(report));
+  EXPECT_FALSE(result["success"].get<bool>());
+  const std::string message = result["message"];
+  EXPECT_NE(message.find("mission[2] (hold)"), std::string::npos) << message;
+  EXPECT_NE(message.find("held_object_clearance"), std::string::npos) << message;
+  EXPECT_FALSE(result["steps"][3]["planned"].get<bool>());
+  EXPECT_TRUE(result["steps"][3]["min_clearance_m"].is_null());
 }
 
 TEST_F(PlanCliTest, AGraspTooHeavyOrOfAnOpenMeshIsRefusedNamingTheStep) {

@@ -111,6 +111,36 @@ std::vector<Vec3> PointsAroundLinks(const robot::RobotModel& robot, const robot:
   return points;
 }
 
+TEST(ExactMeshModelTest, AModelOfSomeLinksMeasuresThoseAsTheWholeModelDoes) {
+  const testing::QuadHandFixture& fx = testing::CoarseQuadHand();
+  std::vector<Vec3> points;
+  for (int i = 0; i < 400; ++i) points.push_back(Vec3(0.002 * i - 0.4, 0.1 * std::sin(0.1 * i), 0.05));
+  auto index = std::make_shared<const scene::PointGrid>(points, ExactMeshModel::kIndexCellSize);
+  auto all = ExactMeshModel::Create(fx.robot, index);
+  ASSERT_TRUE(all.ok());
+  const std::vector<int> every = fx.robot.CollisionLinks();
+  ASSERT_GE(every.size(), 3u);
+  const std::vector<int> some = {every[1], every.back()};
+  auto part = ExactMeshModel::Create(fx.robot, index, some);
+  ASSERT_TRUE(part.ok()) << part.status().message();
+  EXPECT_EQ((*part)->links(), some);
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(fx.robot, Pose::Identity(), VecX::Zero(fx.robot.num_actuated()), &kinematics);
+  double least = 1.0;
+  for (int link : some) {
+    const Pose& X = kinematics.link_poses[link];
+    const double d = (*part)->LinkClearance(link, X, 1.0, {});
+    EXPECT_DOUBLE_EQ(d, (*all)->LinkClearance(link, X, 1.0, {}));
+    least = std::min(least, d);
+  }
+  int closest = -1;
+  EXPECT_DOUBLE_EQ(WholeBodyClearance(kinematics, **part, 1.0, {}, &closest), least);
+  EXPECT_TRUE(closest == some[0] || closest == some[1]);
+  // Only collision links of the robot.
+  EXPECT_FALSE(ExactMeshModel::Create(fx.robot, index, {fx.robot.num_links()}).ok());
+  EXPECT_FALSE(ExactMeshModel::Create(fx.robot, index, {-1}).ok());
+}
+
 TEST(ExactMeshModelTest, PenaltyIsTheBruteForceSumAndItsWrenchMatchesFiniteDifferences) {
   const testing::QuadHandFixture& fx = testing::CoarseQuadHand();
   robot::KinematicsState kinematics;

@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include "quadhand/robot/kinematics.h"
 #include "robot/robot_test_util.h"
 
 namespace quadhand::robot {
@@ -195,6 +196,50 @@ TEST(RobotModelTest, JointsToLinkListsThePathRootFirst) {
   const std::vector<int> to_tool = {model.JointIndex("shoulder"), model.JointIndex("slider"),
                                     model.JointIndex("wrist"), model.JointIndex("tool_joint")};
   EXPECT_EQ(model.JointsToLink(model.LinkIndex("tool")), to_tool);
+}
+
+TEST(RobotModelTest, AFixedLinkAddedLastMovesWithItsParent) {
+  const RobotModel model = LoadArm2();
+  const int tool = model.LinkIndex("tool");
+  Link held;
+  held.name = "held";
+  CollisionGeometry sphere;
+  sphere.type = GeometryType::kSphere;
+  sphere.radius = 0.02;
+  held.collisions.push_back(sphere);
+  held.mass = 0.1;
+  const Pose origin = MakePose(Vec3(0.0, 0.0, 0.05), Eigen::AngleAxisd(0.3, Vec3::UnitX()).toRotationMatrix());
+  auto with = model.WithFixedLink(tool, "held_joint", held, origin);
+  ASSERT_TRUE(with.ok()) << with.status().message();
+  ASSERT_EQ(with->num_links(), model.num_links() + 1);
+  ASSERT_EQ(with->num_joints(), model.num_joints() + 1);
+  EXPECT_EQ(with->num_actuated(), model.num_actuated());
+  const int link = with->num_links() - 1;
+  EXPECT_EQ(with->LinkIndex("held"), link);
+  EXPECT_EQ(with->link(link).parent_joint, with->num_joints() - 1);
+  EXPECT_EQ(with->joint(with->num_joints() - 1).parent_link, tool);
+  std::vector<int> path = model.JointsToLink(tool);
+  path.push_back(with->num_joints() - 1);
+  EXPECT_EQ(with->JointsToLink(link), path);
+  EXPECT_DOUBLE_EQ(with->TotalMass(), model.TotalMass() + 0.1);
+  EXPECT_EQ(with->CollisionLinks().back(), link);
+  // Every configuration puts it at the parent's pose times its origin.
+  const Pose base = MakePose(Vec3(1, 2, 3), Eigen::AngleAxisd(0.7, Vec3::UnitZ()).toRotationMatrix());
+  const VecX q = VecX::LinSpaced(model.num_actuated(), 0.1, 0.3);
+  const Pose expected = LinkPose(model, base, q, tool) * origin;
+  EXPECT_TRUE(LinkPose(*with, base, q, link).isApprox(expected, 1e-12));
+  // The robot it came from is unchanged.
+  EXPECT_EQ(model.LinkIndex("held"), -1);
+
+  EXPECT_FALSE(model.WithFixedLink(-1, "j", held, origin).ok());
+  EXPECT_FALSE(model.WithFixedLink(model.num_links(), "j", held, origin).ok());
+  EXPECT_FALSE(model.WithFixedLink(tool, "shoulder", held, origin).ok());  // a joint of that name exists
+  held.name = "tool";
+  EXPECT_FALSE(model.WithFixedLink(tool, "j", held, origin).ok());  // a link of that name exists
+  held.name = "held";
+  Pose bad = origin;
+  bad.translation().x() = std::nan("");
+  EXPECT_FALSE(model.WithFixedLink(tool, "j", held, bad).ok());
 }
 
 TEST(RobotModelTest, CollisionGeometry) {

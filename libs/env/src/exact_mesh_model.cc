@@ -43,8 +43,19 @@ core::Result<std::unique_ptr<ExactMeshModel>> ExactMeshModel::Create(const robot
 
 core::Result<std::unique_ptr<ExactMeshModel>> ExactMeshModel::Create(const robot::RobotModel& robot,
                                                                     std::shared_ptr<const scene::PointGrid> index) {
+  return Create(robot, std::move(index), robot.CollisionLinks());
+}
+
+core::Result<std::unique_ptr<ExactMeshModel>> ExactMeshModel::Create(const robot::RobotModel& robot,
+                                                                    std::shared_ptr<const scene::PointGrid> index,
+                                                                    const std::vector<int>& links) {
   if (index == nullptr) return core::Status::InvalidArgument("exact mesh model: no indexed cloud");
-  std::vector<int> links = robot.CollisionLinks();
+  for (int link : links) {
+    if (link < 0 || link >= robot.num_links() || robot.link(link).collisions.empty()) {
+      return core::Status::InvalidArgument("exact mesh model: link " + std::to_string(link) +
+                                           " is not a collision link of the robot");
+    }
+  }
   std::vector<LinkGeometry> geometry;
   for (int link : links) {
     auto meshes = robot::LinkCollisionElements(robot, link);

@@ -144,10 +144,21 @@ core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> 
 }
 
 core::Status LoadLinkSdfGrids(const robot::RobotModel& robot, const std::string& sdf_dir, std::vector<int>* links_out,
-                              std::vector<geometry::SdfGrid>* grids_out) {
+                              std::vector<geometry::SdfGrid>* grids_out,
+                              const std::vector<std::pair<int, geometry::SdfGrid>>& given) {
   std::vector<int> links = robot.CollisionLinks();
+  auto given_grid = [&given](int link) -> const geometry::SdfGrid* {
+    for (const auto& [index, grid] : given) {
+      if (index == link) return &grid;
+    }
+    return nullptr;
+  };
   std::vector<std::string> paths;
   for (int link : links) {
+    if (given_grid(link) != nullptr) {
+      paths.emplace_back();
+      continue;
+    }
     auto sdf_path = robot::LinkSdfPath(sdf_dir, robot.link(link).name);
     if (!sdf_path.ok()) return sdf_path.status();
     paths.push_back(*sdf_path);
@@ -158,7 +169,10 @@ core::Status LoadLinkSdfGrids(const robot::RobotModel& robot, const std::string&
   std::atomic<size_t> next{0};
   core::WorkerPool pool(core::WorkerCount(0, static_cast<int>(std::max<size_t>(1, links.size()))));
   pool.Run([&](int) {
-    for (size_t i = next++; i < links.size(); i = next++) loaded[i].emplace(geometry::SdfGrid::Load(paths[i]));
+    for (size_t i = next++; i < links.size(); i = next++) {
+      const geometry::SdfGrid* grid = given_grid(links[i]);
+      loaded[i].emplace(grid != nullptr ? core::Result<geometry::SdfGrid>(*grid) : geometry::SdfGrid::Load(paths[i]));
+    }
   });
   std::vector<geometry::SdfGrid> grids;
   for (size_t i = 0; i < links.size(); ++i) {

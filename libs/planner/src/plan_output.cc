@@ -62,8 +62,15 @@ void AppendMissionColumns(const std::vector<MissionStep>& mission, const std::ve
 }
 
 std::vector<double> MissionStepEndTimes(const Task& task, const PlanResult& result) {
-  if (task.mission.empty()) return {};
-  return {result.trajectory ? result.trajectory->duration() : 0.0};
+  if (task.mission.empty() || result.steps.size() != task.mission.size()) return {};
+  std::vector<double> ends;
+  double last = 0.0;
+  for (const StepResult& step : result.steps) {
+    // A step after the one that failed was not flown: it ends where the plan does.
+    last = step.planned ? step.end_s : (result.trajectory ? result.trajectory->duration() : last);
+    ends.push_back(last);
+  }
+  return ends;
 }
 
 std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& robot, const PlanReportInfo& info) {
@@ -113,22 +120,25 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   report["min_clearance_exact_is_lower_bound"] = result.post_check.min_clearance_exact_is_bound;
   report["closest_link"] = result.post_check.closest_link >= 0 ? robot.link(result.post_check.closest_link).name : "";
   report["certified"] = result.post_check.certified;
-  if (info.mission != nullptr && !info.mission->empty() && info.step_end_times.size() == info.mission->size()) {
-    // Per step (contracts.md 0.3). A mission plans today only as one reach:
-    // its figures are the whole plan's.
+  if (info.mission != nullptr && !info.mission->empty() && result.steps.size() == info.mission->size()) {
+    // Per step (contracts.md 0.3); a step after the one that failed was
+    // not planned: its figures are null.
     nlohmann::json steps = nlohmann::json::array();
-    for (size_t i = 0; i < info.mission->size(); ++i) {
+    for (const StepResult& s : result.steps) {
       nlohmann::json step;
-      step["kind"] = StepKindName((*info.mission)[i].kind);
-      step["start_s"] = i == 0 ? 0.0 : info.step_end_times[i - 1];
-      step["end_s"] = info.step_end_times[i];
-      step["min_clearance_m"] = result.post_check.min_clearance_exact;
-      step["min_clearance_is_lower_bound"] = result.post_check.min_clearance_exact_is_bound;
-      step["held_object_min_clearance_m"] = nullptr;
-      step["certified"] = result.post_check.certified;
+      step["kind"] = StepKindName(s.kind);
+      step["planned"] = s.planned;
+      step["start_s"] = s.planned ? nlohmann::json(s.start_s) : nlohmann::json(nullptr);
+      step["end_s"] = s.planned ? nlohmann::json(s.end_s) : nlohmann::json(nullptr);
+      step["min_clearance_m"] = s.planned ? nlohmann::json(s.min_clearance) : nlohmann::json(nullptr);
+      step["min_clearance_is_lower_bound"] = s.min_clearance_is_bound;
+      step["held_object_min_clearance_m"] =
+          s.held_object_min_clearance ? nlohmann::json(*s.held_object_min_clearance) : nlohmann::json(nullptr);
+      step["certified"] = s.certified;
       steps.push_back(step);
     }
     report["steps"] = steps;
+    report["mission_phase_build_ms"] = result.mission_phase_ms;
   }
   report["certified_clearance_m"] = result.post_check.certified_clearance;
   report["certified_margin_m"] = result.post_check.certified_margin;

@@ -13,6 +13,7 @@ const char* PlanStatusName(PlanStatus status) {
     case PlanStatus::kInsertionInProgress: return "insertion_in_progress";
     case PlanStatus::kStartInCollision: return "start_in_collision";
     case PlanStatus::kInvalidInput: return "invalid_input";
+    case PlanStatus::kMissionStepInvalid: return "mission_step_invalid";
   }
   return "unknown";
 }
@@ -31,6 +32,7 @@ const char* CheckKindName(CheckKind kind) {
     case CheckKind::kEndState: return "end_state";
     case CheckKind::kInsertion: return "insertion";
     case CheckKind::kSampling: return "sampling";
+    case CheckKind::kHeldObjectClearance: return "held_object_clearance";
   }
   return "unknown";
 }

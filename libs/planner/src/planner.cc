@@ -19,13 +19,30 @@ double MillisecondsSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
+bool MissionPlanOptions::IsValid(std::string* why) const {
+  auto fail = [why](const char* message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (!(object_sdf_resolution >= 5e-4 && object_sdf_resolution <= 0.05)) {
+    return fail("mission.object_sdf_resolution must be in [0.0005, 0.05] m");
+  }
+  if (!(object_sdf_padding >= 0.02 && object_sdf_padding <= 0.5)) return fail("mission.object_sdf_padding must be in [0.02, 0.5] m");
+  if (!(released_surface_spacing >= 5e-4 && released_surface_spacing <= 0.05)) {
+    return fail("mission.released_surface_spacing must be in [0.0005, 0.05] m");
+  }
+  if (!(move_speed > 0.0 && move_speed <= 10.0)) return fail("mission.move_speed must be in (0, 10] m/s");
+  if (!(move_min_duration >= 0.0 && move_min_duration <= 60.0)) return fail("mission.move_min_duration must be in [0, 60] s");
+  return true;
+}
+
 bool PlannerOptions::IsValid(std::string* why) const {
   auto fail = [why](const char* message) {
     if (why != nullptr) *why = message;
     return false;
   };
   std::string inner;
-  if (!cost.IsValid(&inner) || !solver.IsValid(&inner) || !post_check.IsValid(&inner)) {
+  if (!cost.IsValid(&inner) || !solver.IsValid(&inner) || !post_check.IsValid(&inner) || !mission.IsValid(&inner)) {
     if (why != nullptr) *why = inner;
     return false;
   }
@@ -430,6 +447,11 @@ core::Status TryAlternativeGuesses(const PlanningScene& scene, const Task& task,
 core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
                               const opt::Solver& solver) {
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
+  if (task.mission.size() > 1) {
+    return core::Status::InvalidArgument(task.file + ": mission: " + std::to_string(task.mission.size()) +
+                                         " steps; only a goal or a mission of one reach plans here (PlanTask "
+                                         "plans missions)");
+  }
   if (!task.terminal && !task.tool) return core::Status::InvalidArgument(task.file + ": goal: no terminal state or tool pose");
   PlanResult result;
   auto resolved = ResolveGoal(scene, task, options, solver, &result);

@@ -133,6 +133,11 @@ void Visit(Config& c, Visitor&& v) {
 
   v("meshes.repair_tolerance", c.mesh_repair_tolerance);
   v("mission.payload_limit", c.payload_limit);
+  v("mission.object_sdf_resolution", p.mission.object_sdf_resolution);
+  v("mission.object_sdf_padding", p.mission.object_sdf_padding);
+  v("mission.released_surface_spacing", p.mission.released_surface_spacing);
+  v("mission.move_speed", p.mission.move_speed);
+  v("mission.move_min_duration", p.mission.move_min_duration);
 
   // Last: representations registered from outside follow as their own sections.
   auto& m = c.representations;

@@ -73,6 +73,30 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Load(const std::
 core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
     Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
     const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points) {
+  return Build(std::move(task), std::move(robot), std::move(points), dropped_non_finite, options,
+               std::move(checked_points), {});
+}
+
+core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForMissionPhase(
+    robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points,
+    std::shared_ptr<const std::vector<Vec3>> checked_points,
+    const std::vector<std::pair<int, geometry::SdfGrid>>& given_sdfs) const {
+  // The grids this context loaded serve the phase too (its robot is this
+  // one, plus perhaps a held object): no file is read again.
+  std::vector<std::pair<int, geometry::SdfGrid>> grids = given_sdfs;
+  if (sdf_grids_ != nullptr) {
+    for (size_t g = 0; g < sdf_links_.size(); ++g) grids.emplace_back(sdf_links_[g], (*sdf_grids_)[g]);
+  }
+  auto phase = Build(task_, std::move(robot), std::move(points), dropped_non_finite_, options_,
+                     std::move(checked_points), grids);
+  if (phase.ok()) (*phase)->scene_load_seconds_ = 0.0;
+  return phase;
+}
+
+core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
+    Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
+    const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
+    const std::vector<std::pair<int, geometry::SdfGrid>>& given_sdfs) {
   QUADHAND_RETURN_IF_ERROR(CheckRepresentationNames(options));
   if (checked_points == nullptr) checked_points = points;
   for (const auto* cloud : {&points, &checked_points}) {
@@ -83,7 +107,6 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
   }
   QUADHAND_RETURN_IF_ERROR(ApplyRobot(robot, &task));
   QUADHAND_RETURN_IF_ERROR(CheckMissionObjects(task, options));
-  QUADHAND_RETURN_IF_ERROR(CheckPlannable(task));
   geometry::MeshRepairOptions repair;
   repair.tolerance = options.mesh_repair_tolerance;
   if (std::string why; !repair.IsValid(&why)) return core::Status::InvalidArgument(why);
@@ -91,6 +114,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
   // quadhand-sdfgen cached its repairs of the meshes next to the SDFs.
   if (!task.sdf_dir.empty()) robot.set_mesh_cache_dir(robot::MeshCacheDirOf(task.sdf_dir));
   std::unique_ptr<PlanningContext> context(new PlanningContext(std::move(task), std::move(robot)));
+  context->options_ = options;
   context->points_ = std::move(points);
   context->checked_points_ = std::move(checked_points);
   context->dropped_non_finite_ = dropped_non_finite;
@@ -130,7 +154,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
     const auto load_start = std::chrono::steady_clock::now();
     std::vector<int> links;
     std::vector<geometry::SdfGrid> grids;
-    const core::Status loaded = env::LoadLinkSdfGrids(context->robot_, t.sdf_dir, &links, &grids);
+    const core::Status loaded = env::LoadLinkSdfGrids(context->robot_, t.sdf_dir, &links, &grids, given_sdfs);
     // MRC-SDF cannot plan without them; the other representations can, and
     // then the optimiser has no self-collision term (the post-check still
     // keeps the pairs apart, with the exact meshes).
@@ -143,6 +167,8 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
         }
       }
       sdf_grids = std::make_shared<const std::vector<geometry::SdfGrid>>(std::move(grids));
+      context->sdf_grids_ = sdf_grids;
+      context->sdf_links_ = links;
       sdf_load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start).count();
       if (!context->self_collision_->pairs().empty()) {
         QUADHAND_RETURN_IF_ERROR(context->self_collision_->AttachSdfGrids(sdf_grids));

@@ -567,17 +567,6 @@ std::vector<std::string> TaskCautions(const Task& task) {
   return cautions;
 }
 
-core::Status CheckPlannable(const Task& task) {
-  if (task.mission.empty() || (task.mission.size() == 1 && task.mission[0].kind == StepKind::kReach)) {
-    return core::Status::Ok();
-  }
-  std::string kinds;
-  for (const MissionStep& step : task.mission) kinds += (kinds.empty() ? "" : ", ") + std::string(StepKindName(step.kind));
-  return core::Status::InvalidArgument(
-      task.file + ": mission: " + std::to_string(task.mission.size()) + " steps (" + kinds +
-      ") read and checked, but this version plans only a mission of one reach (docs/missions.md)");
-}
-
 core::Status ApplyRobot(const robot::RobotModel& robot, Task* task) {
   const int n = robot.num_actuated();
   const VecX lower = robot.LowerLimits(), upper = robot.UpperLimits();

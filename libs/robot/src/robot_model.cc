@@ -591,6 +591,30 @@ Result<RobotModel> RobotModel::Load(const std::string& xml, const std::string& b
   return model;
 }
 
+core::Result<RobotModel> RobotModel::WithFixedLink(int parent, const std::string& joint_name, Link link,
+                                                   const Pose& origin) const {
+  if (parent < 0 || parent >= num_links()) return core::Status::InvalidArgument("fixed link: no parent link " + std::to_string(parent));
+  if (LinkIndex(link.name) >= 0) return core::Status::InvalidArgument("fixed link: the robot has a link named '" + link.name + "' already");
+  if (JointIndex(joint_name) >= 0) {
+    return core::Status::InvalidArgument("fixed link: the robot has a joint named '" + joint_name + "' already");
+  }
+  if (!origin.matrix().allFinite()) return core::Status::InvalidArgument("fixed link '" + link.name + "': non-finite origin");
+  RobotModel model = *this;
+  Joint joint;
+  joint.name = joint_name;
+  joint.type = JointType::kFixed;
+  joint.parent_link = parent;
+  joint.child_link = num_links();
+  joint.origin = origin;
+  link.parent_joint = num_joints();
+  model.joints_.push_back(joint);
+  model.links_.push_back(std::move(link));
+  std::vector<int> path = joints_to_link_[parent];
+  path.push_back(joint.child_link - 1);
+  model.joints_to_link_.push_back(std::move(path));
+  return model;
+}
+
 int RobotModel::LinkIndex(const std::string& name) const {
   for (int i = 0; i < num_links(); ++i) {
     if (links_[i].name == name) return i;

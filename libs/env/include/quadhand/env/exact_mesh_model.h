@@ -32,6 +32,12 @@ class ExactMeshModel final : public CollisionModel {
   // The same with the cloud already indexed, and shared (with MRC-SDF, say).
   static core::Result<std::unique_ptr<ExactMeshModel>> Create(const robot::RobotModel& robot,
                                                               std::shared_ptr<const scene::PointGrid> index);
+  // The same for `links` only (each a collision link of `robot`): e.g. the
+  // robot without the object it holds, or the object alone, which a
+  // mission's checks judge by different rules (planner/mission.h).
+  static core::Result<std::unique_ptr<ExactMeshModel>> Create(const robot::RobotModel& robot,
+                                                              std::shared_ptr<const scene::PointGrid> index,
+                                                              const std::vector<int>& links);
   ~ExactMeshModel() override;
 
   std::string name() const override { return "exact"; }

@@ -33,9 +33,11 @@ using SharedSdfGrids = std::shared_ptr<const std::vector<geometry::SdfGrid>>;
 
 // Loads `<sdf_dir>/<link>.qhsdf` for every collision link of `robot`,
 // checking each file's link name; errors name the file (a missing one says
-// how to make it).
+// how to make it). The links in `given` (robot link index and its grid: a
+// held object's, made in memory) take that grid instead of a file.
 core::Status LoadLinkSdfGrids(const robot::RobotModel& robot, const std::string& sdf_dir, std::vector<int>* links,
-                              std::vector<geometry::SdfGrid>* grids);
+                              std::vector<geometry::SdfGrid>* grids,
+                              const std::vector<std::pair<int, geometry::SdfGrid>>& given = {});
 
 class MrcSdfModel final : public CollisionModel {
  public:

@@ -26,8 +26,9 @@ io::PlanTable SamplePlanTable(const WholeBodyTrajectory& trajectory, const robot
 void AppendMissionColumns(const std::vector<MissionStep>& mission, const std::vector<double>& step_end_times,
                           io::PlanTable* table);
 
-// Each step's end time in a plan of `task`: today a mission plans only as
-// one reach, which ends with the plan. Empty for a task without a mission.
+// Each step's end time in a plan of `task` (PlanResult::steps; a step that
+// was not planned ends where the plan does). Empty for a task without a
+// mission.
 std::vector<double> MissionStepEndTimes(const Task& task, const PlanResult& result);
 
 // What the report records besides the result itself.

@@ -16,6 +16,10 @@ enum class PlanStatus {
   kInsertionInProgress,   // replan refused: the straight insertion has begun
   kStartInCollision,      // replan refused: the measured start is too deep inside the scene
   kInvalidInput,          // the request itself was rejected (recorded by callers, never set by Plan())
+  // A mission step cannot start or end where the steps before it leave the
+  // robot (its start or end state too close to the scene, say): set by
+  // PlanTask(), never by Plan().
+  kMissionStepInvalid,
 };
 
 // "success", "post_check_failed", ... (as in reports).
@@ -35,6 +39,10 @@ enum class CheckKind {
   kEndState,
   kInsertion,
   kSampling,      // the trajectory needs more samples than are ever checked (a failure, never run)
+  // An object held in a mission (planner/mission.h) vs the scene's points:
+  // the safety distance, or >= 0 on the lines next to its grasp and release
+  // (contracts.md 0.3). Set by PlanTask(), never by PostCheck().
+  kHeldObjectClearance,
 };
 
 // "clearance", "velocity", ..., "joint_rate".

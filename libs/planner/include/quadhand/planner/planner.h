@@ -23,11 +23,29 @@
 
 namespace quadhand::planner {
 
+// How the steps of a mission other than `reach` are made and checked
+// (PlanTask(), docs/missions.md).
+struct MissionPlanOptions {
+  // A held object's SDF, made in memory at each grasp for the optimiser
+  // (the checks use its exact shape): node spacing and margin, metres.
+  double object_sdf_resolution = 0.004;
+  double object_sdf_padding = 0.06;
+  // A released object joins the scene as points this far apart on its surface.
+  double released_surface_spacing = 0.005;
+  // A move's top speed when its step gives no max_speed (also capped by
+  // v_max), m/s, and its shortest duration, s.
+  double move_speed = 0.25;
+  double move_min_duration = 0.5;
+
+  bool IsValid(std::string* why) const;
+};
+
 struct PlannerOptions {
   WholeBodyCostOptions cost;
   opt::SolverOptions solver;  // defaults set by DefaultPlannerOptions()
   PostCheckOptions post_check;
   TerminalStateOptions terminal_state;  // for goals given only as a tool pose
+  MissionPlanOptions mission;
   // The optimiser penalises distances below safety distance + this margin, so
   // that SDF interpolation (< 1 mm) and sampling between cost samples do not
   // eat into the safety distance the post-check demands.
@@ -97,6 +115,21 @@ struct PlanAttempt {
   std::string post_check_failure;  // what failed, for people; empty when it passed
 };
 
+// One mission step's outcome (contracts.md 0.3: the report's `steps`).
+struct StepResult {
+  StepKind kind = StepKind::kReach;
+  double start_s = 0.0, end_s = 0.0;
+  // The least exact clearance of the robot (without the object it holds)
+  // over the step, and whether it is only the search reach (nothing nearer).
+  double min_clearance = 0.0;
+  bool min_clearance_is_bound = false;
+  // The held object's certified least clearance over the step; none while
+  // nothing is held.
+  std::optional<double> held_object_min_clearance;
+  bool certified = false;  // every check of the step passed, clearances certified
+  bool planned = false;    // false for the steps after the one that failed
+};
+
 struct PlanResult {
   bool success = false;
   PlanStatus status = PlanStatus::kSolverFailed;
@@ -125,6 +158,11 @@ struct PlanResult {
   // the trajectory is the current plan's unchanged pieces; negative when the
   // whole trajectory is new.
   double rejoined_at = -1.0;
+  // A task with a mission: one entry per step, in order (PlanTask()), and
+  // the time spent making each phase's scene after a grasp or a release
+  // (its representations, front-end map and the held object's SDF).
+  std::vector<StepResult> steps;
+  double mission_phase_ms = 0;
 };
 
 // Builds a collision model for one plan from the front-end path (its corner

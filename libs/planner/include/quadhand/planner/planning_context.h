@@ -11,6 +11,7 @@
 
 #include "quadhand/core/status.h"
 #include "quadhand/core/types.h"
+#include "quadhand/geometry/sdf_grid.h"
 #include "quadhand/planner/front_end.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/post_check.h"
@@ -58,6 +59,19 @@ class PlanningContext {
       Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
       const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points = nullptr);
 
+  // The context of one phase of a mission (planner/mission_plan.h): this
+  // context's task and options with `robot` (this robot, or this robot
+  // holding an object: robot::RobotModel::WithFixedLink) and the scene
+  // `points` (checked_points: what the post-check judges against; null:
+  // the same), with grasped objects taken out and released ones put in.
+  // `given_sdfs` are the SDFs of links without a file in the task's
+  // sdf_dir (a held object's, made in memory), by robot link index.
+  core::Result<std::unique_ptr<PlanningContext>> ForMissionPhase(
+      robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points,
+      std::shared_ptr<const std::vector<Vec3>> checked_points,
+      const std::vector<std::pair<int, geometry::SdfGrid>>& given_sdfs) const;
+
+  const PlanningContextOptions& options() const { return options_; }
   const Task& task() const { return task_; }
   const robot::RobotModel& robot() const { return robot_; }
   const std::vector<Vec3>& points() const { return *points_; }  // planned against
@@ -82,7 +96,12 @@ class PlanningContext {
 
  private:
   PlanningContext(Task task, robot::RobotModel robot) : task_(std::move(task)), robot_(std::move(robot)) {}
+  static core::Result<std::unique_ptr<PlanningContext>> Build(
+      Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
+      const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
+      const std::vector<std::pair<int, geometry::SdfGrid>>& given_sdfs);
 
+  PlanningContextOptions options_;
   Task task_;
   robot::RobotModel robot_;
   std::shared_ptr<const std::vector<Vec3>> points_;
@@ -96,6 +115,10 @@ class PlanningContext {
   std::unique_ptr<FrontEndMap> front_end_;
   double front_end_inflation_ = 0.0;
   std::vector<Representation> representations_;
+  // The link SDFs loaded (null: none), and their robot links, for the
+  // phases of a mission (ForMissionPhase).
+  std::shared_ptr<const std::vector<geometry::SdfGrid>> sdf_grids_;
+  std::vector<int> sdf_links_;
 };
 
 }  // namespace quadhand::planner

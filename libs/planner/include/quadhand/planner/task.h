@@ -75,12 +75,6 @@ std::vector<std::string> TaskCautions(const Task& task);
 // nearer: it is a lower bound, and reports say so.
 inline double ClearanceSearchReach(const Task& task) { return task.safety_distance + 0.05; }
 
-// Whether this version plans the task: a goal, or a mission of one reach.
-// A longer mission is read and checked in full, then refused here with
-// InvalidArgument naming the file and its steps (contracts.md: a planner
-// refuses what it does not plan yet; docs/missions.md).
-core::Status CheckPlannable(const Task& task);
-
 // Checks the task against the robot (joint counts, start and terminal joints
 // within limits), fills the joint limits from the URDF and checks tool_link:
 // an error when the task named a link the robot lacks, or has a tool goal

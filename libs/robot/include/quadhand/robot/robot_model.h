@@ -79,6 +79,15 @@ class RobotModel {
   static core::Result<RobotModel> LoadFromUrdfString(const std::string& xml,
                                                      const std::string& base_dir);
 
+  // This robot with one more link, `link` (its parent_joint is ignored),
+  // fixed to `parent` at `origin` (X_PL) by a joint named `joint_name`: an
+  // object held in the gripper (planner/mission.h). The new link is the
+  // last (its index is num_links()), so every existing index stays valid.
+  // InvalidArgument for an unknown parent, a name already taken, or a
+  // non-finite origin.
+  core::Result<RobotModel> WithFixedLink(int parent, const std::string& joint_name, Link link,
+                                         const Pose& origin) const;
+
   const std::string& name() const { return name_; }
 
   int num_links() const { return static_cast<int>(links_.size()); }

@@ -1,0 +1,44 @@
+// Planning a whole task: a goal, or a mission (planner/mission.h,
+// docs/missions.md) as one trajectory.
+//
+// A mission is flown as legs that meet at rest: every step ends at rest (a
+// reach at its terminal state, a move at the end of its line, a via at its
+// point, a grasp, release or hold after its time), so the legs join into one
+// piecewise polynomial that is as smooth at each junction as inside a leg.
+// A reach (and a via) is planned by Plan() from where the step before it
+// ended; a move is a straight rest-to-rest line of the base with the arm and
+// yaw held; a grasp, release or hold is a hover. Between a grasp and its
+// release the robot carries the object as one more link fixed to the tool
+// link (its SDF made in memory for the optimiser, its exact shape for the
+// checks), and the scene points within the grasp's scene_margin of it are
+// gone; after the release its surface is scene.
+//
+// Every leg is post-checked (the continuous-time certificate included)
+// against the scene of its phase, the robot without the object at the
+// safety distance and, while something is held, the object alone by the
+// held_object_clearance rule of contracts.md 0.3: the safety distance, or
+// clearance >= 0 on the grasp step, a move right after it and the release
+// step. Stricter than the contract: the insertion of the reach before a
+// release keeps the safety distance too (docs/missions.md).
+#pragma once
+
+#include <cstddef>
+
+#include "quadhand/core/status.h"
+#include "quadhand/opt/solver.h"
+#include "quadhand/planner/planner.h"
+#include "quadhand/planner/planning_context.h"
+
+namespace quadhand::planner {
+
+// Plans context.task() with representation `representation` (its index in
+// the context): a goal, or a mission of one reach, exactly as Plan() does
+// (the result then has one step); a longer mission leg by leg as above.
+// A step that cannot be planned ends the plan: the result names it in
+// `message`, its steps from that one on are not `planned`, and `trajectory`
+// holds the legs planned before it. Errors (exit 2 in the applications) are
+// for input that cannot be right whatever the plan.
+core::Result<PlanResult> PlanTask(const PlanningContext& context, size_t representation, const PlannerOptions& options,
+                                  const opt::Solver& solver);
+
+}  // namespace quadhand::planner

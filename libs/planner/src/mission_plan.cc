@@ -1,0 +1,659 @@
+#include "quadhand/planner/mission_plan.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/text.h"
+#include "quadhand/env/exact_mesh_model.h"
+#include "quadhand/env/link_surface_samples.h"
+#include "quadhand/geometry/mesh_distance.h"
+#include "quadhand/geometry/mesh_to_sdf.h"
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/robot/link_meshes.h"
+
+namespace quadhand::planner {
+namespace {
+
+constexpr const char* kHeldObjectLinkName = "quadhand_held_object";
+constexpr const char* kHeldObjectJointName = "quadhand_held_object_joint";
+constexpr double kGravity = 9.81;
+// The rest-to-rest line of degree 7 (MINCO of order 4 with one piece and
+// every derivative zero at both ends) covers L in T with a top speed of
+// 35/16 L/T and a top acceleration of 84 sqrt(5)/25 L/T^2.
+constexpr double kRestLineSpeedFactor = 35.0 / 16.0;
+const double kRestLineAccelerationFactor = 84.0 * std::sqrt(5.0) / 25.0;
+
+Pose HoverPose(const BoundaryState& state) {
+  return MakePose(state.position, Eigen::AngleAxisd(state.yaw, Vec3::UnitZ()).toRotationMatrix());
+}
+
+BoundaryState AtRest(const Vec3& position, double yaw, const VecX& joints) {
+  BoundaryState state;
+  state.position = position;
+  state.yaw = yaw;
+  state.joints = joints;
+  return state;
+}
+
+// A leg from `from` (at rest) to `to_position` at rest, yaw and joints
+// held, in `duration` seconds: a hover when the two positions are the same.
+core::Result<WholeBodyTrajectory> RestToRestLeg(const BoundaryState& from, const Vec3& to_position, double duration,
+                                                const traj::FlatnessOptions& flatness) {
+  const int n = static_cast<int>(from.joints.size());
+  traj::Minco position, aux;
+  QUADHAND_RETURN_IF_ERROR(position.Reset(4, 3, 1));
+  QUADHAND_RETURN_IF_ERROR(aux.Reset(2, 1 + n, 1));
+  MatX head = MatX::Zero(4, 3), tail = MatX::Zero(4, 3);
+  head.row(0) = from.position.transpose();
+  tail.row(0) = to_position.transpose();
+  QUADHAND_RETURN_IF_ERROR(position.SetBoundary(head, tail));
+  MatX aux_state = MatX::Zero(2, 1 + n);
+  aux_state(0, 0) = from.yaw;
+  for (int q = 0; q < n; ++q) aux_state(0, 1 + q) = from.joints[q];
+  QUADHAND_RETURN_IF_ERROR(aux.SetBoundary(aux_state, aux_state));
+  const VecX durations = VecX::Constant(1, duration);
+  QUADHAND_RETURN_IF_ERROR(position.Generate(MatX(3, 0), durations));
+  QUADHAND_RETURN_IF_ERROR(aux.Generate(MatX(1 + n, 0), durations));
+  return WholeBodyTrajectory(std::move(position), std::move(aux), flatness);
+}
+
+core::Result<WholeBodyTrajectory> Join(const WholeBodyTrajectory& first, const WholeBodyTrajectory& second) {
+  auto position = traj::Minco::Joined(first.position(), second.position(), 0);
+  if (!position.ok()) return position.status();
+  auto aux = traj::Minco::Joined(first.aux(), second.aux(), 0);
+  if (!aux.ok()) return aux.status();
+  return WholeBodyTrajectory(std::move(*position), std::move(*aux), first.flatness());
+}
+
+robot::CollisionGeometry ObjectGeometry(const ObjectShape& shape) {
+  robot::CollisionGeometry g;
+  switch (shape.kind) {
+    case ObjectShape::Kind::kBox:
+      g.type = robot::GeometryType::kBox;
+      g.box_size = shape.box_size;
+      break;
+    case ObjectShape::Kind::kCylinder:
+      g.type = robot::GeometryType::kCylinder;
+      g.radius = shape.radius;
+      g.length = shape.length;
+      break;
+    case ObjectShape::Kind::kSphere:
+      g.type = robot::GeometryType::kSphere;
+      g.radius = shape.radius;
+      break;
+    case ObjectShape::Kind::kMesh:
+      g.type = robot::GeometryType::kMesh;
+      g.mesh_path = shape.mesh_path;
+      break;
+  }
+  return g;
+}
+
+// What is in the gripper between a grasp and its release.
+struct HeldObject {
+  size_t grasp_step = 0;
+  MissionObject object;
+  Pose object_in_tool = Pose::Identity();
+};
+
+// The scene, robot and checking models of one phase of the mission: before
+// the first grasp, while an object is held, after its release, ...
+struct Phase {
+  const PlanningContext* context = nullptr;
+  std::unique_ptr<PlanningContext> owned;
+  std::shared_ptr<const std::vector<Vec3>> points, checked_points;
+  std::optional<HeldObject> held;
+  int object_link = -1;
+  // While something is held: the robot without it, and the object alone.
+  std::unique_ptr<env::ExactMeshModel> robot_only, object_only;
+};
+
+std::pair<Vec3, Vec3> SceneBounds(const std::vector<Vec3>& points) {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const Vec3& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  return {lo, hi};
+}
+
+robot::Link ObjectLink(const MissionObject& object) {
+  robot::Link link;
+  link.name = kHeldObjectLinkName;
+  link.collisions.push_back(ObjectGeometry(object.shape));
+  link.mass = object.mass;
+  return link;
+}
+
+// The object's collision elements in its own frame (the shape tessellated
+// as the robot's primitives are, a mesh repaired as the robot's are).
+core::Result<std::vector<geometry::TriangleMesh>> ObjectElements(const robot::RobotModel& robot,
+                                                                 const MissionObject& object) {
+  auto with = robot.WithFixedLink(0, kHeldObjectJointName, ObjectLink(object), Pose::Identity());
+  if (!with.ok()) return with.status();
+  return robot::LinkCollisionElements(*with, with->num_links() - 1);
+}
+
+// Builds the phase that holds `held` (robot = context's base robot plus
+// the object) or nothing, on the given clouds.
+core::Result<Phase> MakePhase(const PlanningContext& base, std::optional<HeldObject> held,
+                              std::shared_ptr<const std::vector<Vec3>> points,
+                              std::shared_ptr<const std::vector<Vec3>> checked_points, const MissionPlanOptions& options) {
+  Phase phase;
+  phase.points = points;
+  phase.checked_points = checked_points;
+  phase.held = held;
+  robot::RobotModel robot = base.robot();
+  std::vector<std::pair<int, geometry::SdfGrid>> given;
+  if (held) {
+    const int tool_link = base.robot().LinkIndex(base.task().tool_link);
+    auto with = base.robot().WithFixedLink(tool_link, kHeldObjectJointName, ObjectLink(held->object), held->object_in_tool);
+    if (!with.ok()) return with.status();
+    robot = std::move(*with);
+    phase.object_link = robot.num_links() - 1;
+    auto elements = robot::LinkCollisionElements(robot, phase.object_link);
+    if (!elements.ok()) return elements.status();
+    geometry::SdfGenerationOptions sdf;
+    sdf.resolution = options.object_sdf_resolution;
+    sdf.padding = options.object_sdf_padding;
+    auto grid = geometry::GenerateSdf(*elements, kHeldObjectLinkName, "mission object", sdf);
+    if (!grid.ok()) return grid.status();
+    given.emplace_back(phase.object_link, std::move(*grid));
+  }
+  auto context = base.ForMissionPhase(std::move(robot), points, checked_points, given);
+  if (!context.ok()) return context.status();
+  phase.owned = std::move(*context);
+  phase.context = phase.owned.get();
+  if (held) {
+    const robot::RobotModel& r = phase.context->robot();
+    auto index = std::make_shared<const scene::PointGrid>(*checked_points, env::ExactMeshModel::kIndexCellSize);
+    std::vector<int> robot_links;
+    for (int link : r.CollisionLinks()) {
+      if (link != phase.object_link) robot_links.push_back(link);
+    }
+    auto robot_only = env::ExactMeshModel::Create(r, index, robot_links);
+    if (!robot_only.ok()) return robot_only.status();
+    auto object_only = env::ExactMeshModel::Create(r, index, {phase.object_link});
+    if (!object_only.ok()) return object_only.status();
+    phase.robot_only = std::move(*robot_only);
+    phase.object_only = std::move(*object_only);
+  }
+  return phase;
+}
+
+// `points` without those within `margin` of the object (world pose
+// `object_pose`): a grasped object leaves the scene.
+core::Result<std::vector<Vec3>> WithoutObject(const std::vector<Vec3>& points,
+                                              const std::vector<geometry::TriangleMesh>& elements,
+                                              const Pose& object_pose, double margin) {
+  std::vector<std::unique_ptr<geometry::MeshDistanceQuery>> queries;
+  for (const geometry::TriangleMesh& mesh : elements) {
+    auto query = geometry::MeshDistanceQuery::Create(mesh, true);
+    if (!query.ok()) return query.status();
+    queries.push_back(std::move(*query));
+  }
+  const Pose world_to_object = object_pose.inverse();
+  std::vector<Vec3> kept;
+  kept.reserve(points.size());
+  for (const Vec3& p : points) {
+    const Vec3 local = world_to_object * p;
+    bool near = false;
+    for (const auto& query : queries) near = near || query->SignedDistance(local) <= margin;
+    if (!near) kept.push_back(p);
+  }
+  return kept;
+}
+
+// The released object's surface at `object_pose`, sampled `spacing` apart.
+std::vector<Vec3> ObjectSurface(const std::vector<geometry::TriangleMesh>& elements, const Pose& object_pose,
+                                double spacing) {
+  std::vector<Vec3> surface;
+  for (const geometry::TriangleMesh& mesh : elements) {
+    for (const Vec3& p : env::SampleLinkSurface(mesh, spacing).points) surface.push_back(object_pose * p);
+  }
+  return surface;
+}
+
+// Folds one leg's post-check into the mission's: every check's worst,
+// times shifted by the leg's start.
+void MergeReport(const PostCheckReport& leg, double offset, bool first, PostCheckReport* all) {
+  if (first) {
+    *all = leg;
+    all->certified_intervals.clear();
+  } else {
+    all->passed = all->passed && leg.passed;
+    all->certified = all->certified && leg.certified;
+    if (leg.min_clearance_exact < all->min_clearance_exact) {
+      all->min_clearance_exact = leg.min_clearance_exact;
+      all->min_clearance_exact_is_bound = leg.min_clearance_exact_is_bound;
+      all->closest_link = leg.closest_link;
+    }
+    all->min_clearance_model = std::min(all->min_clearance_model, leg.min_clearance_model);
+    if (leg.min_self_distance < all->min_self_distance) {
+      all->min_self_distance = leg.min_self_distance;
+      all->closest_self_pair = leg.closest_self_pair;
+    }
+    if (leg.certified_clearance < all->certified_clearance) {
+      all->certified_clearance = leg.certified_clearance;
+      all->certified_margin = leg.certified_margin;
+    }
+    all->certified_self_distance = std::min(all->certified_self_distance, leg.certified_self_distance);
+    all->certificate_samples += leg.certificate_samples;
+    for (const auto& [name, ratio] : leg.violations) {
+      auto found = std::find_if(all->violations.begin(), all->violations.end(),
+                                [&name = name](const auto& v) { return v.first == name; });
+      if (found == all->violations.end()) {
+        all->violations.emplace_back(name, ratio);
+      } else {
+        found->second = std::max(found->second, ratio);
+      }
+    }
+    for (CheckResult check : leg.checks) {
+      check.time += offset;
+      auto found = std::find_if(all->checks.begin(), all->checks.end(), [&check](const CheckResult& c) {
+        return c.kind == check.kind && c.joint == check.joint && c.name == check.name;
+      });
+      if (found == all->checks.end()) {
+        all->checks.push_back(check);
+        continue;
+      }
+      // The first failure stands; until one, the worst: the least
+      // clearance, the largest excess, the mission's own start and end.
+      if (!found->passed) continue;
+      const bool clearance = check.kind == CheckKind::kClearance || check.kind == CheckKind::kSelfClearance ||
+                             check.kind == CheckKind::kHeldObjectClearance;
+      const bool worse = !check.passed || check.kind == CheckKind::kEndState ||
+                         (check.kind != CheckKind::kStartState &&
+                          (clearance ? check.value < found->value : check.value > found->value));
+      if (worse) *found = check;
+    }
+  }
+  all->clearance_checked_until = offset + leg.clearance_checked_until;
+  for (CertifiedInterval interval : leg.certified_intervals) {
+    interval.t0 += offset;
+    interval.t1 += offset;
+    all->certified_intervals.push_back(interval);
+  }
+}
+
+class MissionPlanner {
+ public:
+  MissionPlanner(const PlanningContext& context, size_t representation, const PlannerOptions& options,
+                 const opt::Solver& solver)
+      : base_(context), representation_(representation), options_(options), solver_(solver), task_(context.task()) {}
+
+  core::Result<PlanResult> Run();
+
+ private:
+  // One leg's outcome; false when the step failed (result_ says why).
+  core::Result<bool> PlanStep(size_t i);
+  core::Result<bool> ReachLeg(size_t i, const Task& leg_task, bool relaxed_object);
+  core::Result<bool> RestLeg(size_t i, const Vec3& to_position, double duration, const InsertionGoal& line,
+                             bool relaxed_object);
+  // Checks `trajectory` (from state_) as step i's leg and appends it.
+  core::Result<bool> CheckAndAppend(size_t i, WholeBodyTrajectory trajectory, const Task& leg_task,
+                                    const BoundaryState& end, const InsertionGoal& insertion, bool relaxed_object,
+                                    PostCheckReport robot_report);
+  core::Status Grasp(size_t i);
+  core::Status Release(size_t i);
+  Task LegTask() const;
+  // The phase's scene; its exact model without the held object when asked
+  // (the object is then checked on its own).
+  const PlanningScene Scene(bool without_held_object) const;
+  bool Fail(size_t i, PlanStatus status, const std::string& why);
+
+  const PlanningContext& base_;
+  size_t representation_;
+  const PlannerOptions& options_;
+  const opt::Solver& solver_;
+  const Task& task_;
+  Phase phase_;
+  BoundaryState state_;
+  std::optional<Vec3> last_insertion_;  // of the latest reach with one
+  PlanResult result_;
+  std::optional<WholeBodyTrajectory> whole_;
+  bool first_leg_ = true;
+};
+
+Task MissionPlanner::LegTask() const {
+  Task leg = task_;
+  leg.mission.clear();
+  leg.terminal.reset();
+  leg.tool.reset();
+  leg.start = state_;
+  return leg;
+}
+
+const PlanningScene MissionPlanner::Scene(bool without_held_object) const {
+  const PlanningScene scene = phase_.context->Scene(representation_);
+  if (!phase_.held || !without_held_object) return scene;
+  return PlanningScene{scene.robot, scene.collision, *phase_.robot_only, scene.front_end, scene.per_plan_collision,
+                       scene.self_collision};
+}
+
+bool MissionPlanner::Fail(size_t i, PlanStatus status, const std::string& why) {
+  result_.success = false;
+  result_.status = status;
+  result_.message = StepName(task_.mission, i) + ": " + why;
+  return false;
+}
+
+core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory trajectory, const Task& leg_task,
+                                                  const BoundaryState& end, const InsertionGoal& insertion,
+                                                  bool relaxed_object, PostCheckReport report) {
+  const double start_s = whole_ ? whole_->duration() : 0.0;
+  StepResult& step = result_.steps[i];
+  step.planned = true;
+  step.start_s = start_s;
+  step.end_s = start_s + trajectory.duration();
+  step.min_clearance = report.min_clearance_exact;
+  step.min_clearance_is_bound = report.min_clearance_exact_is_bound;
+  if (phase_.held) {
+    // The object alone, judged by the post-check's own certificate with
+    // the distance it must keep: the safety distance, or none (>= 0, the
+    // tolerance's worth of bound) next to its grasp and release.
+    Task object_task = leg_task;
+    object_task.safety_distance =
+        relaxed_object ? options_.post_check.clearance_tolerance : task_.safety_distance;
+    const PlanningScene scene = phase_.context->Scene(representation_);
+    const PostCheckReport object = PostCheck(trajectory, scene.robot, object_task, end, insertion, scene.collision,
+                                             *phase_.object_only, nullptr, options_.post_check);
+    CheckResult held;
+    held.kind = CheckKind::kHeldObjectClearance;
+    held.name = CheckKindName(held.kind);
+    held.bound = relaxed_object ? 0.0 : task_.safety_distance;
+    for (const CheckResult& c : object.checks) {
+      if (c.kind != CheckKind::kClearance) continue;
+      held.passed = c.passed;
+      held.value = c.value;
+      held.time = c.time;
+    }
+    held.detail = core::Format("the held object certified %.4f m from the scene at every instant (it keeps ", held.value) +
+                  (relaxed_object ? std::string("clearance >= 0 next to its grasp and release")
+                                  : core::Format("the safety distance %.4f m", task_.safety_distance)) +
+                  core::Format(", accepted down to %.4f m), least at t = %.3f s; sampled minimum %.4f m",
+                               std::max(0.0, held.bound - options_.post_check.clearance_tolerance),
+                               start_s + held.time, object.min_clearance_exact);
+    step.held_object_min_clearance = object.min_clearance_exact;
+    report.checks.push_back(held);
+    report.passed = report.passed && held.passed;
+    report.certified = report.certified && object.certified;
+  }
+  step.certified = report.passed && report.certified;
+  // The report names links and pairs of the task's robot: the held
+  // object has its own figures, and a phase's pairs are numbered anew.
+  if (report.closest_link >= base_.robot().num_links()) report.closest_link = -1;
+  if (phase_.context != &base_) report.closest_self_pair = -1;
+  MergeReport(report, start_s, first_leg_, &result_.post_check);
+  first_leg_ = false;
+  if (whole_) {
+    auto joined = Join(*whole_, trajectory);
+    if (!joined.ok()) return joined.status();
+    whole_ = std::move(*joined);
+  } else {
+    whole_ = std::move(trajectory);
+  }
+  result_.trajectory = whole_;
+  result_.num_pieces = whole_->num_pieces();
+  if (!report.passed) {
+    return Fail(i, PlanStatus::kPostCheckFailed, report.FirstFailure().empty() ? "a post-check failed"
+                                                                               : report.FirstFailure());
+  }
+  state_ = end;
+  return true;
+}
+
+core::Result<bool> MissionPlanner::ReachLeg(size_t i, const Task& leg_task, bool relaxed_object) {
+  auto planned = Plan(Scene(relaxed_object), leg_task, options_, solver_);
+  if (!planned.ok()) {
+    // The first step starts from the task's start: its errors are the
+    // task's. A later one starts where the mission left the robot.
+    if (i == 0 || planned.status().code() != core::StatusCode::kInvalidArgument) return planned.status();
+    return Fail(i, PlanStatus::kMissionStepInvalid, planned.status().message());
+  }
+  PlanResult& leg = *planned;
+  result_.front_end_ms += leg.front_end_ms;
+  result_.per_plan_collision_ms += leg.per_plan_collision_ms;
+  result_.solve_ms += leg.solve_ms;
+  result_.post_check_ms += leg.post_check_ms;
+  result_.iterations += leg.iterations;
+  result_.evaluations += leg.evaluations;
+  result_.attempts.insert(result_.attempts.end(), leg.attempts.begin(), leg.attempts.end());
+  result_.alternatives_tried += leg.alternatives_tried;
+  result_.final_cost = leg.final_cost;
+  result_.path = leg.path;
+  result_.terminal = leg.terminal;
+  result_.terminal_searched = leg.terminal_searched;
+  result_.terminal_search = leg.terminal_search;
+  result_.insertion = leg.insertion;
+  if (!leg.trajectory) return Fail(i, leg.status, leg.message);
+  if (leg.insertion.enabled) last_insertion_ = leg.insertion.direction;
+  return CheckAndAppend(i, std::move(*leg.trajectory), leg_task, leg.terminal, leg.insertion, relaxed_object,
+                        leg.post_check);
+}
+
+core::Result<bool> MissionPlanner::RestLeg(size_t i, const Vec3& to_position, double duration,
+                                           const InsertionGoal& line, bool relaxed_object) {
+  auto trajectory = RestToRestLeg(state_, to_position, duration, options_.cost.flatness);
+  if (!trajectory.ok()) return trajectory.status();
+  const BoundaryState end = AtRest(to_position, state_.yaw, state_.joints);
+  const Task leg_task = LegTask();
+  // The object is judged on its own (CheckAndAppend), so that its failures
+  // are named held_object_clearance.
+  const PlanningScene scene = Scene(true);
+  const auto check_start = std::chrono::steady_clock::now();
+  PostCheckReport report = PostCheck(*trajectory, scene.robot, leg_task, end, line, scene.collision, scene.exact,
+                                     scene.self_collision, options_.post_check);
+  result_.post_check_ms +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_start).count();
+  return CheckAndAppend(i, std::move(*trajectory), leg_task, end, line, relaxed_object, std::move(report));
+}
+
+core::Status MissionPlanner::Grasp(size_t i) {
+  const MissionStep& step = task_.mission[i];
+  const robot::RobotModel& robot = base_.robot();
+  const int tool_link = robot.LinkIndex(task_.tool_link);
+  if (tool_link < 0) {
+    return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
+                                         ": tool_link: the robot has no link named '" + task_.tool_link + "'");
+  }
+  HeldObject held;
+  held.grasp_step = i;
+  held.object = step.object;
+  auto points = phase_.points;
+  auto checked = phase_.checked_points;
+  if (step.held_at_start) {
+    held.object_in_tool = step.object.pose;
+  } else {
+    const Pose tool = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link);
+    held.object_in_tool = tool.inverse() * step.object.pose;
+    // The object leaves the scene: every point within scene_margin of it.
+    auto elements = ObjectElements(robot, step.object);
+    if (!elements.ok()) return elements.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
+    auto kept = WithoutObject(*points, *elements, step.object.pose, step.scene_margin);
+    if (!kept.ok()) return kept.status();
+    auto kept_checked = points == checked ? *kept : WithoutObject(*checked, *elements, step.object.pose, step.scene_margin);
+    if (!kept_checked.ok()) return kept_checked.status();
+    if (kept->empty() || kept_checked->empty()) {
+      return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
+                                           ": the object's scene_margin takes every scene point");
+    }
+    points = std::make_shared<const std::vector<Vec3>>(std::move(*kept));
+    checked = points->size() == kept_checked->size() && phase_.points == phase_.checked_points
+                  ? points
+                  : std::make_shared<const std::vector<Vec3>>(std::move(*kept_checked));
+  }
+  auto phase = MakePhase(base_, held, points, checked, options_.mission);
+  if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
+  phase_ = std::move(*phase);
+  return core::Status::Ok();
+}
+
+core::Status MissionPlanner::Release(size_t i) {
+  if (!phase_.held) return core::Status::Internal("release without a held object");
+  const robot::RobotModel& robot = phase_.context->robot();
+  const Pose object_pose = robot::LinkPose(robot, HoverPose(state_), state_.joints, phase_.object_link);
+  auto elements = ObjectElements(base_.robot(), phase_.held->object);
+  if (!elements.ok()) return elements.status();
+  const std::vector<Vec3> surface = ObjectSurface(*elements, object_pose, options_.mission.released_surface_spacing);
+  auto with = [&surface](const std::vector<Vec3>& cloud) {
+    auto out = std::make_shared<std::vector<Vec3>>(cloud);
+    out->insert(out->end(), surface.begin(), surface.end());
+    return std::shared_ptr<const std::vector<Vec3>>(std::move(out));
+  };
+  auto points = with(*phase_.points);
+  auto checked = phase_.points == phase_.checked_points ? points : with(*phase_.checked_points);
+  auto phase = MakePhase(base_, std::nullopt, points, checked, options_.mission);
+  if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
+  phase_ = std::move(*phase);
+  return core::Status::Ok();
+}
+
+core::Result<bool> MissionPlanner::PlanStep(size_t i) {
+  const std::vector<MissionStep>& mission = task_.mission;
+  const MissionStep& step = mission[i];
+  switch (step.kind) {
+    case StepKind::kReach: {
+      Task leg = LegTask();
+      leg.terminal = step.reach_state;
+      leg.tool = step.reach_tool;
+      return ReachLeg(i, leg, false);
+    }
+    case StepKind::kVia: {
+      // Flown through at rest in this version (docs/missions.md): the base
+      // at the point itself, yaw and joints as they are.
+      Task leg = LegTask();
+      leg.terminal = AtRest(step.via_position, state_.yaw, state_.joints);
+      return ReachLeg(i, leg, false);
+    }
+    case StepKind::kMove: {
+      const bool after_grasp_or_release =
+          i > 0 && (mission[i - 1].kind == StepKind::kGrasp || mission[i - 1].kind == StepKind::kRelease);
+      Vec3 direction;
+      if (step.move_direction) {
+        direction = *step.move_direction;
+      } else if (last_insertion_) {
+        direction = -*last_insertion_;
+      } else {
+        return Fail(i, PlanStatus::kMissionStepInvalid,
+                    "no direction given and no insertion before it to back out along");
+      }
+      const robot::RobotModel& robot = phase_.context->robot();
+      const int tool_link = robot.LinkIndex(task_.tool_link);
+      if (tool_link < 0) {
+        return core::Status::InvalidArgument(task_.file + ": " + StepName(mission, i) +
+                                             ": tool_link: the robot has no link named '" + task_.tool_link + "'");
+      }
+      const Pose tool = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link);
+      // The duration keeps the top speed and acceleration, and the tool
+      // within half the insertion tolerance of its line while the airframe
+      // tilts to accelerate sideways (the tool's lever arm times the tilt).
+      const double speed = std::min(step.move_max_speed.value_or(options_.mission.move_speed), task_.limits.v_max);
+      double acceleration = task_.limits.a_max;
+      const double lever = (tool.translation() - state_.position).norm();
+      const double sideways = std::hypot(direction.x(), direction.y());
+      if (lever * sideways > 1e-9) {
+        acceleration =
+            std::min(acceleration, kGravity * 0.5 * options_.post_check.insertion_tolerance / (lever * sideways));
+      }
+      const double length = step.move_length;
+      const double duration =
+          std::max({options_.mission.move_min_duration, kRestLineSpeedFactor * length / speed,
+                    std::sqrt(kRestLineAccelerationFactor * length / acceleration)});
+      // The scene's bounds: the box of its points. A move is a short
+      // straight line near what the robot handles; one that leaves the
+      // scanned volume is a mistake in the task (a sign, a unit).
+      const Vec3 tool_end = tool.translation() + direction * step.move_length;
+      const auto [scene_min, scene_max] = SceneBounds(base_.points());
+      if ((tool_end.array() < scene_min.array()).any() || (tool_end.array() > scene_max.array()).any()) {
+        return core::Status::InvalidArgument(
+            task_.file + ": " + StepName(mission, i) +
+            core::Format(": the move ends with the tool at (%.3f, %.3f, %.3f), outside the scene's bounds "
+                         "(%.3f, %.3f, %.3f) to (%.3f, %.3f, %.3f)",
+                         tool_end.x(), tool_end.y(), tool_end.z(), scene_min.x(), scene_min.y(), scene_min.z(),
+                         scene_max.x(), scene_max.y(), scene_max.z()));
+      }
+      InsertionGoal line;
+      line.enabled = true;
+      line.tool_link = tool_link;
+      line.tool_position = tool.translation() + direction * length;
+      line.tool_orientation = Quat(tool.linear());
+      line.direction = direction;
+      line.length = length;
+      const bool relaxed = after_grasp_or_release && mission[i - 1].kind == StepKind::kGrasp;
+      return RestLeg(i, state_.position + direction * length, duration, line, relaxed);
+    }
+    case StepKind::kGrasp: {
+      const auto phase_start = std::chrono::steady_clock::now();
+      QUADHAND_RETURN_IF_ERROR(Grasp(i));
+      result_.mission_phase_ms +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - phase_start).count();
+      return RestLeg(i, state_.position, step.close_time, InsertionGoal{}, true);
+    }
+    case StepKind::kRelease: {
+      auto held = RestLeg(i, state_.position, step.open_time, InsertionGoal{}, true);
+      if (!held.ok() || !*held) return held;
+      const auto phase_start = std::chrono::steady_clock::now();
+      QUADHAND_RETURN_IF_ERROR(Release(i));
+      result_.mission_phase_ms +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - phase_start).count();
+      return true;
+    }
+    case StepKind::kHold:
+      return RestLeg(i, state_.position, step.hold_duration, InsertionGoal{}, false);
+  }
+  return core::Status::Internal("unknown step kind");
+}
+
+core::Result<PlanResult> MissionPlanner::Run() {
+  state_ = task_.start;
+  result_.steps.resize(task_.mission.size());
+  for (size_t i = 0; i < task_.mission.size(); ++i) result_.steps[i].kind = task_.mission[i].kind;
+  phase_.context = &base_;
+  phase_.points = std::shared_ptr<const std::vector<Vec3>>(&base_.points(), [](auto*) {});
+  phase_.checked_points = &base_.points() == &base_.checked_points()
+                              ? phase_.points
+                              : std::shared_ptr<const std::vector<Vec3>>(&base_.checked_points(), [](auto*) {});
+  for (size_t i = 0; i < task_.mission.size(); ++i) {
+    auto planned = PlanStep(i);
+    if (!planned.ok()) return planned.status();
+    if (!*planned) return std::move(result_);
+  }
+  result_.success = true;
+  result_.status = PlanStatus::kSuccess;
+  result_.message = "every step passed the post-check";
+  return std::move(result_);
+}
+
+}  // namespace
+
+core::Result<PlanResult> PlanTask(const PlanningContext& context, size_t representation, const PlannerOptions& options,
+                                  const opt::Solver& solver) {
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
+  if (representation >= context.representations().size()) {
+    return core::Status::InvalidArgument("no representation " + std::to_string(representation));
+  }
+  const Task& task = context.task();
+  if (task.mission.size() <= 1) {
+    auto result = Plan(context.Scene(representation), task, options, solver);
+    if (!result.ok() || task.mission.empty()) return result;
+    StepResult step;
+    step.kind = task.mission[0].kind;
+    step.planned = result->trajectory.has_value();
+    step.end_s = result->trajectory ? result->trajectory->duration() : 0.0;
+    step.min_clearance = result->post_check.min_clearance_exact;
+    step.min_clearance_is_bound = result->post_check.min_clearance_exact_is_bound;
+    step.certified = result->success && result->post_check.certified;
+    result->steps = {step};
+    return result;
+  }
+  return MissionPlanner(context, representation, options, solver).Run();
+}
+
+}  // namespace quadhand::planner
