@@ -400,6 +400,61 @@ TEST_F(PlanCliTest, AHeldObjectThatCannotKeepItsDistanceFailsNamingTheStep) {
   EXPECT_TRUE(result["steps"][3]["min_clearance_m"].is_null());
 }
 
+// A task whose start holds the arm as the default goal does (the tool
+// 0.47 m below and in front of the base, pointing down), in free air.
+std::string HeldAtStartMission(const std::string& steps) {
+  std::string text = testing::WindowCupTaskText({});
+  const size_t start = text.find("\nstart:\n"), limits = text.find("\nlimits:\n");
+  EXPECT_NE(start, std::string::npos);
+  EXPECT_NE(limits, std::string::npos);
+  return text.substr(0, start + 1) +
+         "start: {position: [0.5, 0.2, 1.5], yaw: 3.14159265, joints: [0.6, 0.9707963268, 0.0]}\n"
+         "mission:\n"
+         "  - grasp:\n"
+         "      object: {shape: {sphere: {radius: 0.02}}, pose: {position: [0.08, 0, 0], orientation: [1, 0, 0, 0]}}\n" +
+         steps + text.substr(limits + 1);
+}
+
+TEST_F(PlanCliTest, AReleasedObjectIsSceneForTheStepsAfterIt) {
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const std::string mission = (dir_ / "mission.yaml").string();
+  // Held from the start, 6 cm beyond the tool, then let go in the air and
+  // left behind: up, the gripper leaves it; down, the arm runs into it.
+  std::ofstream(mission) << HeldAtStartMission("  - via: {position: [0.4, 0.2, 1.5]}\n  - release: {open_time: 0.3}\n"
+                                               "  - move: {direction: [0, 0, 1], length: 0.2}\n");
+  const auto up = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
+  ASSERT_EQ(up.exit_code, 0) << up.err << up.out;
+  const MissionOutput output = ReadMissionOutput(out, report);
+  const nlohmann::json& steps = output.report["steps"];
+  ASSERT_EQ(steps.size(), 4u);
+  EXPECT_FALSE(steps[0]["held_object_min_clearance_m"].is_null());
+  EXPECT_FALSE(steps[2]["held_object_min_clearance_m"].is_null());
+  EXPECT_TRUE(steps[3]["held_object_min_clearance_m"].is_null());
+  // Held (gripper 1) from the start until the release begins.
+  for (const auto& row : output.rows) EXPECT_EQ(row[3], row[2] < 2 ? 1.0 : 0.0) << row[0];
+  // The via is passed at rest at its point (the base's x from 0.5 to 0.4).
+  EXPECT_NEAR(output.rows.back()[1], 1.7, 1e-6);
+  fs::remove(out);
+  fs::remove(report);
+
+  std::ofstream(mission, std::ios::trunc)
+      << HeldAtStartMission("  - release: {open_time: 0.3}\n  - move: {direction: [0, 0, -1], length: 0.2}\n");
+  const auto down = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
+  ASSERT_EQ(down.exit_code, 1) << down.err << down.out;
+  EXPECT_FALSE(fs::exists(out));
+  const nlohmann::json failed = nlohmann::json::parse(ReadAll(report));
+  EXPECT_NE(failed["message"].get<std::string>().find("mission[2] (move): clearance"), std::string::npos)
+      << failed["message"];
+  EXPECT_FALSE(failed["steps"][2]["certified"].get<bool>());
+  EXPECT_TRUE(failed["steps"][1]["certified"].get<bool>());
+  fs::remove(report);
+
+  // A move that leaves the scene's box is a mistake in the task: exit 2.
+  std::ofstream(mission, std::ios::trunc)
+      << HeldAtStartMission("  - release: {}\n  - move: {direction: [0, 0, 1], length: 5.0}\n");
+  ExpectBadInput(mission, "mission.yaml: mission[2] (move): the move ends with the tool at");
+}
+
 TEST_F(PlanCliTest, AGraspTooHeavyOrOfAnOpenMeshIsRefusedNamingTheStep) {
   const std::string root = QUADHAND_SOURCE_DIR;
   const std::string mission = (dir_ / "mission.yaml").string();

@@ -381,6 +381,7 @@ core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory 
                                std::max(0.0, held.bound - options_.post_check.clearance_tolerance),
                                start_s + held.time, object.min_clearance_exact);
     step.held_object_min_clearance = object.min_clearance_exact;
+    step.held_object_min_clearance_is_bound = object.min_clearance_exact_is_bound;
     report.checks.push_back(held);
     report.passed = report.passed && held.passed;
     report.certified = report.certified && object.certified;

@@ -134,6 +134,7 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
       step["min_clearance_is_lower_bound"] = s.min_clearance_is_bound;
       step["held_object_min_clearance_m"] =
           s.held_object_min_clearance ? nlohmann::json(*s.held_object_min_clearance) : nlohmann::json(nullptr);
+      step["held_object_min_clearance_is_lower_bound"] = s.held_object_min_clearance_is_bound;
       step["certified"] = s.certified;
       steps.push_back(step);
     }

@@ -123,9 +123,10 @@ struct StepResult {
   // over the step, and whether it is only the search reach (nothing nearer).
   double min_clearance = 0.0;
   bool min_clearance_is_bound = false;
-  // The held object's certified least clearance over the step; none while
-  // nothing is held.
+  // The held object's least exact clearance over the step, sampled (its
+  // check is certified); none while nothing is held.
   std::optional<double> held_object_min_clearance;
+  bool held_object_min_clearance_is_bound = false;  // as min_clearance_is_bound
   bool certified = false;  // every check of the step passed, clearances certified
   bool planned = false;    // false for the steps after the one that failed
 };
