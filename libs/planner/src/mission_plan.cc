@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -14,6 +15,7 @@
 #include "quadhand/env/link_surface_samples.h"
 #include "quadhand/geometry/mesh_distance.h"
 #include "quadhand/geometry/mesh_to_sdf.h"
+#include "quadhand/geometry/primitives.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/link_meshes.h"
 
@@ -140,6 +142,68 @@ core::Result<std::vector<geometry::TriangleMesh>> ObjectElements(const robot::Ro
   return robot::LinkCollisionElements(*with, with->num_links() - 1);
 }
 
+// The held object's SDF for the optimiser: a primitive's closed-form
+// distance (outside its tessellation, which the checks use, by at most the
+// tessellation's tolerance: never nearer), a mesh's from its elements.
+core::Result<geometry::SdfGrid> ObjectSdf(const ObjectShape& shape, const std::vector<geometry::TriangleMesh>& elements,
+                                          const MissionPlanOptions& options) {
+  geometry::SdfGenerationOptions generation;
+  generation.resolution = options.object_sdf_resolution;
+  generation.padding = options.object_sdf_padding;
+  if (shape.kind == ObjectShape::Kind::kMesh) {
+    return geometry::GenerateSdf(elements, kHeldObjectLinkName, "mission object", generation);
+  }
+  Vec3 half;
+  std::function<double(const Vec3&)> distance;
+  switch (shape.kind) {
+    case ObjectShape::Kind::kBox: {
+      geometry::Box box;
+      box.size = shape.box_size;
+      half = 0.5 * shape.box_size;
+      distance = [box](const Vec3& p) { return geometry::SignedDistance(box, p); };
+      break;
+    }
+    case ObjectShape::Kind::kCylinder: {
+      geometry::Cylinder cylinder;
+      cylinder.radius = shape.radius;
+      cylinder.length = shape.length;
+      half = Vec3(shape.radius, shape.radius, 0.5 * shape.length);
+      distance = [cylinder](const Vec3& p) { return geometry::SignedDistance(cylinder, p); };
+      break;
+    }
+    default: {
+      geometry::Sphere sphere;
+      sphere.radius = shape.radius;
+      half = Vec3::Constant(shape.radius);
+      distance = [sphere](const Vec3& p) { return geometry::SignedDistance(sphere, p); };
+      break;
+    }
+  }
+  geometry::SdfGridInfo info;
+  info.link_name = kHeldObjectLinkName;
+  info.frame = kHeldObjectLinkName;
+  info.source = "mission object";
+  info.resolution = options.object_sdf_resolution;
+  info.origin = -half - Vec3::Constant(options.object_sdf_padding);
+  info.geometry_min = -half;
+  info.geometry_max = half;
+  const Vec3 extent = 2.0 * (half + Vec3::Constant(options.object_sdf_padding));
+  for (int a = 0; a < 3; ++a) info.dims[a] = static_cast<int>(std::ceil(extent[a] / info.resolution - 1e-9)) + 1;
+  if (info.NumNodes() > 50'000'000) {
+    return core::Status::InvalidArgument("the held object's SDF would have more than 5e7 nodes (mission.object_sdf_resolution)");
+  }
+  std::vector<float> values(static_cast<size_t>(info.NumNodes()));
+  size_t n = 0;
+  for (int k = 0; k < info.dims.z(); ++k) {
+    for (int j = 0; j < info.dims.y(); ++j) {
+      for (int i = 0; i < info.dims.x(); ++i) {
+        values[n++] = static_cast<float>(distance(info.origin + info.resolution * Vec3(i, j, k)));
+      }
+    }
+  }
+  return geometry::SdfGrid(std::move(info), std::move(values));
+}
+
 // Builds the phase that holds `held` (robot = context's base robot plus
 // the object) or nothing, on the given clouds.
 core::Result<Phase> MakePhase(const PlanningContext& base, std::optional<HeldObject> held,
@@ -159,10 +223,7 @@ core::Result<Phase> MakePhase(const PlanningContext& base, std::optional<HeldObj
     phase.object_link = robot.num_links() - 1;
     auto elements = robot::LinkCollisionElements(robot, phase.object_link);
     if (!elements.ok()) return elements.status();
-    geometry::SdfGenerationOptions sdf;
-    sdf.resolution = options.object_sdf_resolution;
-    sdf.padding = options.object_sdf_padding;
-    auto grid = geometry::GenerateSdf(*elements, kHeldObjectLinkName, "mission object", sdf);
+    auto grid = ObjectSdf(held->object.shape, *elements, options);
     if (!grid.ok()) return grid.status();
     given.emplace_back(phase.object_link, std::move(*grid));
   }
@@ -199,10 +260,23 @@ core::Result<std::vector<Vec3>> WithoutObject(const std::vector<Vec3>& points,
     queries.push_back(std::move(*query));
   }
   const Pose world_to_object = object_pose.inverse();
+  Vec3 box_min = Vec3::Constant(std::numeric_limits<double>::infinity()), box_max = -box_min;
+  for (const geometry::TriangleMesh& mesh : elements) {
+    for (const Vec3& v : mesh.vertices) {
+      box_min = box_min.cwiseMin(v);
+      box_max = box_max.cwiseMax(v);
+    }
+  }
+  box_min -= Vec3::Constant(margin);
+  box_max += Vec3::Constant(margin);
   std::vector<Vec3> kept;
   kept.reserve(points.size());
   for (const Vec3& p : points) {
     const Vec3 local = world_to_object * p;
+    if ((local.array() < box_min.array()).any() || (local.array() > box_max.array()).any()) {
+      kept.push_back(p);  // farther than the margin from the object's box
+      continue;
+    }
     bool near = false;
     for (const auto& query : queries) near = near || query->SignedDistance(local) <= margin;
     if (!near) kept.push_back(p);
