@@ -25,6 +25,7 @@
 #include "quadhand/planner/bench_config.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/planner_config.h"
+#include "quadhand/planner/mission_plan.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/robot/kinematics.h"
@@ -178,6 +179,9 @@ int main(int argc, char** argv) {
 
   std::ostringstream lines;
   std::map<std::string, Tally> tallies;
+  // A mission's phases depend on the task, not on the start: each
+  // representation's are built by its first trial and kept.
+  std::vector<planner::MissionPhaseCache> phases((*context)->representations().size());
   int done = 0;
   const int mine = (trials + shards - 1 - ((shard - first % shards + shards) % shards)) / shards;
   for (int k = first; k < first + trials; ++k) {
@@ -189,9 +193,11 @@ int main(int argc, char** argv) {
     trial.start.joint_rates = VecX::Zero(robot->num_actuated());
     for (size_t ri = 0; ri < (*context)->representations().size(); ++ri) {
       const planner::Representation& model = (*context)->representations()[ri];
-      const planner::PlanningScene scene = (*context)->Scene(ri);
       for (size_t si = 0; si < solver_list.size(); ++si) {
-        auto result = planner::Plan(scene, trial, options, *solver_list[si]);
+        const auto plan_start = std::chrono::steady_clock::now();
+        auto result = planner::PlanTask(**context, trial, ri, options, *solver_list[si], &phases[ri]);
+        const double plan_ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - plan_start).count();
         nlohmann::json line;
         line["trial"] = k;
         line["seed"] = k;
@@ -225,6 +231,17 @@ int main(int argc, char** argv) {
           line["certified_clearance_m"] = result->post_check.certified_clearance;
           line["certificate_samples"] = result->post_check.certificate_samples;
           line["duration_s"] = result->trajectory ? result->trajectory->duration() : 0.0;
+          // The whole plan after loading: every stage, a mission's phases included.
+          line["plan_ms"] = plan_ms;
+          if (!trial.mission.empty()) {
+            line["mission_phase_build_ms"] = result->mission_phase_ms;
+            nlohmann::json steps = nlohmann::json::array();
+            for (const planner::StepResult& step : result->steps) {
+              steps.push_back({{"kind", planner::StepKindName(step.kind)}, {"planned", step.planned},
+                               {"certified", step.certified}});
+            }
+            line["steps"] = steps;
+          }
           tally.front_ms.push_back(result->front_end_ms);
           if (result->success) {
             ++tally.successes;

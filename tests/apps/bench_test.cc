@@ -71,10 +71,11 @@ std::map<std::string, nlohmann::json> Records(const std::vector<std::string>& fi
     std::string line;
     while (std::getline(lines, line)) {
       nlohmann::json record = nlohmann::json::parse(line);
-      for (const char* timing : {"solve_ms", "front_end_ms", "post_check_ms", "representation_build_ms"}) {
+      for (const char* timing : {"solve_ms", "front_end_ms", "post_check_ms", "representation_build_ms", "plan_ms"}) {
         EXPECT_TRUE(record.contains(timing)) << line;
         record.erase(timing);
       }
+      record.erase("mission_phase_build_ms");
       const std::string key = std::to_string(record["trial"].get<int>()) + " " +
                               record["representation"].get<std::string>() + " " +
                               record["solver"].get<std::string>();
@@ -166,6 +167,62 @@ TEST_F(BenchCliTest, TwoShardsGiveTheRecordsOfOneRun) {
   const auto overlapping = RunCommand(report + Path("all.jsonl") + " " + Path("shard0.jsonl"));
   EXPECT_NE(overlapping.exit_code, 0);
   EXPECT_NE(overlapping.err.find("trial"), std::string::npos) << overlapping.err;
+}
+
+// The default task with its goal as a mission: one reach, then `more_steps`.
+std::string WindowCupMissionText(const std::string& more_steps) {
+  std::string text = testing::WindowCupTaskText();
+  const size_t goal = text.find("\ngoal:\n"), limits = text.find("\nlimits:\n");
+  EXPECT_NE(goal, std::string::npos);
+  EXPECT_NE(limits, std::string::npos);
+  std::string indented;
+  const std::string block = text.substr(goal + 7, limits + 1 - (goal + 7));
+  for (size_t at = 0; at < block.size();) {
+    const size_t end = block.find('\n', at);
+    indented += "    " + block.substr(at, end + 1 - at);
+    at = end + 1;
+  }
+  return text.substr(0, goal + 1) + "mission:\n  - reach:\n" + indented + more_steps + text.substr(limits + 1);
+}
+
+TEST_F(BenchCliTest, AMissionOfOneReachGivesTheGoalsRecordsAndLongerMissionsRecordTheirSteps) {
+  std::ofstream(Path("one_reach.yaml")) << WindowCupMissionText("");
+  std::ofstream(Path("lift.yaml")) << WindowCupMissionText(
+      "  - grasp:\n      object: {shape: {cylinder: {radius: 0.04, length: 0.10}}, "
+      "pose: {position: [-3.2, 0.0, 0.85], orientation: [1, 0, 0, 0]}}\n  - move: {length: 0.15}\n");
+  for (const char* name : {"one_reach", "lift"}) {
+    std::string text = ReadAll(Config());
+    text.replace(text.find("task: task.yaml"), std::string("task: task.yaml").size(),
+                 std::string("task: ") + name + ".yaml");
+    std::ofstream(Path(std::string(name) + "_bench.yaml")) << text;
+  }
+  const std::string trials = " --first 1 --trials 3";
+  const auto goal = RunCommand(kBench + " --config " + Config() + trials + " --out " + Path("goal.jsonl"));
+  ASSERT_EQ(goal.exit_code, 0) << goal.err;
+  const auto reach =
+      RunCommand(kBench + " --config " + Path("one_reach_bench.yaml") + trials + " --out " + Path("reach.jsonl"));
+  ASSERT_EQ(reach.exit_code, 0) << reach.err;
+  auto goal_records = Records({Path("goal.jsonl")});
+  auto reach_records = Records({Path("reach.jsonl")});
+  ASSERT_EQ(reach_records.size(), 3u);
+  for (auto& [key, record] : reach_records) {
+    ASSERT_TRUE(record.contains("steps")) << record;
+    EXPECT_EQ(record["steps"].size(), 1u);
+    record.erase("steps");
+  }
+  EXPECT_EQ(goal_records, reach_records);
+
+  const auto lift = RunCommand(kBench + " --config " + Path("lift_bench.yaml") + trials + " --out " + Path("lift.jsonl"));
+  ASSERT_EQ(lift.exit_code, 0) << lift.err;
+  int successes = 0;
+  for (const auto& [key, record] : Records({Path("lift.jsonl")})) {
+    ASSERT_EQ(record["steps"].size(), 3u) << record;
+    EXPECT_EQ(record["steps"][1]["kind"], "grasp");
+    if (!record["success"].get<bool>()) continue;
+    ++successes;
+    for (const auto& step : record["steps"]) EXPECT_TRUE(step["certified"].get<bool>()) << record;
+  }
+  EXPECT_GE(successes, 2);
 }
 
 }  // namespace

@@ -5,6 +5,8 @@
 #include <functional>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <mutex>
 #include <memory>
 #include <optional>
 #include <string>
@@ -356,11 +358,44 @@ void MergeReport(const PostCheckReport& leg, double offset, bool first, PostChec
   }
 }
 
+}  // namespace
+
+class MissionPhaseCache::Impl {
+ public:
+  std::shared_ptr<const Phase> Find(const PlanningContext* context, const std::string& key) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (context != context_) return nullptr;
+    auto found = phases_.find(key);
+    return found == phases_.end() ? nullptr : found->second;
+  }
+  void Keep(const PlanningContext* context, const std::string& key, std::shared_ptr<const Phase> phase) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (context != context_) {  // another context's phases are of no use
+      phases_.clear();
+      context_ = context;
+    }
+    if (phases_.size() >= kMaxPhases) phases_.clear();
+    phases_[key] = std::move(phase);
+  }
+
+ private:
+  static constexpr size_t kMaxPhases = 16;
+  std::mutex mutex_;
+  const PlanningContext* context_ = nullptr;
+  std::map<std::string, std::shared_ptr<const Phase>> phases_;
+};
+
+MissionPhaseCache::MissionPhaseCache() : impl_(std::make_unique<Impl>()) {}
+MissionPhaseCache::~MissionPhaseCache() = default;
+
+namespace {
+
 class MissionPlanner {
  public:
-  MissionPlanner(const PlanningContext& context, size_t representation, const PlannerOptions& options,
-                 const opt::Solver& solver)
-      : base_(context), representation_(representation), options_(options), solver_(solver), task_(context.task()) {}
+  MissionPlanner(const PlanningContext& context, const Task& task, size_t representation, const PlannerOptions& options,
+                 const opt::Solver& solver, MissionPhaseCache* cache)
+      : base_(context), representation_(representation), options_(options), solver_(solver), task_(task),
+        cache_(cache) {}
 
   core::Result<PlanResult> Run();
 
@@ -376,6 +411,8 @@ class MissionPlanner {
                                     PostCheckReport robot_report);
   core::Status Grasp(size_t i);
   core::Status Release(size_t i);
+  // The phase after step i (a grasp or a release): from the cache, or built.
+  core::Status ChangePhase(size_t i);
   Task LegTask() const;
   // The phase's scene; its exact model without the held object when asked
   // (the object is then checked on its own).
@@ -387,7 +424,9 @@ class MissionPlanner {
   const PlannerOptions& options_;
   const opt::Solver& solver_;
   const Task& task_;
-  Phase phase_;
+  std::shared_ptr<const Phase> phase_;
+  std::string phase_key_;  // the grasps and releases that made phase_ (MissionPhaseCache)
+  MissionPhaseCache* cache_ = nullptr;
   BoundaryState state_;
   std::optional<Vec3> last_insertion_;  // of the latest reach with one
   PlanResult result_;
@@ -405,9 +444,9 @@ Task MissionPlanner::LegTask() const {
 }
 
 const PlanningScene MissionPlanner::Scene(bool without_held_object) const {
-  const PlanningScene scene = phase_.context->Scene(representation_);
-  if (!phase_.held || !without_held_object) return scene;
-  return PlanningScene{scene.robot, scene.collision, *phase_.robot_only, scene.front_end, scene.per_plan_collision,
+  const PlanningScene scene = phase_->context->Scene(representation_);
+  if (!phase_->held || !without_held_object) return scene;
+  return PlanningScene{scene.robot, scene.collision, *phase_->robot_only, scene.front_end, scene.per_plan_collision,
                        scene.self_collision};
 }
 
@@ -428,16 +467,16 @@ core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory 
   step.end_s = start_s + trajectory.duration();
   step.min_clearance = report.min_clearance_exact;
   step.min_clearance_is_bound = report.min_clearance_exact_is_bound;
-  if (phase_.held) {
+  if (phase_->held) {
     // The object alone, judged by the post-check's own certificate with
     // the distance it must keep: the safety distance, or none (>= 0, the
     // tolerance's worth of bound) next to its grasp and release.
     Task object_task = leg_task;
     object_task.safety_distance =
         relaxed_object ? options_.post_check.clearance_tolerance : task_.safety_distance;
-    const PlanningScene scene = phase_.context->Scene(representation_);
+    const PlanningScene scene = phase_->context->Scene(representation_);
     const PostCheckReport object = PostCheck(trajectory, scene.robot, object_task, end, insertion, scene.collision,
-                                             *phase_.object_only, nullptr, options_.post_check);
+                                             *phase_->object_only, nullptr, options_.post_check);
     CheckResult held;
     held.kind = CheckKind::kHeldObjectClearance;
     held.name = CheckKindName(held.kind);
@@ -464,7 +503,7 @@ core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory 
   // The report names links and pairs of the task's robot: the held
   // object has its own figures, and a phase's pairs are numbered anew.
   if (report.closest_link >= base_.robot().num_links()) report.closest_link = -1;
-  if (phase_.context != &base_) report.closest_self_pair = -1;
+  if (phase_->context != &base_) report.closest_self_pair = -1;
   MergeReport(report, start_s, first_leg_, &result_.post_check);
   first_leg_ = false;
   if (whole_) {
@@ -541,8 +580,8 @@ core::Status MissionPlanner::Grasp(size_t i) {
   HeldObject held;
   held.grasp_step = i;
   held.object = step.object;
-  auto points = phase_.points;
-  auto checked = phase_.checked_points;
+  auto points = phase_->points;
+  auto checked = phase_->checked_points;
   if (step.held_at_start) {
     held.object_in_tool = step.object.pose;
   } else {
@@ -560,21 +599,21 @@ core::Status MissionPlanner::Grasp(size_t i) {
                                            ": the object's scene_margin takes every scene point");
     }
     points = std::make_shared<const std::vector<Vec3>>(std::move(*kept));
-    checked = points->size() == kept_checked->size() && phase_.points == phase_.checked_points
+    checked = points->size() == kept_checked->size() && phase_->points == phase_->checked_points
                   ? points
                   : std::make_shared<const std::vector<Vec3>>(std::move(*kept_checked));
   }
   auto phase = MakePhase(base_, held, points, checked, options_.mission);
   if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
-  phase_ = std::move(*phase);
+  phase_ = std::make_shared<const Phase>(std::move(*phase));
   return core::Status::Ok();
 }
 
 core::Status MissionPlanner::Release(size_t i) {
-  if (!phase_.held) return core::Status::Internal("release without a held object");
-  const robot::RobotModel& robot = phase_.context->robot();
-  const Pose object_pose = robot::LinkPose(robot, HoverPose(state_), state_.joints, phase_.object_link);
-  auto elements = ObjectElements(base_.robot(), phase_.held->object);
+  if (!phase_->held) return core::Status::Internal("release without a held object");
+  const robot::RobotModel& robot = phase_->context->robot();
+  const Pose object_pose = robot::LinkPose(robot, HoverPose(state_), state_.joints, phase_->object_link);
+  auto elements = ObjectElements(base_.robot(), phase_->held->object);
   if (!elements.ok()) return elements.status();
   const std::vector<Vec3> surface = ObjectSurface(*elements, object_pose, options_.mission.released_surface_spacing);
   auto with = [&surface](const std::vector<Vec3>& cloud) {
@@ -582,11 +621,40 @@ core::Status MissionPlanner::Release(size_t i) {
     out->insert(out->end(), surface.begin(), surface.end());
     return std::shared_ptr<const std::vector<Vec3>>(std::move(out));
   };
-  auto points = with(*phase_.points);
-  auto checked = phase_.points == phase_.checked_points ? points : with(*phase_.checked_points);
+  auto points = with(*phase_->points);
+  auto checked = phase_->points == phase_->checked_points ? points : with(*phase_->checked_points);
   auto phase = MakePhase(base_, std::nullopt, points, checked, options_.mission);
   if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
-  phase_ = std::move(*phase);
+  phase_ = std::make_shared<const Phase>(std::move(*phase));
+  return core::Status::Ok();
+}
+
+core::Status MissionPlanner::ChangePhase(size_t i) {
+  const MissionStep& step = task_.mission[i];
+  // What the new phase depends on: the phase before it, and where the
+  // object is held (a grasp) or left (a release), to a nanometre.
+  std::string key = phase_key_ + (step.kind == StepKind::kGrasp ? "g" : "r") + std::to_string(i) + ":";
+  Pose pose = step.object.pose;
+  if (step.kind == StepKind::kRelease) {
+    pose = robot::LinkPose(phase_->context->robot(), HoverPose(state_), state_.joints, phase_->object_link);
+  } else if (!step.held_at_start) {
+    const robot::RobotModel& robot = base_.robot();
+    const int tool_link = robot.LinkIndex(task_.tool_link);
+    if (tool_link >= 0) pose = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link).inverse() * pose;
+  }
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) key += core::Format("%.9f,", pose.matrix()(r, c));
+  }
+  if (cache_ != nullptr) {
+    if (auto cached = cache_->impl().Find(&base_, key)) {
+      phase_ = std::move(cached);
+      phase_key_ = key;
+      return core::Status::Ok();
+    }
+  }
+  QUADHAND_RETURN_IF_ERROR(step.kind == StepKind::kGrasp ? Grasp(i) : Release(i));
+  phase_key_ = key;
+  if (cache_ != nullptr) cache_->impl().Keep(&base_, key, phase_);
   return core::Status::Ok();
 }
 
@@ -619,7 +687,7 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
         return Fail(i, PlanStatus::kMissionStepInvalid,
                     "no direction given and no insertion before it to back out along");
       }
-      const robot::RobotModel& robot = phase_.context->robot();
+      const robot::RobotModel& robot = phase_->context->robot();
       const int tool_link = robot.LinkIndex(task_.tool_link);
       if (tool_link < 0) {
         return core::Status::InvalidArgument(task_.file + ": " + StepName(mission, i) +
@@ -666,7 +734,7 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
     }
     case StepKind::kGrasp: {
       const auto phase_start = std::chrono::steady_clock::now();
-      QUADHAND_RETURN_IF_ERROR(Grasp(i));
+      QUADHAND_RETURN_IF_ERROR(ChangePhase(i));
       result_.mission_phase_ms +=
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - phase_start).count();
       return RestLeg(i, state_.position, step.close_time, InsertionGoal{}, true);
@@ -675,7 +743,7 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
       auto held = RestLeg(i, state_.position, step.open_time, InsertionGoal{}, true);
       if (!held.ok() || !*held) return held;
       const auto phase_start = std::chrono::steady_clock::now();
-      QUADHAND_RETURN_IF_ERROR(Release(i));
+      QUADHAND_RETURN_IF_ERROR(ChangePhase(i));
       result_.mission_phase_ms +=
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - phase_start).count();
       return true;
@@ -690,11 +758,13 @@ core::Result<PlanResult> MissionPlanner::Run() {
   state_ = task_.start;
   result_.steps.resize(task_.mission.size());
   for (size_t i = 0; i < task_.mission.size(); ++i) result_.steps[i].kind = task_.mission[i].kind;
-  phase_.context = &base_;
-  phase_.points = std::shared_ptr<const std::vector<Vec3>>(&base_.points(), [](auto*) {});
-  phase_.checked_points = &base_.points() == &base_.checked_points()
-                              ? phase_.points
+  auto first = std::make_shared<Phase>();
+  first->context = &base_;
+  first->points = std::shared_ptr<const std::vector<Vec3>>(&base_.points(), [](auto*) {});
+  first->checked_points = &base_.points() == &base_.checked_points()
+                              ? first->points
                               : std::shared_ptr<const std::vector<Vec3>>(&base_.checked_points(), [](auto*) {});
+  phase_ = std::move(first);
   for (size_t i = 0; i < task_.mission.size(); ++i) {
     auto planned = PlanStep(i);
     if (!planned.ok()) return planned.status();
@@ -710,11 +780,15 @@ core::Result<PlanResult> MissionPlanner::Run() {
 
 core::Result<PlanResult> PlanTask(const PlanningContext& context, size_t representation, const PlannerOptions& options,
                                   const opt::Solver& solver) {
+  return PlanTask(context, context.task(), representation, options, solver);
+}
+
+core::Result<PlanResult> PlanTask(const PlanningContext& context, const Task& task, size_t representation,
+                                  const PlannerOptions& options, const opt::Solver& solver, MissionPhaseCache* cache) {
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
   if (representation >= context.representations().size()) {
     return core::Status::InvalidArgument("no representation " + std::to_string(representation));
   }
-  const Task& task = context.task();
   if (task.mission.size() <= 1) {
     auto result = Plan(context.Scene(representation), task, options, solver);
     if (!result.ok() || task.mission.empty()) return result;
@@ -728,7 +802,7 @@ core::Result<PlanResult> PlanTask(const PlanningContext& context, size_t represe
     result->steps = {step};
     return result;
   }
-  return MissionPlanner(context, representation, options, solver).Run();
+  return MissionPlanner(context, task, representation, options, solver, cache).Run();
 }
 
 }  // namespace quadhand::planner

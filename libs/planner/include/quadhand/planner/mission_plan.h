@@ -23,6 +23,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 
 #include "quadhand/core/status.h"
 #include "quadhand/opt/solver.h"
@@ -30,6 +31,25 @@
 #include "quadhand/planner/planning_context.h"
 
 namespace quadhand::planner {
+
+// The phases of a mission that PlanTask built (the scene after each grasp
+// and release, with its representations and front-end map), kept for later
+// plans of the same task from the same context: a phase depends on the
+// object and where it is held or left, not on the start (quadhand-bench's
+// trials, replans). Thread-safe; at most 16 phases, of one context.
+class MissionPhaseCache {
+ public:
+  MissionPhaseCache();
+  ~MissionPhaseCache();
+  MissionPhaseCache(const MissionPhaseCache&) = delete;
+  MissionPhaseCache& operator=(const MissionPhaseCache&) = delete;
+
+  class Impl;
+  Impl& impl() { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
 
 // Plans context.task() with representation `representation` (its index in
 // the context): a goal, or a mission of one reach, exactly as Plan() does
@@ -40,5 +60,12 @@ namespace quadhand::planner {
 // for input that cannot be right whatever the plan.
 core::Result<PlanResult> PlanTask(const PlanningContext& context, size_t representation, const PlannerOptions& options,
                                   const opt::Solver& solver);
+
+// The same for `task`: context.task() with other values that do not change
+// what the context built (another start, as quadhand-bench draws them).
+// With `cache` (null: none), the phases come from it when it has them.
+core::Result<PlanResult> PlanTask(const PlanningContext& context, const Task& task, size_t representation,
+                                  const PlannerOptions& options, const opt::Solver& solver,
+                                  MissionPhaseCache* cache = nullptr);
 
 }  // namespace quadhand::planner
