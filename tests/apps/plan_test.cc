@@ -380,6 +380,46 @@ TEST_F(PlanCliTest, GraspsTheCupLiftsItAndHoldsAsOnePlan) {
   EXPECT_TRUE(held_check) << output.report["checks"];
 }
 
+TEST_F(PlanCliTest, PutsTheCupBackDownLetsGoAndBacksOff) {
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const std::string mission = (dir_ / "mission.yaml").string();
+  // Lifted 15 cm, then put down 2 mm above where it stood: the reach before
+  // the release flies to the start of its insertion, then down the line.
+  std::ofstream(mission) << WindowCupMission(kGraspTheCup +
+                                             "  - move: {length: 0.15}\n"
+                                             "  - reach:\n"
+                                             "      position: [-2.994932877, 0.0, 1.289928495]\n"
+                                             "      yaw: 3.14159265\n"
+                                             "      joints: [0.6, 0.9707963268, 0.0]\n"
+                                             "      tool:\n"
+                                             "        position: [-3.2, 0.0, 0.862]\n"
+                                             "        orientation: [0.0, -0.7071067812, 0.0, 0.7071067812]\n"
+                                             "        insertion: {direction: [0, 0, -1], length: 0.10}\n"
+                                             "  - release: {}\n"
+                                             "  - move: {length: 0.15}\n");
+  const auto r = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const MissionOutput output = ReadMissionOutput(out, report);
+  const nlohmann::json& steps = output.report["steps"];
+  ASSERT_EQ(steps.size(), 6u);
+  for (const auto& step : steps) EXPECT_TRUE(step["certified"].get<bool>()) << step;
+  // Set down next to its support (which lost the points within the grasp's
+  // margin), the cup is closer to it than the safety distance, as the
+  // contract allows there.
+  EXPECT_LT(steps[3]["held_object_min_clearance_m"].get<double>(), 0.03);
+  EXPECT_GE(steps[3]["held_object_min_clearance_m"].get<double>(), 0.0);
+  EXPECT_TRUE(steps[5]["held_object_min_clearance_m"].is_null());
+  for (const auto& row : output.rows) EXPECT_EQ(row[3], row[2] >= 1 && row[2] < 4 ? 1.0 : 0.0) << row[0];
+  // The base ends 0.15 m above where it let go, which is 2 mm above where it grasped.
+  double grasp_z = 0.0, release_z = 0.0;
+  for (const auto& row : output.rows) {
+    if (row[2] == 1.0) grasp_z = row[1];
+    if (row[2] == 4.0) release_z = row[1];
+  }
+  EXPECT_NEAR(release_z - grasp_z, 0.002, 1e-6);
+  EXPECT_NEAR(output.rows.back()[1] - release_z, 0.15, 1e-6);
+}
+
 TEST_F(PlanCliTest, AHeldObjectThatCannotKeepItsDistanceFailsNamingTheStep) {
   const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
   const std::string mission = (dir_ / "mission.yaml").string();

@@ -20,6 +20,7 @@
 #include "quadhand/geometry/primitives.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/link_meshes.h"
+#include "quadhand/planner/terminal_state.h"
 
 namespace quadhand::planner {
 namespace {
@@ -409,6 +410,11 @@ class MissionPlanner {
   core::Result<bool> CheckAndAppend(size_t i, WholeBodyTrajectory trajectory, const Task& leg_task,
                                     const BoundaryState& end, const InsertionGoal& insertion, bool relaxed_object,
                                     PostCheckReport robot_report);
+  // A reach that puts the held object down (an insertion right before a
+  // release): flown to the insertion's start, then the insertion as a line.
+  core::Result<bool> PlaceLeg(size_t i);
+  // A rest-to-rest line's duration from the state (tool at `tool`).
+  double LineDuration(const Vec3& tool, const Vec3& direction, double length, std::optional<double> max_speed) const;
   core::Status Grasp(size_t i);
   core::Status Release(size_t i);
   // The phase after step i (a grasp or a release): from the cache, or built.
@@ -462,11 +468,18 @@ core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory 
                                                   bool relaxed_object, PostCheckReport report) {
   const double start_s = whole_ ? whole_->duration() : 0.0;
   StepResult& step = result_.steps[i];
+  // A step of two legs (a placing reach) adds the second to the first.
+  const bool continuing = step.planned;
+  const StepResult before = step;
   step.planned = true;
-  step.start_s = start_s;
+  if (!continuing) step.start_s = start_s;
   step.end_s = start_s + trajectory.duration();
   step.min_clearance = report.min_clearance_exact;
   step.min_clearance_is_bound = report.min_clearance_exact_is_bound;
+  if (continuing && before.min_clearance < step.min_clearance) {
+    step.min_clearance = before.min_clearance;
+    step.min_clearance_is_bound = before.min_clearance_is_bound;
+  }
   if (phase_->held) {
     // The object alone, judged by the post-check's own certificate with
     // the distance it must keep: the safety distance, or none (>= 0, the
@@ -495,11 +508,16 @@ core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory 
                                start_s + held.time, object.min_clearance_exact);
     step.held_object_min_clearance = object.min_clearance_exact;
     step.held_object_min_clearance_is_bound = object.min_clearance_exact_is_bound;
+    if (continuing && before.held_object_min_clearance &&
+        *before.held_object_min_clearance < *step.held_object_min_clearance) {
+      step.held_object_min_clearance = before.held_object_min_clearance;
+      step.held_object_min_clearance_is_bound = before.held_object_min_clearance_is_bound;
+    }
     report.checks.push_back(held);
     report.passed = report.passed && held.passed;
     report.certified = report.certified && object.certified;
   }
-  step.certified = report.passed && report.certified;
+  step.certified = report.passed && report.certified && (!continuing || before.certified);
   // The report names links and pairs of the task's robot: the held
   // object has its own figures, and a phase's pairs are numbered anew.
   if (report.closest_link >= base_.robot().num_links()) report.closest_link = -1;
@@ -567,6 +585,72 @@ core::Result<bool> MissionPlanner::RestLeg(size_t i, const Vec3& to_position, do
   result_.post_check_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_start).count();
   return CheckAndAppend(i, std::move(*trajectory), leg_task, end, line, relaxed_object, std::move(report));
+}
+
+double MissionPlanner::LineDuration(const Vec3& tool, const Vec3& direction, double length,
+                                    std::optional<double> max_speed) const {
+  // The top speed and acceleration, and the tool within half the
+  // insertion tolerance of its line while the airframe tilts to
+  // accelerate sideways (the tool's lever arm times the tilt).
+  const double speed = std::min(max_speed.value_or(options_.mission.move_speed), task_.limits.v_max);
+  double acceleration = task_.limits.a_max;
+  const double lever = (tool - state_.position).norm();
+  const double sideways = std::hypot(direction.x(), direction.y());
+  if (lever * sideways > 1e-9) {
+    acceleration =
+        std::min(acceleration, kGravity * 0.5 * options_.post_check.insertion_tolerance / (lever * sideways));
+  }
+  return std::max({options_.mission.move_min_duration, kRestLineSpeedFactor * length / speed,
+                   std::sqrt(kRestLineAccelerationFactor * length / acceleration)});
+}
+
+core::Result<bool> MissionPlanner::PlaceLeg(size_t i) {
+  const MissionStep& step = task_.mission[i];
+  const ToolGoal& tool = *step.reach_tool;
+  const PlanningScene scene = Scene(false);
+  const int tool_link = scene.robot.LinkIndex(task_.tool_link);
+  if (tool_link < 0) {
+    return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
+                                         ": tool_link: the robot has no link named '" + task_.tool_link + "'");
+  }
+  BoundaryState terminal;
+  Task leg = LegTask();
+  if (step.reach_state) {
+    terminal = *step.reach_state;
+  } else {
+    TerminalStateOptions search = options_.terminal_state;
+    search.clearance_tolerance = options_.post_check.clearance_tolerance;
+    auto found = FindTerminalState(scene.robot, scene.collision, scene.exact, leg, tool, tool_link, search, solver_);
+    if (!found.ok()) {
+      if (found.status().code() != core::StatusCode::kInfeasible) return found.status();
+      return Fail(i, PlanStatus::kTerminalStateFailed, found.status().message());
+    }
+    terminal = found->state;
+  }
+  terminal.yaw = state_.yaw + std::remainder(terminal.yaw - state_.yaw, 2.0 * M_PI);
+  const Pose at_goal = robot::LinkPose(scene.robot, HoverPose(terminal), terminal.joints, tool_link);
+  const double mismatch = (at_goal.translation() - tool.position).norm();
+  if (mismatch > options_.post_check.position_tolerance) {
+    return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
+                                         core::Format(": the state puts the tool %.4f m from tool.position", mismatch));
+  }
+  // Flown to where the insertion starts, then along it as a line of its
+  // own, so that the object is judged by the rule of each part.
+  const Vec3 back = tool.insertion_direction * tool.insertion_length;
+  leg.terminal = AtRest(terminal.position - back, terminal.yaw, terminal.joints);
+  auto transit = ReachLeg(i, leg, false);
+  if (!transit.ok() || !*transit) return transit;
+  InsertionGoal line;
+  line.enabled = true;
+  line.tool_link = tool_link;
+  line.tool_position = tool.position;
+  line.tool_orientation = tool.orientation;
+  line.direction = tool.insertion_direction;
+  line.length = tool.insertion_length;
+  last_insertion_ = tool.insertion_direction;
+  const double duration = LineDuration(at_goal.translation() - back, tool.insertion_direction, tool.insertion_length,
+                                       std::nullopt);
+  return RestLeg(i, terminal.position, duration, line, true);
 }
 
 core::Status MissionPlanner::Grasp(size_t i) {
@@ -663,6 +747,9 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
   const MissionStep& step = mission[i];
   switch (step.kind) {
     case StepKind::kReach: {
+      const bool places = phase_->held && i + 1 < mission.size() && mission[i + 1].kind == StepKind::kRelease &&
+                          step.reach_tool && step.reach_tool->has_insertion;
+      if (places) return PlaceLeg(i);
       Task leg = LegTask();
       leg.terminal = step.reach_state;
       leg.tool = step.reach_tool;
@@ -694,21 +781,8 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
                                              ": tool_link: the robot has no link named '" + task_.tool_link + "'");
       }
       const Pose tool = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link);
-      // The duration keeps the top speed and acceleration, and the tool
-      // within half the insertion tolerance of its line while the airframe
-      // tilts to accelerate sideways (the tool's lever arm times the tilt).
-      const double speed = std::min(step.move_max_speed.value_or(options_.mission.move_speed), task_.limits.v_max);
-      double acceleration = task_.limits.a_max;
-      const double lever = (tool.translation() - state_.position).norm();
-      const double sideways = std::hypot(direction.x(), direction.y());
-      if (lever * sideways > 1e-9) {
-        acceleration =
-            std::min(acceleration, kGravity * 0.5 * options_.post_check.insertion_tolerance / (lever * sideways));
-      }
       const double length = step.move_length;
-      const double duration =
-          std::max({options_.mission.move_min_duration, kRestLineSpeedFactor * length / speed,
-                    std::sqrt(kRestLineAccelerationFactor * length / acceleration)});
+      const double duration = LineDuration(tool.translation(), direction, length, step.move_max_speed);
       // The scene's bounds: the box of its points. A move is a short
       // straight line near what the robot handles; one that leaves the
       // scanned volume is a mistake in the task (a sign, a unit).

@@ -17,9 +17,9 @@
 // against the scene of its phase, the robot without the object at the
 // safety distance and, while something is held, the object alone by the
 // held_object_clearance rule of contracts.md 0.3: the safety distance, or
-// clearance >= 0 on the grasp step, a move right after it and the release
-// step. Stricter than the contract: the insertion of the reach before a
-// release keeps the safety distance too (docs/missions.md).
+// clearance >= 0 on the grasp step, a move right after it, the insertion
+// of a reach right before a release (flown as a leg of its own, a line
+// from the insertion's start) and the release step (docs/missions.md).
 #pragma once
 
 #include <cstddef>
