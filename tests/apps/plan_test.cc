@@ -495,6 +495,54 @@ TEST_F(PlanCliTest, AReleasedObjectIsSceneForTheStepsAfterIt) {
   ExpectBadInput(mission, "mission.yaml: mission[2] (move): the move ends with the tool at");
 }
 
+// Every task under data/tasks/missions (the paper's five missions and the
+// default scene's lift) plans, every step certified, with the coarse SDFs.
+TEST_F(PlanCliTest, PlansEveryBundledMissionCertified) {
+  const fs::path missions = fs::path(QUADHAND_SOURCE_DIR) / "data" / "tasks" / "missions";
+  int planned = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(missions)) {
+    if (entry.path().extension() != ".yaml") continue;
+    // The task with absolute robot and scene paths and the coarse SDFs.
+    std::istringstream lines(ReadAll(entry.path().string()));
+    std::string text, line;
+    while (std::getline(lines, line)) {
+      if (line.rfind("robot:", 0) == 0) line = "robot: " + std::string(QUADHAND_SOURCE_DIR) + "/meshes/quadhand/quadhand.urdf";
+      if (line.rfind("sdf_dir:", 0) == 0) line = "sdf_dir: " + testing::CoarseSdfDir();
+      if (line.rfind("scene:", 0) == 0) {
+        const std::string relative = line.substr(6, line.find('#') == std::string::npos ? std::string::npos : line.find('#') - 6);
+        line = "scene: " + (entry.path().parent_path() / relative.substr(relative.find_first_not_of(' '))).lexically_normal().string();
+      }
+      text += line + "\n";
+    }
+    const std::string task = (dir_ / "mission.yaml").string();
+    std::ofstream(task, std::ios::trunc) << text;
+    const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+    const auto r = RunCommand(kPlan + " " + task + " --out " + out + " --report " + report);
+    EXPECT_EQ(r.exit_code, 0) << entry.path() << "\n" << r.err << r.out;
+    if (r.exit_code != 0) continue;
+    const nlohmann::json result = nlohmann::json::parse(ReadAll(report));
+    EXPECT_TRUE(result["certified"].get<bool>()) << entry.path();
+    for (const auto& step : result["steps"]) EXPECT_TRUE(step["certified"].get<bool>()) << entry.path() << " " << step;
+    ++planned;
+  }
+  EXPECT_GE(planned, 12);  // five missions (seven starts for the narrow gap) and the lift
+}
+
+// The bundled scenes are what their scripts make.
+TEST_F(PlanCliTest, TheMissionScenesAreTheirScriptsOutput) {
+  const std::string root = QUADHAND_SOURCE_DIR;
+  const auto r = RunCommand("python3 " + root + "/scripts/make_mission_scenes.py --out-dir " + dir_.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  int compared = 0;
+  for (const auto& entry : fs::directory_iterator(dir_)) {
+    if (entry.path().extension() != ".pcd") continue;
+    EXPECT_EQ(ReadAll(entry.path().string()), ReadAll(root + "/data/scenes/" + entry.path().filename().string()))
+        << entry.path().filename();
+    ++compared;
+  }
+  EXPECT_EQ(compared, 4);
+}
+
 TEST_F(PlanCliTest, AGraspTooHeavyOrOfAnOpenMeshIsRefusedNamingTheStep) {
   const std::string root = QUADHAND_SOURCE_DIR;
   const std::string mission = (dir_ / "mission.yaml").string();

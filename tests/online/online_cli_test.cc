@@ -241,7 +241,13 @@ TEST_F(OnlineCliTest, AFlightNotSeenDenselyEnoughExitsWithSix) {
   const int code = Wait(&online, 90.0);
   const std::string out = ReadAll(online.out);
   EXPECT_EQ(code, 6) << out << ReadAll(online.err);
-  EXPECT_NE(out.find("CLEARANCE NOT VERIFIED"), std::string::npos) << out;
+  // Not verified; or, when the samples it did see already came closer than
+  // the safety distance less the tolerance (the flights of this task pass
+  // within a few tenths of a millimetre of it: issue #30's flight margin),
+  // lost, which the program reports first. Never "arrived".
+  EXPECT_TRUE(out.find("CLEARANCE NOT VERIFIED") != std::string::npos ||
+              out.find("CLEARANCE LOST") != std::string::npos)
+      << out;
 }
 
 TEST_F(OnlineCliTest, TheLinkProxyRefusesBadFaultsInOneLine) {

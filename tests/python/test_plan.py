@@ -203,3 +203,41 @@ def test_a_coarse_voxel_leaf_is_a_caution_and_a_warning(python_plan, sdf_dir):
         result = quadhand.plan(task, robot=robot)
     assert len(result.cautions) == 1 and "scene[0]" in result.cautions[0]
     assert result.report["checked_points"] > result.report["scene_points"]
+
+
+def test_a_mission_dict_plans_as_the_cli_plans_its_file(sdf_dir, tmp_path):
+    """A mission (grasp the cup, lift it) from a dict: the same plan, step
+    and gripper columns and per-step report as quadhand-plan's."""
+    mission = window_cup_dict()
+    goal = mission.pop("goal")
+    mission["mission"] = [
+        {"reach": goal},
+        {"grasp": {"object": {"shape": {"cylinder": {"radius": 0.04, "length": 0.10}},
+                              "pose": {"position": [-3.2, 0.0, 0.85], "orientation": [1, 0, 0, 0]},
+                              "mass": 0.08}}},
+        {"move": {"length": 0.15}},
+    ]
+    robot = quadhand.Robot(URDF, sdf_dir=sdf_dir)
+    result = quadhand.plan(mission, robot=robot, scene=quadhand.Scene.from_pcd(SCENE))
+    assert result.success, result.message
+    assert [s["kind"] for s in result.report["steps"]] == ["reach", "grasp", "move"]
+    assert all(s["certified"] for s in result.report["steps"])
+    assert result.report["steps"][0]["held_object_min_clearance_m"] is None
+    assert result.report["steps"][2]["held_object_min_clearance_m"] >= 0.0
+    assert result.columns[-2:] == ["step", "gripper"]
+    assert set(result.trajectory["step"]) == {0.0, 1.0, 2.0}
+    assert np.array_equal(result.trajectory["gripper"], (result.trajectory["step"] >= 1).astype(float))
+
+    task = dict(mission, robot=str(URDF), sdf_dir=str(sdf_dir), scene=str(SCENE))
+    task_file = tmp_path / "mission.json"  # JSON is YAML
+    task_file.write_text(json.dumps(task, default=lambda array: array.tolist()))
+    csv, report = tmp_path / "plan.csv", tmp_path / "report.json"
+    run = subprocess.run([str(BIN_DIR / "quadhand-plan"), str(task_file), "--out", str(csv), "--report", str(report)],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert result.csv() == csv.read_text()
+    cli = without_timings(json.loads(report.read_text()))
+    got = without_timings(result.report)
+    cli.pop("task"), got.pop("task")
+    cli.pop("mission_phase_build_ms"), got.pop("mission_phase_build_ms")
+    assert got == cli
