@@ -559,6 +559,15 @@ TEST_F(PlanCliTest, AGraspTooHeavyOrOfAnOpenMeshIsRefusedNamingTheStep) {
       << WindowCupMission(grasp("{mesh: " + root + "/tests/data/cad_robot/link2_holed.stl}", "0.05", "0.84"));
   ExpectBadInput(mission, "mission[1] (grasp): the object mesh '" + root +
                               "/tests/data/cad_robot/link2_holed.stl' does not bound a volume, even repaired: not closed");
+  // After a reach given only as a state, the reach of a grasp is checked
+  // where the plan puts the tool.
+  std::string text = testing::WindowCupTaskText({});
+  const size_t goal = text.find("\ngoal:\n"), limits = text.find("\nlimits:\n");
+  text = text.substr(0, goal + 1) +
+         "mission:\n  - reach: {position: [0.0, 0.0, 1.2], yaw: 3.14159265, joints: [0.3, -0.2, 0.0]}\n" +
+         grasp("{sphere: {radius: 0.02}}", "0.01", "1.0") + text.substr(limits + 1);
+  std::ofstream(mission, std::ios::trunc) << text;
+  ExpectBadInput(mission, "mission.yaml: mission[1] (grasp): the object is not within reach of the tool: its surface is");
 }
 
 TEST_F(PlanCliTest, AnExactClearanceNobodyMeasuredIsReportedAsABound) {

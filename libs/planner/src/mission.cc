@@ -1,6 +1,9 @@
 #include "quadhand/planner/mission.h"
 
+#include <algorithm>
 #include <cmath>
+
+#include "quadhand/geometry/primitives.h"
 
 namespace quadhand::planner {
 
@@ -39,6 +42,21 @@ double ObjectShape::BoundingRadius() const {
 std::string StepName(const std::vector<MissionStep>& mission, size_t index) {
   return "mission[" + std::to_string(index) + "]" +
          (index < mission.size() ? std::string(" (") + StepKindName(mission[index].kind) + ")" : std::string());
+}
+
+double DistanceToObjectSurface(const MissionObject& object, const Vec3& x) {
+  const ObjectShape& s = object.shape;
+  switch (s.kind) {
+    case ObjectShape::Kind::kBox:
+      return std::max(0.0, geometry::SignedDistance(geometry::Box{object.pose, s.box_size}, x));
+    case ObjectShape::Kind::kCylinder:
+      return std::max(0.0, geometry::SignedDistance(geometry::Cylinder{object.pose, s.radius, s.length}, x));
+    case ObjectShape::Kind::kSphere:
+      return std::max(0.0, geometry::SignedDistance(geometry::Sphere{object.pose.translation(), s.radius}, x));
+    case ObjectShape::Kind::kMesh:
+      break;
+  }
+  return (x - object.pose.translation()).norm();
 }
 
 }  // namespace quadhand::planner

@@ -670,6 +670,16 @@ core::Status MissionPlanner::Grasp(size_t i) {
     held.object_in_tool = step.object.pose;
   } else {
     const Pose tool = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link);
+    // The task's check of the reach waits for the kinematics when the reach
+    // before gives only a state: here the tool is where the plan put it.
+    const double gap = DistanceToObjectSurface(step.object, tool.translation());
+    if (gap > kGraspReach) {
+      return core::Status::InvalidArgument(
+          task_.file + ": " + StepName(task_.mission, i) +
+          core::Format(": the object is not within reach of the tool: its surface is %.3f m from the tool's "
+                       "position at this step (at most %.2f m)",
+                       gap, kGraspReach));
+    }
     held.object_in_tool = tool.inverse() * step.object.pose;
     // The object leaves the scene: every point within scene_margin of it.
     auto elements = ObjectElements(robot, step.object);

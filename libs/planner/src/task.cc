@@ -11,7 +11,6 @@
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/text.h"
 #include "quadhand/core/yaml_text.h"
-#include "quadhand/geometry/primitives.h"
 
 namespace quadhand::planner {
 namespace {
@@ -373,28 +372,6 @@ std::optional<Vec3> ToolPositionBefore(const std::vector<MissionStep>& mission, 
   return tool;
 }
 
-// The distance from `x` (world) to the object's surface at its pose, 0
-// inside it (geometry/primitives.h); for a mesh, the distance to its
-// frame's origin (its vertices are read with the robot).
-double DistanceToObject(const MissionObject& object, const Vec3& x) {
-  const ObjectShape& s = object.shape;
-  switch (s.kind) {
-    case ObjectShape::Kind::kBox:
-      return std::max(0.0, geometry::SignedDistance(geometry::Box{object.pose, s.box_size}, x));
-    case ObjectShape::Kind::kCylinder:
-      return std::max(0.0, geometry::SignedDistance(geometry::Cylinder{object.pose, s.radius, s.length}, x));
-    case ObjectShape::Kind::kSphere:
-      return std::max(0.0, geometry::SignedDistance(geometry::Sphere{object.pose.translation(), s.radius}, x));
-    case ObjectShape::Kind::kMesh:
-      break;
-  }
-  return (x - object.pose.translation()).norm();
-}
-
-// A grasp closes on an object the tool touches: its surface no farther from
-// the tool point than this (docs/missions.md).
-constexpr double kGraspReach = 0.05;
-
 core::Status ReadMission(const Reader& r, const YAML::Node& node, std::vector<MissionStep>* mission) {
   if (!node.IsSequence() || node.size() == 0) return r.Error("mission", "expected a non-empty list of steps");
   for (size_t i = 0; i < node.size(); ++i) QUADHAND_RETURN_IF_ERROR(ReadStep(r, node[i], i, mission));
@@ -403,7 +380,7 @@ core::Status ReadMission(const Reader& r, const YAML::Node& node, std::vector<Mi
     if (step.kind != StepKind::kGrasp || step.held_at_start) continue;
     const std::optional<Vec3> tool = ToolPositionBefore(*mission, i);
     if (!tool) continue;
-    const double gap = DistanceToObject(step.object, *tool);
+    const double gap = DistanceToObjectSurface(step.object, *tool);
     if (gap > kGraspReach) {
       return r.Error(StepName(*mission, i), core::Format("the object is not within reach of the tool: its surface is "
                                                          "%.3f m from the tool's position at this step (at most %.2f m)",

@@ -84,6 +84,15 @@ struct MissionStep {
   double hold_duration = 0.0;  // s
 };
 
+// A grasp closes on an object the tool touches: its surface no farther from
+// the tool point than this, metres (docs/missions.md).
+constexpr double kGraspReach = 0.05;
+
+// The distance from `x` (world) to the object's surface at its pose, 0
+// inside it (geometry/primitives.h); for a mesh, the distance to its
+// frame's origin (its vertices are read with the robot).
+double DistanceToObjectSurface(const MissionObject& object, const Vec3& x);
+
 // "mission[2] (grasp)": how messages name a step.
 std::string StepName(const std::vector<MissionStep>& mission, size_t index);
 
