@@ -87,7 +87,9 @@ int main(int argc, char** argv) {
                  "--udp: exit after this many simulated seconds, at most 1e6 (0: until SIGINT/SIGTERM)")
       ->capture_default_str();
   app.add_option("--start", start_text, "--udp: hover start X,Y,Z[,YAW] (ENU m, rad; joints at mid-range; default 0,0,1)");
-  app.add_option("--start-task", start_task, "--udp: start at a task file's start state (position, yaw, joints)");
+  app.add_option("--start-task", start_task,
+                 "--udp: start at a task file's start state (position, yaw, joints); a mission's grasps are what the "
+                 "gripper picks up (MAV_CMD_DO_GRIPPER)");
   app.add_option("--log", log_path,
                  "--udp: write the flown states (plan CSV columns, 50 Hz) here: to LOG.partial every second,\n"
                  "renamed to LOG at the end");
@@ -178,10 +180,16 @@ int main(int argc, char** argv) {
       auto parsed = sim::ParseStartPose(start_text);
       if (!parsed.ok()) return Fail(parsed.status().message());
       start = *parsed;
-    } else if (!start_task.empty()) {
+    }
+    std::vector<sim::GripperLoad> gripper_loads;
+    if (!start_task.empty()) {
       auto loaded = sim::LoadTaskStartPose(start_task);
       if (!loaded.ok()) return Fail(loaded.status().message());
       start = *loaded;
+      // A mission's grasps: what the gripper picks up (MAV_CMD_DO_GRIPPER).
+      auto loads = sim::LoadTaskGripperLoads(start_task);
+      if (!loads.ok()) return Fail(loads.status().message());
+      gripper_loads = std::move(*loads);
     }
     if (require_signing && key_path.empty()) return Fail("--require-signing needs --signing-key FILE");
     if (!key_path.empty()) {
@@ -204,6 +212,7 @@ int main(int argc, char** argv) {
     sim::AutopilotOptions autopilot_options;
     autopilot_options.system_id = options.system_id;
     autopilot_options.record_flown = !log_path.empty();
+    autopilot_options.gripper_loads = std::move(gripper_loads);
     auto autopilot = sim::Autopilot::Create(sim::Simulator(std::move(*model), seed), start, autopilot_options);
     if (!autopilot.ok()) {
       return Fail((start_task.empty() ? std::string("--start") : start_task) + ": " + autopilot.status().message());

@@ -288,6 +288,94 @@ TEST(StartPoseTest, ParsesTheStartOption) {
   }
 }
 
+link::CommandLong Gripper(int action) { return Command(link::mav::kCmdDoGripper, 1.0f, static_cast<float>(action)); }
+
+TEST_F(AutopilotTest, TheGripperPicksUpEachLoadWhereTheToolIsAndLetsItGo) {
+  AutopilotOptions options;
+  // The first load 0.3 m below the start (the tool is not there: it is taken
+  // where the vehicle's own tool is), the second one kilogram.
+  options.gripper_loads = {{0.2, Vec3(0.0, 0.0, 0.7), false}, {1.0, Vec3(0.5, 0.0, 1.0), false}};
+  auto created = Autopilot::Create(Simulator(Model(true, 0.0), 7), StartPose{}, options);
+  ASSERT_TRUE(created.ok()) << created.status().message();
+  autopilot_ = std::make_unique<Autopilot>(std::move(*created));
+  const double empty = autopilot_->simulator().model().TotalMass();
+  EXPECT_FALSE(autopilot_->gripper_closed());
+  AdvanceTo(1.0);
+
+  EXPECT_EQ(Ack(Gripper(link::mav::kGripperActionGrab)).result, link::mav::kResultAccepted);
+  EXPECT_TRUE(autopilot_->gripper_closed());
+  EXPECT_EQ(autopilot_->gripper_grabs(), 1);
+  const VehicleModel& held = autopilot_->simulator().model();
+  EXPECT_NEAR(held.TotalMass(), empty + 0.2, 1e-9);
+  EXPECT_DOUBLE_EQ(held.payload_mass(), 0.2);
+  // The load's point, in the tool's frame at the grab.
+  const VehicleState& s = autopilot_->state();
+  const int tool = held.robot().LinkIndex("tool");
+  const Pose X_WT = MakePose(s.position, s.attitude.toRotationMatrix()) * held.LinkPosesInBase(s.joints)[tool];
+  EXPECT_TRUE((X_WT * held.config().payload.offset).isApprox(Vec3(0.0, 0.0, 0.7), 1e-9));
+  // A second grab while closed changes nothing.
+  EXPECT_EQ(Ack(Gripper(link::mav::kGripperActionGrab)).result, link::mav::kResultAccepted);
+  EXPECT_EQ(autopilot_->gripper_grabs(), 1);
+  // Carrying it, the vehicle still holds its position.
+  AdvanceTo(4.0);
+  EXPECT_LT((autopilot_->state().position - StartPose{}.position).norm(), 0.05);
+
+  EXPECT_EQ(Ack(Gripper(link::mav::kGripperActionRelease)).result, link::mav::kResultAccepted);
+  EXPECT_FALSE(autopilot_->gripper_closed());
+  EXPECT_NEAR(autopilot_->simulator().model().TotalMass(), empty, 1e-9);
+  EXPECT_EQ(Ack(Gripper(link::mav::kGripperActionGrab)).result, link::mav::kResultAccepted);
+  EXPECT_NEAR(autopilot_->simulator().model().TotalMass(), empty + 1.0, 1e-9);
+  EXPECT_EQ(Ack(Gripper(link::mav::kGripperActionRelease)).result, link::mav::kResultAccepted);
+  // A grab beyond the loads closes on nothing; an unknown action is denied.
+  EXPECT_EQ(Ack(Gripper(link::mav::kGripperActionGrab)).result, link::mav::kResultAccepted);
+  EXPECT_NEAR(autopilot_->simulator().model().TotalMass(), empty, 1e-9);
+  EXPECT_EQ(Ack(Gripper(7)).result, link::mav::kResultDenied);
+}
+
+TEST_F(AutopilotTest, ALoadHeldAtTheStartIsCarriedFromTheFirstInstant) {
+  AutopilotOptions options;
+  options.gripper_loads = {{0.15, Vec3(0.12, 0.0, 0.0), true}};
+  StartPose start;
+  start.position = Vec3(1.0, 2.0, 1.5);
+  auto created = Autopilot::Create(Simulator(Model(true, 0.0), 7), start, options);
+  ASSERT_TRUE(created.ok()) << created.status().message();
+  autopilot_ = std::make_unique<Autopilot>(std::move(*created));
+  EXPECT_TRUE(autopilot_->gripper_closed());
+  EXPECT_DOUBLE_EQ(autopilot_->simulator().model().payload_mass(), 0.15);
+  EXPECT_TRUE(autopilot_->simulator().model().config().payload.offset.isApprox(Vec3(0.12, 0.0, 0.0)));
+  AdvanceTo(3.0);
+  EXPECT_LT((autopilot_->state().position - start.position).norm(), 0.05);
+  options.gripper_loads = {{0.1, Vec3::Zero(), false}, {0.1, Vec3::Zero(), true}};
+  EXPECT_FALSE(Autopilot::Create(Simulator(Model(true, 0.0), 7), start, options).ok());
+}
+
+TEST(StartPoseTest, ReadsTheGripperLoadsOfAMission) {
+  const std::string path = ::testing::TempDir() + "/autopilot_mission.yaml";
+  std::ofstream(path) << "start: {position: [0, 0, 1], yaw: 0, joints: [0, 0, 0]}\n"
+                         "mission:\n"
+                         "  - grasp: {object: {shape: {sphere: {radius: 0.02}}, pose: {position: [0.1, 0, 0]}, mass: 0.05}}\n"
+                         "  - reach: {position: [1, 0, 1], yaw: 0, joints: [0, 0, 0]}\n"
+                         "  - release: {}\n"
+                         "  - grasp: {object: {shape: {box: {size: [0.1, 0.1, 0.1]}}, pose: {position: [1, 0, 0.5]}}}\n";
+  auto loads = LoadTaskGripperLoads(path);
+  ASSERT_TRUE(loads.ok()) << loads.status().message();
+  ASSERT_EQ(loads->size(), 2u);
+  EXPECT_TRUE((*loads)[0].held_at_start);
+  EXPECT_DOUBLE_EQ((*loads)[0].mass, 0.05);
+  EXPECT_EQ((*loads)[0].position, Vec3(0.1, 0, 0));
+  EXPECT_FALSE((*loads)[1].held_at_start);
+  EXPECT_DOUBLE_EQ((*loads)[1].mass, 0.0);
+  EXPECT_EQ((*loads)[1].position, Vec3(1, 0, 0.5));
+  auto none = LoadTaskGripperLoads(testing::kRoot + "/data/tasks/window_cup.yaml");
+  ASSERT_TRUE(none.ok());
+  EXPECT_TRUE(none->empty());
+  std::ofstream(path, std::ios::trunc) << "mission:\n  - grasp: {object: {pose: {position: [1, 2]}}}\n";
+  const auto bad = LoadTaskGripperLoads(path);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("mission[0].grasp.object.pose.position"), std::string::npos)
+      << bad.status().message();
+}
+
 TEST(StartPoseTest, ReadsTheStartOfATask) {
   core::Result<StartPose> s = LoadTaskStartPose(testing::kRoot + "/data/tasks/window_cup.yaml");
   ASSERT_TRUE(s.ok()) << s.status().message();

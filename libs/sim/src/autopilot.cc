@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/text.h"
 #include "quadhand/core/yaml_text.h"
 #include "quadhand/link/frames.h"
 #include "quadhand/traj/flatness.h"
@@ -59,6 +60,13 @@ bool AutopilotOptions::IsValid(std::string* why) const {
   if (!(offboard_timeout > 0.0 && std::isfinite(offboard_timeout))) return fail("offboard_timeout must be > 0");
   if (!(offboard_min_stream >= 0.0 && std::isfinite(offboard_min_stream))) {
     return fail("offboard_min_stream must be >= 0");
+  }
+  for (size_t i = 0; i < gripper_loads.size(); ++i) {
+    const GripperLoad& load = gripper_loads[i];
+    if (!(load.mass >= 0.0 && load.mass <= 100.0) || !load.position.allFinite()) {
+      return fail("gripper_loads: masses in [0, 100] kg, finite positions");
+    }
+    if (load.held_at_start && i != 0) return fail("gripper_loads: only the first load may be held at the start");
   }
   return true;
 }
@@ -116,6 +124,49 @@ core::Result<StartPose> LoadTaskStartPose(const std::string& task_path) {
   return pose;
 }
 
+core::Result<std::vector<GripperLoad>> LoadTaskGripperLoads(const std::string& task_path) {
+  auto text = core::ReadFileToString(task_path);
+  if (!text.ok()) return text.status();
+  QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(*text, task_path));
+  YAML::Node root;
+  try {
+    root = YAML::Load(*text);
+  } catch (const YAML::Exception& e) {
+    return core::Status::InvalidArgument(task_path + ": not valid YAML: " + e.what());
+  }
+  std::vector<GripperLoad> loads;
+  const YAML::Node mission = root.IsMap() ? root["mission"] : YAML::Node();
+  if (!mission) return loads;
+  if (!mission.IsSequence()) return core::Status::InvalidArgument(task_path + ": mission: expected a list of steps");
+  for (size_t i = 0; i < mission.size(); ++i) {
+    const YAML::Node step = mission[i];
+    if (!step.IsMap() || !step["grasp"]) continue;
+    const std::string key = "mission[" + std::to_string(i) + "].grasp.object";
+    const YAML::Node object = step["grasp"].IsMap() ? step["grasp"]["object"] : YAML::Node();
+    if (!object || !object.IsMap()) return core::Status::InvalidArgument(task_path + ": " + key + ": missing (a map)");
+    GripperLoad load;
+    load.held_at_start = i == 0;
+    const YAML::Node pose = object["pose"];
+    const std::optional<std::vector<double>> position =
+        pose && pose.IsMap() ? Numbers(pose["position"]) : std::optional<std::vector<double>>();
+    if (!position || position->size() != 3) {
+      return core::Status::InvalidArgument(task_path + ": " + key + ".pose.position: expected a list of 3 numbers");
+    }
+    load.position = Vec3((*position)[0], (*position)[1], (*position)[2]);
+    if (object["mass"]) {
+      if (!object["mass"].IsScalar() || !YAML::convert<double>::decode(object["mass"], load.mass) ||
+          !(load.mass >= 0.0 && load.mass <= 100.0)) {
+        return core::Status::InvalidArgument(task_path + ": " + key + ".mass: expected a number in [0, 100] kg");
+      }
+    }
+    if (!load.position.allFinite()) {
+      return core::Status::InvalidArgument(task_path + ": " + key + ".pose.position: values must be finite");
+    }
+    loads.push_back(load);
+  }
+  return loads;
+}
+
 Autopilot::Autopilot(Simulator simulator, const AutopilotOptions& options)
     : simulator_(std::move(simulator)), options_(options) {}
 
@@ -136,6 +187,16 @@ core::Result<Autopilot> Autopilot::Create(Simulator simulator, const StartPose& 
   state.attitude = Quat(Eigen::AngleAxisd(start.yaw, Vec3::UnitZ()));
   simulator.Reset(state, 0.0);
   Autopilot autopilot(std::move(simulator), options);
+  if (!options.gripper_loads.empty() && options.gripper_loads.front().held_at_start) {
+    const GripperLoad& load = options.gripper_loads.front();
+    QUADHAND_RETURN_IF_ERROR(autopilot.simulator_.SetPayload(load.mass, load.position));
+    autopilot.gripper_closed_ = true;
+    autopilot.next_load_ = 1;
+    // The held weight from the first instant: thrusts that hold it.
+    VehicleState held = VehicleState::AtRest(autopilot.simulator_.model(), start.position, joints);
+    held.attitude = state.attitude;
+    autopilot.simulator_.Reset(held, 0.0);
+  }
   autopilot.EnterHold();
   autopilot.joint_target_ = joints;
   autopilot.joint_rate_target_ = VecX::Zero(joints.size());
@@ -233,6 +294,8 @@ void Autopilot::HandleCommand(const link::CommandLong& command, uint8_t from_sys
     } else {
       ack.result = link::mav::kResultDenied;
     }
+  } else if (command.command == link::mav::kCmdDoGripper) {
+    ack.result = HandleGripper(command, out);
   } else if (command.command == link::mav::kCmdComponentArmDisarm) {
     const long action = std::lround(command.param1);
     if (action == 1) {
@@ -249,6 +312,37 @@ void Autopilot::HandleCommand(const link::CommandLong& command, uint8_t from_sys
     }
   }
   out->push_back(ack);
+}
+
+uint8_t Autopilot::HandleGripper(const link::CommandLong& command, std::vector<link::Message>* out) {
+  const long action = std::lround(command.param2);
+  if (action == link::mav::kGripperActionRelease) {
+    if (gripper_closed_ && !simulator_.SetPayload(0.0, Vec3::Zero()).ok()) return link::mav::kResultFailed;
+    if (gripper_closed_) out->push_back(Text(kSeverityInfo, "Gripper open"));
+    gripper_closed_ = false;
+    return link::mav::kResultAccepted;
+  }
+  if (action != link::mav::kGripperActionGrab) return link::mav::kResultDenied;
+  if (gripper_closed_) return link::mav::kResultAccepted;
+  double mass = 0.0;
+  Vec3 offset = Vec3::Zero();
+  if (next_load_ < static_cast<int>(options_.gripper_loads.size())) {
+    const GripperLoad& load = options_.gripper_loads[next_load_];
+    mass = load.mass;
+    // Where the object is in the tool's frame now: the vehicle's own tool,
+    // wherever the flight put it.
+    const VehicleModel& model = simulator_.model();
+    const int link = model.robot().LinkIndex(model.config().payload.link);
+    if (link < 0) return link::mav::kResultFailed;
+    const VehicleState& s = simulator_.state();
+    const Pose tool = MakePose(s.position, s.attitude.toRotationMatrix()) * model.LinkPosesInBase(s.joints)[link];
+    offset = load.held_at_start ? load.position : Vec3(tool.inverse() * load.position);
+  }
+  ++next_load_;
+  if (!simulator_.SetPayload(mass, offset).ok()) return link::mav::kResultFailed;
+  gripper_closed_ = true;
+  out->push_back(Text(kSeverityInfo, core::Format("Gripper closed (%.3f kg)", mass)));
+  return link::mav::kResultAccepted;
 }
 
 void Autopilot::HandleSetpoint(const link::SetPositionTargetLocalNed& m) {

@@ -50,6 +50,21 @@ Simulator::Simulator(VehicleModel model, uint64_t seed)
   input_.joint_rate_setpoints = VecX::Zero(n);
 }
 
+core::Status Simulator::SetPayload(double mass, const Vec3& offset) {
+  SimConfig config = model_.config();
+  config.payload.attached = mass > 0.0;
+  config.payload.mass = mass > 0.0 ? mass : config.payload.mass;
+  config.payload.offset = offset;
+  auto model = VehicleModel::Create(model_.robot(), config);
+  if (!model.ok()) return model.status();
+  // The controller learns the change of mass (the load's mass is known, as a
+  // hover-thrust estimate would find it); the shift of the centre of mass is
+  // left to its integrators and to PCGC, which balances the arm, not the load.
+  controller_.set_mass(std::max(1e-3, controller_.mass() - model_.payload_mass() + model->payload_mass()));
+  model_ = std::move(*model);
+  return core::Status::Ok();
+}
+
 void Simulator::Reset(const VehicleState& state, double time) {
   state_ = state;
   time_ = time;

@@ -27,6 +27,11 @@ constexpr uint8_t kStateActive = 4;              // MAV_STATE_ACTIVE
 constexpr uint8_t kFrameLocalNed = 1;            // MAV_FRAME_LOCAL_NED
 constexpr uint16_t kCmdDoSetMode = 176;          // MAV_CMD_DO_SET_MODE
 constexpr uint16_t kCmdComponentArmDisarm = 400; // MAV_CMD_COMPONENT_ARM_DISARM
+// MAV_CMD_DO_GRIPPER: param1 the gripper instance (1-6), param2 the action
+// (GRIPPER_ACTIONS: 0 release, 1 grab).
+constexpr uint16_t kCmdDoGripper = 211;
+constexpr int kGripperActionRelease = 0;         // GRIPPER_ACTION_RELEASE
+constexpr int kGripperActionGrab = 1;            // GRIPPER_ACTION_GRAB
 constexpr uint8_t kResultAccepted = 0;           // MAV_RESULT_ACCEPTED
 constexpr uint8_t kResultTemporarilyRejected = 1;
 constexpr uint8_t kResultDenied = 2;

@@ -56,6 +56,16 @@ constexpr uint16_t kForceSet = 512;
 constexpr uint16_t kYawIgnore = 1024, kYawRateIgnore = 2048;
 }  // namespace typemask
 
+// What the gripper picks up at its next grab (MAV_CMD_DO_GRIPPER): a mass
+// at a point, the object's centre - world frame (the object as it lies
+// before the grasp), or the payload link's frame for one already held at the
+// start. The simulator attaches it where the vehicle's own tool is then.
+struct GripperLoad {
+  double mass = 0.0;  // kg
+  Vec3 position = Vec3::Zero();
+  bool held_at_start = false;
+};
+
 struct AutopilotOptions {
   uint8_t system_id = 1;            // commands for another system are ignored (0 = any)
   double telemetry_period = 0.02;   // s of simulated time (50 Hz)
@@ -63,6 +73,10 @@ struct AutopilotOptions {
   double offboard_timeout = 0.5;    // s without a position setpoint -> POSITION
   double offboard_min_stream = 1.0; // s of setpoints before OFFBOARD is accepted
   bool record_flown = false;        // keep one PlanRow per telemetry period (flown())
+  // The loads of the gripper's grabs, in order (a mission's grasps,
+  // LoadTaskGripperLoads); a grab beyond them closes on nothing. A first load
+  // held at the start is attached from the start.
+  std::vector<GripperLoad> gripper_loads;
 
   bool IsValid(std::string* why) const;
 };
@@ -85,6 +99,11 @@ core::Result<StartPose> ParseStartPose(const std::string& text);
 // library, which parses whole tasks, sits above the simulator and would pull
 // CGAL, PCL and OctoMap into quadhand-sim. Errors name the file and the key.
 core::Result<StartPose> LoadTaskStartPose(const std::string& task_path);
+// The loads of a task file's mission (contracts.md 0.3): each grasp's
+// object.mass (default 0) and object.pose.position, the first held at the
+// start when the mission opens with its grasp. Empty for a task without a
+// mission. Only those keys are read; errors name the file and the key.
+core::Result<std::vector<GripperLoad>> LoadTaskGripperLoads(const std::string& task_path);
 
 class Autopilot {
  public:
@@ -116,6 +135,9 @@ class Autopilot {
   const std::vector<PlanRow>& flown() const { return flown_; }
   uint64_t setpoints_received() const { return setpoints_received_; }
   uint64_t setpoints_rejected() const { return setpoints_rejected_; }
+  // The gripper: closed (holding its load, if any) and the grabs so far.
+  bool gripper_closed() const { return gripper_closed_; }
+  int gripper_grabs() const { return next_load_; }
 
  private:
   Autopilot(Simulator simulator, const AutopilotOptions& options);
@@ -132,6 +154,8 @@ class Autopilot {
 
   void HandleCommand(const link::CommandLong& command, uint8_t from_system, uint8_t from_component,
                      std::vector<link::Message>* out);
+  // MAV_CMD_DO_GRIPPER: grab (the next load) or release; the ack's result.
+  uint8_t HandleGripper(const link::CommandLong& command, std::vector<link::Message>* out);
   void HandleSetpoint(const link::SetPositionTargetLocalNed& setpoint);
   void HandleJointSetpoint(const link::DebugFloatArray& array);
   // POSITION mode holding the current position, yaw and joints.
@@ -155,6 +179,8 @@ class Autopilot {
   double next_telemetry_ = 0.0;
   uint64_t setpoints_received_ = 0;
   uint64_t setpoints_rejected_ = 0;
+  bool gripper_closed_ = false;
+  int next_load_ = 0;
   std::vector<PlanRow> flown_;
 };
 

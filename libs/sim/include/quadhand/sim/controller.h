@@ -54,6 +54,9 @@ class GeometricController {
   void Reset();
 
   double mass() const { return mass_; }
+  // What it believes the mass is from now on (a payload picked up or put
+  // down); the integrators keep their state. mass > 0.
+  void set_mass(double mass) { mass_ = mass; }
   const Mat3& inertia() const { return inertia_; }
 
  private:

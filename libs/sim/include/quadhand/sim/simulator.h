@@ -34,6 +34,15 @@ class Simulator {
   const VehicleModel& model() const { return model_; }
   const GeometricController& controller() const { return controller_; }
 
+  // Attaches a payload of `mass` kg at `offset` (m, in the frame of the
+  // configuration's payload.link, the tool) or, with mass 0, removes it: a
+  // gripper closing on an object or letting it go. The vehicle's dynamics
+  // change at once; the controller's mass changes by the payload's (known
+  // from the task, as a hover-thrust estimate would learn it), its inertia
+  // does not, and the shifted centre of mass is left to its integrators.
+  // Fails on a bad mass or offset, or a robot without that link.
+  core::Status SetPayload(double mass, const Vec3& offset);
+
   // Sets the state and time, clears the controller's integrators.
   void Reset(const VehicleState& state, double time = 0.0);
 
