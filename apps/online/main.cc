@@ -38,6 +38,7 @@
 #include "quadhand/online/mavlink_bridge.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/planner_config.h"
+#include "quadhand/planner/mission_plan.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/robot/robot_model.h"
@@ -117,7 +118,8 @@ class GrowingLog {
 int DryRun(const planner::PlanningContext& context, const online::PlanningSetup& setup, double rate,
            double hold_time) {
   const auto begin = Clock::now();
-  auto result = planner::Plan(setup.scene, context.task(), setup.plan_options, *setup.solver);
+  auto result =
+      planner::PlanTask(context, context.task(), 0, setup.plan_options, *setup.solver, setup.mission_phases);
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - begin).count();
   if (!result.ok()) return Fail(result.status().message());
   if (!result->success) {
@@ -204,6 +206,10 @@ int main(int argc, char** argv) {
                  "After --arrival-hold, hold on until the tool is this close (m) to its goal (no tool goal: the base\n"
                  "to the plan's end) and the base slower than --arrival-settle-speed")
       ->capture_default_str();
+  app.add_option("--gripper-tolerance", options.gripper_tolerance,
+                 "A mission's gripper acts once the tool is this close (m) to its planned pose in the grasp or\n"
+                 "release step; not there by the middle of the step: the mission ends holding")
+      ->capture_default_str();
   app.add_option("--arrival-settle-speed", options.arrival_settle_speed,
                  "Base speed (m/s) below which the vehicle counts as settled at the goal")
       ->capture_default_str();
@@ -267,6 +273,9 @@ int main(int argc, char** argv) {
   }
   if (!(std::isfinite(options.arrival_tolerance) && options.arrival_tolerance > 0.0 && options.arrival_tolerance <= 1.0)) {
     return Fail("--arrival-tolerance must be in (0, 1] m");
+  }
+  if (!(std::isfinite(options.gripper_tolerance) && options.gripper_tolerance > 0.0 && options.gripper_tolerance <= 0.1)) {
+    return Fail("--gripper-tolerance must be in (0, 0.1] m");
   }
   if (!(std::isfinite(options.arrival_settle_speed) && options.arrival_settle_speed > 0.0 && options.arrival_settle_speed <= 1.0)) {
     return Fail("--arrival-settle-speed must be in (0, 1] m/s");
@@ -333,9 +342,15 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "quadhand-online: caution: %s\n", caution.c_str());
   }
   online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config->planner, config->replan, solver->get()};
+  // A mission of more than one step (docs/missions.md): planned as a whole,
+  // flown without replans, the gripper commanded at its grasps and releases.
+  const bool mission = ctx.task().mission.size() > 1;
+  planner::MissionPhaseCache mission_phases;
+  setup.context = &ctx;
+  setup.mission_phases = &mission_phases;
   if (dry_run) return DryRun(ctx, setup, rate, options.hold_time);
 
-  options.replanning = !no_replan;
+  options.replanning = !no_replan && !mission;
   options.require_clock_sync = !no_timesync;
   auto controller_or = online::OnlineController::Create(setup, options);
   if (!controller_or.ok()) return Fail(controller_or.status().message());
@@ -441,11 +456,22 @@ int main(int argc, char** argv) {
   if (controller.current_plan()) {
     // A flight that ended on its own is judged up to its last tick: a vehicle
     // silent at the end was not seen arriving.
-    metrics = online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
-                                     controller.current_plan()->terminal.position, 0.3,
-                                     code == kExitSuccess ? last_tick : online::kNoEndTime);
+    const planner::PlanResult& flown_plan = *controller.current_plan();
+    const double end_time = code == kExitSuccess ? last_tick : online::kNoEndTime;
+    metrics = mission ? online::EvaluateMissionFlight(log.samples(), flown_plan, controller.current_plan_start(),
+                                                      ctx.task(), options.clearance_tolerance, 0.3, end_time,
+                                                      controller.failed_plan_time())
+                      : online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
+                                               flown_plan.terminal.position, 0.3, end_time);
     const double required = ctx.task().safety_distance - options.clearance_tolerance;
-    if (metrics->min_clearance < required) {
+    if (metrics->held_object_margin < 0.0) {
+      code = kExitClearanceLost;
+      outcome = "CLEARANCE LOST";
+      judgement = core::Format("the held object came within %.4f m of the scene (t = %.2f s); it had to keep %.4f m "
+                               "less the tolerance there",
+                               metrics->held_object_min_clearance, metrics->held_object_min_clearance_time,
+                               metrics->held_object_bound);
+    } else if (metrics->min_clearance < required) {
       code = kExitClearanceLost;
       outcome = "CLEARANCE LOST";
       judgement = core::Format("the flown path came within %.4f m of the scene (link %s, t = %.2f s); the safety "
@@ -503,6 +529,14 @@ int main(int argc, char** argv) {
                 m.min_clearance, m.closest_link.c_str(), m.min_clearance_time, m.final_tool_error, m.final_base_error);
     std::printf("  judged on %ld of the vehicle's time-stamped states; longest gap between two %.3f s\n",
                 m.judged_samples, m.max_state_gap);
+    if (std::isfinite(m.held_object_margin)) {
+      std::printf("  held object: min clearance %.4f m (exact, t = %.2f s; it had to keep %.4f m there)\n",
+                  m.held_object_min_clearance, m.held_object_min_clearance_time, m.held_object_bound);
+    }
+    for (const auto& [step, error] : m.gripper_tool_errors) {
+      std::printf("  gripper at %s: the flown tool %.4f m from the planned one\n",
+                  planner::StepName(ctx.task().mission, step).c_str(), error);
+    }
   }
   const online::ClockSync& clock = controller.clock_sync();
   if (clock.synced()) {

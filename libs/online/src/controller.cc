@@ -193,6 +193,14 @@ class OnlineController::Worker {
     auto cold_plan = [&]() -> core::Result<planner::PlanResult> {
       planner::Task task = job.from_rest ? *setup_.task : limited;
       task.start = job.start;
+      if (task.mission.size() > 1) {
+        // A mission's legs are checked against their own phases, so it is
+        // planned at the link's limit instead of slowed down afterwards.
+        if (setup_.context == nullptr) return core::Status::InvalidArgument("a mission needs its planning context");
+        task.limits.v_max = limited.limits.v_max;
+        return planner::PlanTask(*setup_.context, task, 0, setup_.plan_options, *setup_.solver,
+                                 setup_.mission_phases);
+      }
       core::Result<planner::PlanResult> planned =
           planner::Plan(setup_.scene, task, setup_.plan_options, *setup_.solver);
       if (!job.from_rest || job.v_max <= 0.0 || !planned.ok() || !planned->success) return planned;
@@ -285,6 +293,9 @@ bool OnlineController::finished() const {
 void OnlineController::Event(std::string text) { events_.push_back(std::move(text)); }
 
 void OnlineController::Fail(Phase phase, const std::string& why) {
+  if (to_.plan && (phase_ == Phase::kFlying || phase_ == Phase::kArrived) && last_setpoint_) {
+    failed_plan_time_ = last_setpoint_time_ - to_.start;
+  }
   phase_ = phase;
   blending_ = false;
   if (phase == Phase::kHoldingAfterFailure) {
@@ -385,6 +396,18 @@ void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
 
 void OnlineController::OnCommandAck(double t, Command command, AckResult result) {
   (void)t;
+  if (command == Command::kGripper) {
+    if (gripper_pending_ < 0) return;
+    const std::string step = planner::StepName(setup_.task->mission, static_cast<size_t>(gripper_pending_));
+    if (result == AckResult::kAccepted) {
+      Event("gripper command of " + step + " accepted");
+      gripper_pending_ = -1;
+    } else if (result == AckResult::kRejected) {
+      gripper_pending_ = -1;
+      Fail(Phase::kHoldingAfterFailure, "the vehicle refused the gripper command of " + step);
+    }
+    return;
+  }
   const bool expected = (phase_ == Phase::kRequestingOffboard && command == Command::kSetOffboardMode) ||
                         (phase_ == Phase::kArming && command == Command::kArm);
   if (!expected) return;
@@ -618,7 +641,13 @@ void OnlineController::CheckLink(double t) {
     return;
   }
   // Holding: resume with a fresh plan from the measured state once the link
-  // has stayed good enough for a useful speed over the whole window.
+  // has stayed good enough for a useful speed over the whole window. A
+  // mission is not planned again from the middle of its steps: it holds.
+  if (IsMission()) {
+    Fail(Phase::kHoldingAfterFailure, "the link failed in the middle of the mission; a mission is not resumed "
+                                      "after a link hold");
+    return;
+  }
   if (pending_resume_ || replan_pending_ || worker_->busy()) return;
   if (t - link_hold_start_ < link_brake_duration_ + options_.clock_sync.window) return;
   for (const auto& [time, b] : blind_history_) {
@@ -742,6 +771,65 @@ double OnlineController::ArrivalOffset() const {
   return (position_ - plan.Sample(plan.duration()).position).norm();
 }
 
+void OnlineController::CommandGripper(double t, ControllerOutput* out) {
+  if (!IsMission() || !to_.plan || (phase_ != Phase::kFlying && phase_ != Phase::kArrived)) return;
+  const std::vector<planner::MissionStep>& mission = setup_.task->mission;
+  if (gripper_pending_ >= 0) {
+    // Not acknowledged: resend after the acknowledgement timeout, a few times.
+    if (t - gripper_sent_at_ < options_.ack_timeout) return;
+    if (gripper_attempts_ >= options_.max_command_attempts) {
+      const std::string step = planner::StepName(mission, static_cast<size_t>(gripper_pending_));
+      gripper_pending_ = -1;
+      Fail(Phase::kHoldingAfterFailure, "no acknowledgement of the gripper command of " + step);
+      return;
+    }
+    out->commands.push_back({Command::kGripper, gripper_attempts_++,
+                             mission[gripper_pending_].kind == planner::StepKind::kGrasp});
+    gripper_sent_at_ = t;
+    return;
+  }
+  const std::vector<planner::StepResult>& steps = to_.plan->steps;
+  while (next_gripper_step_ < mission.size() && next_gripper_step_ < steps.size()) {
+    const planner::MissionStep& step = mission[next_gripper_step_];
+    const bool acts = (step.kind == planner::StepKind::kGrasp && !step.held_at_start) ||
+                      step.kind == planner::StepKind::kRelease;
+    if (!acts) {
+      ++next_gripper_step_;
+      continue;
+    }
+    // The gripper acts when its step has begun (the plan is at rest there)
+    // and the measured tool is where the plan put it.
+    const planner::StepResult& planned = steps[next_gripper_step_];
+    if (t - to_.start < planned.start_s) return;
+    const robot::RobotModel& robot = setup_.scene.robot;
+    const int tool = robot.LinkIndex(setup_.task->tool_link);
+    if (tool >= 0 && HaveState()) {
+      const planner::WholeBodySample at = to_.plan->trajectory->Sample(planned.start_s);
+      const Vec3 expected = robot::LinkPose(robot, at.BasePose(), at.joints, tool).translation();
+      const Vec3 measured =
+          robot::LinkPose(robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool).translation();
+      const double error = (measured - expected).norm();
+      if (error > options_.gripper_tolerance) {
+        if (t - to_.start > 0.5 * (planned.start_s + planned.end_s)) {
+          Fail(Phase::kHoldingAfterFailure,
+               Format("the tool did not settle within %.4f m of its pose for ", options_.gripper_tolerance) +
+                   planner::StepName(mission, next_gripper_step_) + Format(" (%.4f m off)", error));
+        }
+        return;
+      }
+    }
+    const bool grab = step.kind == planner::StepKind::kGrasp;
+    out->commands.push_back({Command::kGripper, 0, grab});
+    gripper_pending_ = static_cast<long>(next_gripper_step_);
+    gripper_sent_at_ = t;
+    gripper_attempts_ = 1;
+    Event(std::string(grab ? "closing" : "opening") + " the gripper (" + planner::StepName(mission, next_gripper_step_) +
+          ")");
+    ++next_gripper_step_;
+    return;
+  }
+}
+
 ControllerOutput OnlineController::Tick(double t) {
   ControllerOutput out;
   if (!ticked_) {
@@ -824,7 +912,7 @@ ControllerOutput OnlineController::Tick(double t) {
       Event("the plan has ended: holding at the goal");
     }
   }
-  if (phase_ == Phase::kArrived && !arrival_done_ && t - arrival_time_ >= options_.arrival_hold) {
+  if (phase_ == Phase::kArrived && !arrival_done_ && gripper_pending_ < 0 && t - arrival_time_ >= options_.arrival_hold) {
     const double offset = ArrivalOffset();
     const double speed = velocity_.norm();
     arrival_settled_ = offset <= options_.arrival_tolerance && speed <= options_.arrival_settle_speed;
@@ -835,6 +923,8 @@ ControllerOutput OnlineController::Tick(double t) {
             Format(" (%.4f m off, ", offset) + Format("%.4f m/s): done", speed));
     }
   }
+
+  CommandGripper(t, &out);
 
   std::optional<Setpoint> setpoint;
   bool in_blend = false;

@@ -98,35 +98,50 @@ std::string FlightLog::CsvRows(const std::vector<std::string>& joint_names, size
   return out;
 }
 
-FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
-                             const env::ExactMeshModel& exact, const planner::Task& task,
-                             const Vec3& terminal_position, double reach, double end_time) {
+namespace {
+
+// One judged state: the robot's clearance and closest link (of `robot`),
+// and for a mission the held object's clearance and what it had to keep.
+struct Judged {
+  double clearance = 0.0;
+  int link = -1;
+  const robot::RobotModel* robot = nullptr;
+  double held_clearance = std::numeric_limits<double>::infinity();
+  double held_bound = 0.0;
+};
+
+template <typename Judge>
+FlightMetrics Evaluate(const std::vector<FlightSample>& samples, int num_joints, const Judge& judge,
+                       const robot::RobotModel& robot, const planner::Task& task, const Vec3& terminal_position,
+                       double reach, double end_time) {
   FlightMetrics metrics;
   std::vector<double> errors;
   bool flown = false;
-  robot::KinematicsState kinematics;
   double min_clearance = reach;
-  int closest = -1;
+  std::string closest;
   double last_time = 0.0;
   for (const FlightSample& s : samples) {
     if (s.phase == Phase::kFlying && s.setpoint) errors.push_back((s.measured.position - s.setpoint->position).norm());
     flown = flown || s.phase == Phase::kFlying;
-    if (!flown || s.measured.joints.size() != robot.num_actuated()) continue;
+    if (!flown || s.measured.joints.size() != num_joints) continue;
     if (metrics.judged_samples > 0 && s.measured.time - last_time > metrics.max_state_gap) {
       metrics.max_state_gap = s.measured.time - last_time;
       metrics.max_state_gap_time = s.measured.time;
     }
     last_time = s.measured.time;
     ++metrics.judged_samples;
-    robot::ComputeKinematics(robot, MakePose(s.measured.position, s.measured.attitude.toRotationMatrix()),
-                             s.measured.joints, &kinematics);
-    int link = -1;
-    const double d = env::WholeBodyClearance(kinematics, exact, reach, {}, &link);
+    const Judged j = judge(s.measured);
     if (std::isnan(metrics.min_clearance_time)) metrics.min_clearance_time = s.measured.time;
-    if (d < min_clearance) {
-      min_clearance = d;
-      closest = link;
+    if (j.clearance < min_clearance) {
+      min_clearance = j.clearance;
+      closest = j.link >= 0 && j.robot != nullptr ? j.robot->link(j.link).name : std::string();
       metrics.min_clearance_time = s.measured.time;
+    }
+    if (std::isfinite(j.held_clearance) && j.held_clearance - j.held_bound < metrics.held_object_margin) {
+      metrics.held_object_margin = j.held_clearance - j.held_bound;
+      metrics.held_object_min_clearance = j.held_clearance;
+      metrics.held_object_min_clearance_time = s.measured.time;
+      metrics.held_object_bound = j.held_bound;
     }
   }
   if (metrics.judged_samples > 0 && end_time != kNoEndTime && end_time - last_time > metrics.max_state_gap) {
@@ -148,12 +163,101 @@ FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const rob
   }
   if (flown) {
     metrics.min_clearance = min_clearance;
-    if (closest >= 0) metrics.closest_link = robot.link(closest).name;
+    metrics.closest_link = closest;
   }
   if (!samples.empty()) {
     const MeasuredState& last = samples.back().measured;
     metrics.final_base_error = (last.position - terminal_position).norm();
     if (const auto tool_error = ToolGoalError(robot, task, last)) metrics.final_tool_error = *tool_error;
+  }
+  return metrics;
+}
+
+}  // namespace
+
+FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
+                             const env::ExactMeshModel& exact, const planner::Task& task,
+                             const Vec3& terminal_position, double reach, double end_time) {
+  robot::KinematicsState kinematics;
+  auto judge = [&](const MeasuredState& m) {
+    robot::ComputeKinematics(robot, MakePose(m.position, m.attitude.toRotationMatrix()), m.joints, &kinematics);
+    Judged j;
+    j.robot = &robot;
+    j.clearance = env::WholeBodyClearance(kinematics, exact, reach, {}, &j.link);
+    return j;
+  };
+  return Evaluate(samples, robot.num_actuated(), judge, robot, task, terminal_position, reach, end_time);
+}
+
+FlightMetrics EvaluateMissionFlight(const std::vector<FlightSample>& samples, const planner::PlanResult& plan,
+                                    double plan_start, const planner::Task& task, double tolerance, double reach,
+                                    double end_time, double frozen_plan_time) {
+  const std::vector<planner::MissionLeg>& legs = plan.mission_legs;
+  if (legs.empty() || !plan.trajectory) return FlightMetrics{};
+  const robot::RobotModel& base = *legs.front().robot;
+  const int tool = base.LinkIndex(task.tool_link);
+  // The flown state nearest plan time `at`.
+  auto nearest_state = [&](double at) -> const MeasuredState* {
+    const FlightSample* nearest = nullptr;
+    for (const FlightSample& s : samples) {
+      if (s.measured.joints.size() != base.num_actuated()) continue;
+      if (nearest == nullptr || std::abs(s.measured.time - (plan_start + at)) <
+                                    std::abs(nearest->measured.time - (plan_start + at))) {
+        nearest = &s;
+      }
+    }
+    return nearest != nullptr ? &nearest->measured : nullptr;
+  };
+  auto flown_tool = [&](const MeasuredState& m) {
+    return robot::LinkPose(base, MakePose(m.position, m.attitude.toRotationMatrix()), m.joints, tool);
+  };
+  // Where each grasped object sits in the flown tool's frame: where the
+  // tool was when its grasp began (the object lies at its pose in the task
+  // until then), not where the plan meant it to be.
+  std::vector<std::optional<Pose>> held_in_tool(task.mission.size());
+  for (size_t i = 0; tool >= 0 && i < task.mission.size() && i < plan.steps.size(); ++i) {
+    const planner::MissionStep& step = task.mission[i];
+    if (step.kind != planner::StepKind::kGrasp || !plan.steps[i].planned) continue;
+    if (step.held_at_start) {
+      held_in_tool[i] = step.object.pose;
+    } else if (const MeasuredState* m = nearest_state(plan.steps[i].start_s)) {
+      held_in_tool[i] = flown_tool(*m).inverse() * step.object.pose;
+    }
+  }
+  robot::KinematicsState kinematics;
+  auto judge = [&](const MeasuredState& m) {
+    const double t = frozen_plan_time >= 0.0 ? std::min(m.time - plan_start, frozen_plan_time) : m.time - plan_start;
+    size_t k = 0;
+    while (k + 1 < legs.size() && t > legs[k].end_s) ++k;
+    const planner::MissionLeg& leg = legs[k];
+    robot::ComputeKinematics(*leg.robot, MakePose(m.position, m.attitude.toRotationMatrix()), m.joints, &kinematics);
+    Judged j;
+    j.robot = leg.robot;
+    j.clearance = env::WholeBodyClearance(kinematics, *leg.robot_exact, reach, {}, &j.link);
+    if (leg.object_exact != nullptr && leg.object_link >= 0) {
+      Pose object = kinematics.link_poses[leg.object_link];
+      if (leg.held_grasp_step >= 0 && held_in_tool[leg.held_grasp_step]) {
+        object = kinematics.link_poses[tool] * *held_in_tool[leg.held_grasp_step];
+      }
+      j.held_clearance = leg.object_exact->LinkClearance(leg.object_link, object, reach, {});
+      j.held_bound = std::max(0.0, leg.object_clearance - tolerance);
+    }
+    return j;
+  };
+  const Vec3 terminal = plan.trajectory->Sample(plan.trajectory->duration()).position;
+  FlightMetrics metrics = Evaluate(samples, base.num_actuated(), judge, base, task, terminal, reach, end_time);
+  for (size_t i = 0; tool >= 0 && i < task.mission.size() && i < plan.steps.size(); ++i) {
+    const planner::MissionStep& step = task.mission[i];
+    const bool acts = (step.kind == planner::StepKind::kGrasp && !step.held_at_start) ||
+                      step.kind == planner::StepKind::kRelease;
+    if (!acts || !plan.steps[i].planned) continue;
+    const MeasuredState* m = nearest_state(plan.steps[i].start_s);
+    if (m == nullptr) continue;
+    const Vec3 flown = flown_tool(*m).translation();
+    const planner::WholeBodySample planned = plan.trajectory->Sample(plan.steps[i].start_s);
+    const Vec3 expected =
+        robot::LinkPose(base, planned.BasePose(), planned.joints, tool).translation();
+    metrics.gripper_tool_errors.emplace_back(i, (flown - expected).norm());
   }
   return metrics;
 }

@@ -60,6 +60,7 @@ bool DeliverToController(const link::Message& message, uint8_t from_system, doub
     Command command;
     if (ack->command == link::mav::kCmdDoSetMode) command = Command::kSetOffboardMode;
     else if (ack->command == link::mav::kCmdComponentArmDisarm) command = Command::kArm;
+    else if (ack->command == link::mav::kCmdDoGripper) command = Command::kGripper;
     else return false;
     AckResult result = AckResult::kRejected;
     if (ack->result == link::mav::kResultAccepted) result = AckResult::kAccepted;
@@ -114,6 +115,10 @@ link::CommandLong ToCommandLong(const CommandRequest& request, const LinkTargets
     m.command = link::mav::kCmdDoSetMode;
     m.param1 = link::mav::kModeFlagCustomModeEnabled;
     m.param2 = static_cast<float>(link::mav::kPx4MainModeOffboard);
+  } else if (request.command == Command::kGripper) {
+    m.command = link::mav::kCmdDoGripper;
+    m.param1 = 1.0f;  // the first gripper
+    m.param2 = static_cast<float>(request.grab ? link::mav::kGripperActionGrab : link::mav::kGripperActionRelease);
   } else {
     m.command = link::mav::kCmdComponentArmDisarm;
     m.param1 = 1.0f;

@@ -518,6 +518,20 @@ core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory 
     report.certified = report.certified && object.certified;
   }
   step.certified = report.passed && report.certified && (!continuing || before.certified);
+  MissionLeg leg;
+  leg.start_s = start_s;
+  leg.end_s = start_s + trajectory.duration();
+  leg.step = i;
+  leg.robot = &phase_->context->robot();
+  leg.robot_exact = phase_->held ? phase_->robot_only.get() : &phase_->context->exact();
+  leg.object_exact = phase_->held ? phase_->object_only.get() : nullptr;
+  leg.object_clearance = relaxed_object ? 0.0 : task_.safety_distance;
+  leg.held_grasp_step = phase_->held ? static_cast<long>(phase_->held->grasp_step) : -1;
+  leg.object_link = phase_->held ? phase_->object_link : -1;
+  result_.mission_legs.push_back(leg);
+  if (result_.mission_phases.empty() || result_.mission_phases.back() != phase_) {
+    result_.mission_phases.push_back(phase_);
+  }
   // The report names links and pairs of the task's robot: the held
   // object has its own figures, and a phase's pairs are numbered anew.
   if (report.closest_link >= base_.robot().num_links()) report.closest_link = -1;

@@ -65,6 +65,8 @@
 #include "quadhand/online/clock_sync.h"
 #include "quadhand/online/setpoint.h"
 #include "quadhand/planner/planner.h"
+#include "quadhand/planner/mission_plan.h"
+#include "quadhand/planner/planning_context.h"
 #include "quadhand/planner/replan.h"
 
 namespace quadhand::online {
@@ -104,6 +106,12 @@ struct OnlineOptions {
   // hold would end the flight with the tool still moving.
   double arrival_hold = 1.0;
   double arrival_tolerance = 0.003;
+  // A mission's gripper closes or opens (its grasp or release step has
+  // begun, the plan at rest) once the measured tool is within this many
+  // metres of the planned one; a tool that is not there by the middle of
+  // the step ends the mission holding (the object would be held, or left,
+  // off the pose it was planned with).
+  double gripper_tolerance = 0.005;
   double arrival_settle_speed = 0.01;
   double arrival_timeout = 10.0;  // >= arrival_hold; equal: a fixed hold
   double heartbeat_period = 1.0;     // s between our own heartbeats
@@ -162,10 +170,12 @@ enum class Phase {
 };
 const char* PhaseName(Phase phase);  // "streaming_hold", ...
 
-enum class Command { kSetOffboardMode, kArm };
+// kGripper: MAV_CMD_DO_GRIPPER at a mission's grasp or release.
+enum class Command { kSetOffboardMode, kArm, kGripper };
 struct CommandRequest {
   Command command = Command::kSetOffboardMode;
   int attempt = 0;  // 0 first, then 1, 2, ... (MAVLink's confirmation field)
+  bool grab = false;  // kGripper: grab (close) or release (open)
 };
 
 // How an acknowledgement answered a command.
@@ -195,6 +205,11 @@ struct PlanningSetup {
   planner::PlannerOptions plan_options = planner::DefaultPlannerOptions();
   planner::ReplanOptions replan_options = planner::DefaultReplanOptions();
   const opt::Solver* solver = nullptr;
+  // For a task with a mission of more than one step: the context its phases
+  // are built from (planner::PlanTask) and a cache for them; the mission is
+  // flown without replans, its gripper commanded at each grasp and release.
+  const planner::PlanningContext* context = nullptr;
+  planner::MissionPhaseCache* mission_phases = nullptr;
 };
 
 // One planning run, as the worker reports it.
@@ -293,6 +308,9 @@ class OnlineController {
   std::shared_ptr<const planner::PlanResult> current_plan() const { return to_.plan; }
   // Time offset of the current plan: plan time = t - current_plan_start().
   double current_plan_start() const { return to_.start; }
+  // The plan time the vehicle was at when the flight failed while flying
+  // the plan (it holds there since); negative when it did not.
+  double failed_plan_time() const { return failed_plan_time_; }
   // The latest measurements (meaningful once a position, attitude and joints arrived).
   MeasuredState measured() const;
   bool has_measured_state() const { return HaveState(); }
@@ -324,6 +342,10 @@ class OnlineController {
   double ArrivalOffset() const;
   void Event(std::string text);
   void CollectPlan(double t);
+  // A mission's gripper: the command of each grasp and release as its step
+  // begins, resent until acknowledged.
+  void CommandGripper(double t, ControllerOutput* out);
+  bool IsMission() const { return setup_.task->mission.size() > 1; }
   // A replan from the measured state at t; `periodic`: started by
   // replan_period with the tracking error below the threshold.
   void MaybeReplan(double t, bool periodic, double error);
@@ -393,6 +415,13 @@ class OnlineController {
   std::shared_ptr<const planner::PlanResult> pending_base_;  // the plan the pending replan started from
   double arrival_time_ = 0.0;
   bool arrival_settled_ = false;
+  // The mission's gripper: the next grasp or release step to command, the
+  // one sent and not yet acknowledged (-1: none), when and how often.
+  double failed_plan_time_ = -1.0;
+  size_t next_gripper_step_ = 0;
+  long gripper_pending_ = -1;
+  double gripper_sent_at_ = 0.0;
+  int gripper_attempts_ = 0;
   std::optional<Setpoint> last_setpoint_;
   double last_setpoint_time_ = 0.0;
   bool last_setpoint_in_blend_ = false;

@@ -69,7 +69,31 @@ struct FlightMetrics {
   long judged_samples = 0;
   double max_state_gap = 0.0;
   double max_state_gap_time = kNan;
+  // A mission's held object (EvaluateMissionFlight): its least clearance
+  // less what it had to keep there (negative: it came too close), and that
+  // least clearance, its time and its bound; +inf / NaN while nothing was held.
+  double held_object_margin = std::numeric_limits<double>::infinity();
+  double held_object_min_clearance = kNan;
+  double held_object_min_clearance_time = kNan;
+  double held_object_bound = kNan;
+  // A mission's grasps and releases (not an object held from the start):
+  // the step, and the distance of the flown tool from the planned one when
+  // the step began (the state nearest that time).
+  std::vector<std::pair<size_t, double>> gripper_tool_errors;
 };
+
+// The same for a mission (planner::PlanTask's `plan`, flown from controller
+// time `plan_start`): each state is judged by the leg it falls in (by plan
+// time; before the first, the first; after the last, the last) - the robot
+// without the object it holds against that phase's scene (min_clearance),
+// and the held object alone against the clearance the leg gives it less
+// `tolerance` (never below 0: never into the scene). final_base_error is
+// against the plan's last state; gripper_tool_errors are filled.
+// A flight that failed while flying the plan and held since is judged, from
+// the failure on, by the leg it failed in: `frozen_plan_time` (negative: none).
+FlightMetrics EvaluateMissionFlight(const std::vector<FlightSample>& samples, const planner::PlanResult& plan,
+                                    double plan_start, const planner::Task& task, double tolerance,
+                                    double reach = 0.3, double end_time = kNoEndTime, double frozen_plan_time = -1.0);
 
 FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
                              const env::ExactMeshModel& exact, const planner::Task& task,

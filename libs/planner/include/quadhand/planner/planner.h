@@ -131,6 +131,26 @@ struct StepResult {
   bool planned = false;    // false for the steps after the one that failed
 };
 
+// What each leg of a planned mission is judged against (PlanTask; the
+// online mode judges a flown mission with it): the leg's plan times, its
+// phase's robot (with the held object as its last link), the exact model of
+// that robot without the object and of the object alone (null while nothing
+// is held) on the phase's scene, and the clearance the object must keep.
+// Valid while the result (which keeps the phases) and the planning context
+// live.
+struct MissionLeg {
+  double start_s = 0.0, end_s = 0.0;
+  size_t step = 0;
+  const robot::RobotModel* robot = nullptr;
+  const env::ExactMeshModel* robot_exact = nullptr;
+  const env::ExactMeshModel* object_exact = nullptr;
+  double object_clearance = 0.0;  // the safety distance, or 0 next to a grasp or release
+  // The grasp step of the object held (its world pose is in the task), and
+  // the object's link in `robot` (its last); -1 while nothing is held.
+  long held_grasp_step = -1;
+  int object_link = -1;
+};
+
 struct PlanResult {
   bool success = false;
   PlanStatus status = PlanStatus::kSolverFailed;
@@ -164,6 +184,9 @@ struct PlanResult {
   // (its representations, front-end map and the held object's SDF).
   std::vector<StepResult> steps;
   double mission_phase_ms = 0;
+  // A mission's legs in time order, and what keeps their models alive.
+  std::vector<MissionLeg> mission_legs;
+  std::vector<std::shared_ptr<const void>> mission_phases;
 };
 
 // Builds a collision model for one plan from the front-end path (its corner
