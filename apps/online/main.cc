@@ -206,6 +206,10 @@ int main(int argc, char** argv) {
                  "After --arrival-hold, hold on until the tool is this close (m) to its goal (no tool goal: the base\n"
                  "to the plan's end) and the base slower than --arrival-settle-speed")
       ->capture_default_str();
+  app.add_option("--flight-margin", options.flight_margin,
+                 "Plans flown aim this much (m) farther from the scene than the planner's collision_margin: the\n"
+                 "flown path strays from the plan by several mm near obstacles")
+      ->capture_default_str();
   app.add_option("--gripper-tolerance", options.gripper_tolerance,
                  "A mission's gripper acts once the tool is this close (m) to its planned pose in the grasp or\n"
                  "release step; not there by the middle of the step: the mission ends holding")
@@ -273,6 +277,9 @@ int main(int argc, char** argv) {
   }
   if (!(std::isfinite(options.arrival_tolerance) && options.arrival_tolerance > 0.0 && options.arrival_tolerance <= 1.0)) {
     return Fail("--arrival-tolerance must be in (0, 1] m");
+  }
+  if (!(std::isfinite(options.flight_margin) && options.flight_margin >= 0.0 && options.flight_margin <= 0.1)) {
+    return Fail("--flight-margin must be in [0, 0.1] m");
   }
   if (!(std::isfinite(options.gripper_tolerance) && options.gripper_tolerance > 0.0 && options.gripper_tolerance <= 0.1)) {
     return Fail("--gripper-tolerance must be in (0, 0.1] m");
@@ -342,6 +349,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "quadhand-online: caution: %s\n", caution.c_str());
   }
   online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config->planner, config->replan, solver->get()};
+  setup.plan_options.collision_margin += options.flight_margin;
   // A mission of more than one step (docs/missions.md): planned as a whole,
   // flown without replans, the gripper commanded at its grasps and releases.
   const bool mission = ctx.task().mission.size() > 1;
