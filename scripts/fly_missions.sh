@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Flies every bundled mission (data/tasks/missions/*.yaml, docs/missions.md)
+# Flies every bundled mission (data/tasks/missions/, docs/missions.md)
 # in the simulator over loopback, one at a time, and prints a table: the
 # online mode's outcome and exit code, the robot's and the held object's
 # least flown clearance, and the tool's error at each grasp and release.
@@ -16,8 +16,8 @@ out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
 echo "| mission | outcome (exit) | robot min clearance, m | held object min clearance, m | tool at grasp/release, m |"
 echo "|---|---|---|---|---|"
-for task in data/tasks/missions/*.yaml; do
-  name="$(basename "$task" .yaml)"
+for task in data/tasks/missions/*.yaml data/tasks/missions/*/*.yaml; do
+  name="${task#data/tasks/missions/}"; name="${name%.yaml}"
   "./$build/bin/quadhand-sim" --udp "udp://127.0.0.1:$port" --realtime --start-task "$task" --duration 60 --quiet &
   sim=$!
   sleep 0.3
