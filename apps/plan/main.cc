@@ -14,6 +14,7 @@
 #include "app_options.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
+#include "quadhand/core/text.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/plan_output.h"
 #include "quadhand/planner/planner.h"
@@ -45,7 +46,8 @@ double Ms(Clock::time_point since) { return std::chrono::duration<double, std::m
 // The 3-D page: the cloud, the base and tool paths, the link meshes along the plan.
 core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robot::RobotModel& robot,
                                    const std::vector<Vec3>& points, const std::string& task_path,
-                                   const std::string& tool_link) {
+                                   const planner::Task& task) {
+  const std::string& tool_link = task.tool_link;
   viz::HtmlViewData data;
   data.title = "QuadHand plan: " + task_path;
   data.points = points;
@@ -55,9 +57,28 @@ core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robo
     if (!mesh.ok()) return mesh.status();
     data.links.push_back({robot.link(link).name, std::move(*mesh)});
   }
+  // A mission's objects: each grasped one drawn where it lies, then with
+  // the tool while held (its leg's robot carries it as its last link), then
+  // where it was let go.
+  struct DrawnObject {
+    long grasp_step;
+    Pose pose;  // where it is now, as the samples advance
+  };
+  std::vector<DrawnObject> objects;
+  for (size_t i = 0; i < task.mission.size(); ++i) {
+    if (task.mission[i].kind != planner::StepKind::kGrasp) continue;
+    for (const planner::MissionLeg& leg : result.mission_legs) {
+      if (leg.held_grasp_step != static_cast<long>(i) || leg.object_link < 0) continue;
+      auto mesh = robot::LinkCollisionMesh(*leg.robot, leg.object_link);
+      if (!mesh.ok()) return mesh.status();
+      data.links.push_back({planner::StepName(task.mission, i) + " object", std::move(*mesh)});
+      objects.push_back({static_cast<long>(i), task.mission[i].object.pose});
+      break;
+    }
+  }
   const planner::WholeBodyTrajectory& trajectory = *result.trajectory;
   const int tool = robot.LinkIndex(tool_link);
-  robot::KinematicsState kinematics;
+  robot::KinematicsState kinematics, held;
   const int steps = std::max(2, static_cast<int>(std::ceil(trajectory.duration() / 0.02)));
   for (int k = 0; k <= steps; ++k) {
     const double t = trajectory.duration() * k / steps;
@@ -66,6 +87,15 @@ core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robo
     data.times.push_back(t);
     std::vector<Pose> poses;
     for (int link : links) poses.push_back(kinematics.link_poses[link]);
+    for (DrawnObject& object : objects) {
+      for (const planner::MissionLeg& leg : result.mission_legs) {
+        if (leg.held_grasp_step != object.grasp_step || t < leg.start_s || t > leg.end_s) continue;
+        robot::ComputeKinematics(*leg.robot, s.BasePose(), s.joints, &held);
+        object.pose = held.link_poses[leg.object_link];
+        break;
+      }
+      poses.push_back(object.pose);
+    }
     data.link_poses.push_back(std::move(poses));
     data.base_path.push_back(s.position);
     if (tool >= 0) data.tool_path.push_back(kinematics.link_poses[tool].translation());
@@ -82,6 +112,13 @@ core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robo
                 result.solve_ms, result.post_check.min_clearance_exact_is_bound ? ">= " : "",
                 result.post_check.min_clearance_exact, result.message.c_str());
   data.summary = summary;
+  for (size_t i = 0; i < result.steps.size() && i < task.mission.size(); ++i) {
+    const planner::StepResult& step = result.steps[i];
+    data.summary += "\n" + planner::StepName(task.mission, i) +
+                    (step.planned ? core::Format(": %.2f to %.2f s%s", step.start_s, step.end_s,
+                                                 step.certified ? "" : ", NOT certified")
+                                  : std::string(": not planned"));
+  }
   return viz::RenderHtmlView(data);
 }
 
@@ -229,7 +266,7 @@ int main(int argc, char** argv) {
     if (core::Status s = outputs.Stage(out_path, io::PlanTableCsv(table)); !s.ok()) return Fail(s.message());
   }
   if (!html_path.empty() && result->trajectory) {
-    auto page = HtmlPage(*result, robot, (*context)->points(), task_path, (*context)->task().tool_link);
+    auto page = HtmlPage(*result, robot, (*context)->points(), task_path, (*context)->task());
     if (!page.ok()) return Fail(html_path + ": " + page.status().message());
     if (core::Status s = outputs.Stage(html_path, *page); !s.ok()) return Fail(s.message());
   }

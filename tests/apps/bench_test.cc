@@ -169,21 +169,7 @@ TEST_F(BenchCliTest, TwoShardsGiveTheRecordsOfOneRun) {
   EXPECT_NE(overlapping.err.find("trial"), std::string::npos) << overlapping.err;
 }
 
-// The default task with its goal as a mission: one reach, then `more_steps`.
-std::string WindowCupMissionText(const std::string& more_steps) {
-  std::string text = testing::WindowCupTaskText();
-  const size_t goal = text.find("\ngoal:\n"), limits = text.find("\nlimits:\n");
-  EXPECT_NE(goal, std::string::npos);
-  EXPECT_NE(limits, std::string::npos);
-  std::string indented;
-  const std::string block = text.substr(goal + 7, limits + 1 - (goal + 7));
-  for (size_t at = 0; at < block.size();) {
-    const size_t end = block.find('\n', at);
-    indented += "    " + block.substr(at, end + 1 - at);
-    at = end + 1;
-  }
-  return text.substr(0, goal + 1) + "mission:\n  - reach:\n" + indented + more_steps + text.substr(limits + 1);
-}
+using testing::WindowCupMissionText;
 
 TEST_F(BenchCliTest, AMissionOfOneReachGivesTheGoalsRecordsAndLongerMissionsRecordTheirSteps) {
   std::ofstream(Path("one_reach.yaml")) << WindowCupMissionText("");

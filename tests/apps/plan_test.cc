@@ -256,22 +256,7 @@ TEST_F(PlanCliTest, PlansWithTheCadExportTestRobot) {
   EXPECT_FALSE(fs::exists(report));
 }
 
-// The default task with its goal written as a mission: one reach, then the
-// given steps (indented as list items).
-std::string WindowCupMission(const std::string& more_steps) {
-  std::string text = testing::WindowCupTaskText({});
-  const size_t goal = text.find("\ngoal:\n"), limits = text.find("\nlimits:\n");
-  EXPECT_NE(goal, std::string::npos);
-  EXPECT_NE(limits, std::string::npos);
-  std::string block = text.substr(goal + 7, limits + 1 - (goal + 7));
-  std::string indented;
-  for (size_t at = 0; at < block.size();) {
-    const size_t end = block.find('\n', at);
-    indented += "    " + block.substr(at, end + 1 - at);
-    at = end + 1;
-  }
-  return text.substr(0, goal + 1) + "mission:\n  - reach:\n" + indented + more_steps + text.substr(limits + 1);
-}
+using testing::WindowCupMissionText;
 
 TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalWithStepColumns) {
   const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
@@ -281,7 +266,7 @@ TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalWithStepColumns) {
   fs::remove(out);
   fs::remove(report);
   const std::string mission = (dir_ / "mission.yaml").string();
-  std::ofstream(mission) << WindowCupMission("");
+  std::ofstream(mission) << WindowCupMissionText("");
   const auto one_reach = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
   ASSERT_EQ(one_reach.exit_code, 0) << one_reach.err << ReadAll(mission);
   // The goal's plan, each row with the mission's columns (contracts.md 0.3):
@@ -306,7 +291,7 @@ TEST_F(PlanCliTest, AMissionOfOneReachPlansAsItsGoalWithStepColumns) {
   fs::remove(out);
   fs::remove(report);
 
-  std::ofstream(mission, std::ios::trunc) << WindowCupMission("  - release: {}\n");
+  std::ofstream(mission, std::ios::trunc) << WindowCupMissionText("  - release: {}\n");
   ExpectBadInput(mission, "mission.yaml: mission[1].release: nothing is held");
 }
 
@@ -343,9 +328,14 @@ MissionOutput ReadMissionOutput(const std::string& plan, const std::string& repo
 TEST_F(PlanCliTest, GraspsTheCupLiftsItAndHoldsAsOnePlan) {
   const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
   const std::string mission = (dir_ / "mission.yaml").string();
-  std::ofstream(mission) << WindowCupMission(kGraspTheCup + "  - move: {length: 0.15}\n  - hold: {duration: 0.5}\n");
-  const auto r = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
+  std::ofstream(mission) << WindowCupMissionText(kGraspTheCup + "  - move: {length: 0.15}\n  - hold: {duration: 0.5}\n");
+  const std::string page = (dir_ / "page.html").string();
+  const auto r = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report + " --html " + page);
   ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  // The 3-D page draws the cup as one more body and lists the steps.
+  const std::string html = ReadAll(page);
+  EXPECT_NE(html.find("mission[1] (grasp) object"), std::string::npos);
+  EXPECT_NE(html.find("mission[2] (move): "), std::string::npos);
   const MissionOutput output = ReadMissionOutput(out, report);
   const nlohmann::json& steps = output.report["steps"];
   ASSERT_EQ(steps.size(), 4u);
@@ -385,7 +375,7 @@ TEST_F(PlanCliTest, PutsTheCupBackDownLetsGoAndBacksOff) {
   const std::string mission = (dir_ / "mission.yaml").string();
   // Lifted 15 cm, then put down 2 mm above where it stood: the reach before
   // the release flies to the start of its insertion, then down the line.
-  std::ofstream(mission) << WindowCupMission(kGraspTheCup +
+  std::ofstream(mission) << WindowCupMissionText(kGraspTheCup +
                                              "  - move: {length: 0.15}\n"
                                              "  - reach:\n"
                                              "      position: [-2.994932877, 0.0, 1.289928495]\n"
@@ -426,7 +416,7 @@ TEST_F(PlanCliTest, AHeldObjectThatCannotKeepItsDistanceFailsNamingTheStep) {
   // Pushed sideways along the pedestal's top, the cup would have to leave
   // its support's 1 cm margin behind: a move not right after the grasp
   // keeps the safety distance, and this one cannot.
-  std::ofstream(mission) << WindowCupMission(kGraspTheCup + "  - hold: {duration: 0.2}\n"
+  std::ofstream(mission) << WindowCupMissionText(kGraspTheCup + "  - hold: {duration: 0.2}\n"
                                              "  - move: {direction: [0, 1, 0], length: 0.05}\n");
   const auto r = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
   ASSERT_EQ(r.exit_code, 1) << r.err << r.out;
@@ -552,11 +542,11 @@ TEST_F(PlanCliTest, AGraspTooHeavyOrOfAnOpenMeshIsRefusedNamingTheStep) {
     return "  - grasp:\n      object:\n        shape: " + shape + "\n        pose: {position: [-3.2, 0.0, " + z +
            "], orientation: [1, 0, 0, 0]}\n        mass: " + mass + "\n";
   };
-  std::ofstream(mission) << WindowCupMission(grasp("{cylinder: {radius: 0.04, length: 0.10}}", "0.5", "0.80"));
+  std::ofstream(mission) << WindowCupMissionText(grasp("{cylinder: {radius: 0.04, length: 0.10}}", "0.5", "0.80"));
   ExpectBadInput(mission, "mission.yaml: mission[1] (grasp): the object's mass 0.5 kg is above the robot's payload "
                           "limit 0.3 kg (planner configuration mission.payload_limit)");
   std::ofstream(mission, std::ios::trunc)
-      << WindowCupMission(grasp("{mesh: " + root + "/tests/data/cad_robot/link2_holed.stl}", "0.05", "0.84"));
+      << WindowCupMissionText(grasp("{mesh: " + root + "/tests/data/cad_robot/link2_holed.stl}", "0.05", "0.84"));
   ExpectBadInput(mission, "mission[1] (grasp): the object mesh '" + root +
                               "/tests/data/cad_robot/link2_holed.stl' does not bound a volume, even repaired: not closed");
   // After a reach given only as a state, the reach of a grasp is checked

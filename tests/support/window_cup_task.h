@@ -57,4 +57,20 @@ inline std::string WindowCupTaskText(const std::vector<std::pair<std::string, st
   return text;
 }
 
+// The default task with its goal written as a mission: one reach with the
+// goal's keys, then `more_steps` (list items, indented as such).
+inline std::string WindowCupMissionText(const std::string& more_steps) {
+  const std::string text = WindowCupTaskText({});
+  const size_t goal = text.find("\ngoal:\n"), limits = text.find("\nlimits:\n");
+  if (goal == std::string::npos || limits == std::string::npos) return text;
+  const std::string block = text.substr(goal + 7, limits + 1 - (goal + 7));
+  std::string indented;
+  for (size_t at = 0; at < block.size();) {
+    const size_t end = block.find('\n', at);
+    indented += "    " + block.substr(at, end + 1 - at);
+    at = end + 1;
+  }
+  return text.substr(0, goal + 1) + "mission:\n  - reach:\n" + indented + more_steps + text.substr(limits + 1);
+}
+
 }  // namespace quadhand::testing

@@ -94,16 +94,26 @@ core::Result<StartPose> ParseStartPose(const std::string& text) {
   return start;
 }
 
-core::Result<StartPose> LoadTaskStartPose(const std::string& task_path) {
+namespace {
+
+// A task file's YAML, with the checks every reader of it makes.
+core::Result<YAML::Node> LoadTaskYaml(const std::string& task_path) {
   auto text = core::ReadFileToString(task_path);
   if (!text.ok()) return text.status();
   QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(*text, task_path));
-  YAML::Node root;
   try {
-    root = YAML::Load(*text);
+    return YAML::Load(*text);
   } catch (const YAML::Exception& e) {
     return core::Status::InvalidArgument(task_path + ": not valid YAML: " + e.what());
   }
+}
+
+}  // namespace
+
+core::Result<StartPose> LoadTaskStartPose(const std::string& task_path) {
+  auto loaded = LoadTaskYaml(task_path);
+  if (!loaded.ok()) return loaded.status();
+  const YAML::Node& root = *loaded;
   const YAML::Node start = root.IsMap() ? root["start"] : YAML::Node();
   if (!start || !start.IsMap()) return core::Status::InvalidArgument(task_path + ": start: missing (a map)");
   StartPose pose;
@@ -125,15 +135,9 @@ core::Result<StartPose> LoadTaskStartPose(const std::string& task_path) {
 }
 
 core::Result<std::vector<GripperLoad>> LoadTaskGripperLoads(const std::string& task_path) {
-  auto text = core::ReadFileToString(task_path);
-  if (!text.ok()) return text.status();
-  QUADHAND_RETURN_IF_ERROR(core::CheckYamlText(*text, task_path));
-  YAML::Node root;
-  try {
-    root = YAML::Load(*text);
-  } catch (const YAML::Exception& e) {
-    return core::Status::InvalidArgument(task_path + ": not valid YAML: " + e.what());
-  }
+  auto loaded = LoadTaskYaml(task_path);
+  if (!loaded.ok()) return loaded.status();
+  const YAML::Node& root = *loaded;
   std::vector<GripperLoad> loads;
   const YAML::Node mission = root.IsMap() ? root["mission"] : YAML::Node();
   if (!mission) return loads;
