@@ -396,7 +396,7 @@ class MissionPlanner {
   MissionPlanner(const PlanningContext& context, const Task& task, size_t representation, const PlannerOptions& options,
                  const opt::Solver& solver, MissionPhaseCache* cache)
       : base_(context), representation_(representation), options_(options), solver_(solver), task_(task),
-        cache_(cache) {}
+        cache_(cache), tool_link_(context.robot().LinkIndex(task.tool_link)) {}
 
   core::Result<PlanResult> Run();
 
@@ -413,6 +413,8 @@ class MissionPlanner {
   // A reach that puts the held object down (an insertion right before a
   // release): flown to the insertion's start, then the insertion as a line.
   core::Result<bool> PlaceLeg(size_t i);
+  // InvalidArgument naming step i when the robot has no tool link.
+  core::Status RequireToolLink(size_t i) const;
   // A rest-to-rest line's duration from the state (tool at `tool`).
   double LineDuration(const Vec3& tool, const Vec3& direction, double length, std::optional<double> max_speed) const;
   core::Status Grasp(size_t i);
@@ -433,6 +435,9 @@ class MissionPlanner {
   std::shared_ptr<const Phase> phase_;
   std::string phase_key_;  // the grasps and releases that made phase_ (MissionPhaseCache)
   MissionPhaseCache* cache_ = nullptr;
+  // The tool link: the same index in every phase's robot (a held object is
+  // appended after every link); -1 when the robot has none.
+  int tool_link_ = -1;
   BoundaryState state_;
   std::optional<Vec3> last_insertion_;  // of the latest reach with one
   PlanResult result_;
@@ -601,6 +606,12 @@ core::Result<bool> MissionPlanner::RestLeg(size_t i, const Vec3& to_position, do
   return CheckAndAppend(i, std::move(*trajectory), leg_task, end, line, relaxed_object, std::move(report));
 }
 
+core::Status MissionPlanner::RequireToolLink(size_t i) const {
+  if (tool_link_ >= 0) return core::Status::Ok();
+  return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
+                                       ": tool_link: the robot has no link named '" + task_.tool_link + "'");
+}
+
 double MissionPlanner::LineDuration(const Vec3& tool, const Vec3& direction, double length,
                                     std::optional<double> max_speed) const {
   // The top speed and acceleration, and the tool within half the
@@ -622,11 +633,8 @@ core::Result<bool> MissionPlanner::PlaceLeg(size_t i) {
   const MissionStep& step = task_.mission[i];
   const ToolGoal& tool = *step.reach_tool;
   const PlanningScene scene = Scene(false);
-  const int tool_link = scene.robot.LinkIndex(task_.tool_link);
-  if (tool_link < 0) {
-    return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
-                                         ": tool_link: the robot has no link named '" + task_.tool_link + "'");
-  }
+  QUADHAND_RETURN_IF_ERROR(RequireToolLink(i));
+  const int tool_link = tool_link_;
   BoundaryState terminal;
   Task leg = LegTask();
   if (step.reach_state) {
@@ -670,11 +678,8 @@ core::Result<bool> MissionPlanner::PlaceLeg(size_t i) {
 core::Status MissionPlanner::Grasp(size_t i) {
   const MissionStep& step = task_.mission[i];
   const robot::RobotModel& robot = base_.robot();
-  const int tool_link = robot.LinkIndex(task_.tool_link);
-  if (tool_link < 0) {
-    return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
-                                         ": tool_link: the robot has no link named '" + task_.tool_link + "'");
-  }
+  QUADHAND_RETURN_IF_ERROR(RequireToolLink(i));
+  const int tool_link = tool_link_;
   HeldObject held;
   held.grasp_step = i;
   held.object = step.object;
@@ -747,8 +752,7 @@ core::Status MissionPlanner::ChangePhase(size_t i) {
     pose = robot::LinkPose(phase_->context->robot(), HoverPose(state_), state_.joints, phase_->object_link);
   } else if (!step.held_at_start) {
     const robot::RobotModel& robot = base_.robot();
-    const int tool_link = robot.LinkIndex(task_.tool_link);
-    if (tool_link >= 0) pose = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link).inverse() * pose;
+    if (tool_link_ >= 0) pose = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link_).inverse() * pose;
   }
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 4; ++c) key += core::Format("%.9f,", pose.matrix()(r, c));
@@ -799,11 +803,8 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
                     "no direction given and no insertion before it to back out along");
       }
       const robot::RobotModel& robot = phase_->context->robot();
-      const int tool_link = robot.LinkIndex(task_.tool_link);
-      if (tool_link < 0) {
-        return core::Status::InvalidArgument(task_.file + ": " + StepName(mission, i) +
-                                             ": tool_link: the robot has no link named '" + task_.tool_link + "'");
-      }
+      QUADHAND_RETURN_IF_ERROR(RequireToolLink(i));
+      const int tool_link = tool_link_;
       const Pose tool = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link);
       const double length = step.move_length;
       const double duration = LineDuration(tool.translation(), direction, length, step.move_max_speed);
