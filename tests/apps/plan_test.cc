@@ -518,6 +518,21 @@ TEST_F(PlanCliTest, PlansEveryBundledMissionCertified) {
   EXPECT_GE(planned, 12);  // five missions (seven starts for the narrow gap) and the lift
 }
 
+// A mission plans with the other back-ends too: the ESDF representation
+// (the held object measured by its surface samples) and another solver.
+TEST_F(PlanCliTest, AMissionPlansWithTheEsdfAndAnotherSolver) {
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const std::string mission = (dir_ / "mission.yaml").string();
+  std::ofstream(mission) << WindowCupMissionText(kGraspTheCup + "  - move: {length: 0.15}\n");
+  for (const std::string options : {"--representation esdf", "--solver nlopt"}) {
+    const auto r = RunCommand(kPlan + " " + mission + " " + options + " --out " + out + " --report " + report);
+    ASSERT_EQ(r.exit_code, 0) << options << "\n" << r.err << r.out;
+    const nlohmann::json result = nlohmann::json::parse(ReadAll(report));
+    for (const auto& step : result["steps"]) EXPECT_TRUE(step["certified"].get<bool>()) << options << " " << step;
+    EXPECT_FALSE(result["steps"][2]["held_object_min_clearance_m"].is_null()) << options;
+  }
+}
+
 // The bundled scenes are what their scripts make.
 TEST_F(PlanCliTest, TheMissionScenesAreTheirScriptsOutput) {
   const std::string root = QUADHAND_SOURCE_DIR;
