@@ -479,6 +479,14 @@ TEST_F(PlanCliTest, AReleasedObjectIsSceneForTheStepsAfterIt) {
   EXPECT_TRUE(failed["steps"][1]["certified"].get<bool>());
   fs::remove(report);
 
+  // Hovers and lines start at rest: a mission opening with one from a
+  // moving start is refused.
+  std::string moving = HeldAtStartMission("  - release: {}\n");
+  moving.replace(moving.find("start: {position: [0.5, 0.2, 1.5],"), std::string("start: {position: [0.5, 0.2, 1.5],").size(),
+                 "start: {velocity: [0.3, 0, 0], position: [0.5, 0.2, 1.5],");
+  std::ofstream(mission, std::ios::trunc) << moving;
+  ExpectBadInput(mission, "mission.yaml: mission[0] (grasp): a mission that does not begin with a reach or a via starts at rest");
+
   // A move that leaves the scene's box is a mistake in the task: exit 2.
   std::ofstream(mission, std::ios::trunc)
       << HeldAtStartMission("  - release: {}\n  - move: {direction: [0, 0, 1], length: 5.0}\n");

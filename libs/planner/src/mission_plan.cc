@@ -855,6 +855,17 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
 
 core::Result<PlanResult> MissionPlanner::Run() {
   state_ = task_.start;
+  // Hovers and lines start at rest; only a reach (or a via) starts from a
+  // moving state.
+  const StepKind first_kind = task_.mission.front().kind;
+  const bool moving = state_.velocity.norm() > 1e-9 || state_.acceleration.norm() > 1e-9 || state_.jerk.norm() > 1e-9 ||
+                      std::abs(state_.yaw_rate) > 1e-9 ||
+                      (state_.joint_rates.size() > 0 && state_.joint_rates.cwiseAbs().maxCoeff() > 1e-9);
+  if (moving && first_kind != StepKind::kReach && first_kind != StepKind::kVia) {
+    return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, 0) +
+                                         ": a mission that does not begin with a reach or a via starts at rest "
+                                         "(start velocity, acceleration and rates zero)");
+  }
   result_.steps.resize(task_.mission.size());
   for (size_t i = 0; i < task_.mission.size(); ++i) result_.steps[i].kind = task_.mission[i].kind;
   auto first = std::make_shared<Phase>();
