@@ -541,6 +541,20 @@ TEST_F(PlanCliTest, AMissionPlansWithTheEsdfAndAnotherSolver) {
   }
 }
 
+// quadhand-flightcheck judges goals: a mission's flight changes its scene and
+// robot at times only the plan knows, so it is refused, not half-judged.
+TEST_F(PlanCliTest, FlightcheckRefusesAMissionItCannotJudge) {
+  const std::string mission = (dir_ / "mission.yaml").string();
+  std::ofstream(mission) << WindowCupMissionText(kGraspTheCup + "  - move: {length: 0.15}\n");
+  const std::string flown = (dir_ / "flown.csv").string();
+  std::ofstream(flown) << "t,px\n0,0\n";
+  const auto r = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + mission + " " + flown);
+  EXPECT_EQ(r.exit_code, 2) << r.err << r.out;
+  EXPECT_EQ(CountLines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find(mission + ": a mission of 3 steps: its flight is judged by quadhand-online"), std::string::npos)
+      << r.err;
+}
+
 // The bundled scenes are what their scripts make.
 TEST_F(PlanCliTest, TheMissionScenesAreTheirScriptsOutput) {
   const std::string root = QUADHAND_SOURCE_DIR;
