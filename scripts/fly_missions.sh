@@ -22,14 +22,15 @@ for task in data/tasks/missions/*.yaml data/tasks/missions/*/*.yaml; do
   sim=$!
   sleep 0.3
   set +e
-  "./$build/bin/quadhand-online" "$task" --vehicle "udp://127.0.0.1:$port" --max-duration 45 > "$out/$name.txt" 2>&1
+  record="$out/${name//\//_}.txt"
+  "./$build/bin/quadhand-online" "$task" --vehicle "udp://127.0.0.1:$port" --max-duration 45 > "$record" 2>&1
   code=$?
   set -e
   kill -TERM "$sim" 2>/dev/null || true
   wait "$sim" 2>/dev/null || true
-  outcome="$(grep -oE '^(arrived|CLEARANCE LOST|CLEARANCE NOT VERIFIED|PLANNING FAILED \(holding\)|INTERRUPTED|VEHICLE LOST|REFUSED)' "$out/$name.txt" | head -1)"
-  robot="$(grep -oE 'flown path: min clearance -?[0-9.]+' "$out/$name.txt" | grep -oE -- '-?[0-9.]+$' || true)"
-  held="$(grep -oE 'held object: min clearance -?[0-9.]+' "$out/$name.txt" | grep -oE -- '-?[0-9.]+$' || true)"
-  tools="$(grep -oE 'the flown tool [0-9.]+' "$out/$name.txt" | grep -oE '[0-9.]+$' | paste -sd ' ' || true)"
+  outcome="$(grep -oE '^(arrived|CLEARANCE LOST|CLEARANCE NOT VERIFIED|PLANNING FAILED \(holding\)|INTERRUPTED|VEHICLE LOST|REFUSED)' "$record" | head -1)"
+  robot="$(grep -oE 'flown path: min clearance -?[0-9.]+' "$record" | grep -oE -- '-?[0-9.]+$' || true)"
+  held="$(grep -oE 'held object: min clearance -?[0-9.]+' "$record" | grep -oE -- '-?[0-9.]+$' || true)"
+  tools="$(grep -oE 'the flown tool [0-9.]+' "$record" | grep -oE '[0-9.]+$' | paste -sd ' ' || true)"
   echo "| $name | $outcome ($code) | ${robot:--} | ${held:--} | ${tools:--} |"
 done

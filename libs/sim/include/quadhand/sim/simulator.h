@@ -39,7 +39,9 @@ class Simulator {
   // gripper closing on an object or letting it go. The vehicle's dynamics
   // change at once; the controller's mass changes by the payload's (known
   // from the task, as a hover-thrust estimate would learn it), its inertia
-  // does not, and the shifted centre of mass is left to its integrators.
+  // does not, and the payload's weight moment about the base (at the
+  // measured attitude and joints) is fed forward to its torque from then
+  // on. A payload of the configuration is not known to the controller.
   // Fails on a bad mass or offset, or a robot without that link.
   core::Status SetPayload(double mass, const Vec3& offset);
 
@@ -64,6 +66,7 @@ class Simulator {
 
   VehicleModel model_;
   GeometricController controller_;
+  bool load_known_ = false;  // the payload came from SetPayload: its moment is fed forward
   std::mt19937_64 rng_;
   VehicleState state_;
   double time_ = 0.0;
