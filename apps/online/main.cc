@@ -137,6 +137,17 @@ int DryRun(const planner::PlanningContext& context, const online::PlanningSetup&
   std::printf("would stream %ld SET_POSITION_TARGET_LOCAL_NED + JOINT_SP pairs at %.1f Hz (type_mask 0, "
               "MAV_FRAME_LOCAL_NED) after >= %.1f s of hold, OFFBOARD and arming; peak speed %.2f m/s\n",
               count, rate, hold_time, max_speed);
+  const std::vector<planner::MissionStep>& mission = context.task().mission;
+  for (size_t i = 0; mission.size() > 1 && i < mission.size() && i < result->steps.size(); ++i) {
+    const planner::MissionStep& step = mission[i];
+    if ((step.kind != planner::StepKind::kGrasp || step.held_at_start) && step.kind != planner::StepKind::kRelease) {
+      continue;
+    }
+    std::printf("would command the gripper (MAV_CMD_DO_GRIPPER, %s) from plan time %.2f s, once the tool is within "
+                "--gripper-tolerance of its pose: %s\n",
+                step.kind == planner::StepKind::kGrasp ? "grab" : "release", result->steps[i].start_s,
+                planner::StepName(mission, i).c_str());
+  }
   std::printf("first setpoints (plan time):\n");
   for (long k = 0; k < std::min<long>(count, 5); ++k) {
     PrintWireSetpoint(k * period, online::FromSample(trajectory.Sample(k * period)));

@@ -214,6 +214,17 @@ TEST_F(OnlineCliTest, FliesTheCableUnpluggingMissionAndCommandsTheGripper) {
   EXPECT_LT(std::stod(m[1]), 0.01) << out;
 }
 
+// The dry run of a mission lists the gripper commands it would send.
+TEST_F(OnlineCliTest, ADryRunOfAMissionListsItsGripperCommands) {
+  const std::string task = (dir_ / "task.yaml").string();
+  std::ofstream(task) << MissionTaskText("cable_unplugging.yaml");
+  const auto r = RunCommand(kOnline + " " + task + " --dry-run");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("would command the gripper (MAV_CMD_DO_GRIPPER, grab) from plan time"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find(": mission[1] (grasp)"), std::string::npos) << r.out;
+}
+
 // A tool that never comes close enough to its grasp pose: the gripper is
 // not closed, and the mission ends holding (exit 1), not "arrived".
 TEST_F(OnlineCliTest, AMissionWhoseToolDoesNotSettleOnItsGraspEndsHolding) {
