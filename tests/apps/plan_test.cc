@@ -487,6 +487,13 @@ TEST_F(PlanCliTest, AReleasedObjectIsSceneForTheStepsAfterIt) {
   std::ofstream(mission, std::ios::trunc) << moving;
   ExpectBadInput(mission, "mission.yaml: mission[0] (grasp): a mission that does not begin with a reach or a via starts at rest");
 
+  // An object too large to be held (a unit error) is refused, not gridded.
+  std::string huge = HeldAtStartMission("  - release: {}\n");
+  huge.replace(huge.find("{sphere: {radius: 0.02}}"), std::string("{sphere: {radius: 0.02}}").size(),
+               "{box: {size: [4.0, 4.0, 4.0]}}");
+  std::ofstream(mission, std::ios::trunc) << huge;
+  ExpectBadInput(mission, "mission.yaml: mission[0] (grasp): the held object's SDF would have more than 50000000 nodes");
+
   // A move that leaves the scene's box is a mistake in the task: exit 2.
   std::ofstream(mission, std::ios::trunc)
       << HeldAtStartMission("  - release: {}\n  - move: {direction: [0, 0, 1], length: 5.0}\n");

@@ -153,7 +153,17 @@ core::Result<geometry::SdfGrid> ObjectSdf(const ObjectShape& shape, const std::v
   geometry::SdfGenerationOptions generation;
   generation.resolution = options.object_sdf_resolution;
   generation.padding = options.object_sdf_padding;
+  // A grid the optimiser can afford per grasp: the object is something a
+  // gripper holds, and a larger one is a unit error or the wrong option.
+  constexpr long kMaxObjectSdfNodes = 50'000'000;
+  const auto too_large = core::Status::InvalidArgument(core::Format(
+      "the held object's SDF would have more than %ld nodes at mission.object_sdf_resolution %g m: is the object "
+      "(or its unit) right?",
+      kMaxObjectSdfNodes, options.object_sdf_resolution));
   if (shape.kind == ObjectShape::Kind::kMesh) {
+    auto dims = geometry::SdfGridDims(elements, generation);
+    if (!dims.ok()) return dims.status();
+    if (static_cast<long>(dims->x()) * dims->y() * dims->z() > kMaxObjectSdfNodes) return too_large;
     return geometry::GenerateSdf(elements, kHeldObjectLinkName, "mission object", generation);
   }
   Vec3 half;
@@ -192,9 +202,7 @@ core::Result<geometry::SdfGrid> ObjectSdf(const ObjectShape& shape, const std::v
   info.geometry_max = half;
   const Vec3 extent = 2.0 * (half + Vec3::Constant(options.object_sdf_padding));
   for (int a = 0; a < 3; ++a) info.dims[a] = static_cast<int>(std::ceil(extent[a] / info.resolution - 1e-9)) + 1;
-  if (info.NumNodes() > 50'000'000) {
-    return core::Status::InvalidArgument("the held object's SDF would have more than 5e7 nodes (mission.object_sdf_resolution)");
-  }
+  if (info.NumNodes() > kMaxObjectSdfNodes) return too_large;
   std::vector<float> values(static_cast<size_t>(info.NumNodes()));
   size_t n = 0;
   for (int k = 0; k < info.dims.z(); ++k) {
