@@ -34,10 +34,6 @@ constexpr double kGravity = 9.81;
 constexpr double kRestLineSpeedFactor = 35.0 / 16.0;
 const double kRestLineAccelerationFactor = 84.0 * std::sqrt(5.0) / 25.0;
 
-Pose HoverPose(const BoundaryState& state) {
-  return MakePose(state.position, Eigen::AngleAxisd(state.yaw, Vec3::UnitZ()).toRotationMatrix());
-}
-
 BoundaryState AtRest(const Vec3& position, double yaw, const VecX& joints) {
   BoundaryState state;
   state.position = position;
@@ -430,6 +426,10 @@ class MissionPlanner {
   // The phase after step i (a grasp or a release): from the cache, or built.
   core::Status ChangePhase(size_t i);
   Task LegTask() const;
+  // The pose of `link` of `robot` at the state the mission has reached (at rest).
+  Pose LinkAtState(const robot::RobotModel& robot, int link) const {
+    return robot::LinkPose(robot, HoverPose(state_.position, state_.yaw), state_.joints, link);
+  }
   // The phase's scene; its exact model without the held object when asked
   // (the object is then checked on its own).
   const PlanningScene Scene(bool without_held_object) const;
@@ -658,7 +658,8 @@ core::Result<bool> MissionPlanner::PlaceLeg(size_t i) {
     terminal = found->state;
   }
   terminal.yaw = state_.yaw + std::remainder(terminal.yaw - state_.yaw, 2.0 * M_PI);
-  const Pose at_goal = robot::LinkPose(scene.robot, HoverPose(terminal), terminal.joints, tool_link);
+  const Pose at_goal =
+      robot::LinkPose(scene.robot, HoverPose(terminal.position, terminal.yaw), terminal.joints, tool_link);
   const double mismatch = (at_goal.translation() - tool.position).norm();
   if (mismatch > options_.post_check.position_tolerance) {
     return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
@@ -696,7 +697,7 @@ core::Status MissionPlanner::Grasp(size_t i) {
   if (step.held_at_start) {
     held.object_in_tool = step.object.pose;
   } else {
-    const Pose tool = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link);
+    const Pose tool = LinkAtState(robot, tool_link);
     // The task's check of the reach waits for the kinematics when the reach
     // before gives only a state: here the tool is where the plan put it.
     const double gap = DistanceToObjectSurface(step.object, tool.translation());
@@ -733,7 +734,7 @@ core::Status MissionPlanner::Grasp(size_t i) {
 core::Status MissionPlanner::Release(size_t i) {
   if (!phase_->held) return core::Status::Internal("release without a held object");
   const robot::RobotModel& robot = phase_->context->robot();
-  const Pose object_pose = robot::LinkPose(robot, HoverPose(state_), state_.joints, phase_->object_link);
+  const Pose object_pose = LinkAtState(robot, phase_->object_link);
   auto elements = ObjectElements(base_.robot(), phase_->held->object);
   if (!elements.ok()) return elements.status();
   const std::vector<Vec3> surface = ObjectSurface(*elements, object_pose, options_.mission.released_surface_spacing);
@@ -757,10 +758,10 @@ core::Status MissionPlanner::ChangePhase(size_t i) {
   std::string key = phase_key_ + (step.kind == StepKind::kGrasp ? "g" : "r") + std::to_string(i) + ":";
   Pose pose = step.object.pose;
   if (step.kind == StepKind::kRelease) {
-    pose = robot::LinkPose(phase_->context->robot(), HoverPose(state_), state_.joints, phase_->object_link);
+    pose = LinkAtState(phase_->context->robot(), phase_->object_link);
   } else if (!step.held_at_start) {
     const robot::RobotModel& robot = base_.robot();
-    if (tool_link_ >= 0) pose = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link_).inverse() * pose;
+    if (tool_link_ >= 0) pose = LinkAtState(robot, tool_link_).inverse() * pose;
   }
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 4; ++c) key += core::Format("%.9f,", pose.matrix()(r, c));
@@ -813,7 +814,7 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
       const robot::RobotModel& robot = phase_->context->robot();
       QUADHAND_RETURN_IF_ERROR(RequireToolLink(i));
       const int tool_link = tool_link_;
-      const Pose tool = robot::LinkPose(robot, HoverPose(state_), state_.joints, tool_link);
+      const Pose tool = LinkAtState(robot, tool_link);
       const double length = step.move_length;
       const double duration = LineDuration(tool.translation(), direction, length, step.move_max_speed);
       // The scene's bounds: the box of its points. A move is a short

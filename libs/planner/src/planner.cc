@@ -256,9 +256,8 @@ core::Result<bool> ResolveGoal(const PlanningScene& scene, const Task& task, con
     insertion.direction = task.tool->insertion_direction;
     insertion.length = task.tool->insertion_length;
     // The terminal state must put the tool where the task says.
-    const Pose hover = MakePose(result->terminal.position,
-                                Eigen::AngleAxisd(result->terminal.yaw, Vec3::UnitZ()).toRotationMatrix());
-    const Pose tool = robot::LinkPose(robot, hover, result->terminal.joints, insertion.tool_link);
+    const Pose tool = robot::LinkPose(robot, HoverPose(result->terminal.position, result->terminal.yaw),
+                                      result->terminal.joints, insertion.tool_link);
     const double mismatch = (tool.translation() - insertion.tool_position).norm();
     if (mismatch > options.post_check.position_tolerance) {
       return core::Status::InvalidArgument(task.file + ": goal: the terminal state puts the tool " +

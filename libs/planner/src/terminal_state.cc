@@ -13,10 +13,6 @@
 namespace quadhand::planner {
 namespace {
 
-Pose HoverPose(const Vec3& position, double yaw) {
-  return MakePose(position, Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix());
-}
-
 // The whole-body cost options the terminal state's terms are built from: the
 // same collision and joint-limit penalties the trajectory is optimised
 // with, at the search's own threshold, margin and smoothing.

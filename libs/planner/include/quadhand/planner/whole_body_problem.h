@@ -50,6 +50,12 @@ struct BoundaryState {
   VecX joint_rates;  // empty means zero
 };
 
+// The base pose of the robot hovering (level) at `position` with yaw `yaw`:
+// where a state at rest puts the base.
+inline Pose HoverPose(const Vec3& position, double yaw) {
+  return MakePose(position, Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix());
+}
+
 struct Limits {
   double v_max = 2.0;             // m/s
   double a_max = 4.0;             // m/s^2
