@@ -145,10 +145,10 @@ core::Result<std::unique_ptr<MrcSdfModel>> MrcSdfModel::Create(std::vector<int> 
 
 core::Status LoadLinkSdfGrids(const robot::RobotModel& robot, const std::string& sdf_dir, std::vector<int>* links_out,
                               std::vector<geometry::SdfGrid>* grids_out,
-                              const std::vector<std::pair<int, geometry::SdfGrid>>& given) {
+                              std::vector<std::pair<int, geometry::SdfGrid>> given) {
   std::vector<int> links = robot.CollisionLinks();
-  auto given_grid = [&given](int link) -> const geometry::SdfGrid* {
-    for (const auto& [index, grid] : given) {
+  auto given_grid = [&given](int link) -> geometry::SdfGrid* {
+    for (auto& [index, grid] : given) {
       if (index == link) return &grid;
     }
     return nullptr;
@@ -170,8 +170,9 @@ core::Status LoadLinkSdfGrids(const robot::RobotModel& robot, const std::string&
   core::WorkerPool pool(core::WorkerCount(0, static_cast<int>(std::max<size_t>(1, links.size()))));
   pool.Run([&](int) {
     for (size_t i = next++; i < links.size(); i = next++) {
-      const geometry::SdfGrid* grid = given_grid(links[i]);
-      loaded[i].emplace(grid != nullptr ? core::Result<geometry::SdfGrid>(*grid) : geometry::SdfGrid::Load(paths[i]));
+      geometry::SdfGrid* grid = given_grid(links[i]);  // each link's own: no two threads share one
+      loaded[i].emplace(grid != nullptr ? core::Result<geometry::SdfGrid>(std::move(*grid))
+                                        : geometry::SdfGrid::Load(paths[i]));
     }
   });
   std::vector<geometry::SdfGrid> grids;

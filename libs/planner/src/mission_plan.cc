@@ -110,6 +110,9 @@ struct Phase {
   std::unique_ptr<PlanningContext> owned;
   std::shared_ptr<const std::vector<Vec3>> points, checked_points;
   std::optional<HeldObject> held;
+  // While something is held: its collision elements in its own frame, and
+  // its link in the phase's robot (the last).
+  std::vector<geometry::TriangleMesh> object_elements;
   int object_link = -1;
   // While something is held: the robot without it, and the object alone.
   std::unique_ptr<env::ExactMeshModel> robot_only, object_only;
@@ -212,8 +215,10 @@ core::Result<geometry::SdfGrid> ObjectSdf(const ObjectShape& shape, const std::v
 }
 
 // Builds the phase that holds `held` (robot = context's base robot plus
-// the object) or nothing, on the given clouds.
+// the object, whose elements ObjectElements made) or nothing, on the given
+// clouds.
 core::Result<Phase> MakePhase(const PlanningContext& base, std::optional<HeldObject> held,
+                              std::vector<geometry::TriangleMesh> object_elements,
                               std::shared_ptr<const std::vector<Vec3>> points,
                               std::shared_ptr<const std::vector<Vec3>> checked_points, const MissionPlanOptions& options) {
   Phase phase;
@@ -228,19 +233,18 @@ core::Result<Phase> MakePhase(const PlanningContext& base, std::optional<HeldObj
     if (!with.ok()) return with.status();
     robot = std::move(*with);
     phase.object_link = robot.num_links() - 1;
-    auto elements = robot::LinkCollisionElements(robot, phase.object_link);
-    if (!elements.ok()) return elements.status();
-    auto grid = ObjectSdf(held->object.shape, *elements, options);
+    auto grid = ObjectSdf(held->object.shape, object_elements, options);
     if (!grid.ok()) return grid.status();
     given.emplace_back(phase.object_link, std::move(*grid));
+    phase.object_elements = std::move(object_elements);
   }
-  auto context = base.ForMissionPhase(std::move(robot), points, checked_points, given);
+  auto context = base.ForMissionPhase(std::move(robot), points, checked_points, std::move(given));
   if (!context.ok()) return context.status();
   phase.owned = std::move(*context);
   phase.context = phase.owned.get();
   if (held) {
     const robot::RobotModel& r = phase.context->robot();
-    auto index = std::make_shared<const scene::PointGrid>(*checked_points, env::ExactMeshModel::kIndexCellSize);
+    const std::shared_ptr<const scene::PointGrid>& index = phase.context->checked_index();
     std::vector<int> robot_links;
     for (int link : r.CollisionLinks()) {
       if (link != phase.object_link) robot_links.push_back(link);
@@ -694,6 +698,8 @@ core::Status MissionPlanner::Grasp(size_t i) {
   held.object = step.object;
   auto points = phase_->points;
   auto checked = phase_->checked_points;
+  auto elements = ObjectElements(robot, step.object);
+  if (!elements.ok()) return elements.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
   if (step.held_at_start) {
     held.object_in_tool = step.object.pose;
   } else {
@@ -709,23 +715,30 @@ core::Status MissionPlanner::Grasp(size_t i) {
                        gap, kGraspReach));
     }
     held.object_in_tool = tool.inverse() * step.object.pose;
-    // The object leaves the scene: every point within scene_margin of it.
-    auto elements = ObjectElements(robot, step.object);
-    if (!elements.ok()) return elements.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
-    auto kept = WithoutObject(*points, *elements, step.object.pose, step.scene_margin);
+    // The object leaves the scene: every point within scene_margin of it,
+    // from both clouds (one when they are the same).
+    auto without = [&](const std::vector<Vec3>& cloud) -> core::Result<std::shared_ptr<const std::vector<Vec3>>> {
+      auto kept = WithoutObject(cloud, *elements, step.object.pose, step.scene_margin);
+      if (!kept.ok()) return kept.status();
+      if (kept->empty()) {
+        return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
+                                             ": the object's scene_margin takes every scene point");
+      }
+      return std::make_shared<const std::vector<Vec3>>(std::move(*kept));
+    };
+    const bool same = points == checked;
+    auto kept = without(*points);
     if (!kept.ok()) return kept.status();
-    auto kept_checked = points == checked ? *kept : WithoutObject(*checked, *elements, step.object.pose, step.scene_margin);
-    if (!kept_checked.ok()) return kept_checked.status();
-    if (kept->empty() || kept_checked->empty()) {
-      return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
-                                           ": the object's scene_margin takes every scene point");
+    points = std::move(*kept);
+    if (same) {
+      checked = points;
+    } else {
+      auto kept_checked = without(*checked);
+      if (!kept_checked.ok()) return kept_checked.status();
+      checked = std::move(*kept_checked);
     }
-    points = std::make_shared<const std::vector<Vec3>>(std::move(*kept));
-    checked = points->size() == kept_checked->size() && phase_->points == phase_->checked_points
-                  ? points
-                  : std::make_shared<const std::vector<Vec3>>(std::move(*kept_checked));
   }
-  auto phase = MakePhase(base_, held, points, checked, options_.mission);
+  auto phase = MakePhase(base_, held, std::move(*elements), points, checked, options_.mission);
   if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
   phase_ = std::make_shared<const Phase>(std::move(*phase));
   return core::Status::Ok();
@@ -735,9 +748,8 @@ core::Status MissionPlanner::Release(size_t i) {
   if (!phase_->held) return core::Status::Internal("release without a held object");
   const robot::RobotModel& robot = phase_->context->robot();
   const Pose object_pose = LinkAtState(robot, phase_->object_link);
-  auto elements = ObjectElements(base_.robot(), phase_->held->object);
-  if (!elements.ok()) return elements.status();
-  const std::vector<Vec3> surface = ObjectSurface(*elements, object_pose, options_.mission.released_surface_spacing);
+  const std::vector<Vec3> surface =
+      ObjectSurface(phase_->object_elements, object_pose, options_.mission.released_surface_spacing);
   auto with = [&surface](const std::vector<Vec3>& cloud) {
     auto out = std::make_shared<std::vector<Vec3>>(cloud);
     out->insert(out->end(), surface.begin(), surface.end());
@@ -745,7 +757,7 @@ core::Status MissionPlanner::Release(size_t i) {
   };
   auto points = with(*phase_->points);
   auto checked = phase_->points == phase_->checked_points ? points : with(*phase_->checked_points);
-  auto phase = MakePhase(base_, std::nullopt, points, checked, options_.mission);
+  auto phase = MakePhase(base_, std::nullopt, {}, points, checked, options_.mission);
   if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
   phase_ = std::make_shared<const Phase>(std::move(*phase));
   return core::Status::Ok();

@@ -74,21 +74,20 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
     Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
     const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points) {
   return Build(std::move(task), std::move(robot), std::move(points), dropped_non_finite, options,
-               std::move(checked_points), {});
+               std::move(checked_points), {}, /*mission_phase=*/false);
 }
 
 core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForMissionPhase(
     robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points,
     std::shared_ptr<const std::vector<Vec3>> checked_points,
-    const std::vector<std::pair<int, geometry::SdfGrid>>& given_sdfs) const {
+    std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs) const {
   // The grids this context loaded serve the phase too (its robot is this
   // one, plus perhaps a held object): no file is read again.
-  std::vector<std::pair<int, geometry::SdfGrid>> grids = given_sdfs;
   if (sdf_grids_ != nullptr) {
-    for (size_t g = 0; g < sdf_links_.size(); ++g) grids.emplace_back(sdf_links_[g], (*sdf_grids_)[g]);
+    for (size_t g = 0; g < sdf_links_.size(); ++g) given_sdfs.emplace_back(sdf_links_[g], (*sdf_grids_)[g]);
   }
   auto phase = Build(task_, std::move(robot), std::move(points), dropped_non_finite_, options_,
-                     std::move(checked_points), grids);
+                     std::move(checked_points), std::move(given_sdfs), /*mission_phase=*/true);
   if (phase.ok()) (*phase)->scene_load_seconds_ = 0.0;
   return phase;
 }
@@ -96,7 +95,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForMissionPhase(
 core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
     const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
-    const std::vector<std::pair<int, geometry::SdfGrid>>& given_sdfs) {
+    std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, bool mission_phase) {
   QUADHAND_RETURN_IF_ERROR(CheckRepresentationNames(options));
   if (checked_points == nullptr) checked_points = points;
   for (const auto* cloud : {&points, &checked_points}) {
@@ -106,7 +105,8 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     }
   }
   QUADHAND_RETURN_IF_ERROR(ApplyRobot(robot, &task));
-  QUADHAND_RETURN_IF_ERROR(CheckMissionObjects(task, options));
+  // A phase has its mission's task, whose objects were checked with it.
+  if (!mission_phase) QUADHAND_RETURN_IF_ERROR(CheckMissionObjects(task, options));
   geometry::MeshRepairOptions repair;
   repair.tolerance = options.mesh_repair_tolerance;
   if (std::string why; !repair.IsValid(&why)) return core::Status::InvalidArgument(why);
@@ -128,6 +128,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
   const bool same_points = context->checked_points_ == context->points_;
   auto index = same_points ? checked_index : nullptr;
   const auto robot_load_start = std::chrono::steady_clock::now();
+  context->checked_index_ = checked_index;
   auto exact = env::ExactMeshModel::Create(context->robot_, checked_index);
   if (!exact.ok()) return exact.status().WithPrefix(t.robot_path);
   context->exact_ = std::move(*exact);
@@ -154,7 +155,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     const auto load_start = std::chrono::steady_clock::now();
     std::vector<int> links;
     std::vector<geometry::SdfGrid> grids;
-    const core::Status loaded = env::LoadLinkSdfGrids(context->robot_, t.sdf_dir, &links, &grids, given_sdfs);
+    const core::Status loaded = env::LoadLinkSdfGrids(context->robot_, t.sdf_dir, &links, &grids, std::move(given_sdfs));
     // MRC-SDF cannot plan without them; the other representations can, and
     // then the optimiser has no self-collision term (the post-check still
     // keeps the pairs apart, with the exact meshes).

@@ -34,10 +34,11 @@ using SharedSdfGrids = std::shared_ptr<const std::vector<geometry::SdfGrid>>;
 // Loads `<sdf_dir>/<link>.qhsdf` for every collision link of `robot`,
 // checking each file's link name; errors name the file (a missing one says
 // how to make it). The links in `given` (robot link index and its grid: a
-// held object's, made in memory) take that grid instead of a file.
+// held object's, made in memory) take that grid instead of a file; it is
+// moved, not copied.
 core::Status LoadLinkSdfGrids(const robot::RobotModel& robot, const std::string& sdf_dir, std::vector<int>* links,
                               std::vector<geometry::SdfGrid>* grids,
-                              const std::vector<std::pair<int, geometry::SdfGrid>>& given = {});
+                              std::vector<std::pair<int, geometry::SdfGrid>> given = {});
 
 class MrcSdfModel final : public CollisionModel {
  public:

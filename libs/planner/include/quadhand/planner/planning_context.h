@@ -18,6 +18,7 @@
 #include "quadhand/planner/representation.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/robot/robot_model.h"
+#include "quadhand/scene/point_grid.h"
 
 namespace quadhand::planner {
 
@@ -69,7 +70,7 @@ class PlanningContext {
   core::Result<std::unique_ptr<PlanningContext>> ForMissionPhase(
       robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points,
       std::shared_ptr<const std::vector<Vec3>> checked_points,
-      const std::vector<std::pair<int, geometry::SdfGrid>>& given_sdfs) const;
+      std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs) const;
 
   const PlanningContextOptions& options() const { return options_; }
   const Task& task() const { return task_; }
@@ -84,6 +85,9 @@ class PlanningContext {
   double sdf_load_seconds() const { return sdf_load_seconds_; }
   long dropped_non_finite_points() const { return dropped_non_finite_; }
   const env::ExactMeshModel& exact() const { return *exact_; }
+  // The index of checked_points() that exact() queries, to share with other
+  // exact models of the same cloud.
+  const std::shared_ptr<const scene::PointGrid>& checked_index() const { return checked_index_; }
   // The robot's self-collision pairs (task keys self_safety_distance, srdf).
   const env::SelfCollisionModel& self_collision() const { return *self_collision_; }
   const FrontEndMap& front_end() const { return *front_end_; }
@@ -99,7 +103,7 @@ class PlanningContext {
   static core::Result<std::unique_ptr<PlanningContext>> Build(
       Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
       const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
-      const std::vector<std::pair<int, geometry::SdfGrid>>& given_sdfs);
+      std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, bool mission_phase);
 
   PlanningContextOptions options_;
   Task task_;
@@ -110,6 +114,7 @@ class PlanningContext {
   double scene_load_seconds_ = 0.0;
   double robot_load_seconds_ = 0.0;
   double sdf_load_seconds_ = 0.0;
+  std::shared_ptr<const scene::PointGrid> checked_index_;
   std::unique_ptr<env::ExactMeshModel> exact_;
   std::unique_ptr<env::SelfCollisionModel> self_collision_;
   std::unique_ptr<FrontEndMap> front_end_;
