@@ -62,7 +62,8 @@ core::Status Simulator::SetPayload(double mass, const Vec3& offset) {
   // left to its integrators and to PCGC, which balances the arm, not the load.
   controller_.set_mass(std::max(1e-3, controller_.mass() - model_.payload_mass() + model->payload_mass()));
   model_ = std::move(*model);
-  load_known_ = mass > 0.0;
+  // Resolved once here, not at every step.
+  known_load_link_ = mass > 0.0 ? model_.robot().LinkIndex(model_.config().payload.link) : -1;
   return core::Status::Ok();
 }
 
@@ -98,18 +99,16 @@ void Simulator::Step(const Setpoint& setpoint, double h) {
   if (!(h > 0.0) || h > full) h = full;
   const Measurement measured = Measure();
   output_ = controller_.Update(measured, setpoint, h);
-  if (load_known_ && model_.payload_mass() > 0.0) {
+  if (known_load_link_ >= 0) {
     // The load the gripper holds is known (its mass from the task, where it
     // hangs from the grab): its weight's moment about the base, at the
     // measured attitude and the joints' encoders, is fed forward, as the
     // arm's own weight is balanced by PCGC. A configured payload is not.
-    const int link = model_.robot().LinkIndex(model_.config().payload.link);
-    if (link >= 0) {
-      const Vec3 load_in_base = model_.LinkPosesInBase(state_.joints)[link] * model_.config().payload.offset;
-      const Vec3 weight_in_base =
-          measured.attitude.toRotationMatrix().transpose() * Vec3(0.0, 0.0, -model_.payload_mass() * model_.gravity());
-      output_.torque -= load_in_base.cross(weight_in_base);
-    }
+    const Vec3 load_in_base =
+        model_.LinkPosesInBase(state_.joints)[known_load_link_] * model_.config().payload.offset;
+    const Vec3 weight_in_base =
+        measured.attitude.toRotationMatrix().transpose() * Vec3(0.0, 0.0, -model_.payload_mass() * model_.gravity());
+    output_.torque -= load_in_base.cross(weight_in_base);
   }
   const RotorConfig& rotors = model_.config().rotors;
   input_.thrust_command =

@@ -66,7 +66,9 @@ class Simulator {
 
   VehicleModel model_;
   GeometricController controller_;
-  bool load_known_ = false;  // the payload came from SetPayload: its moment is fed forward
+  // The link carrying a payload attached by SetPayload, whose moment is fed
+  // forward; -1: none (nothing held, or only the configuration's payload).
+  int known_load_link_ = -1;
   std::mt19937_64 rng_;
   VehicleState state_;
   double time_ = 0.0;
