@@ -140,9 +140,7 @@ int DryRun(const planner::PlanningContext& context, const online::PlanningSetup&
   const std::vector<planner::MissionStep>& mission = context.task().mission;
   for (size_t i = 0; mission.size() > 1 && i < mission.size() && i < result->steps.size(); ++i) {
     const planner::MissionStep& step = mission[i];
-    if ((step.kind != planner::StepKind::kGrasp || step.held_at_start) && step.kind != planner::StepKind::kRelease) {
-      continue;
-    }
+    if (!planner::GripperActsAt(step)) continue;
     std::printf("would command the gripper (MAV_CMD_DO_GRIPPER, %s) from plan time %.2f s, once the tool is within "
                 "--gripper-tolerance of its pose: %s\n",
                 step.kind == planner::StepKind::kGrasp ? "grab" : "release", result->steps[i].start_s,

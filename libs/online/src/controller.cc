@@ -791,9 +791,7 @@ void OnlineController::CommandGripper(double t, ControllerOutput* out) {
   const std::vector<planner::StepResult>& steps = to_.plan->steps;
   while (next_gripper_step_ < mission.size() && next_gripper_step_ < steps.size()) {
     const planner::MissionStep& step = mission[next_gripper_step_];
-    const bool acts = (step.kind == planner::StepKind::kGrasp && !step.held_at_start) ||
-                      step.kind == planner::StepKind::kRelease;
-    if (!acts) {
+    if (!planner::GripperActsAt(step)) {
       ++next_gripper_step_;
       continue;
     }

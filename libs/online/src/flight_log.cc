@@ -248,9 +248,7 @@ FlightMetrics EvaluateMissionFlight(const std::vector<FlightSample>& samples, co
   FlightMetrics metrics = Evaluate(samples, base.num_actuated(), judge, base, task, terminal, reach, end_time);
   for (size_t i = 0; tool >= 0 && i < task.mission.size() && i < plan.steps.size(); ++i) {
     const planner::MissionStep& step = task.mission[i];
-    const bool acts = (step.kind == planner::StepKind::kGrasp && !step.held_at_start) ||
-                      step.kind == planner::StepKind::kRelease;
-    if (!acts || !plan.steps[i].planned) continue;
+    if (!planner::GripperActsAt(step) || !plan.steps[i].planned) continue;
     const MeasuredState* m = nearest_state(plan.steps[i].start_s);
     if (m == nullptr) continue;
     const Vec3 flown = flown_tool(*m).translation();

@@ -93,6 +93,12 @@ constexpr double kGraspReach = 0.05;
 // frame's origin (its vertices are read with the robot).
 double DistanceToObjectSurface(const MissionObject& object, const Vec3& x);
 
+// Whether the gripper acts at this step: a grasp (but not of an object
+// already held at the start) closes it, a release opens it.
+inline bool GripperActsAt(const MissionStep& step) {
+  return (step.kind == StepKind::kGrasp && !step.held_at_start) || step.kind == StepKind::kRelease;
+}
+
 // "mission[2] (grasp)": how messages name a step.
 std::string StepName(const std::vector<MissionStep>& mission, size_t index);
 
