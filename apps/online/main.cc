@@ -223,6 +223,13 @@ int main(int argc, char** argv) {
                  "A mission's gripper acts once the tool is this close (m) to its planned pose in the grasp or\n"
                  "release step; not there by the middle of the step: the mission ends holding")
       ->capture_default_str();
+  app.add_option("--junction-tolerance", options.junction_tolerance,
+                 "A mission's plan waits at each junction of its legs (at rest) until the tool is this close (m) to\n"
+                 "its planned pose and the base slower than --arrival-settle-speed")
+      ->capture_default_str();
+  app.add_option("--junction-timeout", options.junction_timeout,
+                 "Most seconds of waiting at one junction; not settled by then: the mission ends holding there")
+      ->capture_default_str();
   app.add_option("--arrival-settle-speed", options.arrival_settle_speed,
                  "Base speed (m/s) below which the vehicle counts as settled at the goal")
       ->capture_default_str();
@@ -292,6 +299,14 @@ int main(int argc, char** argv) {
   }
   if (!(std::isfinite(options.gripper_tolerance) && options.gripper_tolerance > 0.0 && options.gripper_tolerance <= 0.1)) {
     return Fail("--gripper-tolerance must be in (0, 0.1] m");
+  }
+  if (!(std::isfinite(options.junction_tolerance) && options.junction_tolerance > 0.0 &&
+        options.junction_tolerance <= 0.1)) {
+    return Fail("--junction-tolerance must be in (0, 0.1] m");
+  }
+  if (!(std::isfinite(options.junction_timeout) && options.junction_timeout >= 0.0 &&
+        options.junction_timeout <= 600.0)) {
+    return Fail("--junction-timeout must be in [0, 600] s");
   }
   if (!(std::isfinite(options.arrival_settle_speed) && options.arrival_settle_speed > 0.0 && options.arrival_settle_speed <= 1.0)) {
     return Fail("--arrival-settle-speed must be in (0, 1] m/s");
@@ -475,7 +490,7 @@ int main(int argc, char** argv) {
     // silent at the end was not seen arriving.
     const planner::PlanResult& flown_plan = *controller.current_plan();
     const double end_time = code == kExitSuccess ? last_tick : online::kNoEndTime;
-    metrics = mission ? online::EvaluateMissionFlight(log.samples(), flown_plan, controller.current_plan_start(),
+    metrics = mission ? online::EvaluateMissionFlight(log.samples(), flown_plan, controller.plan_clock(),
                                                       ctx.task(), options.clearance_tolerance, 0.3, end_time,
                                                       controller.failed_plan_time())
                       : online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),

@@ -28,6 +28,29 @@ FlightMetrics Metrics(const FlightLog& log, const OnlineController& controller) 
 
 // The whole message path: controller -> MAVLink messages -> autopilot ->
 // simulator -> telemetry messages -> controller.
+// A mission's plan clock: plan time runs with controller time except where
+// it stood still at a junction; the time the plan left a point is after
+// the pause there.
+TEST(PlanClockTest, StandsStillAtItsPausesAndNowhereElse) {
+  PlanClock clock{10.0, {{2.0, 1.5}, {5.0, 0.5}}};
+  EXPECT_DOUBLE_EQ(clock.PlanTime(10.0), 0.0);
+  EXPECT_DOUBLE_EQ(clock.PlanTime(11.0), 1.0);
+  EXPECT_DOUBLE_EQ(clock.PlanTime(12.0), 2.0);
+  EXPECT_DOUBLE_EQ(clock.PlanTime(13.0), 2.0);   // in the first pause
+  EXPECT_DOUBLE_EQ(clock.PlanTime(13.5), 2.0);
+  EXPECT_DOUBLE_EQ(clock.PlanTime(14.5), 3.0);
+  EXPECT_DOUBLE_EQ(clock.PlanTime(16.5), 5.0);
+  EXPECT_DOUBLE_EQ(clock.PlanTime(16.75), 5.0);  // in the second
+  EXPECT_DOUBLE_EQ(clock.PlanTime(18.0), 6.0);
+  EXPECT_DOUBLE_EQ(clock.TimeLeaving(1.0), 11.0);
+  EXPECT_DOUBLE_EQ(clock.TimeLeaving(2.0), 13.5);
+  EXPECT_DOUBLE_EQ(clock.TimeLeaving(5.0), 17.0);
+  EXPECT_DOUBLE_EQ(clock.TimeLeaving(6.0), 18.0);
+  for (double t = 10.0; t < 20.0; t += 0.25) EXPECT_GE(clock.TimeLeaving(clock.PlanTime(t)), t - 1e-12) << t;
+  const PlanClock unpaused{3.0, {}};
+  EXPECT_DOUBLE_EQ(unpaused.PlanTime(4.0), 1.0);
+}
+
 TEST(OnlineControllerTest, FliesTheDefaultTaskToTheCupThroughTheAutopilot) {
   const planner::Task& task = WindowCup().task;
   sim::StartPose start;

@@ -241,6 +241,28 @@ TEST_F(OnlineCliTest, AMissionWhoseToolDoesNotSettleOnItsGraspEndsHolding) {
   EXPECT_EQ(out.find("closing the gripper"), std::string::npos) << out;
 }
 
+// A vehicle that never settles at the first junction of a mission's legs
+// (a tolerance no vehicle meets): the plan's clock waits there, and after
+// --junction-timeout the mission ends holding (exit 1) before its grasp.
+TEST_F(OnlineCliTest, AMissionThatDoesNotSettleAtAJunctionEndsHoldingThere) {
+  const std::string task = (dir_ / "task.yaml").string();
+  std::ofstream(task) << MissionTaskText("cable_unplugging.yaml");
+  const std::string vehicle = StartVehicle(task);
+  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--max-duration", "12", "--junction-tolerance", "0.00001",
+                        "--junction-timeout", "1"},
+                       (dir_ / "online").string());
+  const int code = Wait(&online, 90.0);
+  const std::string out = ReadAll(online.out);
+  EXPECT_EQ(code, 1) << out << ReadAll(online.err);
+  EXPECT_NE(out.find("waiting at the end of leg 0 (mission[0] (reach)) for the vehicle to settle"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find("the tool did not settle within 0.0000 m of its planned pose at the end of leg 0 (mission[0] "
+                     "(reach)) in 1.0 s"),
+            std::string::npos)
+      << out;
+  EXPECT_EQ(out.find("closing the gripper"), std::string::npos) << out;
+}
+
 // The defect of stop 26: over 150 +- 50 ms with 10 % loss in bursts of 5,
 // quadhand-online said "arrived" (exit 0) after a flight into the scene.
 // Now it measures the latency, plans for it, and the simulator's own record

@@ -771,6 +771,73 @@ double OnlineController::ArrivalOffset() const {
   return (position_ - plan.Sample(plan.duration()).position).norm();
 }
 
+double PlanClock::PlanTime(double t) const {
+  double plan_time = t - start;
+  for (const auto& [at, seconds] : pauses) {
+    if (plan_time <= at) break;
+    plan_time = std::max(at, plan_time - seconds);
+  }
+  return plan_time;
+}
+
+double PlanClock::TimeLeaving(double plan_time) const {
+  double t = start + plan_time;
+  for (const auto& [at, seconds] : pauses) {
+    if (at > plan_time) break;
+    t += seconds;
+  }
+  return t;
+}
+
+void OnlineController::WaitAtJunction(double t) {
+  const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
+  if (legs.empty() || next_junction_ + 1 >= legs.size()) return;
+  const double junction = legs[next_junction_].end_s;
+  if (t - to_.start < junction) return;
+  // The plan is at rest here: standing its clock still streams the same
+  // setpoint and changes nothing it was checked with.
+  const robot::RobotModel& robot = setup_.scene.robot;
+  const int tool = robot.LinkIndex(setup_.task->tool_link);
+  double error = 0.0;
+  if (tool >= 0 && HaveState()) {
+    const planner::WholeBodySample at = to_.plan->trajectory->Sample(junction);
+    const Vec3 planned = robot::LinkPose(robot, at.BasePose(), at.joints, tool).translation();
+    const Vec3 measured =
+        robot::LinkPose(robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool).translation();
+    error = (measured - planned).norm();
+  }
+  const double speed = velocity_.norm();
+  const std::string where = Format("the end of leg %.0f", static_cast<double>(next_junction_)) + " (" +
+                            planner::StepName(setup_.task->mission, legs[next_junction_].step) + ")";
+  if (error <= options_.junction_tolerance && speed <= options_.arrival_settle_speed) {
+    if (junction_wait_start_ >= 0.0) {
+      Event("settled at " + where +
+            Format(" after waiting %.2f s", t - junction_wait_start_) + Format(" (tool %.4f m off)", error));
+    }
+    junction_wait_start_ = -1.0;
+    ++next_junction_;
+    return;
+  }
+  if (junction_wait_start_ < 0.0) {
+    junction_wait_start_ = t;
+    plan_clock_.pauses.emplace_back(junction, 0.0);
+    Event("waiting at " + where + Format(" for the vehicle to settle (tool %.4f m off, ", error) +
+          Format("base %.3f m/s)", speed));
+  }
+  if (t - junction_wait_start_ > options_.junction_timeout) {
+    Fail(Phase::kHoldingAfterFailure,
+         Format("the tool did not settle within %.4f m of its planned pose at ", options_.junction_tolerance) + where +
+             Format(" in %.1f s", options_.junction_timeout) + Format(" (%.4f m off, ", error) +
+             Format("base %.3f m/s)", speed));
+    return;
+  }
+  // Hold the clock at the junction: the time since the plan reached it
+  // (first tick) or since the last tick is the pause's.
+  const double overshoot = (t - to_.start) - junction;
+  to_.start += overshoot;
+  plan_clock_.pauses.back().second += overshoot;
+}
+
 void OnlineController::CommandGripper(double t, ControllerOutput* out) {
   if (!IsMission() || !to_.plan || (phase_ != Phase::kFlying && phase_ != Phase::kArrived)) return;
   const std::vector<planner::MissionStep>& mission = setup_.task->mission;
@@ -798,7 +865,7 @@ void OnlineController::CommandGripper(double t, ControllerOutput* out) {
     // The gripper acts when its step has begun (the plan is at rest there)
     // and the measured tool is where the plan put it.
     const planner::StepResult& planned = steps[next_gripper_step_];
-    if (t - to_.start < planned.start_s) return;
+    if (t - to_.start < planned.start_s || junction_wait_start_ >= 0.0) return;
     const robot::RobotModel& robot = setup_.scene.robot;
     const int tool = robot.LinkIndex(setup_.task->tool_link);
     if (tool >= 0 && HaveState()) {
@@ -892,6 +959,7 @@ ControllerOutput OnlineController::Tick(double t) {
     const bool settled = offset <= options_.start_tolerance;
     if (settled || t - confirmed_time_ >= options_.settle_timeout) {
       to_ = {first_plan_, t};
+      plan_clock_ = PlanClock{t, {}};
       phase_ = Phase::kFlying;
       Event(settled ? Format("flying the plan (%.3f m from the start)", offset)
                     : Format("flying the plan although the vehicle is still %.3f m from the start", offset));
@@ -904,7 +972,8 @@ ControllerOutput OnlineController::Tick(double t) {
       blending_ = false;
       from_ = ActivePlan{};
     }
-    if (!blending_ && t - to_.start >= to_.plan->trajectory->duration()) {
+    if (IsMission()) WaitAtJunction(t);
+    if (phase_ == Phase::kFlying && !blending_ && t - to_.start >= to_.plan->trajectory->duration()) {
       phase_ = Phase::kArrived;
       arrival_time_ = t;
       Event("the plan has ended: holding at the goal");

@@ -190,19 +190,19 @@ FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const rob
 }
 
 FlightMetrics EvaluateMissionFlight(const std::vector<FlightSample>& samples, const planner::PlanResult& plan,
-                                    double plan_start, const planner::Task& task, double tolerance, double reach,
+                                    const PlanClock& clock, const planner::Task& task, double tolerance, double reach,
                                     double end_time, double frozen_plan_time) {
   const std::vector<planner::MissionLeg>& legs = plan.mission_legs;
   if (legs.empty() || !plan.trajectory) return FlightMetrics{};
   const robot::RobotModel& base = *legs.front().robot;
   const int tool = base.LinkIndex(task.tool_link);
-  // The flown state nearest plan time `at`.
+  // The flown state nearest the time the plan left plan time `at`.
   auto nearest_state = [&](double at) -> const MeasuredState* {
+    const double when = clock.TimeLeaving(at);
     const FlightSample* nearest = nullptr;
     for (const FlightSample& s : samples) {
       if (s.measured.joints.size() != base.num_actuated()) continue;
-      if (nearest == nullptr || std::abs(s.measured.time - (plan_start + at)) <
-                                    std::abs(nearest->measured.time - (plan_start + at))) {
+      if (nearest == nullptr || std::abs(s.measured.time - when) < std::abs(nearest->measured.time - when)) {
         nearest = &s;
       }
     }
@@ -226,7 +226,8 @@ FlightMetrics EvaluateMissionFlight(const std::vector<FlightSample>& samples, co
   }
   robot::KinematicsState kinematics;
   auto judge = [&](const MeasuredState& m) {
-    const double t = frozen_plan_time >= 0.0 ? std::min(m.time - plan_start, frozen_plan_time) : m.time - plan_start;
+    const double t = frozen_plan_time >= 0.0 ? std::min(clock.PlanTime(m.time), frozen_plan_time)
+                                             : clock.PlanTime(m.time);
     size_t k = 0;
     while (k + 1 < legs.size() && t > legs[k].end_s) ++k;
     const planner::MissionLeg& leg = legs[k];
@@ -240,7 +241,7 @@ FlightMetrics EvaluateMissionFlight(const std::vector<FlightSample>& samples, co
         object = kinematics.link_poses[tool] * *held_in_tool[leg.held_grasp_step];
       }
       j.held_clearance = leg.object_exact->LinkClearance(leg.object_link, object, reach, {});
-      j.held_bound = std::max(0.0, leg.object_clearance - tolerance);
+      j.held_bound = leg.object_clearance - tolerance;
     }
     return j;
   };

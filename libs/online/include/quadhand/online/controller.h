@@ -57,6 +57,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "quadhand/core/status.h"
@@ -112,6 +113,15 @@ struct OnlineOptions {
   // the step ends the mission holding (the object would be held, or left,
   // off the pose it was planned with).
   double gripper_tolerance = 0.005;
+  // A mission's legs meet at rest. At each junction the plan's clock stands
+  // still until the measured tool is within junction_tolerance m of where
+  // the plan has it there and the base is slower than arrival_settle_speed:
+  // the arm's last motion of a leg can leave the base centimetres off (the
+  // autopilot does not know the arm) and the next leg (an insertion, a
+  // pull, the gripper) needs the tool where it was planned. A vehicle not
+  // settled after junction_timeout s ends the mission holding there.
+  double junction_tolerance = 0.005;
+  double junction_timeout = 5.0;
   // The planner's collision margin (PlannerOptions::collision_margin, the
   // distance above the safety distance the optimiser aims for) is raised by
   // this much for plans flown: the flown path strays from the plan by several
@@ -268,6 +278,18 @@ struct OnlineStats {
   int replans_skipped_stale = 0;       // triggers refused: the newest state was too old
 };
 
+// Controller time -> plan time of a mission flown with the waits at its
+// junctions (OnlineOptions::junction_tolerance): t - start, less the time
+// the plan's clock stood still before t. `pauses`: (plan time, seconds)
+// in order of plan time.
+struct PlanClock {
+  double start = 0.0;
+  std::vector<std::pair<double, double>> pauses;
+  double PlanTime(double t) const;
+  // The controller time the plan left plan time `plan_time` (after a pause there).
+  double TimeLeaving(double plan_time) const;
+};
+
 struct ControllerOutput {
   std::optional<Setpoint> setpoint;      // stream this now (none: stream nothing)
   std::vector<CommandRequest> commands;  // send these now
@@ -314,8 +336,11 @@ class OnlineController {
   const OnlineStats& stats() const { return stats_; }
   // The plan being flown (null before the first plan).
   std::shared_ptr<const planner::PlanResult> current_plan() const { return to_.plan; }
-  // Time offset of the current plan: plan time = t - current_plan_start().
+  // Time offset of the current plan: plan time = t - current_plan_start()
+  // (for a mission, from now on: plan_clock() maps the whole flight).
   double current_plan_start() const { return to_.start; }
+  // A mission's plan clock: where it stood still at junctions.
+  const PlanClock& plan_clock() const { return plan_clock_; }
   // The plan time the vehicle was at when the flight failed while flying
   // the plan (it holds there since); negative when it did not.
   double failed_plan_time() const { return failed_plan_time_; }
@@ -354,6 +379,10 @@ class OnlineController {
   // begins, resent until acknowledged.
   void CommandGripper(double t, ControllerOutput* out);
   bool IsMission() const { return setup_.task->mission.size() > 1; }
+  // A mission's wait at the junction of its legs that the plan has reached
+  // (OnlineOptions::junction_tolerance): stops the plan's clock there until
+  // the vehicle has settled, or fails after junction_timeout.
+  void WaitAtJunction(double t);
   // A replan from the measured state at t; `periodic`: started by
   // replan_period with the tracking error below the threshold.
   void MaybeReplan(double t, bool periodic, double error);
@@ -427,6 +456,11 @@ class OnlineController {
   // one sent and not yet acknowledged (-1: none), when and how often.
   double failed_plan_time_ = -1.0;
   size_t next_gripper_step_ = 0;
+  // The mission's next junction (index of the leg it ends), when the wait
+  // there began (negative: not waiting).
+  size_t next_junction_ = 0;
+  double junction_wait_start_ = -1.0;
+  PlanClock plan_clock_;
   long gripper_pending_ = -1;
   double gripper_sent_at_ = 0.0;
   int gripper_attempts_ = 0;

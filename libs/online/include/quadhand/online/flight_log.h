@@ -82,17 +82,22 @@ struct FlightMetrics {
   std::vector<std::pair<size_t, double>> gripper_tool_errors;
 };
 
-// The same for a mission (planner::PlanTask's `plan`, flown from controller
-// time `plan_start`): each state is judged by the leg it falls in (by plan
-// time; before the first, the first; after the last, the last) - the robot
-// without the object it holds against that phase's scene (min_clearance),
-// and the held object alone against the clearance the leg gives it less
-// `tolerance` (never below 0: never into the scene). final_base_error is
-// against the plan's last state; gripper_tool_errors are filled.
+// The same for a mission (planner::PlanTask's `plan`, flown on `clock`,
+// OnlineController::plan_clock()): each state is judged by the leg it falls
+// in (by plan time; before the first, the first; after the last, the last)
+// - the robot without the object it holds against that phase's scene
+// (min_clearance), and the held object alone against the clearance the leg
+// gives it less `tolerance`, as the robot is judged at the safety distance
+// less it: next to a grasp or release, where the plan keeps the object out
+// of its support (>= 0), the flown one may press into it by the tolerance
+// (the simulator has no contact; the tool sags by the tracking error while
+// it holds). final_base_error is against the plan's last state;
+// gripper_tool_errors are filled, each from the state nearest the time the
+// plan left the step's start (after a wait at a junction there).
 // A flight that failed while flying the plan and held since is judged, from
 // the failure on, by the leg it failed in: `frozen_plan_time` (negative: none).
 FlightMetrics EvaluateMissionFlight(const std::vector<FlightSample>& samples, const planner::PlanResult& plan,
-                                    double plan_start, const planner::Task& task, double tolerance,
+                                    const PlanClock& clock, const planner::Task& task, double tolerance,
                                     double reach = 0.3, double end_time = kNoEndTime, double frozen_plan_time = -1.0);
 
 FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
