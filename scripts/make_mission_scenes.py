@@ -5,8 +5,9 @@ the same files every run.
 
   gap_crossing.pcd: a floor, a wall with a 0.6 x 0.35 m gap (its centre at
       z = 1.2 m), and behind it a 0.5 m cube with a cup (70/80 mm inner/outer
-      diameter, 0.10 m tall) standing on it. The gap-crossing grasp and the
-      narrow-gap crossing fly through it.
+      diameter, 0.10 m tall) standing on it, in a closed room (5 x 3 x 2.5 m)
+      that the wall divides. The gap-crossing grasp and the narrow-gap
+      crossing fly through the gap: there is no other way.
   drone_rescue.pcd: a DJI Tello on the floor, 2 cm under the edge of a
       storage box on short feet (the drone rescue).
   cable_unplugging.pcd: a USB plug in the side of a cabinet (the cable
@@ -96,6 +97,9 @@ SCENES = {
     "gap_crossing.pcd": lambda: {
         "floor": floor(-3.5, 1.5, -1.5, 1.5),
         "wall with a 0.6 x 0.35 m gap at z = 1.2": wall_with_gap(-1.0, 0.6, 0.35, 1.2),
+        # The room the wall divides (its ceiling, side and end walls): the
+        # gap is the only way to the far side, not over or round the wall.
+        "room (5 x 3 x 2.5 m)": box_faces((-3.5, -1.5, 0.0), (1.5, 1.5, 2.5), 0.04),
         "cube (0.5 m)": box_surface((-2.2, 0.0, 0.25), 0.5, 0.01),
         "cup (70/80 mm, 0.10 m)": cup_points(-2.2, 0.0, 0.5, 0.10, 0.04, 0.035, 0.005),
     },

@@ -4,9 +4,13 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -502,6 +506,36 @@ TEST_F(PlanCliTest, AReleasedObjectIsSceneForTheStepsAfterIt) {
 
 // Every task under data/tasks/missions (the paper's five missions and the
 // default scene's lift) plans, every step certified, with the coarse SDFs.
+// The gap-crossing scene (scripts/make_mission_scenes.py): the wall at
+// x = -1.0 m with its 0.6 x 0.35 m gap centred at y = 0, z = 1.2. A plan
+// crosses the wall's plane once, and inside the gap, not over or round it.
+void ExpectCrossesTheGap(const std::string& plan_csv, const std::string& name) {
+  std::istringstream lines(ReadAll(plan_csv));
+  std::string line;
+  ASSERT_TRUE(std::getline(lines, line)) << name;
+  std::vector<std::string> header;
+  std::istringstream fields(line);
+  for (std::string field; std::getline(fields, field, ',');) header.push_back(field);
+  auto column = [&](const std::string& key) { return std::find(header.begin(), header.end(), key) - header.begin(); };
+  const size_t px = column("px"), py = column("py"), pz = column("pz");
+  ASSERT_LT(pz, header.size()) << name;
+  int crossings = 0;
+  std::optional<Vec3> previous;
+  while (std::getline(lines, line)) {
+    std::vector<double> row;
+    std::istringstream values(line);
+    for (std::string value; std::getline(values, value, ',');) row.push_back(std::stod(value));
+    const Vec3 p(row[px], row[py], row[pz]);
+    if (previous && (previous->x() + 1.0) * (p.x() + 1.0) <= 0.0 && previous->x() != p.x()) {
+      ++crossings;
+      EXPECT_LT(std::abs(p.y()), 0.3) << name << ": crosses the wall at " << p.transpose();
+      EXPECT_LT(std::abs(p.z() - 1.2), 0.175) << name << ": crosses the wall at " << p.transpose();
+    }
+    previous = p;
+  }
+  EXPECT_EQ(crossings, 1) << name;
+}
+
 TEST_F(PlanCliTest, PlansEveryBundledMissionCertified) {
   const fs::path missions = fs::path(QUADHAND_SOURCE_DIR) / "data" / "tasks" / "missions";
   int planned = 0;
@@ -528,6 +562,7 @@ TEST_F(PlanCliTest, PlansEveryBundledMissionCertified) {
     const nlohmann::json result = nlohmann::json::parse(ReadAll(report));
     EXPECT_TRUE(result["certified"].get<bool>()) << entry.path();
     for (const auto& step : result["steps"]) EXPECT_TRUE(step["certified"].get<bool>()) << entry.path() << " " << step;
+    if (text.find("gap_crossing.pcd") != std::string::npos) ExpectCrossesTheGap(out, entry.path().string());
     ++planned;
   }
   EXPECT_GE(planned, 12);  // five missions (seven starts for the narrow gap) and the lift

@@ -69,6 +69,16 @@ std::vector<Vec3> Crossings(const std::vector<Vec3>& path, double x0) {
 }
 
 TEST(FrontEndOptions, DefaultsAreValidAndBadValuesAreRejected) {
+  {
+    FrontEndOptions o;
+    o.inflation_height = -0.1;
+    EXPECT_FALSE(o.IsValid(nullptr));
+    o.inflation_height = 0.05;
+    o.tight_cost_factor = 0.5;
+    EXPECT_FALSE(o.IsValid(nullptr));
+    o.tight_cost_factor = 5.0;
+    EXPECT_TRUE(o.IsValid(nullptr));
+  }
   std::string why;
   EXPECT_TRUE(FrontEndOptions().IsValid(&why)) << why;
   EXPECT_TRUE(FrontEndOptions().IsValid(nullptr));
@@ -190,6 +200,60 @@ TEST(FrontEnd, ClosedWallIsInfeasible) {
   // With room to fly around the wall, there is a path.
   options.bounds_margin = Vec3::Constant(0.5);
   EXPECT_TRUE(FindBasePath(Wall(1.0, 1.5, false), Vec3(0.0, 0.0, 0.0), Vec3(2.0, 0.0, 0.0), options).ok());
+}
+
+// A slot 0.24 m high and 0.6 m wide: closed to the sphere of the default
+// radius (0.15), open to a flat base (height 0.05: the ellipsoid's half
+// height with the voxel allowance, 0.06, leaves voxel centres free), which
+// crosses inside it and keeps its ellipsoid clear of every point.
+TEST(FrontEnd, AFlatBasePassesASlotLowerThanItsWidth) {
+  const std::vector<Vec3> wall = Wall(1.0, 1.5, true, 0.3, 0.12);
+  FrontEndOptions options;
+  options.bounds_margin = Vec3::Constant(0.1);  // no way round
+  const Vec3 start(0.0, 0.0, 0.5), goal(2.0, 0.0, 0.5);
+  ASSERT_FALSE(FindBasePath(wall, start, goal, options).ok());
+  options.inflation_height = 0.05;
+  auto result = FindBasePath(wall, start, goal, options);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  for (const std::vector<Vec3>* path : {&result->raw, &result->shortcut}) {
+    const std::vector<Vec3> crossings = Crossings(*path, 1.0);
+    ASSERT_EQ(crossings.size(), 1u);
+    EXPECT_LT(std::abs(crossings[0].y()), 0.3);
+    EXPECT_LT(std::abs(crossings[0].z() - 0.5), 0.12);
+  }
+  // Every raw voxel centre keeps the ellipsoid (its axes scaled to a unit
+  // sphere) clear of every point.
+  for (const Vec3& c : std::vector<Vec3>(result->raw.begin() + 1, result->raw.end() - 1)) {
+    for (const Vec3& p : wall) {
+      const Vec3 d = p - c;
+      const double r = options.inflation_radius, h = options.inflation_height;
+      EXPECT_GE((d.x() * d.x() + d.y() * d.y()) / (r * r) + d.z() * d.z() / (h * h), 1.0) << c.transpose();
+    }
+  }
+}
+
+// With a roomy way round (a wall 1 m wide, 0.4 m of margin each side) the
+// tight slot costs tight_cost_factor times its length and the path goes
+// round; at factor 1 the slot is as good as open space, and the path
+// crosses in it.
+TEST(FrontEnd, TightVoxelsAreTakenOnlyWhenNoRoomierWayIsShorter) {
+  const std::vector<Vec3> wall = Wall(1.0, 0.5, true, 0.3, 0.12, 0.0);
+  FrontEndOptions options;
+  options.bounds_margin = Vec3(0.1, 0.45, 0.45);
+  options.inflation_height = 0.05;
+  const Vec3 start(0.0, 0.0, 0.0), goal(2.0, 0.0, 0.0);
+  auto detour = FindBasePath(wall, start, goal, options);
+  ASSERT_TRUE(detour.ok()) << detour.status().message();
+  std::vector<Vec3> crossings = Crossings(detour->raw, 1.0);
+  ASSERT_EQ(crossings.size(), 1u);
+  EXPECT_GT(std::max(std::abs(crossings[0].y()), std::abs(crossings[0].z())), 0.5) << crossings[0].transpose();
+  options.tight_cost_factor = 1.0;
+  auto slot = FindBasePath(wall, start, goal, options);
+  ASSERT_TRUE(slot.ok()) << slot.status().message();
+  crossings = Crossings(slot->raw, 1.0);
+  ASSERT_EQ(crossings.size(), 1u);
+  EXPECT_LT(std::abs(crossings[0].y()), 0.3);
+  EXPECT_LT(std::abs(crossings[0].z()), 0.12);
 }
 
 TEST(FrontEnd, SearchBudgetIsInfeasibleWithAReason) {

@@ -190,6 +190,14 @@ TEST(LinkMeshesTest, StowedHalfWidthIsTheNarrowerHorizontalReach) {
   auto half_width = StowedHalfWidth(*robot);
   ASSERT_TRUE(half_width.ok());
   EXPECT_NEAR(*half_width, 0.325, 1e-9);
+  // Each axis (the spheres are tessellated: their vertices lie on the
+  // sphere, not always on its extreme points): x 0.45, y 0.325, and the
+  // height the body sphere's 0.1 (the guard and the arm reach 0.05).
+  auto extents = StowedHalfExtents(*robot);
+  ASSERT_TRUE(extents.ok());
+  EXPECT_NEAR(extents->x(), 0.45, 1e-3);
+  EXPECT_NEAR(extents->y(), 0.325, 1e-9);
+  EXPECT_NEAR(extents->z(), 0.1, 1e-3);
   auto bare = RobotModel::LoadFromUrdfString(R"(<robot name="bare"><link name="base"/></robot>)", ".");
   ASSERT_TRUE(bare.ok());
   EXPECT_EQ(*StowedHalfWidth(*bare), 0.0);

@@ -101,6 +101,12 @@ bool FrontEndOptions::IsValid(std::string* why) const {
   if (!(inflation_radius >= 0.0) || !std::isfinite(inflation_radius)) {
     return Fail(why, "inflation_radius must be non-negative and finite");
   }
+  if (!(inflation_height >= 0.0) || !std::isfinite(inflation_height)) {
+    return Fail(why, "inflation_height must be non-negative and finite");
+  }
+  if (!(tight_cost_factor >= 1.0 && tight_cost_factor <= 1000.0)) {
+    return Fail(why, "tight_cost_factor must be in [1, 1000]");
+  }
   if (!(shortcut_clearance >= 0.0) || !(shortcut_clearance <= inflation_radius)) {
     return Fail(why, "shortcut_clearance must be in [0, inflation_radius]");
   }
@@ -169,6 +175,8 @@ core::Result<FrontEndMap> FrontEndMap::Build(const std::vector<Vec3>& obstacle_p
   map.hi_ = lo + dims.cast<double>() * v;
   const double r = options.inflation_radius;
   map.search_radius_ = std::sqrt(r * r + 0.75 * v * v);
+  const double height = options.inflation_height > 0.0 ? options.inflation_height : r;
+  map.search_height_ = std::sqrt(height * height + 0.75 * v * v);
   // Certifying a sub-segment of length v/2 from its midpoint's voxel needs
   // distances up to clearance + half diagonal + v/4 (see SubSegmentIsClear).
   map.distance_cap_ =
@@ -210,17 +218,51 @@ core::Result<FrontEndMap> FrontEndMap::Build(const std::vector<Vec3>& obstacle_p
     }
   }
   map.blocked_.assign(size, 1);
-  // A hair above the search radius, so float rounding never frees a voxel.
+  // Free: outside the ellipsoid of half-axes (search radius, search radius,
+  // search height) around every point, a hair larger so that float
+  // rounding never frees a voxel. A sphere reads it off the distances.
   const float search2 = static_cast<float>((map.search_radius_ / v) * (map.search_radius_ / v) * (1.0 + 1e-5));
-  map.num_blocked_ = 0;
+  const bool sphere = map.search_height_ == map.search_radius_;
   for (int i = 0; i < dims.x(); ++i) {
     for (int j = 0; j < dims.y(); ++j) {
       for (int k = 0; k < dims.z(); ++k) {
         const long idx = map.Index(i, j, k);
-        const bool blocked = map.distance_[idx] < search2;
-        map.blocked_[idx] = blocked ? 1 : 0;
-        map.num_blocked_ += blocked;
+        // Without the sphere, a voxel the sphere would block is tight until
+        // the ellipsoid blocks it below.
+        map.blocked_[idx] = map.distance_[idx] < search2 ? (sphere ? kBlocked : kTight) : kFree;
       }
+    }
+  }
+  if (!sphere) {
+    // Along z in units of the radius: the ellipsoid becomes the sphere of
+    // the search radius.
+    const double stretch = map.search_radius_ / map.search_height_;
+    const double radius = map.search_radius_ / v, height = map.search_height_ / v;
+    for (const Vec3& p : obstacle_points) {
+      const Vec3 c = (p - lo) / v - Vec3::Constant(0.5);
+      const int i0 = std::max(0, static_cast<int>(std::ceil(c.x() - radius)));
+      const int i1 = std::min(dims.x() - 1, static_cast<int>(std::floor(c.x() + radius)));
+      const int j0 = std::max(0, static_cast<int>(std::ceil(c.y() - radius)));
+      const int j1 = std::min(dims.y() - 1, static_cast<int>(std::floor(c.y() + radius)));
+      const int k0 = std::max(0, static_cast<int>(std::ceil(c.z() - height)));
+      const int k1 = std::min(dims.z() - 1, static_cast<int>(std::floor(c.z() + height)));
+      for (int i = i0; i <= i1; ++i) {
+        for (int j = j0; j <= j1; ++j) {
+          const double dxy2 = (i - c.x()) * (i - c.x()) + (j - c.y()) * (j - c.y());
+          if (dxy2 >= search2) continue;
+          unsigned char* row = map.blocked_.data() + map.Index(i, j, k0);
+          for (int k = k0; k <= k1; ++k) {
+            const double dz = (k - c.z()) * stretch;
+            if (dxy2 + dz * dz < search2) row[k - k0] = kBlocked;
+          }
+        }
+      }
+    }
+  }
+  map.num_blocked_ = 0;
+  for (int i = 0; i < dims.x(); ++i) {
+    for (int j = 0; j < dims.y(); ++j) {
+      for (int k = 0; k < dims.z(); ++k) map.num_blocked_ += map.blocked_[map.Index(i, j, k)] == kBlocked;
     }
   }
   // Squared voxels -> metres, rounded down a little so float rounding never
@@ -241,7 +283,7 @@ bool FrontEndMap::VoxelOf(const Vec3& p, Eigen::Vector3i* ijk) const {
 
 bool FrontEndMap::IsFree(const Vec3& p) const {
   Eigen::Vector3i ijk;
-  return VoxelOf(p, &ijk) && blocked_[Index(ijk.x(), ijk.y(), ijk.z())] == 0;
+  return VoxelOf(p, &ijk) && blocked_[Index(ijk.x(), ijk.y(), ijk.z())] != kBlocked;
 }
 
 double FrontEndMap::DistanceLowerBound(const Vec3& p, double* upper) const {
@@ -309,7 +351,7 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
       return core::Status::InvalidArgument(std::string("front end: the ") + name + " " + Format(p) +
                                            " is outside the search box " + Format(lo_) + " - " + Format(hi_));
     }
-    *escaped = blocked_[Index(ijk.x(), ijk.y(), ijk.z())] != 0;
+    *escaped = blocked_[Index(ijk.x(), ijk.y(), ijk.z())] == kBlocked;
     if (!*escaped) {
       *out = ijk;
       return core::Status::Ok();
@@ -319,7 +361,7 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
     for (int i = std::max(0, ijk.x() - reach); i <= std::min(dims_.x() - 1, ijk.x() + reach); ++i) {
       for (int j = std::max(0, ijk.y() - reach); j <= std::min(dims_.y() - 1, ijk.y() + reach); ++j) {
         for (int k = std::max(0, ijk.z() - reach); k <= std::min(dims_.z() - 1, ijk.z() + reach); ++k) {
-          if (blocked_[Index(i, j, k)] != 0) continue;
+          if (blocked_[Index(i, j, k)] == kBlocked) continue;
           const Eigen::Vector3i cand(i, j, k);
           const double d = (Centre(cand) - p).norm();
           if (d <= options_.max_escape_distance && d < best) {  // strict: the first (lowest index) wins ties
@@ -361,6 +403,10 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
       }
     }
   }
+  int tight_costs[26];
+  for (int d = 0; d < 26; ++d) {
+    tight_costs[d] = static_cast<int>(std::lround(options_.tight_cost_factor * costs[d]));
+  }
   thread_local SearchScratch scratch;
   scratch.Prepare(static_cast<long>(blocked_.size()));
   const std::uint32_t seen = scratch.current, closed = scratch.current + 1;
@@ -400,8 +446,8 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
     const int pi = top.node / syz, pj = (top.node / sz) % (dims_.y() + 2), pk = top.node % sz;
     for (int d = 0; d < 26; ++d) {
       const int nb = static_cast<int>(top.node + deltas[d]);
-      if (blocked_[nb] != 0 || scratch.stamp[nb] == closed) continue;
-      const int ng = top.g + costs[d];
+      if (blocked_[nb] == kBlocked || scratch.stamp[nb] == closed) continue;
+      const int ng = top.g + (blocked_[nb] == kTight ? tight_costs[d] : costs[d]);
       if (scratch.stamp[nb] == seen && ng >= scratch.g[nb]) continue;
       scratch.stamp[nb] = seen;
       scratch.g[nb] = ng;

@@ -112,6 +112,8 @@ void Visit(Config& c, Visitor&& v) {
   auto& f = c.front_end;
   v("front_end.voxel_size", f.voxel_size);
   v("front_end.inflation_radius", f.inflation_radius);
+  v("front_end.inflation_height", f.inflation_height);
+  v("front_end.tight_cost_factor", f.tight_cost_factor);
   v("front_end.shortcut_clearance", f.shortcut_clearance);
   v("front_end.bounds_margin", f.bounds_margin);
   v("front_end.max_escape_distance", f.max_escape_distance);

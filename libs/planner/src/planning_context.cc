@@ -197,11 +197,13 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
   }
   FrontEndOptions front_end_options = options.front_end;
   if (front_end_options.size_from_robot) {
-    auto half_width = robot::StowedHalfWidth(context->robot_);
-    if (!half_width.ok()) return half_width.status();
-    if (*half_width > 0.0) {
-      front_end_options.inflation_radius = *half_width;
-      front_end_options.shortcut_clearance = front_end_options.shortcut_ratio * *half_width;
+    auto extents = robot::StowedHalfExtents(context->robot_);
+    if (!extents.ok()) return extents.status();
+    const double half_width = std::min(extents->x(), extents->y());
+    if (half_width > 0.0) {
+      front_end_options.inflation_radius = half_width;
+      front_end_options.inflation_height = extents->z() > 0.0 ? extents->z() : half_width;
+      front_end_options.shortcut_clearance = front_end_options.shortcut_ratio * half_width;
     }
   }
   context->front_end_inflation_ = front_end_options.inflation_radius;

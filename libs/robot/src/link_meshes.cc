@@ -285,7 +285,7 @@ Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int li
   return soup;
 }
 
-core::Result<double> StowedHalfWidth(const RobotModel& model) {
+core::Result<Vec3> StowedHalfExtents(const RobotModel& model) {
   VecX q(model.num_actuated());
   for (int i = 0; i < model.num_actuated(); ++i) {
     const Joint& joint = model.joint(model.actuated_joints()[i]);
@@ -294,18 +294,20 @@ core::Result<double> StowedHalfWidth(const RobotModel& model) {
   KinematicsState state;
   ComputeKinematics(model, Pose::Identity(), q, &state);
   Vec3 reach = Vec3::Zero();
-  bool any = false;
   for (int link : model.CollisionLinks()) {
     auto elements = LinkCollisionElements(model, link);
     if (!elements.ok()) return elements.status();
     for (const geometry::TriangleMesh& mesh : *elements) {
-      for (const Vec3& v : mesh.vertices) {
-        reach = reach.cwiseMax((state.link_poses[link] * v).cwiseAbs());
-        any = true;
-      }
+      for (const Vec3& v : mesh.vertices) reach = reach.cwiseMax((state.link_poses[link] * v).cwiseAbs());
     }
   }
-  return any ? std::min(reach.x(), reach.y()) : 0.0;
+  return reach;
+}
+
+core::Result<double> StowedHalfWidth(const RobotModel& model) {
+  auto extents = StowedHalfExtents(model);
+  if (!extents.ok()) return extents.status();
+  return std::min(extents->x(), extents->y());
 }
 
 }  // namespace quadhand::robot

@@ -44,6 +44,20 @@ struct FrontEndOptions {
   // plate is 0.05 m high), so the optimiser starts from a path that keeps
   // the body mostly clear.
   double inflation_radius = 0.15;
+  // The same clearance along z, m: the search treats the base as an
+  // ellipsoid of these half-axes (the voxel allowance added to each as to
+  // the radius), so a flat vehicle passes a gap lower than its width. 0:
+  // inflation_radius (a sphere). With size_from_robot, the robot's own
+  // half height with the arm stowed (QuadHand: 0.065 m, so that the
+  // paper's 0.6 x 0.35 m gap is open to it).
+  double inflation_height = 0.0;
+  // A voxel the ellipsoid leaves free but the sphere of inflation_radius
+  // would block is tight: the search crosses it at this many times the
+  // distance (>= 1), so it passes a gap only the flat robot fits when
+  // there is no roomier way within about that factor of the length (the
+  // sphere keeps the path off window edges, which the whole-body solve
+  // then need not push it from).
+  double tight_cost_factor = 5.0;
   // Clearance every shortcut segment keeps from every point, m (checked
   // exactly, see FrontEndMap::SegmentIsClear); at most inflation_radius, so
   // the raw path is always a valid fallback.
@@ -131,8 +145,9 @@ class FrontEndMap {
   const Vec3& min_corner() const { return lo_; }  // of the grid box
   const Vec3& max_corner() const { return hi_; }
   Eigen::Vector3i dims() const { return dims_; }  // voxels per axis
-  long num_blocked() const { return num_blocked_; }  // voxels closer than the search radius
-  double search_radius() const { return search_radius_; }  // free-voxel threshold, m
+  long num_blocked() const { return num_blocked_; }  // voxels the search may not enter
+  double search_radius() const { return search_radius_; }  // free-voxel threshold, m (horizontal)
+  double search_height() const { return search_height_; }  // the same along z
   double build_seconds() const { return build_seconds_; }
 
  private:
@@ -157,8 +172,12 @@ class FrontEndMap {
   Vec3 lo_ = Vec3::Zero(), hi_ = Vec3::Zero();
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
   std::vector<float> distance_;   // padded; distance from each centre to the cloud, clamped
-  std::vector<unsigned char> blocked_;  // padded; 1 = not usable by the search (border included)
+  // Padded; kBlocked: not usable by the search (border included); kTight:
+  // usable at tight_cost_factor times the cost (FrontEndOptions).
+  static constexpr unsigned char kFree = 0, kBlocked = 1, kTight = 2;
+  std::vector<unsigned char> blocked_;
   double search_radius_ = 0.0;
+  double search_height_ = 0.0;
   double distance_cap_ = 0.0;
   long num_blocked_ = 0;
   double build_seconds_ = 0.0;

@@ -52,6 +52,12 @@ std::vector<std::string> TakeMeshRepairReports();
 // LinkCollisionElements does.
 core::Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int link);
 
+// The largest |x|, |y| and |z| of the collision elements' vertices in the
+// root link's frame with every joint at its value nearest zero within its
+// limits (the arm stowed); zero for a robot without collision geometry.
+// Fails as LinkCollisionElements does.
+core::Result<Vec3> StowedHalfExtents(const RobotModel& model);
+
 // Half the robot's narrower horizontal extent with every joint at its value
 // nearest zero within its limits (the arm stowed): the largest |x| and the
 // largest |y| of the collision elements' vertices in the root link's frame,
