@@ -418,9 +418,13 @@ class MissionPlanner {
   core::Result<bool> CheckAndAppend(size_t i, WholeBodyTrajectory trajectory, const Task& leg_task,
                                     const BoundaryState& end, const InsertionGoal& insertion, bool relaxed_object,
                                     PostCheckReport robot_report);
-  // A reach that puts the held object down (an insertion right before a
-  // release): flown to the insertion's start, then the insertion as a line.
-  core::Result<bool> PlaceLeg(size_t i);
+  // A mission's reach with an insertion: flown to the insertion's start
+  // (where it comes to rest), then the insertion as a line. The rest
+  // before the line is where the flight settles (a tool centimetres off
+  // after the arm's last motion would fly the line off it), and a line
+  // that puts the held object down (`places`: a release next) lets the
+  // object touch its support, while the transit keeps it clear.
+  core::Result<bool> InsertionLeg(size_t i, bool places);
   // InvalidArgument naming step i when the robot has no tool link.
   core::Status RequireToolLink(size_t i) const;
   // A rest-to-rest line's duration from the state (tool at `tool`).
@@ -641,7 +645,7 @@ double MissionPlanner::LineDuration(const Vec3& tool, const Vec3& direction, dou
                    std::sqrt(kRestLineAccelerationFactor * length / acceleration)});
 }
 
-core::Result<bool> MissionPlanner::PlaceLeg(size_t i) {
+core::Result<bool> MissionPlanner::InsertionLeg(size_t i, bool places) {
   const MissionStep& step = task_.mission[i];
   const ToolGoal& tool = *step.reach_tool;
   const PlanningScene scene = Scene(false);
@@ -669,8 +673,6 @@ core::Result<bool> MissionPlanner::PlaceLeg(size_t i) {
     return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
                                          core::Format(": the state puts the tool %.4f m from tool.position", mismatch));
   }
-  // Flown to where the insertion starts, then along it as a line of its
-  // own, so that the object is judged by the rule of each part.
   const Vec3 back = tool.insertion_direction * tool.insertion_length;
   leg.terminal = AtRest(terminal.position - back, terminal.yaw, terminal.joints);
   auto transit = ReachLeg(i, leg, false);
@@ -685,7 +687,7 @@ core::Result<bool> MissionPlanner::PlaceLeg(size_t i) {
   last_insertion_ = tool.insertion_direction;
   const double duration = LineDuration(at_goal.translation() - back, tool.insertion_direction, tool.insertion_length,
                                        std::nullopt);
-  return RestLeg(i, terminal.position, duration, line, true);
+  return RestLeg(i, terminal.position, duration, line, places);
 }
 
 core::Status MissionPlanner::Grasp(size_t i) {
@@ -796,9 +798,11 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
   const MissionStep& step = mission[i];
   switch (step.kind) {
     case StepKind::kReach: {
-      const bool places = phase_->held && i + 1 < mission.size() && mission[i + 1].kind == StepKind::kRelease &&
-                          step.reach_tool && step.reach_tool->has_insertion;
-      if (places) return PlaceLeg(i);
+      // A one-step mission is a goal: planned as one, the insertion in it.
+      if (mission.size() > 1 && step.reach_tool && step.reach_tool->has_insertion) {
+        const bool places = phase_->held && i + 1 < mission.size() && mission[i + 1].kind == StepKind::kRelease;
+        return InsertionLeg(i, places);
+      }
       Task leg = LegTask();
       leg.terminal = step.reach_state;
       leg.tool = step.reach_tool;
