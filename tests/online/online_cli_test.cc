@@ -138,6 +138,10 @@ class OnlineCliTest : public ::testing::Test {
     return url;
   }
 
+  // Flies the bundled mission `name` (data/tasks/missions/) over loopback
+  // and expects it to arrive as ExpectBundledMissionArrives says.
+  void FlyBundledMission(const std::string& name);
+
   fs::path dir_;
   Child sim_;
 };
@@ -232,38 +236,22 @@ void ExpectBundledMissionArrives(const std::string& out, const std::string& name
   EXPECT_GE(grippers, 1) << name << "\n" << out;
 }
 
-TEST_F(OnlineCliTest, FliesTheBundledDroneRescueWithinItsClearance) {
+void OnlineCliTest::FlyBundledMission(const std::string& name) {
   const std::string task = (dir_ / "task.yaml").string();
-  std::ofstream(task) << MissionTaskText("drone_rescue.yaml");
+  std::ofstream(task) << MissionTaskText(name);
   const std::string vehicle = StartVehicle(task);
   Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--max-duration", "60"}, (dir_ / "online").string());
   const int code = Wait(&online, 90.0);
   const std::string out = ReadAll(online.out);
-  ASSERT_EQ(code, 0) << out << ReadAll(online.err) << ReadAll(sim_.err);
-  ExpectBundledMissionArrives(out, "drone_rescue");
+  ASSERT_EQ(code, 0) << name << "\n" << out << ReadAll(online.err) << ReadAll(sim_.err);
+  ExpectBundledMissionArrives(out, name);
 }
 
-TEST_F(OnlineCliTest, FliesTheBundledGapCrossingGraspWithinItsClearance) {
-  const std::string task = (dir_ / "task.yaml").string();
-  std::ofstream(task) << MissionTaskText("gap_crossing_grasp.yaml");
-  const std::string vehicle = StartVehicle(task);
-  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--max-duration", "60"}, (dir_ / "online").string());
-  const int code = Wait(&online, 90.0);
-  const std::string out = ReadAll(online.out);
-  ASSERT_EQ(code, 0) << out << ReadAll(online.err) << ReadAll(sim_.err);
-  ExpectBundledMissionArrives(out, "gap_crossing_grasp");
-}
+TEST_F(OnlineCliTest, FliesTheBundledDroneRescueWithinItsClearance) { FlyBundledMission("drone_rescue.yaml"); }
 
-TEST_F(OnlineCliTest, FliesTheBundledPlierPlacementWithinItsClearance) {
-  const std::string task = (dir_ / "task.yaml").string();
-  std::ofstream(task) << MissionTaskText("plier_placement.yaml");
-  const std::string vehicle = StartVehicle(task);
-  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--max-duration", "60"}, (dir_ / "online").string());
-  const int code = Wait(&online, 90.0);
-  const std::string out = ReadAll(online.out);
-  ASSERT_EQ(code, 0) << out << ReadAll(online.err) << ReadAll(sim_.err);
-  ExpectBundledMissionArrives(out, "plier_placement");
-}
+TEST_F(OnlineCliTest, FliesTheBundledGapCrossingGraspWithinItsClearance) { FlyBundledMission("gap_crossing_grasp.yaml"); }
+
+TEST_F(OnlineCliTest, FliesTheBundledPlierPlacementWithinItsClearance) { FlyBundledMission("plier_placement.yaml"); }
 
 // The dry run of a mission lists the gripper commands it would send.
 TEST_F(OnlineCliTest, ADryRunOfAMissionListsItsGripperCommands) {
