@@ -224,6 +224,12 @@ int main(int argc, char** argv) {
           line["iterations"] = result->iterations;
           line["cost_evaluations"] = result->evaluations;
           line["attempts"] = result->attempts.size();
+          // Why each re-solve was needed: the attempts that failed their post-check.
+          nlohmann::json failed_checks = nlohmann::json::array();
+          for (const planner::PlanAttempt& attempt : result->attempts) {
+            if (!attempt.post_check_failure.empty()) failed_checks.push_back(attempt.post_check_failure);
+          }
+          line["attempt_failures"] = failed_checks;
           line["initial_guess"] = result->initial_guess;
           line["min_clearance_m"] = result->post_check.min_clearance_model;
           line["min_clearance_exact_m"] = result->post_check.min_clearance_exact;
