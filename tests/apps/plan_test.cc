@@ -449,6 +449,32 @@ std::string HeldAtStartMission(const std::string& steps) {
          steps + text.substr(limits + 1);
 }
 
+// A release gives back the points its grasp took (the cup's scan and the
+// table under it): the gripper carried the cup away, let go, and came back
+// down to where it grasped, and there it meets the cup's old scan as it
+// met the cup (a measured clearance, under the 0.04 m it would see over a
+// hole in the table).
+TEST_F(PlanCliTest, AReleaseGivesBackThePointsItsGraspTook) {
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const std::string mission = (dir_ / "mission.yaml").string();
+  std::ofstream(mission) << WindowCupMissionText(kGraspTheCup +
+                                                 "  - move: {length: 0.15}\n"
+                                                 "  - move: {direction: [1, 0, 0], length: 0.3}\n"
+                                                 "  - release: {}\n"
+                                                 "  - move: {direction: [-1, 0, 0], length: 0.3}\n"
+                                                 "  - move: {direction: [0, 0, -1], length: 0.14}\n");
+  const auto r = RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report);
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const nlohmann::json result = nlohmann::json::parse(ReadAll(report));
+  const nlohmann::json& steps = result["steps"];
+  ASSERT_EQ(steps.size(), 7u);
+  const nlohmann::json& reach = steps[0];
+  const nlohmann::json& back = steps[6];
+  ASSERT_FALSE(back["min_clearance_is_lower_bound"].get<bool>()) << back;
+  EXPECT_LT(back["min_clearance_m"].get<double>(), 0.038) << back;
+  EXPECT_NEAR(back["min_clearance_m"].get<double>(), reach["min_clearance_m"].get<double>(), 0.005) << back << reach;
+}
+
 TEST_F(PlanCliTest, AReleasedObjectIsSceneForTheStepsAfterIt) {
   const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
   const std::string mission = (dir_ / "mission.yaml").string();

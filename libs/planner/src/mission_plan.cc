@@ -109,6 +109,9 @@ struct Phase {
   const PlanningContext* context = nullptr;
   std::unique_ptr<PlanningContext> owned;
   std::shared_ptr<const std::vector<Vec3>> points, checked_points;
+  // While something is held: the clouds before its grasp took the points
+  // on and around it, which its release gives back (below, Release).
+  std::shared_ptr<const std::vector<Vec3>> points_before_grasp, checked_before_grasp;
   std::optional<HeldObject> held;
   // While something is held: its collision elements in its own frame, and
   // its link in the phase's robot (the last).
@@ -700,6 +703,7 @@ core::Status MissionPlanner::Grasp(size_t i) {
   held.object = step.object;
   auto points = phase_->points;
   auto checked = phase_->checked_points;
+  const auto points_before = points, checked_before = checked;
   auto elements = ObjectElements(robot, step.object);
   if (!elements.ok()) return elements.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
   if (step.held_at_start) {
@@ -742,6 +746,8 @@ core::Status MissionPlanner::Grasp(size_t i) {
   }
   auto phase = MakePhase(base_, held, std::move(*elements), points, checked, options_.mission);
   if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
+  phase->points_before_grasp = points_before;
+  phase->checked_before_grasp = checked_before;
   phase_ = std::make_shared<const Phase>(std::move(*phase));
   return core::Status::Ok();
 }
@@ -757,8 +763,16 @@ core::Status MissionPlanner::Release(size_t i) {
     out->insert(out->end(), surface.begin(), surface.end());
     return std::shared_ptr<const std::vector<Vec3>>(std::move(out));
   };
-  auto points = with(*phase_->points);
-  auto checked = phase_->points == phase_->checked_points ? points : with(*phase_->checked_points);
+  // The points the grasp took (the object's own scan, and whatever it
+  // stood on within scene_margin) come back: the scan is the only evidence
+  // of that space, and without them the support would keep a hole the size
+  // of the object that a later leg could be certified through. Where the
+  // object was is then occupied by its old scan (conservative: an object
+  // put back where it was taken from meets it).
+  const std::vector<Vec3>& before = *phase_->points_before_grasp;
+  const std::vector<Vec3>& checked_before = *phase_->checked_before_grasp;
+  auto points = with(before);
+  auto checked = phase_->points_before_grasp == phase_->checked_before_grasp ? points : with(checked_before);
   auto phase = MakePhase(base_, std::nullopt, {}, points, checked, options_.mission);
   if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
   phase_ = std::make_shared<const Phase>(std::move(*phase));
