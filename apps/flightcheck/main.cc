@@ -126,7 +126,7 @@ int main(int argc, char** argv) {
   }
   if (ctx.task().terminal) base_error = (last->position - ctx.task().terminal->position).norm();
 
-  const double required = ctx.task().safety_distance - tolerance;
+  const double required = planner::AcceptedClearance(ctx.task(), tolerance);
   const bool kept = least >= required;
   const bool seen = max_gap <= 0.0 || gap <= max_gap;
   const int code = kept && seen ? kExitKept : kExitLost;

@@ -495,7 +495,7 @@ int main(int argc, char** argv) {
                                                       controller.failed_plan_time())
                       : online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
                                                flown_plan.terminal.position, 0.3, end_time);
-    const double required = ctx.task().safety_distance - options.clearance_tolerance;
+    const double required = planner::AcceptedClearance(ctx.task(), options.clearance_tolerance);
     if (metrics->held_object_margin < 0.0) {
       code = kExitClearanceLost;
       outcome = "CLEARANCE LOST";

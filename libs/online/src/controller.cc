@@ -277,7 +277,8 @@ OnlineController::OnlineController(const PlanningSetup& setup, const OnlineOptio
       options_(options),
       worker_(std::make_unique<Worker>(setup, options.cold_fallback)),
       clock_(options.clock_sync),
-      planned_speed_limit_(setup.task->limits.v_max) {}
+      planned_speed_limit_(setup.task->limits.v_max),
+      tool_link_(setup.scene.robot.LinkIndex(setup.task->tool_link)) {}
 
 OnlineController::~OnlineController() = default;
 
@@ -789,6 +790,16 @@ double PlanClock::TimeLeaving(double plan_time) const {
   return t;
 }
 
+double OnlineController::ToolOffPlan(double plan_time) const {
+  if (tool_link_ < 0 || !HaveState() || !to_.plan) return 0.0;
+  const robot::RobotModel& robot = setup_.scene.robot;
+  const planner::WholeBodySample at = to_.plan->trajectory->Sample(plan_time);
+  const Vec3 planned = robot::LinkPose(robot, at.BasePose(), at.joints, tool_link_).translation();
+  const Vec3 measured =
+      robot::LinkPose(robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool_link_).translation();
+  return (measured - planned).norm();
+}
+
 void OnlineController::WaitAtJunction(double t) {
   const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
   if (legs.empty() || next_junction_ + 1 >= legs.size()) return;
@@ -796,16 +807,7 @@ void OnlineController::WaitAtJunction(double t) {
   if (t - to_.start < junction) return;
   // The plan is at rest here: standing its clock still streams the same
   // setpoint and changes nothing it was checked with.
-  const robot::RobotModel& robot = setup_.scene.robot;
-  const int tool = robot.LinkIndex(setup_.task->tool_link);
-  double error = 0.0;
-  if (tool >= 0 && HaveState()) {
-    const planner::WholeBodySample at = to_.plan->trajectory->Sample(junction);
-    const Vec3 planned = robot::LinkPose(robot, at.BasePose(), at.joints, tool).translation();
-    const Vec3 measured =
-        robot::LinkPose(robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool).translation();
-    error = (measured - planned).norm();
-  }
+  const double error = ToolOffPlan(junction);
   const double speed = velocity_.norm();
   const std::string where = Format("the end of leg %.0f", static_cast<double>(next_junction_)) + " (" +
                             planner::StepName(setup_.task->mission, legs[next_junction_].step) + ")";
@@ -866,22 +868,14 @@ void OnlineController::CommandGripper(double t, ControllerOutput* out) {
     // and the measured tool is where the plan put it.
     const planner::StepResult& planned = steps[next_gripper_step_];
     if (t - to_.start < planned.start_s || junction_wait_start_ >= 0.0) return;
-    const robot::RobotModel& robot = setup_.scene.robot;
-    const int tool = robot.LinkIndex(setup_.task->tool_link);
-    if (tool >= 0 && HaveState()) {
-      const planner::WholeBodySample at = to_.plan->trajectory->Sample(planned.start_s);
-      const Vec3 expected = robot::LinkPose(robot, at.BasePose(), at.joints, tool).translation();
-      const Vec3 measured =
-          robot::LinkPose(robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool).translation();
-      const double error = (measured - expected).norm();
-      if (error > options_.gripper_tolerance) {
-        if (t - to_.start > 0.5 * (planned.start_s + planned.end_s)) {
-          Fail(Phase::kHoldingAfterFailure,
-               Format("the tool did not settle within %.4f m of its pose for ", options_.gripper_tolerance) +
-                   planner::StepName(mission, next_gripper_step_) + Format(" (%.4f m off)", error));
-        }
-        return;
+    const double error = ToolOffPlan(planned.start_s);
+    if (error > options_.gripper_tolerance) {
+      if (t - to_.start > 0.5 * (planned.start_s + planned.end_s)) {
+        Fail(Phase::kHoldingAfterFailure,
+             Format("the tool did not settle within %.4f m of its pose for ", options_.gripper_tolerance) +
+                 planner::StepName(mission, next_gripper_step_) + Format(" (%.4f m off)", error));
       }
+      return;
     }
     const bool grab = step.kind == planner::StepKind::kGrasp;
     out->commands.push_back({Command::kGripper, 0, grab});

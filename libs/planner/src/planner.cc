@@ -276,7 +276,7 @@ core::Status CheckEndPoints(const PlanningScene& scene, const Task& task, const 
   for (const auto& [name, state] : ends) {
     int link = -1;
     const double clearance = StateClearance(scene, *state, options.cost.flatness, reach, &link);
-    if (clearance < task.safety_distance - options.post_check.clearance_tolerance) {
+    if (clearance < AcceptedClearance(task, options.post_check.clearance_tolerance)) {
       return core::Status::InvalidArgument(task.file + ": " + name + " state is in collision: link " +
                                            scene.robot.link(link).name + " is " + std::to_string(clearance) +
                                            " m from the scene (safety distance " +

@@ -96,9 +96,9 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   const double reach = ClearanceSearchReach(task);
 
   const bool check_self = self_collision != nullptr && !self_collision->pairs().empty();
-  const double self_reach = task.self_safety_distance + 0.02;
-  const double clearance_bound = task.safety_distance - options.clearance_tolerance;
-  const double self_bound = task.self_safety_distance - options.clearance_tolerance;
+  const double self_reach = SelfClearanceSearchReach(task);
+  const double clearance_bound = AcceptedClearance(task, options.clearance_tolerance);
+  const double self_bound = AcceptedSelfClearance(task, options.clearance_tolerance);
   const RobotMotionBound motion(robot, exact);
 
   // What one sample measures. The samples are measured on `threads` workers,

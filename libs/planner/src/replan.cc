@@ -135,8 +135,8 @@ std::optional<Rejoin> FindRejoin(const PlanResult& current, const Task& task, co
   rejoin.old_time = t_from + planned;
   const std::vector<CertifiedInterval>& intervals = current.post_check.certified_intervals;
   if (intervals.empty() || intervals.back().t1 < trajectory.duration() - 1e-9) return std::nullopt;
-  const double clearance_bound = task.safety_distance - check.clearance_tolerance;
-  const double self_bound = task.self_safety_distance - check.clearance_tolerance;
+  const double clearance_bound = AcceptedClearance(task, check.clearance_tolerance);
+  const double self_bound = AcceptedSelfClearance(task, check.clearance_tolerance);
   for (const CertifiedInterval& interval : intervals) {
     if (interval.t1 <= rejoin.old_time) continue;
     if (interval.clearance_lower < clearance_bound || interval.self_distance_lower < self_bound) return std::nullopt;

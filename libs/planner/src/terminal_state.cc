@@ -212,7 +212,7 @@ core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& rob
       best_clearance = clearance;
     }
     if (position_error <= options.position_tolerance && angle_error <= options.angle_tolerance &&
-        clearance >= task.safety_distance - options.clearance_tolerance && within_limits) {
+        clearance >= AcceptedClearance(task, options.clearance_tolerance) && within_limits) {
       TerminalStateResult result;
       result.state.position = y.head<3>();
       result.state.yaw = y[3];

@@ -383,6 +383,9 @@ class OnlineController {
   // (OnlineOptions::junction_tolerance): stops the plan's clock there until
   // the vehicle has settled, or fails after junction_timeout.
   void WaitAtJunction(double t);
+  // How far the measured tool is from where the current plan has it at
+  // `plan_time` (0 without a tool link or a complete state).
+  double ToolOffPlan(double plan_time) const;
   // A replan from the measured state at t; `periodic`: started by
   // replan_period with the tracking error below the threshold.
   void MaybeReplan(double t, bool periodic, double error);
@@ -420,6 +423,7 @@ class OnlineController {
   bool age_noted_ = true;           // the newest position's age is in the stats
   double last_error_ = 0.0;         // tracking error of the newest position
   double planned_speed_limit_ = 0.0;  // v_max of the plan being flown (the task's, or the link's)
+  int tool_link_ = -1;                 // the task's tool link in the robot (-1: none)
   bool link_hold_ = false;          // braking / holding for the link (phase flying)
   double link_hold_start_ = 0.0;
   double link_brake_duration_ = 1.0;

@@ -74,6 +74,18 @@ std::vector<std::string> TaskCautions(const Task& task);
 // queries stay local. A clearance found at this reach means nothing was
 // nearer: it is a lower bound, and reports say so.
 inline double ClearanceSearchReach(const Task& task) { return task.safety_distance + 0.05; }
+// The same for the clearance between the robot's own links: the self safety
+// distance plus 2 cm.
+inline double SelfClearanceSearchReach(const Task& task) { return task.self_safety_distance + 0.02; }
+
+// The least clearance every check accepts (the post-check, the end-state
+// checks, the terminal-state search, replanning, the flight judges): the
+// safety distance less a tolerance (PostCheckOptions::clearance_tolerance,
+// or a flight's), and the same between the robot's own links.
+inline double AcceptedClearance(const Task& task, double tolerance) { return task.safety_distance - tolerance; }
+inline double AcceptedSelfClearance(const Task& task, double tolerance) {
+  return task.self_safety_distance - tolerance;
+}
 
 // Checks the task against the robot (joint counts, start and terminal joints
 // within limits), fills the joint limits from the URDF and checks tool_link:
