@@ -809,7 +809,7 @@ void OnlineController::WaitAtJunction(double t) {
   // setpoint and changes nothing it was checked with.
   const double error = ToolOffPlan(junction);
   const double speed = velocity_.norm();
-  const std::string where = Format("the end of leg %.0f", static_cast<double>(next_junction_)) + " (" +
+  const std::string where = "the end of leg " + std::to_string(next_junction_) + " (" +
                             planner::StepName(setup_.task->mission, legs[next_junction_].step) + ")";
   if (error <= options_.junction_tolerance && speed <= options_.arrival_settle_speed) {
     if (junction_wait_start_ >= 0.0) {

@@ -703,7 +703,6 @@ core::Status MissionPlanner::Grasp(size_t i) {
   held.object = step.object;
   auto points = phase_->points;
   auto checked = phase_->checked_points;
-  const auto points_before = points, checked_before = checked;
   auto elements = ObjectElements(robot, step.object);
   if (!elements.ok()) return elements.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
   if (step.held_at_start) {
@@ -746,8 +745,8 @@ core::Status MissionPlanner::Grasp(size_t i) {
   }
   auto phase = MakePhase(base_, held, std::move(*elements), points, checked, options_.mission);
   if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
-  phase->points_before_grasp = points_before;
-  phase->checked_before_grasp = checked_before;
+  phase->points_before_grasp = phase_->points;
+  phase->checked_before_grasp = phase_->checked_points;
   phase_ = std::make_shared<const Phase>(std::move(*phase));
   return core::Status::Ok();
 }
@@ -769,10 +768,10 @@ core::Status MissionPlanner::Release(size_t i) {
   // of the object that a later leg could be certified through. Where the
   // object was is then occupied by its old scan (conservative: an object
   // put back where it was taken from meets it).
-  const std::vector<Vec3>& before = *phase_->points_before_grasp;
-  const std::vector<Vec3>& checked_before = *phase_->checked_before_grasp;
-  auto points = with(before);
-  auto checked = phase_->points_before_grasp == phase_->checked_before_grasp ? points : with(checked_before);
+  auto points = with(*phase_->points_before_grasp);
+  auto checked = phase_->points_before_grasp == phase_->checked_before_grasp
+                     ? points
+                     : with(*phase_->checked_before_grasp);
   auto phase = MakePhase(base_, std::nullopt, {}, points, checked, options_.mission);
   if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
   phase_ = std::make_shared<const Phase>(std::move(*phase));

@@ -456,18 +456,18 @@ class OnlineController {
   std::shared_ptr<const planner::PlanResult> pending_base_;  // the plan the pending replan started from
   double arrival_time_ = 0.0;
   bool arrival_settled_ = false;
+  double failed_plan_time_ = -1.0;  // failed_plan_time()
   // The mission's gripper: the next grasp or release step to command, the
   // one sent and not yet acknowledged (-1: none), when and how often.
-  double failed_plan_time_ = -1.0;
   size_t next_gripper_step_ = 0;
-  // The mission's next junction (index of the leg it ends), when the wait
-  // there began (negative: not waiting).
-  size_t next_junction_ = 0;
-  double junction_wait_start_ = -1.0;
-  PlanClock plan_clock_;
   long gripper_pending_ = -1;
   double gripper_sent_at_ = 0.0;
   int gripper_attempts_ = 0;
+  // The mission's next junction (index of the leg it ends), when the wait
+  // there began (negative: not waiting), and where its clock stood still.
+  size_t next_junction_ = 0;
+  double junction_wait_start_ = -1.0;
+  PlanClock plan_clock_;
   std::optional<Setpoint> last_setpoint_;
   double last_setpoint_time_ = 0.0;
   bool last_setpoint_in_blend_ = false;
