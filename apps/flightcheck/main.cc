@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
   // A mission's flight changes its scene and its robot at every grasp and
   // release, at times only the plan knows: judging it against the task's
   // scene alone would call a flight safe that was not checked.
-  if (ctx.task().mission.size() > 1) {
+  if (!planner::PlansAsGoal(ctx.task())) {
     return Fail(task_path + ": a mission of " + std::to_string(ctx.task().mission.size()) +
                 " steps: its flight is judged by quadhand-online, leg by leg with the held object (docs/online.md, "
                 "Missions); quadhand-flightcheck judges goals");

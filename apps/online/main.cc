@@ -138,7 +138,7 @@ int DryRun(const planner::PlanningContext& context, const online::PlanningSetup&
               "MAV_FRAME_LOCAL_NED) after >= %.1f s of hold, OFFBOARD and arming; peak speed %.2f m/s\n",
               count, rate, hold_time, max_speed);
   const std::vector<planner::MissionStep>& mission = context.task().mission;
-  for (size_t i = 0; mission.size() > 1 && i < mission.size() && i < result->steps.size(); ++i) {
+  for (size_t i = 0; !planner::PlansAsGoal(context.task()) && i < mission.size() && i < result->steps.size(); ++i) {
     const planner::MissionStep& step = mission[i];
     if (!planner::GripperActsAt(step)) continue;
     std::printf("would command the gripper (MAV_CMD_DO_GRIPPER, %s) from plan time %.2f s, once the tool is within "
@@ -376,7 +376,7 @@ int main(int argc, char** argv) {
   setup.plan_options.collision_margin += options.flight_margin;
   // A mission of more than one step (docs/missions.md): planned as a whole,
   // flown without replans, the gripper commanded at its grasps and releases.
-  const bool mission = ctx.task().mission.size() > 1;
+  const bool mission = !planner::PlansAsGoal(ctx.task());
   planner::MissionPhaseCache mission_phases;
   setup.context = &ctx;
   setup.mission_phases = &mission_phases;

@@ -301,5 +301,63 @@ TEST(CertificateTest, StoppingAtTheFirstFailureKeepsTheVerdict) {
   }
 }
 
+
+// The via check (Task::vias) against a brute-force search at 10 us: the
+// distance and time of the base's closest approach to points beside the
+// default plan's path, between its samples; a via farther than its
+// tolerance fails, and vias are passed in order.
+TEST(ViaCheckTest, FindsTheClosestApproachBetweenSamplesAndKeepsTheOrder) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& trajectory = *plan.trajectory;
+  auto via_beside = [&](double t, double offset) {
+    const WholeBodySample s = trajectory.Sample(t);
+    const Vec3 side = s.velocity.cross(Vec3::UnitZ()).normalized();
+    return Vec3(s.position + offset * side);
+  };
+  auto brute_force = [&](const Vec3& point, double* at) {
+    double least = 1e9;
+    for (double t = 0.0; t <= trajectory.duration(); t += 1e-5) {
+      const double d = (trajectory.Sample(t).position - point).norm();
+      if (d < least) {
+        least = d;
+        *at = t;
+      }
+    }
+    return least;
+  };
+  auto check = [&](const std::vector<ViaPoint>& vias, PostCheckReport* report) {
+    Task task = WindowCup().task;
+    task.vias = vias;
+    *report = PostCheck(trajectory, WindowCup().robot(), task, plan.terminal, plan.insertion, *WindowCup().model,
+                        *WindowCup().exact, nullptr, DefaultPlannerOptions().post_check);
+    for (const CheckResult& c : report->checks) {
+      if (c.kind == CheckKind::kVia) return c;
+    }
+    ADD_FAILURE() << "no via check";
+    return CheckResult{};
+  };
+  const Vec3 first = via_beside(2.345, 0.03), second = via_beside(4.567, 0.02);
+  double first_at = 0.0, second_at = 0.0;
+  const double first_distance = brute_force(first, &first_at), second_distance = brute_force(second, &second_at);
+  ASSERT_GT(first_distance, 0.02);
+  PostCheckReport report;
+  CheckResult via = check({{first, 0.04}, {second, 0.04}}, &report);
+  EXPECT_TRUE(via.passed) << via.detail;
+  ASSERT_EQ(report.via_times.size(), 2u);
+  EXPECT_NEAR(report.via_times[0], first_at, 1e-4);
+  EXPECT_NEAR(report.via_times[1], second_at, 1e-4);
+  EXPECT_NEAR(via.value, std::max(first_distance, second_distance), 1e-7);
+  // Tighter than the distance: failed, with the measured distance.
+  via = check({{first, 0.5 * first_distance}}, &report);
+  EXPECT_FALSE(via.passed);
+  EXPECT_NEAR(via.value, first_distance, 1e-7);
+  EXPECT_FALSE(report.passed);
+  // The later point first: the earlier one is then sought after it, where
+  // the base never comes back near it.
+  via = check({{second, 0.04}, {first, 0.04}}, &report);
+  EXPECT_FALSE(via.passed) << via.detail;
+  EXPECT_GT(via.value, 0.5);
+}
+
 }  // namespace
 }  // namespace quadhand::planner

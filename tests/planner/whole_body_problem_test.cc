@@ -356,6 +356,53 @@ TEST(WholeBodyProblemTest, PackUnpackAndTrajectoryMeetTheBoundaryStates) {
   EXPECT_NEAR(last.thrust, 9.81, 1e-9);
 }
 
+// A waypoint held in a ball (a mission's via): the whole gradient through
+// the ball map matches finite differences, the waypoint stays in its ball
+// wherever the variables go, and Pack inverts Unpack.
+TEST(WholeBodyProblemTest, AWaypointInABallHasTheRightGradientAndNeverLeavesIt) {
+  ProblemSetup setup = MakeSetup(AllTerms(), /*insertion=*/false);
+  MatX position, aux;
+  VecX durations;
+  setup.problem->Unpack(setup.x0, &position, &aux, &durations);
+  const Vec3 center = position.col(1) + Vec3(0.02, -0.01, 0.03);
+  const double radius = 0.05;
+  ASSERT_TRUE(setup.problem->SetWaypointBalls({{1, center, radius}}).ok());
+  const VecX x0 = setup.problem->Pack(position, aux, durations);
+  MatX unpacked, unused_aux;
+  VecX unused_durations;
+  setup.problem->Unpack(x0, &unpacked, &unused_aux, &unused_durations);
+  EXPECT_LT((unpacked - position).norm(), 1e-12);  // the guess is inside the ball: kept as it is
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.03), far(0.0, 5.0);
+  int skipped = 0;
+  for (int trial = 0; trial < 3; ++trial) {
+    VecX x = x0;
+    for (int i = 0; i < x.size(); ++i) x[i] += noise(rng);
+    // (Looser than the other gradient tests' 1e-5: at these points two of
+    // the other variables' differences are 1.2e-5 off, as without a ball;
+    // a wrong chain rule through the map would be off by order one.)
+    ExpectGradientMatches(*setup.problem, x, 3e-5, &skipped);
+    for (int i = 0; i < 3; ++i) x[kPieces + 3 + i] = far(rng);
+    setup.problem->Unpack(x, &unpacked, &unused_aux, &unused_durations);
+    EXPECT_LE((unpacked.col(1) - center).norm(), radius * (1.0 + 1e-12));
+  }
+  EXPECT_LE(skipped, 6);
+  // A guess outside the ball starts on its sphere, on the guess's side.
+  position.col(1) = center + Vec3(0.3, 0.0, 0.0);
+  setup.problem->Unpack(setup.problem->Pack(position, aux, durations), &unpacked, &unused_aux, &unused_durations);
+  EXPECT_LT((unpacked.col(1) - (center + Vec3(radius, 0.0, 0.0))).norm(), 1e-12);
+}
+
+TEST(WholeBodyProblemTest, RejectsWaypointBallsThatDoNotFit) {
+  ProblemSetup setup = MakeSetup(WholeBodyCostOptions{}, false);
+  EXPECT_FALSE(setup.problem->SetWaypointBalls({{kPieces - 1, Vec3::Zero(), 0.1}}).ok());  // no such waypoint
+  EXPECT_FALSE(setup.problem->SetWaypointBalls({{-1, Vec3::Zero(), 0.1}}).ok());
+  EXPECT_FALSE(setup.problem->SetWaypointBalls({{0, Vec3::Zero(), 0.0}}).ok());
+  EXPECT_FALSE(setup.problem->SetWaypointBalls({{0, Vec3::Zero(), 0.1}, {0, Vec3::Ones(), 0.1}}).ok());
+  EXPECT_FALSE(setup.problem->SetWaypointBalls({{0, Vec3::Constant(NAN), 0.1}}).ok());
+  EXPECT_TRUE(setup.problem->waypoint_balls().empty());
+}
+
 TEST(WholeBodyProblemTest, RejectsInconsistentInput) {
   const auto& fx = CoarseQuadHand();
   auto model = env::MrcSdfModel::Create(fx.links, fx.grids, Wall());

@@ -193,7 +193,7 @@ class OnlineController::Worker {
     auto cold_plan = [&]() -> core::Result<planner::PlanResult> {
       planner::Task task = job.from_rest ? *setup_.task : limited;
       task.start = job.start;
-      if (task.mission.size() > 1) {
+      if (!planner::PlansAsGoal(task)) {
         // A mission's legs are checked against their own phases, so it is
         // planned at the link's limit instead of slowed down afterwards.
         if (setup_.context == nullptr) return core::Status::InvalidArgument("a mission needs its planning context");

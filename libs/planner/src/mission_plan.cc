@@ -415,6 +415,9 @@ class MissionPlanner {
   // One leg's outcome; false when the step failed (result_ says why).
   core::Result<bool> PlanStep(size_t i);
   core::Result<bool> ReachLeg(size_t i, const Task& leg_task, bool relaxed_object);
+  // The steps of the vias reach step `reach`'s leg passed (pending_vias_),
+  // from the leg's start and the via check's times in it.
+  void PassedVias(size_t reach, double leg_start, const std::vector<double>& via_times);
   core::Result<bool> RestLeg(size_t i, const Vec3& to_position, double duration, const InsertionGoal& line,
                              bool relaxed_object);
   // Checks `trajectory` (from state_) as step i's leg and appends it.
@@ -459,6 +462,9 @@ class MissionPlanner {
   int tool_link_ = -1;
   BoundaryState state_;
   std::optional<Vec3> last_insertion_;  // of the latest reach with one
+  // Vias the next reach passes on its way (a via followed by a reach or
+  // another via), in order: they are constraints of that reach's leg.
+  std::vector<size_t> pending_vias_;
   PlanResult result_;
   std::optional<WholeBodyTrajectory> whole_;
   bool first_leg_ = true;
@@ -470,6 +476,7 @@ Task MissionPlanner::LegTask() const {
   leg.terminal.reset();
   leg.tool.reset();
   leg.start = state_;
+  for (size_t v : pending_vias_) leg.vias.push_back({task_.mission[v].via_position, task_.mission[v].via_tolerance});
   return leg;
 }
 
@@ -604,8 +611,30 @@ core::Result<bool> MissionPlanner::ReachLeg(size_t i, const Task& leg_task, bool
   result_.insertion = leg.insertion;
   if (!leg.trajectory) return Fail(i, leg.status, leg.message);
   if (leg.insertion.enabled) last_insertion_ = leg.insertion.direction;
-  return CheckAndAppend(i, std::move(*leg.trajectory), leg_task, leg.terminal, leg.insertion, relaxed_object,
-                        leg.post_check);
+  const double leg_start = whole_ ? whole_->duration() : 0.0;
+  auto appended = CheckAndAppend(i, std::move(*leg.trajectory), leg_task, leg.terminal, leg.insertion,
+                                 relaxed_object, leg.post_check);
+  if (appended.ok() && !leg_task.vias.empty()) PassedVias(i, leg_start, leg.post_check.via_times);
+  return appended;
+}
+
+void MissionPlanner::PassedVias(size_t reach, double leg_start, const std::vector<double>& via_times) {
+  // The vias and the reach share one leg and its figures; each via's step
+  // ends when the base comes closest to its point.
+  StepResult& reached = result_.steps[reach];
+  double start = leg_start;
+  for (size_t k = 0; k < pending_vias_.size(); ++k) {
+    StepResult& via = result_.steps[pending_vias_[k]];
+    const double end = k < via_times.size() ? leg_start + via_times[k] : start;
+    const StepKind kind = via.kind;
+    via = reached;
+    via.kind = kind;
+    via.start_s = start;
+    via.end_s = std::max(start, end);
+    start = via.end_s;
+  }
+  reached.start_s = start;
+  pending_vias_.clear();
 }
 
 core::Result<bool> MissionPlanner::RestLeg(size_t i, const Vec3& to_position, double duration,
@@ -811,8 +840,9 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
   const MissionStep& step = mission[i];
   switch (step.kind) {
     case StepKind::kReach: {
-      // A one-step mission is a goal: planned as one, the insertion in it.
-      if (mission.size() > 1 && step.reach_tool && step.reach_tool->has_insertion) {
+      // (A mission of one reach never comes here: it plans as its goal,
+      // the insertion inside the optimised leg.)
+      if (step.reach_tool && step.reach_tool->has_insertion) {
         const bool places = phase_->held && i + 1 < mission.size() && mission[i + 1].kind == StepKind::kRelease;
         return InsertionLeg(i, places);
       }
@@ -822,8 +852,17 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
       return ReachLeg(i, leg, false);
     }
     case StepKind::kVia: {
-      // Flown through at rest in this version (docs/missions.md): the base
-      // at the point itself, yaw and joints as they are.
+      // Before a reach (or another via), a constraint of the reach's leg:
+      // passed without stopping. Before anything else (a hover, a line, the
+      // gripper, the mission's end) the robot has to be somewhere at rest,
+      // and the via's point is the only place given: it ends there, yaw and
+      // joints as they are.
+      pending_vias_.push_back(i);
+      if (i + 1 < mission.size() &&
+          (mission[i + 1].kind == StepKind::kReach || mission[i + 1].kind == StepKind::kVia)) {
+        return true;
+      }
+      pending_vias_.pop_back();
       Task leg = LegTask();
       leg.terminal = AtRest(step.via_position, state_.yaw, state_.joints);
       return ReachLeg(i, leg, false);
@@ -937,7 +976,7 @@ core::Result<PlanResult> PlanTask(const PlanningContext& context, const Task& ta
   if (representation >= context.representations().size()) {
     return core::Status::InvalidArgument("no representation " + std::to_string(representation));
   }
-  if (task.mission.size() <= 1) {
+  if (PlansAsGoal(task)) {
     auto result = Plan(context.Scene(representation), task, options, solver);
     if (!result.ok() || task.mission.empty()) return result;
     StepResult step;

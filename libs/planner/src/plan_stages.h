@@ -43,6 +43,11 @@ core::Result<bool> BuildPlanCollision(const PlanningScene& scene, const std::vec
                                       const InitialGuess& guess, const Vec3& end, PlanCollision* collision,
                                       PlanResult* result);
 
+// The balls that hold the guess's waypoints on the task's vias, in order:
+// for each via the nearest waypoint after the previous via's (the front end
+// makes every via a corner and the guess a waypoint on every corner).
+core::Result<std::vector<WaypointBall>> ViaBalls(const std::vector<ViaPoint>& vias, const MatX& waypoints);
+
 // Creates the whole-body problem from task.start to result->terminal (with
 // result->insertion) and runs SolveAndPostCheck from the guess on `schedule`.
 core::Status Optimise(const PlanningScene& scene, const PlanCollision& collision, const Task& task,

@@ -33,6 +33,7 @@ const char* CheckKindName(CheckKind kind) {
     case CheckKind::kInsertion: return "insertion";
     case CheckKind::kSampling: return "sampling";
     case CheckKind::kHeldObjectClearance: return "held_object_clearance";
+    case CheckKind::kVia: return "via";
   }
   return "unknown";
 }

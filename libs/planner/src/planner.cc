@@ -5,7 +5,9 @@
 #include <cmath>
 #include <functional>
 #include <iterator>
+#include <limits>
 
+#include "quadhand/core/text.h"
 #include "quadhand/planner/cost_term.h"
 #include "plan_stages.h"
 #include "quadhand/robot/kinematics.h"
@@ -201,6 +203,35 @@ core::Result<bool> BuildPlanCollision(const PlanningScene& scene, const std::vec
   return true;
 }
 
+core::Result<std::vector<WaypointBall>> ViaBalls(const std::vector<ViaPoint>& vias, const MatX& waypoints) {
+  // The front end makes every via a corner, and the guess a waypoint on
+  // every corner: the via's waypoint is the first one on it after the last
+  // via's. (Nearest, not equal: a via on the start has no waypoint of its
+  // own, and then the nearest one later is held near it.)
+  std::vector<WaypointBall> balls;
+  int previous = -1;
+  const int count = static_cast<int>(waypoints.cols());
+  for (size_t k = 0; k < vias.size(); ++k) {
+    const int last = count - static_cast<int>(vias.size() - k);  // leave one for each via after this one
+    int best = -1;
+    double best_distance = std::numeric_limits<double>::infinity();
+    for (int i = previous + 1; i <= last; ++i) {
+      const double distance = (waypoints.col(i) - vias[k].position).norm();
+      if (distance < best_distance) {
+        best = i;
+        best_distance = distance;
+      }
+    }
+    if (best < 0) {
+      return core::Status::InvalidArgument(core::Format("%zu vias need at least as many inner waypoints; the guess has %d",
+                                                        vias.size(), count));
+    }
+    balls.push_back({best, vias[k].position, vias[k].tolerance});
+    previous = best;
+  }
+  return balls;
+}
+
 core::Status Optimise(const PlanningScene& scene, const PlanCollision& collision, const Task& task,
                       const InitialGuess& guess, const PlannerOptions& options, const SolveSchedule& schedule,
                       PlanResult* result) {
@@ -209,6 +240,11 @@ core::Status Optimise(const PlanningScene& scene, const PlanCollision& collision
                                           result->insertion, CostForTask(options, task), result->num_pieces,
                                           scene.self_collision);
   if (!problem.ok()) return problem.status().WithPrefix(task.file);
+  if (!task.vias.empty()) {
+    auto balls = ViaBalls(task.vias, guess.position_waypoints);
+    if (!balls.ok()) return balls.status().WithPrefix(task.file);
+    QUADHAND_RETURN_IF_ERROR((*problem)->SetWaypointBalls(std::move(*balls)));
+  }
   const VecX x0 = (*problem)->Pack(guess.position_waypoints, guess.aux_waypoints, guess.durations);
   return SolveAndPostCheck(problem->get(), x0, scene, *collision.model, task, options, schedule, result);
 }
@@ -287,7 +323,9 @@ core::Status CheckEndPoints(const PlanningScene& scene, const Task& task, const 
 }
 
 // Stage "front end": the base path to the start of the insertion (then
-// straight along it). False, with result->status kFrontEndFailed, when the
+// straight along it), through the task's vias in order (one search per
+// stretch; every via is a corner of the path, so the initial guess puts a
+// waypoint on it). False, with result->status kFrontEndFailed, when the
 // scene leaves no way.
 core::Result<bool> FindFrontEndPath(const PlanningScene& scene, const Task& task, PlanResult* result) {
   const InsertionGoal& insertion = result->insertion;
@@ -295,17 +333,41 @@ core::Result<bool> FindFrontEndPath(const PlanningScene& scene, const Task& task
   const Vec3 approach_start = insertion.enabled
                                   ? Vec3(result->terminal.position - insertion.direction * insertion.length)
                                   : result->terminal.position;
-  auto path = scene.front_end.FindPath(task.start.position, approach_start);
-  result->front_end_ms = MillisecondsSince(front_start);
-  if (!path.ok()) {
-    if (path.status().code() == core::StatusCode::kInfeasible) {
-      result->status = PlanStatus::kFrontEndFailed;
-      result->message = path.status().message();
-      return false;
+  std::vector<Vec3> stops;
+  for (const ViaPoint& via : task.vias) stops.push_back(via.position);
+  stops.push_back(approach_start);
+  FrontEndPath whole;
+  Vec3 from = task.start.position;
+  for (size_t k = 0; k < stops.size(); ++k) {
+    auto path = scene.front_end.FindPath(from, stops[k]);
+    if (!path.ok()) {
+      result->front_end_ms = MillisecondsSince(front_start);
+      const std::string stretch =
+          stops.size() == 1 ? std::string()
+          : k < task.vias.size()
+              ? core::Format("to via %zu at (%.3f, %.3f, %.3f): ", k, stops[k].x(), stops[k].y(), stops[k].z())
+              : std::string("from the last via to the goal: ");
+      if (path.status().code() == core::StatusCode::kInfeasible) {
+        result->status = PlanStatus::kFrontEndFailed;
+        result->message = stretch + path.status().message();
+        return false;
+      }
+      return path.status().WithPrefix(task.file);
     }
-    return path.status().WithPrefix(task.file);
+    const size_t skip = k == 0 ? 0 : 1;  // the via ends one stretch and starts the next
+    whole.raw.insert(whole.raw.end(), path->raw.begin() + std::min(skip, path->raw.size()), path->raw.end());
+    whole.shortcut.insert(whole.shortcut.end(), path->shortcut.begin() + std::min(skip, path->shortcut.size()),
+                          path->shortcut.end());
+    whole.expansions += path->expansions;
+    whole.search_seconds += path->search_seconds;
+    whole.shortcut_seconds += path->shortcut_seconds;
+    whole.seconds += path->seconds;
+    whole.start_escaped = whole.start_escaped || (k == 0 && path->start_escaped);
+    whole.goal_escaped = path->goal_escaped;
+    from = stops[k];
   }
-  result->path = *path;
+  result->front_end_ms = MillisecondsSince(front_start);
+  result->path = std::move(whole);
   return true;
 }
 
@@ -446,9 +508,9 @@ core::Status TryAlternativeGuesses(const PlanningScene& scene, const Task& task,
 core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
                               const opt::Solver& solver) {
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
-  if (task.mission.size() > 1) {
+  if (!PlansAsGoal(task)) {
     return core::Status::InvalidArgument(task.file + ": mission: " + std::to_string(task.mission.size()) +
-                                         " steps; only a goal or a mission of one reach plans here (PlanTask "
+                                         " step(s); only a goal or a mission of one reach plans here (PlanTask "
                                          "plans missions)");
   }
   if (!task.terminal && !task.tool) return core::Status::InvalidArgument(task.file + ": goal: no terminal state or tool pose");

@@ -291,6 +291,9 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
   if (std::string why; !replan.IsValid(&why)) return core::Status::InvalidArgument(why);
   if (!current.trajectory) return core::Status::InvalidArgument("replanning needs a current trajectory");
+  // Which vias a replan from the middle still has to pass is not known here
+  // (missions are not replanned in flight: docs/online.md).
+  if (!task.vias.empty()) return core::Status::InvalidArgument("a plan through vias is not replanned");
   const robot::RobotModel& robot = scene.robot;
   const int n = robot.num_actuated();
   if (start.joints.size() != n) {

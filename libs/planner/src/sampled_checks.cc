@@ -156,6 +156,72 @@ class InsertionLine final : public SampledCheck {
   std::vector<double> times_;
 };
 
+// The base passes each via (Task::vias) within its tolerance, in order:
+// the closest approach to a via is sought after the previous via's, from
+// the nearest regular sample, refined between its neighbours (golden
+// section on the distance, which is smooth and, that close, has one
+// minimum).
+class ViaPassage final : public SampledCheck {
+ public:
+  explicit ViaPassage(const CheckInputs& in) : in_(in) {}
+  void Observe(const CheckedSample& s) override { track_.emplace_back(s.t, s.state->position); }
+  void Finish(PostCheckReport* report) override {
+    const std::vector<ViaPoint>& vias = in_.task.vias;
+    size_t from = 0;
+    bool passed = true;
+    double worst_ratio = -1.0;
+    CheckResult worst{CheckKind::kVia, -1, CheckKindName(CheckKind::kVia), true, 0.0, 0.0, 0.0, ""};
+    for (size_t k = 0; k < vias.size(); ++k) {
+      const Vec3& point = vias[k].position;
+      size_t best = from;
+      for (size_t i = from; i < track_.size(); ++i) {
+        if ((track_[i].second - point).norm() < (track_[best].second - point).norm()) best = i;
+      }
+      if (track_.empty()) break;
+      auto distance = [&](double t) { return (in_.trajectory.Sample(t).position - point).norm(); };
+      double lo = track_[best > from ? best - 1 : best].first;
+      double hi = track_[best + 1 < track_.size() ? best + 1 : best].first;
+      const double golden = 0.5 * (std::sqrt(5.0) - 1.0);
+      for (int iteration = 0; iteration < 40 && hi - lo > 1e-7; ++iteration) {
+        const double a = hi - golden * (hi - lo), b = lo + golden * (hi - lo);
+        if (distance(a) < distance(b)) {
+          hi = b;
+        } else {
+          lo = a;
+        }
+      }
+      double t = 0.5 * (lo + hi);
+      double d = distance(t);
+      if (track_[best].second.allFinite() && (track_[best].second - point).norm() < d) {
+        t = track_[best].first;
+        d = (track_[best].second - point).norm();
+      }
+      report->via_times.push_back(t);
+      const bool ok = d <= vias[k].tolerance;
+      passed = passed && ok;
+      const double ratio = d / vias[k].tolerance;
+      if (ratio > worst_ratio) {
+        worst_ratio = ratio;
+        worst.value = d;
+        worst.bound = vias[k].tolerance;
+        worst.time = t;
+        worst.detail = Format("the base passes via %zu", k) +
+                       Format(" (%.3f, %.3f, %.3f)", point.x(), point.y(), point.z()) +
+                       Format(" %.4f m from it at t = %.3f s", d, t) +
+                       Format(" (tolerance %.4f m)", vias[k].tolerance) +
+                       Format("; the worst of %zu vias", vias.size());
+      }
+      from = best;
+    }
+    worst.passed = passed;
+    report->checks.push_back(worst);
+  }
+
+ private:
+  const CheckInputs& in_;
+  std::vector<std::pair<double, Vec3>> track_;  // (t, base position) per regular sample
+};
+
 }  // namespace
 
 std::vector<std::unique_ptr<SampledCheck>> MakeSampledChecks(const CheckInputs& in) {
@@ -180,6 +246,7 @@ std::vector<std::unique_ptr<SampledCheck>> MakeSampledChecks(const CheckInputs& 
   checks.push_back(std::make_unique<JointLimits>(limits));
   checks.push_back(std::make_unique<StartAndEndStates>(in));
   if (in.insertion.enabled) checks.push_back(std::make_unique<InsertionLine>(in.insertion, in.options));
+  if (!in.task.vias.empty()) checks.push_back(std::make_unique<ViaPassage>(in));
   return checks;
 }
 

@@ -221,6 +221,46 @@ double CostBreakdown::Term(const std::string& name) const {
   return 0.0;
 }
 
+namespace {
+
+// The ball map of a WaypointBall (whole_body_problem.h) and its inverse.
+Vec3 BallPoint(const WaypointBall& ball, const Vec3& v) {
+  return ball.center + ball.radius * 2.0 / (1.0 + v.squaredNorm()) * v;
+}
+
+Vec3 BallVariable(const WaypointBall& ball, const Vec3& q) {
+  Vec3 d = (q - ball.center) / ball.radius;
+  const double norm = d.norm();
+  if (norm > 1.0) d /= norm;  // a guess outside the ball starts on its sphere
+  return d / (1.0 + std::sqrt(std::max(0.0, 1.0 - d.squaredNorm())));
+}
+
+// dq/dv^T g (the Jacobian is symmetric).
+Vec3 BallGradient(const WaypointBall& ball, const Vec3& v, const Vec3& g) {
+  const double s = 1.0 + v.squaredNorm();
+  return ball.radius * (2.0 / s * g - 4.0 / (s * s) * v * v.dot(g));
+}
+
+}  // namespace
+
+core::Status WholeBodyProblem::SetWaypointBalls(std::vector<WaypointBall> balls) {
+  std::vector<bool> used(std::max(0, num_pieces_ - 1), false);
+  for (const WaypointBall& ball : balls) {
+    if (ball.waypoint < 0 || ball.waypoint >= num_pieces_ - 1) {
+      return core::Status::InvalidArgument("waypoint ball: no inner waypoint " + std::to_string(ball.waypoint));
+    }
+    if (used[ball.waypoint]) {
+      return core::Status::InvalidArgument("waypoint ball: waypoint " + std::to_string(ball.waypoint) + " twice");
+    }
+    used[ball.waypoint] = true;
+    if (!PositiveFinite(ball.radius) || !ball.center.allFinite()) {
+      return core::Status::InvalidArgument("waypoint ball: the radius must be positive and the centre finite");
+    }
+  }
+  balls_ = std::move(balls);
+  return core::Status::Ok();
+}
+
 int WholeBodyProblem::num_variables() const { return num_pieces_ + (3 + 1 + num_joints_) * (num_pieces_ - 1); }
 
 VecX WholeBodyProblem::Pack(const MatX& position_waypoints, const MatX& aux_waypoints, const VecX& durations) const {
@@ -230,6 +270,9 @@ VecX WholeBodyProblem::Pack(const MatX& position_waypoints, const MatX& aux_wayp
   const int m = num_pieces_ - 1;
   x.head(num_pieces_) = taus;
   x.segment(num_pieces_, 3 * m) = Eigen::Map<const VecX>(position_waypoints.data(), 3 * m);
+  for (const WaypointBall& ball : balls_) {
+    x.segment<3>(num_pieces_ + 3 * ball.waypoint) = BallVariable(ball, position_waypoints.col(ball.waypoint));
+  }
   x.tail((1 + num_joints_) * m) = Eigen::Map<const VecX>(aux_waypoints.data(), (1 + num_joints_) * m);
   return x;
 }
@@ -238,6 +281,9 @@ void WholeBodyProblem::Unpack(const VecX& x, MatX* position_waypoints, MatX* aux
   const int m = num_pieces_ - 1;
   traj::DurationsFromTaus(x.head(num_pieces_), durations);
   *position_waypoints = Eigen::Map<const MatX>(x.data() + num_pieces_, 3, m);
+  for (const WaypointBall& ball : balls_) {
+    position_waypoints->col(ball.waypoint) = BallPoint(ball, x.segment<3>(num_pieces_ + 3 * ball.waypoint));
+  }
   *aux_waypoints = Eigen::Map<const MatX>(x.data() + num_pieces_ + 3 * m, 1 + num_joints_, m);
 }
 
@@ -400,6 +446,10 @@ bool WholeBodyProblem::DoEvaluate(const VecX& x, double* cost, VecX* grad) const
   const int m = num_pieces_ - 1;
   grad->head(num_pieces_) = w.grad_taus;
   grad->segment(num_pieces_, 3 * m) = Eigen::Map<const VecX>(w.total_position_waypoints.data(), 3 * m);
+  for (const WaypointBall& ball : balls_) {
+    const int at = num_pieces_ + 3 * ball.waypoint;
+    grad->segment<3>(at) = BallGradient(ball, x.segment<3>(at), w.total_position_waypoints.col(ball.waypoint));
+  }
   grad->tail((1 + num_joints_) * m) = Eigen::Map<const VecX>(w.total_aux_waypoints.data(), (1 + num_joints_) * m);
   return grad->allFinite() && std::isfinite(*cost);
 }

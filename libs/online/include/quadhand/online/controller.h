@@ -378,7 +378,7 @@ class OnlineController {
   // A mission's gripper: the command of each grasp and release as its step
   // begins, resent until acknowledged.
   void CommandGripper(double t, ControllerOutput* out);
-  bool IsMission() const { return setup_.task->mission.size() > 1; }
+  bool IsMission() const { return !planner::PlansAsGoal(*setup_.task); }
   // A mission's wait at the junction of its legs that the plan has reached
   // (OnlineOptions::junction_tolerance): stops the plan's clock there until
   // the vehicle has settled, or fails after junction_timeout.

@@ -43,6 +43,9 @@ enum class CheckKind {
   // the safety distance, or >= 0 on the lines next to its grasp and release
   // (contracts.md 0.3). Set by PlanTask(), never by PostCheck().
   kHeldObjectClearance,
+  // The base passes within each via's tolerance of its point, in order
+  // (Task::vias): the worst via, by its distance over its tolerance.
+  kVia,
 };
 
 // "clearance", "velocity", ..., "joint_rate".

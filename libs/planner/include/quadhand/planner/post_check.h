@@ -131,6 +131,9 @@ struct PostCheckReport {
   // the obstacle: v^2 / (2 a_max), v the rate at which the start's own
   // motion closes its clearance. 0 for a start moving away.
   double recovery_braking_allowance = 0.0;
+  // Per via of the task, in order: when the base came closest to it (the
+  // via check), seconds.
+  std::vector<double> via_times;
   // Worst ratio of each limit (1.0 = at the bound): v, a, yaw_rate, body_rate_xy, joint rates.
   std::vector<std::pair<std::string, double>> violations;
   std::string FirstFailure() const;   // "clearance: 0.021 m < 0.028 m at t = 3.2 s", or empty

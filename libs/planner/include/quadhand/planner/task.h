@@ -16,6 +16,14 @@
 
 namespace quadhand::planner {
 
+// A point the base passes on its way to the goal: within `tolerance` of
+// `position`, at a time the optimiser chooses (a mission's `via` before a
+// reach; the task file's `goal:` has none).
+struct ViaPoint {
+  Vec3 position = Vec3::Zero();
+  double tolerance = 0.05;  // m
+};
+
 struct Task {
   std::string file;        // the task file itself, for messages
   std::string robot_path;  // resolved against the task file's folder
@@ -30,6 +38,9 @@ struct Task {
   // mission: (mission.h), instead of goal:. A mission of one reach also
   // sets `terminal` and `tool` from it: it plans as that goal.
   std::vector<MissionStep> mission;
+  // Passed in order before the goal (Plan(); set by PlanTask() for a leg
+  // through a mission's vias).
+  std::vector<ViaPoint> vias;
   Limits limits;                          // joint entries filled by ApplyRobot()
   double safety_distance = 0.03;
   // The end-effector frame: a link of the URDF (task key tool_link, default
@@ -42,6 +53,13 @@ struct Task {
   double self_safety_distance = 0.01;
   std::string srdf_path;
 };
+
+// A goal, or a mission of one reach: planned as that goal (Plan()). Any
+// other mission, one hold or via included, is planned step by step
+// (PlanTask(), mission_plan.h).
+inline bool PlansAsGoal(const Task& task) {
+  return task.mission.empty() || (task.mission.size() == 1 && task.mission[0].kind == StepKind::kReach);
+}
 
 // Parses and checks a task file on its own: every error names the file and
 // the key ("task.yaml: start.joints: expected a list of numbers").

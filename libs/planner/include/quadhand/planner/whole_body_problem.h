@@ -15,7 +15,9 @@
 // quadrature step) are included.
 //
 // Variables x = [tau (N); position waypoints (3 x (N-1), column-major);
-//                yaw + joint waypoints ((1 + n) x (N-1), column-major)].
+//                yaw + joint waypoints ((1 + n) x (N-1), column-major)],
+// except that a waypoint held in a ball (SetWaypointBalls: a mission's via)
+// has, in place of its position, a free v mapped onto the ball.
 #pragma once
 
 #include <memory>
@@ -186,6 +188,19 @@ class WholeBodyTrajectory {
 
 struct SampleScratch;  // one worker's buffers (whole_body_problem.cc)
 
+// An inner position waypoint (0-based, of N - 1) kept within `radius` of
+// `center`: the base passes there at a time the durations decide. The
+// constraint is exact, not a penalty: the waypoint's three variables are a
+// free v in R^3 mapped onto the closed ball by
+//   q = center + radius * 2 v / (1 + |v|^2),
+// smooth and onto (|v| = 1 is the sphere), so any unconstrained solver keeps
+// it. Pack inverts the map; Unpack and the trajectory apply it.
+struct WaypointBall {
+  int waypoint = 0;
+  Vec3 center = Vec3::Zero();
+  double radius = 0.0;
+};
+
 class WholeBodyProblem final : public opt::Objective {
  public:
   // `robot` and `collision` (and `self_collision`, whose pairs the
@@ -210,6 +225,12 @@ class WholeBodyProblem final : public opt::Objective {
   core::Result<CostBreakdown> Breakdown(const VecX& x) const;
   core::Result<WholeBodyTrajectory> Trajectory(const VecX& x) const;
 
+  // Holds the given waypoints in their balls (replacing any before): each
+  // index in range and used once, each radius positive and finite. Call
+  // before Pack.
+  core::Status SetWaypointBalls(std::vector<WaypointBall> balls);
+  const std::vector<WaypointBall>& waypoint_balls() const { return balls_; }
+
   const WholeBodyCostOptions& options() const { return options_; }
   // Replaces the weights (e.g. raised after a failed post-check); sizes stay.
   core::Status SetOptions(const WholeBodyCostOptions& options);
@@ -231,6 +252,7 @@ class WholeBodyProblem final : public opt::Objective {
   Limits limits_;
   InsertionGoal insertion_;
   WholeBodyCostOptions options_;
+  std::vector<WaypointBall> balls_;
   std::vector<std::unique_ptr<CostTerm>> terms_;  // built from options_ (cost_term.h)
   bool needs_kinematics_ = false;
   int num_pieces_ = 0;
