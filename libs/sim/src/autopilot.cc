@@ -1,6 +1,8 @@
 // The PX4-like autopilot of quadhand-sim --udp (see autopilot.h, docs/sim.md).
 #include "quadhand/sim/autopilot.h"
 
+#include <limits>
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -208,7 +210,7 @@ core::Result<Autopilot> Autopilot::Create(Simulator simulator, const StartPose& 
 }
 
 void Autopilot::EnterHold() {
-  const VehicleState& s = simulator_.state();
+  const VehicleState s = simulator_.Estimate();  // it holds where it believes it is
   hold_ = Setpoint{};
   hold_.position = s.position;
   hold_.yaw = traj::HopfYawOf(s.attitude);
@@ -219,7 +221,7 @@ void Autopilot::EnterHold() {
 
 Setpoint Autopilot::CurrentSetpoint() const {
   if (mode_ != FlightMode::kOffboard || !armed_ || !have_offboard_) return hold_;
-  const VehicleState& s = simulator_.state();
+  const VehicleState s = simulator_.Estimate();
   Setpoint sp;
   const uint16_t m = offboard_.type_mask;
   // Ignore bits are per ENU axis here (converted on receipt). An ignored
@@ -420,7 +422,6 @@ core::Status Autopilot::AdvanceTo(double t, std::vector<link::Message>* out) {
 
 void Autopilot::EmitDue(std::vector<link::Message>* out) {
   const double now = time();
-  const VehicleState& s = simulator_.state();
   if (now >= next_heartbeat_ - kTimeEpsilon) {
     link::Heartbeat heartbeat;
     heartbeat.type = link::mav::kTypeQuadrotor;
@@ -434,7 +435,19 @@ void Autopilot::EmitDue(std::vector<link::Message>* out) {
     if (next_heartbeat_ <= now) next_heartbeat_ = now + options_.heartbeat_period;
   }
   if (now >= next_telemetry_ - kTimeEpsilon) {
-    const uint32_t time_boot_ms = static_cast<uint32_t>(std::llround(now * 1e3));
+    // What the estimator reports (faults.estimate): a frozen estimator
+    // repeats its last output, time stamp included; a NaN fault fills the
+    // position and velocity fields.
+    const EstimateFault& fault = simulator_.model().config().faults.estimate;
+    if (!fault.FrozenAt(now) || !reported_) {
+      reported_state_ = simulator_.Estimate();
+      reported_time_ = now;
+      reported_ = true;
+    }
+    VehicleState s = reported_state_;
+    if (fault.NanAt(now)) s.position = s.velocity = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+    const double stamp = reported_time_;
+    const uint32_t time_boot_ms = static_cast<uint32_t>(std::llround(stamp * 1e3));
     link::LocalPositionNed position;
     position.time_boot_ms = time_boot_ms;
     const Vec3 p = link::EnuToNed(s.position), v = link::EnuToNed(s.velocity);
@@ -460,7 +473,7 @@ void Autopilot::EmitDue(std::vector<link::Message>* out) {
     out->push_back(attitude);
 
     link::DebugFloatArray joints;
-    joints.time_usec = static_cast<uint64_t>(std::llround(now * 1e6));
+    joints.time_usec = static_cast<uint64_t>(std::llround(stamp * 1e6));
     joints.array_id = kJointsArrayId;
     joints.name = kJointsArrayName;
     for (int k = 0; k < s.joints.size(); ++k) joints.data.push_back(static_cast<float>(s.joints[k]));

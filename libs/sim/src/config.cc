@@ -42,6 +42,15 @@ class Reader {
     if (!std::isfinite(*value)) return Bad(Join(key), "must be finite");
     return Status::Ok();
   }
+  Status Get(const std::string& key, int* value) const {
+    if (!Has(key)) return Status::Ok();
+    double number = 0.0;
+    QUADHAND_RETURN_IF_ERROR(Get(key, &number));
+    if (number != std::floor(number) || std::abs(number) > 1e6) return Bad(Join(key), "expected a whole number");
+    *value = static_cast<int>(number);
+    return Status::Ok();
+  }
+  std::string Missing(const std::string& key) const { return source_ + ": " + Join(key) + ": missing"; }
   Status Get(const std::string& key, bool* value) const {
     if (!Has(key)) return Status::Ok();
     try {
@@ -95,10 +104,69 @@ class Reader {
   std::string source_;
 };
 
+// A time the fault starts, and how long it lasts where it lasts.
+Status ParseWindow(const Reader& p, bool with_duration, double* time, double* duration) {
+  QUADHAND_RETURN_IF_ERROR(with_duration ? p.CheckKeys({"time", "duration"}) : p.CheckKeys({"time", "offset"}));
+  if (!p.Has("time")) return Status::InvalidArgument(p.Missing("time"));
+  QUADHAND_RETURN_IF_ERROR(p.Get("time", time));
+  if (with_duration) {
+    if (!p.Has("duration")) return Status::InvalidArgument(p.Missing("duration"));
+    QUADHAND_RETURN_IF_ERROR(p.Get("duration", duration));
+  }
+  return Status::Ok();
+}
+
+Status ParseFaults(const Reader& f, FaultConfig* faults) {
+  QUADHAND_RETURN_IF_ERROR(f.CheckKeys({"wind", "motor", "servo", "payload_mass_factor", "estimate"}));
+  if (f.Has("wind")) {
+    const Reader p = f.Child("wind");
+    WindFault& w = faults->wind;
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"steady", "gust_intensity", "altitude", "min_airspeed", "base_drag_area",
+                                          "arm_drag_coefficient", "air_density"}));
+    QUADHAND_RETURN_IF_ERROR(p.Get("steady", &w.steady));
+    QUADHAND_RETURN_IF_ERROR(p.Get("gust_intensity", &w.gust_intensity));
+    QUADHAND_RETURN_IF_ERROR(p.Get("altitude", &w.altitude));
+    QUADHAND_RETURN_IF_ERROR(p.Get("min_airspeed", &w.min_airspeed));
+    QUADHAND_RETURN_IF_ERROR(p.Get("base_drag_area", &w.base_drag_area));
+    QUADHAND_RETURN_IF_ERROR(p.Get("arm_drag_coefficient", &w.arm_drag_coefficient));
+    QUADHAND_RETURN_IF_ERROR(p.Get("air_density", &w.air_density));
+  }
+  if (f.Has("motor")) {
+    const Reader p = f.Child("motor");
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"rotor", "thrust_factor"}));
+    if (!p.Has("rotor")) return Status::InvalidArgument(p.Missing("rotor"));
+    QUADHAND_RETURN_IF_ERROR(p.Get("rotor", &faults->motor.rotor));
+    QUADHAND_RETURN_IF_ERROR(p.Get("thrust_factor", &faults->motor.thrust_factor));
+  }
+  if (f.Has("servo")) {
+    const Reader p = f.Child("servo");
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"extra_lag", "stall_joint", "stall_time"}));
+    QUADHAND_RETURN_IF_ERROR(p.Get("extra_lag", &faults->servo.extra_lag));
+    QUADHAND_RETURN_IF_ERROR(p.Get("stall_joint", &faults->servo.stall_joint));
+    QUADHAND_RETURN_IF_ERROR(p.Get("stall_time", &faults->servo.stall_time));
+  }
+  QUADHAND_RETURN_IF_ERROR(f.Get("payload_mass_factor", &faults->payload_mass_factor));
+  if (f.Has("estimate")) {
+    const Reader p = f.Child("estimate");
+    EstimateFault& e = faults->estimate;
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"jump", "drift", "freeze", "nan"}));
+    if (p.Has("jump")) {
+      const Reader j = p.Child("jump");
+      QUADHAND_RETURN_IF_ERROR(ParseWindow(j, false, &e.jump_time, nullptr));
+      if (!j.Has("offset")) return Status::InvalidArgument(j.Missing("offset"));
+      QUADHAND_RETURN_IF_ERROR(j.Get("offset", &e.jump));
+    }
+    QUADHAND_RETURN_IF_ERROR(p.Get("drift", &e.drift));
+    if (p.Has("freeze")) QUADHAND_RETURN_IF_ERROR(ParseWindow(p.Child("freeze"), true, &e.freeze_time, &e.freeze_duration));
+    if (p.Has("nan")) QUADHAND_RETURN_IF_ERROR(ParseWindow(p.Child("nan"), true, &e.nan_time, &e.nan_duration));
+  }
+  return Status::Ok();
+}
+
 Status ParseInto(const YAML::Node& root, const std::string& base_dir, const std::string& source, SimConfig* c) {
   const Reader r(root, "", source);
   QUADHAND_RETURN_IF_ERROR(r.CheckKeys({"robot", "step", "gravity", "pcgc", "payload", "rotors", "linear_drag",
-                                        "servo", "controller", "noise"}));
+                                        "servo", "controller", "noise", "faults"}));
   std::string robot;
   QUADHAND_RETURN_IF_ERROR(r.Get("robot", &robot));
   if (!robot.empty()) c->robot_path = core::ResolvePath(base_dir, robot);
@@ -166,6 +234,7 @@ Status ParseInto(const YAML::Node& root, const std::string& base_dir, const std:
     QUADHAND_RETURN_IF_ERROR(p.Get("attitude", &c->noise.attitude));
     QUADHAND_RETURN_IF_ERROR(p.Get("body_rate", &c->noise.body_rate));
   }
+  if (r.Has("faults")) QUADHAND_RETURN_IF_ERROR(ParseFaults(r.Child("faults"), &c->faults));
   return Status::Ok();
 }
 
@@ -230,7 +299,9 @@ bool SimConfig::IsValid(std::string* why) const {
       !in(noise.body_rate, 0.0, 10.0)) {
     return Fail(why, "noise standard deviations must be in [0, 1] m, [0, 10] m/s, [0, 1] rad and [0, 10] rad/s");
   }
-  return true;
+  // The joint count is the robot's: VehicleModel::Create checks the stalled
+  // joint against it.
+  return faults.IsValid(1 << 20, why);
 }
 
 core::Result<SimConfig> ParseSimConfig(const std::string& yaml, const std::string& base_dir,

@@ -137,7 +137,7 @@ VecX ServoAccelerations(const VehicleModel& model, const VecX& q, const VecX& qd
     const double vmax = model.servo_max_rate()[k];
     const double amax = model.servo_max_acceleration()[k];
     const double rate = std::clamp(qd_setpoint[k] + c.position_gain * (target - q[k]), -vmax, vmax);
-    qdd[k] = std::clamp((rate - qd[k]) / c.time_constant, -amax, amax);
+    qdd[k] = std::clamp((rate - qd[k]) / (c.time_constant + model.config().faults.servo.extra_lag), -amax, amax);
   }
   return qdd;
 }
@@ -207,6 +207,28 @@ VehicleState UnpackState(const VecX& x, int n) {
   return s;
 }
 
+BaseWrench WindWrench(const VehicleModel& model, const VehicleState& state, const Vec3& wind) {
+  const WindFault& config = model.config().faults.wind;
+  const Mat3 R = state.attitude.toRotationMatrix();
+  auto drag = [&](double area, const Vec3& body_velocity) -> Vec3 {
+    const Vec3 relative = wind - body_velocity;
+    return 0.5 * config.air_density * area * relative.norm() * relative;
+  };
+  BaseWrench wrench;
+  wrench.force = R.transpose() * drag(config.base_drag_area, state.velocity);
+  const std::vector<double>& areas = model.drag_areas();
+  const std::vector<Pose> poses = model.LinkPosesInBase(state.joints);
+  const Vec3 omega_world = R * state.body_rate;
+  for (size_t link = 1; link < areas.size(); ++link) {
+    if (!(areas[link] > 0.0)) continue;
+    const Vec3 r_base = poses[link].translation();
+    const Vec3 force_base = R.transpose() * drag(areas[link], state.velocity + omega_world.cross(R * r_base));
+    wrench.force += force_base;
+    wrench.torque += r_base.cross(force_base);
+  }
+  return wrench;
+}
+
 VecX StateDerivative(const VehicleModel& model, const VecX& x, const ControlInput& u, DynamicsInfo* info) {
   const int n = model.num_actuated();
   VehicleState s = UnpackState(x, n);
@@ -217,9 +239,18 @@ VecX StateDerivative(const VehicleModel& model, const VecX& x, const ControlInpu
   DynamicsInfo* out = info ? info : &local;
   out->joint_accelerations = ServoAccelerations(model, s.joints, s.joint_rates, u.joint_setpoints,
                                                 u.joint_rate_setpoints);
-  out->rotor_wrench = RotorWrench(model, s.thrusts);
+  // A weak motor (faults.motor) delivers part of the thrust it holds.
+  Vec4 delivered = s.thrusts;
+  const MotorFault& motor = model.config().faults.motor;
+  if (motor.rotor >= 0) delivered[motor.rotor] *= motor.thrust_factor;
+  out->rotor_wrench = RotorWrench(model, delivered);
   BaseWrench external = out->rotor_wrench;
   external.force -= model.config().linear_drag.cwiseProduct(s.attitude.conjugate() * s.velocity);
+  if (model.config().faults.wind.active()) {
+    const BaseWrench wind = WindWrench(model, s, u.wind);
+    external.force += wind.force;
+    external.torque += wind.torque;
+  }
   BaseForwardDynamics(model, s, out->joint_accelerations, external, out);
 
   VecX dx(x.size());

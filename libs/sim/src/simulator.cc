@@ -42,7 +42,10 @@ void PutNumber(std::string* out, double v) {
 Simulator::Simulator(VehicleModel model, uint64_t seed)
     : model_(std::move(model)),
       controller_(model_.config().controller, ControllerMass(model_), ControllerInertia(model_), model_.gravity()),
-      rng_(seed) {
+      rng_(seed),
+      fault_rng_(seed ^ 0x9e3779b97f4a7c15ULL),
+      gusts_(model_.config().faults.wind),
+      declared_payload_(model_.payload_mass()) {
   const int n = model_.num_actuated();
   state_ = VehicleState::AtRest(model_, Vec3::Zero(), VecX::Zero(n));
   input_.thrust_command = state_.thrusts;
@@ -52,15 +55,17 @@ Simulator::Simulator(VehicleModel model, uint64_t seed)
 
 core::Status Simulator::SetPayload(double mass, const Vec3& offset) {
   SimConfig config = model_.config();
-  config.payload.attached = mass > 0.0;
-  config.payload.mass = mass > 0.0 ? mass : config.payload.mass;
+  const double real_mass = mass * config.faults.payload_mass_factor;
+  config.payload.attached = real_mass > 0.0;
+  config.payload.mass = real_mass > 0.0 ? real_mass : config.payload.mass;
   config.payload.offset = offset;
   auto model = VehicleModel::Create(model_.robot(), config);
   if (!model.ok()) return model.status();
   // The controller learns the change of mass (the load's mass is known, as a
   // hover-thrust estimate would find it); the shift of the centre of mass is
   // left to its integrators and to PCGC, which balances the arm, not the load.
-  controller_.set_mass(std::max(1e-3, controller_.mass() - model_.payload_mass() + model->payload_mass()));
+  controller_.set_mass(std::max(1e-3, controller_.mass() - declared_payload_ + mass));
+  declared_payload_ = mass;
   model_ = std::move(*model);
   // Resolved once here, not at every step.
   known_load_link_ = mass > 0.0 ? model_.robot().LinkIndex(model_.config().payload.link) : -1;
@@ -70,6 +75,7 @@ core::Status Simulator::SetPayload(double mass, const Vec3& offset) {
 void Simulator::Reset(const VehicleState& state, double time) {
   state_ = state;
   time_ = time;
+  stalled_ = false;
   controller_.Reset();
   input_.thrust_command = state.thrusts;
   input_.joint_setpoints = state.joints;
@@ -77,8 +83,17 @@ void Simulator::Reset(const VehicleState& state, double time) {
   output_ = ControllerOutput{};
 }
 
+VehicleState Simulator::Estimate() const {
+  VehicleState estimate = state_;
+  const EstimateFault& fault = model_.config().faults.estimate;
+  estimate.position += fault.PositionErrorAt(time_);
+  estimate.velocity += fault.drift;
+  return estimate;
+}
+
 Measurement Simulator::Measure() {
-  Measurement m{state_.position, state_.velocity, state_.attitude, state_.body_rate};
+  const VehicleState estimate = Estimate();
+  Measurement m{estimate.position, estimate.velocity, estimate.attitude, estimate.body_rate};
   const NoiseConfig& noise = model_.config().noise;
   if (!noise.enabled) return m;
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -115,8 +130,21 @@ void Simulator::Step(const Setpoint& setpoint, double h) {
       MixRotors(model_.allocation(), output_.thrust, output_.torque, rotors.min_thrust, rotors.max_thrust);
   input_.joint_setpoints = setpoint.joints;
   input_.joint_rate_setpoints = setpoint.joint_rates;
+  const WindFault& wind = model_.config().faults.wind;
+  if (wind.active()) {
+    const double airspeed = (wind.steady + gusts_.current() - state_.velocity).norm();
+    input_.wind = wind.steady + gusts_.Step(h, airspeed, &fault_rng_);
+  }
   state_ = Rk4Step(model_, state_, input_, h);
   time_ += h;
+  const ServoFault& servo = model_.config().faults.servo;
+  if (servo.stall_joint >= 0 && time_ >= servo.stall_time) {
+    // A stalled servo holds where it stopped, whatever it is commanded.
+    if (!stalled_) stalled_position_ = state_.joints[servo.stall_joint];
+    stalled_ = true;
+    state_.joints[servo.stall_joint] = stalled_position_;
+    state_.joint_rates[servo.stall_joint] = 0.0;
+  }
 }
 
 DynamicsInfo Simulator::CurrentDynamics() const {

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "joint_transform.h"
+#include "quadhand/robot/link_meshes.h"
 
 namespace quadhand::sim {
 namespace {
@@ -113,6 +114,23 @@ core::Result<VehicleModel> VehicleModel::Create(const robot::RobotModel& robot, 
   }
   if (!config.controller.nominal_joints.empty() && static_cast<int>(config.controller.nominal_joints.size()) != n) {
     return Status::InvalidArgument("controller.nominal_joints: expected " + std::to_string(n) + " values");
+  }
+  if (!config.faults.IsValid(n, &why)) return Status::InvalidArgument("simulator configuration: " + why);
+  // Each arm link's drag area (faults.wind): Cd times the mean face area of
+  // its collision geometry's box in its own frame, a frontal area that does
+  // not depend on where the wind comes from. The base's is configured.
+  model.drag_areas_.assign(robot.num_links(), 0.0);
+  for (int link : config.faults.wind.active() ? robot.CollisionLinks() : std::vector<int>{}) {
+    if (link == 0) continue;
+    auto mesh = robot::LinkCollisionMesh(robot, link);
+    if (!mesh.ok() || mesh->vertices.empty()) continue;
+    Vec3 lo = Vec3::Constant(1e300), hi = -lo;
+    for (const Vec3& v : mesh->vertices) {
+      lo = lo.cwiseMin(v);
+      hi = hi.cwiseMax(v);
+    }
+    const Vec3 e = hi - lo;
+    model.drag_areas_[link] = config.faults.wind.arm_drag_coefficient * (e.x() * e.y() + e.y() * e.z() + e.z() * e.x()) / 3.0;
   }
   model.joint_lower_ = robot.LowerLimits();
   model.joint_upper_ = robot.UpperLimits();

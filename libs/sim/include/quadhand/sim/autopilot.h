@@ -170,6 +170,11 @@ class Autopilot {
   Setpoint hold_;
   OffboardTarget offboard_;
   bool have_offboard_ = false;
+  // The last estimate telemetry reported and its time (a frozen estimator
+  // repeats both).
+  VehicleState reported_state_;
+  double reported_time_ = 0.0;
+  bool reported_ = false;
   VecX joint_target_;
   VecX joint_rate_target_;
   double last_setpoint_time_ = -1e9;

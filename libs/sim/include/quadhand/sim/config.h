@@ -8,6 +8,7 @@
 
 #include "quadhand/core/status.h"
 #include "quadhand/core/types.h"
+#include "quadhand/sim/faults.h"
 
 namespace quadhand::sim {
 
@@ -88,6 +89,7 @@ struct SimConfig {
   PayloadConfig payload;
   ControllerConfig controller;
   NoiseConfig noise;
+  FaultConfig faults;  // faults.h; none by default
 
   // Checks ranges; `why` (optional) names the first bad key.
   bool IsValid(std::string* why) const;

@@ -41,7 +41,12 @@ struct ControlInput {
   Vec4 thrust_command = Vec4::Zero();  // N per rotor (clamped into the rotor limits)
   VecX joint_setpoints;                // rad
   VecX joint_rate_setpoints;           // rad/s (feed-forward)
+  // The air's velocity (world), steady wind plus gusts (faults.wind): not
+  // a command, but, like one, held over the step.
+  Vec3 wind = Vec3::Zero();
 };
+
+
 
 // A wrench on the base: force in B and torque about the base origin in B.
 struct BaseWrench {
@@ -57,6 +62,14 @@ struct DynamicsInfo {
   BaseWrench rotor_wrench;                   // thrusts and yaw torques
   BaseWrench arm_wrench;                     // what the arm (battery, payload) exerts on the base
 };
+
+// The wind's drag on the vehicle at `state` (faults.wind): quadratic,
+// 0.5 rho CdA |v_rel| v_rel with v_rel the air's velocity less the body's,
+// on the base (base_drag_area, at its origin) and on every arm link (its
+// drag area at its frame's origin, moving with the base's velocity and
+// rotation: the arm's own joint rates are left out). The arm's share acts
+// on the base through the stiff servos: a wrench about the base origin, in B.
+BaseWrench WindWrench(const VehicleModel& model, const VehicleState& state, const Vec3& wind);
 
 // Servo model (ServoConfig): joint accelerations from the state and setpoints.
 VecX ServoAccelerations(const VehicleModel& model, const VecX& q, const VecX& qd, const VecX& q_setpoint,

@@ -42,6 +42,8 @@ class Simulator {
   // does not, and the payload's weight moment about the base (at the
   // measured attitude and joints) is fed forward to its torque from then
   // on. A payload of the configuration is not known to the controller.
+  // With faults.payload_mass_factor the object's real mass is that times
+  // `mass`; the controller still learns `mass` (what the task declared).
   // Fails on a bad mass or offset, or a robot without that link.
   core::Status SetPayload(double mass, const Vec3& offset);
 
@@ -55,6 +57,12 @@ class Simulator {
   double time() const { return time_; }
   double step() const { return model_.config().step; }
   const VehicleState& state() const { return state_; }
+  // The autopilot's state estimate: the true state with faults.estimate's
+  // position error (and its drift's velocity) added. It is what the
+  // controller flies on (with the noise) and what telemetry reports.
+  VehicleState Estimate() const;
+  // The air's velocity over the last step (faults.wind), world.
+  const Vec3& wind() const { return input_.wind; }
   const ControlInput& last_input() const { return input_; }
   const ControllerOutput& last_output() const { return output_; }
   // The dynamics at the current state under the last input (accelerations,
@@ -70,6 +78,13 @@ class Simulator {
   // forward; -1: none (nothing held, or only the configuration's payload).
   int known_load_link_ = -1;
   std::mt19937_64 rng_;
+  // The faults' own draws (gusts), so that a configuration without faults
+  // draws the same noise as before they existed.
+  std::mt19937_64 fault_rng_;
+  DrydenGusts gusts_;
+  double declared_payload_ = 0.0;  // what the controller was told is held
+  bool stalled_ = false;           // faults.servo's joint has stalled
+  double stalled_position_ = 0.0;
   VehicleState state_;
   double time_ = 0.0;
   ControlInput input_;

@@ -87,6 +87,9 @@ class VehicleModel {
   const VecX& servo_max_acceleration() const { return servo_max_acceleration_; }
   const VecX& joint_lower() const { return joint_lower_; }
   const VecX& joint_upper() const { return joint_upper_; }
+  // Cd A of each link for the wind's drag (faults.wind), m^2; the base's
+  // (link 0) is 0 here: faults.wind.base_drag_area.
+  const std::vector<double>& drag_areas() const { return drag_areas_; }
 
  private:
   VehicleModel(const robot::RobotModel& robot, const SimConfig& config) : robot_(robot), config_(config) {}
@@ -102,6 +105,7 @@ class VehicleModel {
   Vec4 rotor_spin_ = Vec4(-1.0, 1.0, -1.0, 1.0);
   Eigen::Matrix4d allocation_ = Eigen::Matrix4d::Zero();
   VecX servo_max_rate_, servo_max_acceleration_, joint_lower_, joint_upper_;
+  std::vector<double> drag_areas_;
 };
 
 }  // namespace quadhand::sim
