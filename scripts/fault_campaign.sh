@@ -8,26 +8,34 @@
 # the scene, or when quadhand-online claimed a success (exit 0) that the
 # simulator's record does not bear out.
 #
-#   scripts/fault_campaign.sh [--smoke] [--seeds N] [--build DIR] [--out DIR] [-- ONLINE_OPTIONS...]
+#   scripts/fault_campaign.sh [--smoke] [--only NAME,...] [--seeds N] [--task FILE] [--build DIR] [--out DIR]
+#                             [-- ONLINE_OPTIONS...]
 #
-# --smoke: one slow, lossy link, one seed. --build: where bin/ is (default
-# build). The link SDFs of scripts/quickstart.sh are needed. This is the
-# link's part of the fault matrix; the simulator's faults (wind, motors,
-# payload, estimates) join it as they are built.
+# --smoke: one slow, lossy link and one jump of the estimate, one seed (the
+# suite runs it). --only: the rows of those names (the first column of the
+# table). --task: the task flown (default data/tasks/window_cup.yaml, whose
+# link SDFs scripts/quickstart.sh makes). --build: where bin/ is (default
+# build). Each row is a link fault (quadhand-linkproxy's options) and/or a
+# simulator fault (the faults: key of docs/sim.md, written into a copy of
+# data/sim/quadhand_sim.yaml); most kinds at two severities.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=build
 seeds=3
 smoke=0
+only=""
+task=data/tasks/window_cup.yaml
 out=out/fault_campaign
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --smoke) smoke=1; seeds=1; shift ;;
     --seeds) seeds="$2"; shift 2 ;;
+    --only) only=",$2,"; shift 2 ;;
+    --task) task="$2"; shift 2 ;;
     --build) build="$2"; shift 2 ;;
     --out) out="$2"; shift 2 ;;
     --) shift; break ;;
-    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "fault_campaign: unknown option $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -39,36 +47,57 @@ for program in quadhand-sim quadhand-online quadhand-linkproxy quadhand-flightch
     exit 2
   fi
 done
-if [[ ! -d data/sdf/quadhand ]]; then
+if [[ ! -r "$task" ]]; then echo "fault_campaign: cannot read the task $task" >&2; exit 2; fi
+if [[ "$task" == data/tasks/window_cup.yaml && ! -d data/sdf/quadhand ]]; then
   echo "fault_campaign: data/sdf/quadhand is missing: run bash scripts/quickstart.sh first" >&2
   exit 2
 fi
-task=data/tasks/window_cup.yaml
 mkdir -p "$out"
 
-# name | quadhand-linkproxy options (both directions unless the file says otherwise)
+# name | quadhand-linkproxy options (both directions) | simulator faults (YAML flow map, docs/sim.md)
 matrix=(
-  "calm|"
-  "loss20_delay50|--loss 0.2 --delay 0.05 --jitter 0.02"
-  "loss10_delay100|--loss 0.1 --delay 0.1 --jitter 0.03"
-  "burst10_delay150|--loss 0.1 --burst 5 --delay 0.15 --jitter 0.05"
-  "dup5_corrupt2|--duplicate 0.05 --corrupt 0.02 --delay 0.02 --jitter 0.01"
-  "outage1.5s|--outage 5,1.5"
+  "calm||"
+  "loss20_delay50|--loss 0.2 --delay 0.05 --jitter 0.02|"
+  "loss10_delay100|--loss 0.1 --delay 0.1 --jitter 0.03|"
+  "burst10_delay150|--loss 0.1 --burst 5 --delay 0.15 --jitter 0.05|"
+  "dup5_corrupt2|--duplicate 0.05 --corrupt 0.02 --delay 0.02 --jitter 0.01|"
+  "outage1.5s|--outage 5,1.5|"
+  "wind1||{wind: {steady: [1, 0.5, 0]}}"
+  "wind3||{wind: {steady: [-3, 1, 0]}}"
+  "gust1||{wind: {steady: [1, 0, 0], gust_intensity: 1}}"
+  "gust2.5||{wind: {steady: [-1, 1, 0], gust_intensity: 2.5}}"
+  "motor0.9||{motor: {rotor: 0, thrust_factor: 0.9}}"
+  "motor0.75||{motor: {rotor: 2, thrust_factor: 0.75}}"
+  "servo_lag0.05||{servo: {extra_lag: 0.05}}"
+  "servo_lag0.2||{servo: {extra_lag: 0.2}}"
+  "jump1cm||{estimate: {jump: {time: 3, offset: [0.01, 0, 0]}}}"
+  "jump2cm||{estimate: {jump: {time: 3, offset: [0, 0.014, -0.014]}}}"
+  "drift2mm/s||{estimate: {drift: [0.002, 0.0, 0]}}"
+  "freeze0.3s||{estimate: {freeze: {time: 3, duration: 0.3}}}"
+  "nan0.2s||{estimate: {nan: {time: 3, duration: 0.2}}}"
 )
-if [[ $smoke -eq 1 ]]; then matrix=("burst10_delay150|--loss 0.1 --burst 5 --delay 0.15 --jitter 0.05"); fi
+if [[ $smoke -eq 1 ]]; then
+  matrix=("burst10_delay150|--loss 0.1 --burst 5 --delay 0.15 --jitter 0.05|"
+          "jump2cm||{estimate: {jump: {time: 3, offset: [0, 0.014, -0.014]}}}")
+fi
 
 free_port() { python3 -c 'import socket; s=socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
 
 printf '%-18s %4s %5s  %-34s %9s %9s %8s %s\n' fault seed exit "quadhand-online said" "flown min" "tool err" "rate Hz" verdict
 failures=0
 for row in "${matrix[@]}"; do
-  name="${row%%|*}"
-  read -r -a proxy_options <<<"${row#*|}"
+  IFS='|' read -r name proxy_text sim_faults <<<"$row"
+  if [[ -n "$only" && "$only" != *",$name,"* ]]; then continue; fi
+  read -r -a proxy_options <<<"$proxy_text"
   for ((seed = 1; seed <= seeds; ++seed)); do
-    base="$out/${name}_seed$seed"
+    base="$out/${name//\//_}_seed$seed"
     sim_port=$(free_port); proxy_port=$(free_port)
+    # The simulator's configuration: the bundled one, its robot made
+    # absolute, and the row's faults.
+    sed "s|^robot: .*|robot: $PWD/meshes/quadhand/quadhand.urdf|" data/sim/quadhand_sim.yaml >"$base.sim.yaml"
+    if [[ -n "$sim_faults" ]]; then echo "faults: $sim_faults" >>"$base.sim.yaml"; fi
     "$build/bin/quadhand-sim" --udp "udp://127.0.0.1:$sim_port" --realtime --start-task "$task" --duration 120 \
-      --quiet --log "$base.sim.csv" 2>"$base.sim.err" &
+      --config "$base.sim.yaml" --seed "$seed" --quiet --log "$base.sim.csv" 2>"$base.sim.err" &
     sim=$!
     "$build/bin/quadhand-linkproxy" --listen "udp://127.0.0.1:$proxy_port" --vehicle "udp://127.0.0.1:$sim_port" \
       --seed "$seed" "${proxy_options[@]}" 2>"$base.proxy.txt" &
@@ -109,6 +138,8 @@ for row in "${matrix[@]}"; do
       failures=$((failures + 1))
     elif [[ $code -eq 0 ]]; then
       verdict="completed"
+    elif [[ $code -eq 6 && "$said" == "CLEARANCE NOT VERIFIED"* ]]; then
+      verdict="not verified, reported"
     elif [[ $code -eq 6 ]]; then
       verdict="clearance lost, reported"
     else

@@ -261,6 +261,10 @@ int main(int argc, char** argv) {
   app.add_option("--max-judged-gap", options.max_judged_gap,
                  "Exit 0 needs a state at least every this many seconds while flying, in (0, 5]")
       ->capture_default_str();
+  app.add_option("--innovation-gate", options.innovation_gate,
+                 "A position estimate this far (m, plus what the motion explains) from its prediction is a jump; "
+                 "in (0, 1]")
+      ->capture_default_str();
   app.add_option("--target-system", target_system, "The vehicle's MAVLink system id")->capture_default_str();
   app.add_option("--target-component", target_component, "The vehicle's MAVLink component id")->capture_default_str();
   app.add_option("--system-id", system_id, "Our MAVLink system id")->capture_default_str();
@@ -332,6 +336,7 @@ int main(int argc, char** argv) {
   if (!in_range(options.min_link_speed, 0.0, 10.0, true)) return Fail("--min-link-speed must be in (0, 10] m/s");
   if (!in_range(options.clearance_tolerance, 0.0, 0.05, false)) return Fail("--clearance-tolerance must be in [0, 0.05] m");
   if (!in_range(options.max_judged_gap, 0.0, 5.0, true)) return Fail("--max-judged-gap must be in (0, 5] s");
+  if (!in_range(options.innovation_gate, 0.0, 1.0, true)) return Fail("--innovation-gate must be in (0, 1] m");
   if (require_signing && key_path.empty()) return Fail("--require-signing needs --signing-key FILE");
   if (dry_run && !log_path.empty()) return Fail("--log: --dry-run streams nothing, so there is no flight to log");
   if (!dry_run && vehicle_url.empty()) return Fail("--vehicle udp://HOST:PORT is required (or --dry-run)");
@@ -510,6 +515,15 @@ int main(int argc, char** argv) {
                                "distance less the tolerance is %.4f m",
                                metrics->min_clearance, metrics->closest_link.c_str(), metrics->min_clearance_time,
                                required);
+    } else if (code == kExitSuccess && metrics->min_clearance - controller.stats().estimate_jump_sum < required) {
+      code = kExitClearanceLost;
+      outcome = "CLEARANCE NOT VERIFIED";
+      judgement = core::Format("the position estimate jumped %d time(s), by %.4f m in all (the largest %.4f m at "
+                               "t = %.2f s): the flown path's clearance %.4f m less that is below the safety distance "
+                               "less the tolerance, %.4f m",
+                               controller.stats().estimate_jumps, controller.stats().estimate_jump_sum,
+                               controller.stats().largest_estimate_jump, controller.stats().largest_estimate_jump_time,
+                               metrics->min_clearance, required);
     } else if (code == kExitSuccess && metrics->max_state_gap > options.max_judged_gap) {
       code = kExitClearanceLost;
       outcome = "CLEARANCE NOT VERIFIED";
@@ -585,6 +599,8 @@ int main(int argc, char** argv) {
   std::printf("  link budget: %d holds (braked along the plan), %d fresh plans after them, %d replans not started "
               "from a stale state\n",
               stats.link_holds, stats.link_resumes, stats.replans_skipped_stale);
+  std::printf("  estimate: %d jump(s) beyond the innovation gate (%.4f m), %.4f m in all, the largest %.4f m\n",
+              stats.estimate_jumps, options.innovation_gate, stats.estimate_jump_sum, stats.largest_estimate_jump);
   const link::ParserStats& link_stats = connection.stats();
   std::printf("  link: %llu frames accepted (%llu from other systems, ignored), %llu sent; dropped: %llu bad CRC, "
               "%llu unsigned, %llu bad signature, %llu replayed, %llu unknown message; %llu bytes skipped\n",

@@ -207,6 +207,32 @@ TEST(LatencyTest, StatesOlderThanTheNewestAreDropped) {
   EXPECT_EQ(controller->stats().position_measurements, 1);
 }
 
+// The innovation gate: states that move as their velocities say, at any
+// spacing, pass; a 2 cm step of the estimate is a jump, counted once with
+// its size less what the motion explains.
+TEST(LatencyTest, AnEstimateJumpIsCaughtByTheInnovationGate) {
+  auto controller = MakeController();
+  const Vec3 velocity(0.8, -0.3, 0.1), acceleration(1.5, 0.0, -1.0);
+  double t = 1.0;
+  auto state_at = [&](double s) { return Vec3(velocity * s + 0.5 * acceleration * s * s); };
+  auto speed_at = [&](double s) { return Vec3(velocity + acceleration * s); };
+  for (double dt : {0.02, 0.02, 0.3, 0.01, 0.5, 0.02}) {  // the gaps of a lossy link
+    t += dt;
+    controller->OnPosition(t, state_at(t), speed_at(t));
+  }
+  EXPECT_EQ(controller->stats().estimate_jumps, 0);
+  t += 0.02;
+  const Vec3 jump(0.0, 0.014, -0.014);
+  controller->OnPosition(t, state_at(t) + jump, speed_at(t));
+  t += 0.02;
+  controller->OnPosition(t, state_at(t) + jump, speed_at(t));  // the estimate stays where it jumped
+  EXPECT_EQ(controller->stats().estimate_jumps, 1);
+  const double explained = 0.5 * OnlineOptions{}.innovation_acceleration * 0.02 * 0.02;
+  EXPECT_NEAR(controller->stats().largest_estimate_jump, jump.norm() - explained, 1e-9);
+  EXPECT_NEAR(controller->stats().estimate_jump_sum, controller->stats().largest_estimate_jump, 1e-12);
+  EXPECT_NEAR(controller->stats().largest_estimate_jump_time, t - 0.02, 1e-12);
+}
+
 TEST(LatencyTest, AStateIsNeverTakenAsYoungerThanItsArrival) {
   auto controller = MakeController();
   // Not synced: the arrival time.

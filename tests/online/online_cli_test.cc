@@ -357,6 +357,42 @@ TEST_F(OnlineCliTest, ASlowLossyLinkIsFlownWithinItsClearance) {
   EXPECT_GE(least, 0.0) << "the simulated vehicle went into the scene\n" << out;
 }
 
+// An estimate that jumps 2 cm mid-flight (faults.estimate of the simulator,
+// docs/sim.md) moves the real vehicle by minus the jump while its states
+// say it is on track: the innovation gate catches the jump, and the flight
+// is never called arrived (its clearance less the jump cannot be shown).
+TEST_F(OnlineCliTest, AnEstimateJumpIsCaughtAndTheFlightNotCalledSafe) {
+  const std::string task = WriteTask();
+  const std::string config = (dir_ / "jump.yaml").string();
+  {
+    std::ofstream out(config);
+    std::istringstream lines(ReadAll(kRoot + "/data/sim/quadhand_sim.yaml"));
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("robot:", 0) == 0) line = "robot: " + kRoot + "/meshes/quadhand/quadhand.urdf";
+      out << line << "\n";
+    }
+    out << "faults: {estimate: {jump: {time: 3, offset: [0, 0.014, -0.014]}}}\n";
+  }
+  const int port = FreeUdpPort();
+  const std::string vehicle = "udp://127.0.0.1:" + std::to_string(port);
+  const std::string flown = (dir_ / "sim_flown.csv").string();
+  sim_ = Spawn({kSim, "--udp", vehicle, "--realtime", "--start-task", task, "--duration", "120", "-q", "--config",
+                config, "--log", flown},
+               (dir_ / "sim").string());
+  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--max-duration", "80"}, (dir_ / "online").string());
+  const int code = Wait(&online, 100.0);
+  const std::string out = ReadAll(online.out);
+  Stop(&sim_);
+  EXPECT_EQ(code, 6) << out << ReadAll(online.err);
+  EXPECT_NE(out.find("CLEARANCE NOT VERIFIED"), std::string::npos) << out;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("the position estimate jumped 1 time\\(s\\), by ([0-9.]+) m")))
+      << out;
+  // 1.98 cm less what 4 m/s^2 explains over one telemetry period (0.8 mm).
+  EXPECT_NEAR(std::stod(m[1]), 0.019, 0.001) << out;
+  EXPECT_EQ(out.find("arrived after"), std::string::npos) << out;
+}
+
 // A flight not seen densely enough is not called safe: with a judged gap
 // shorter than the telemetry period, every flight is "not verified".
 TEST_F(OnlineCliTest, AFlightNotSeenDenselyEnoughExitsWithSix) {

@@ -84,6 +84,9 @@ bool OnlineOptions::IsValid(std::string* why) const {
     return fail("clearance_tolerance must be >= 0");
   }
   if (!positive(max_judged_gap)) return fail("max_judged_gap must be positive");
+  if (!positive(innovation_gate) || !positive(innovation_acceleration)) {
+    return fail("innovation_gate and innovation_acceleration must be positive");
+  }
   return true;
 }
 
@@ -315,6 +318,25 @@ void OnlineController::OnPosition(double t, const Vec3& position, const Vec3& ve
   if (have_position_ && t <= position_time_) {
     ++stats_.stale_states_dropped;  // overtaken by a newer state, or a duplicate
     return;
+  }
+  if (have_position_) {
+    const double dt = t - position_time_;
+    const Vec3 predicted = position_ + 0.5 * (velocity_ + velocity) * dt;
+    const double explained = 0.5 * options_.innovation_acceleration * dt * dt;
+    const double innovation = (position - predicted).norm();
+    if (innovation > options_.innovation_gate + explained) {
+      const double jump = innovation - explained;
+      ++stats_.estimate_jumps;
+      stats_.estimate_jump_sum += jump;
+      if (jump > stats_.largest_estimate_jump) {
+        stats_.largest_estimate_jump = jump;
+        stats_.largest_estimate_jump_time = t;
+      }
+      Event(Format("the position estimate jumped by %.4f m", jump) +
+            Format(" (innovation gate %.4f m over %.3f s): the path flown before or after it was that far from "
+                   "where its states say",
+                   options_.innovation_gate + explained, dt));
+    }
   }
   have_position_ = true;
   position_time_ = t;

@@ -170,6 +170,17 @@ struct OnlineOptions {
   // max_judged_gap (s): a path not seen cannot be called safe.
   double clearance_tolerance = 0.002;
   double max_judged_gap = 0.25;
+  // The innovation gate on the vehicle's position estimate: a state farther
+  // than innovation_gate (m) plus 0.5 innovation_acceleration dt^2 from
+  // where the one before predicts it (its position moved by the mean of
+  // the two velocities over the dt between their stamps) is an estimate
+  // jump (a re-localisation, a glitch). The vehicle flies on its estimate,
+  // so across a jump one side of it was wrong by the jump and the flown
+  // path was not where its states say: exit 0 then also needs the flown
+  // clearance less the jumps' sum to keep the safety distance less the
+  // tolerance (OnlineStats::estimate_jumps).
+  double innovation_gate = 0.005;
+  double innovation_acceleration = 4.0;  // m/s^2
 
   bool IsValid(std::string* why) const;
 };
@@ -276,6 +287,13 @@ struct OnlineStats {
   int link_holds = 0;                  // holds waiting for the link
   int link_resumes = 0;                // fresh plans after such a hold
   int replans_skipped_stale = 0;       // triggers refused: the newest state was too old
+  // The estimate's jumps (OnlineOptions::innovation_gate): how many, their
+  // sizes summed (m, each the innovation beyond what the motion explains)
+  // and the largest, with its controller time.
+  int estimate_jumps = 0;
+  double estimate_jump_sum = 0.0;
+  double largest_estimate_jump = 0.0;
+  double largest_estimate_jump_time = 0.0;
 };
 
 // Controller time -> plan time of a mission flown with the waits at its
