@@ -313,14 +313,15 @@ void OnlineController::Fail(Phase phase, const std::string& why) {
   }
 }
 
-void OnlineController::OnPosition(double t, const Vec3& position, const Vec3& velocity) {
+void OnlineController::OnPosition(double t, const Vec3& position, const Vec3& velocity, double vehicle_time) {
+  if (std::isnan(vehicle_time)) vehicle_time = t;
   if (!position.allFinite() || !velocity.allFinite() || !std::isfinite(t)) return;
   if (have_position_ && t <= position_time_) {
     ++stats_.stale_states_dropped;  // overtaken by a newer state, or a duplicate
     return;
   }
   if (have_position_) {
-    const double dt = t - position_time_;
+    const double dt = vehicle_time - position_vehicle_time_;
     const Vec3 predicted = position_ + 0.5 * (velocity_ + velocity) * dt;
     const double explained = 0.5 * options_.innovation_acceleration * dt * dt;
     const double innovation = (position - predicted).norm();
@@ -340,6 +341,7 @@ void OnlineController::OnPosition(double t, const Vec3& position, const Vec3& ve
   }
   have_position_ = true;
   position_time_ = t;
+  position_vehicle_time_ = vehicle_time;
   position_ = position;
   velocity_ = velocity;
   position_checked_ = false;

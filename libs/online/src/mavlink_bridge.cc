@@ -27,7 +27,7 @@ bool DeliverToController(const link::Message& message, uint8_t from_system, doub
   if (const auto* position = std::get_if<link::LocalPositionNed>(&message)) {
     controller->OnPosition(controller->MeasurementTime(t, position->time_boot_ms * 1e-3),
                            link::NedToEnu(Vec3(position->x, position->y, position->z)),
-                           link::NedToEnu(Vec3(position->vx, position->vy, position->vz)));
+                           link::NedToEnu(Vec3(position->vx, position->vy, position->vz)), position->time_boot_ms * 1e-3);
     return true;
   }
   if (const auto* attitude = std::get_if<link::AttitudeQuaternion>(&message)) {

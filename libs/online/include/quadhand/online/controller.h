@@ -54,6 +54,7 @@
 #pragma once
 
 #include <deque>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -328,7 +329,12 @@ class OnlineController {
   // Measurements at controller time t (s), ENU/FLU: the time the vehicle
   // took them (MeasurementTime()), not when they arrived. One older than or
   // as old as the newest of its kind is dropped (reordered or duplicated).
-  void OnPosition(double t, const Vec3& position, const Vec3& velocity);
+  // `vehicle_time` (s, the vehicle's own stamp; NaN: t) times the
+  // innovation gate's prediction: the mapping to controller time moves
+  // when the clock estimate is refined, and a step of 10 ms in it would
+  // read as 7 mm of innovation at 0.7 m/s.
+  void OnPosition(double t, const Vec3& position, const Vec3& velocity,
+                  double vehicle_time = std::numeric_limits<double>::quiet_NaN());
   void OnAttitude(double t, const Quat& attitude, const Vec3& body_rate);
   void OnJoints(double t, const VecX& joints, const VecX& joint_rates);
   // The vehicle's heartbeat: armed flag and whether it is in OFFBOARD.
@@ -430,6 +436,7 @@ class OnlineController {
   // Latest measurements.
   bool have_position_ = false, have_attitude_ = false, have_joints_ = false;
   double position_time_ = 0.0;
+  double position_vehicle_time_ = 0.0;  // the newest position's own stamp (OnPosition)
   Vec3 position_ = Vec3::Zero(), velocity_ = Vec3::Zero();
   Quat attitude_ = Quat::Identity();
   Vec3 body_rate_ = Vec3::Zero();
