@@ -136,6 +136,8 @@ for row in "${matrix[@]}"; do
     elif [[ $code -eq 0 && $check_code -ne 0 ]]; then
       verdict="DISHONEST (exit 0, clearance lost)"
       failures=$((failures + 1))
+    elif [[ $code -eq 0 ]] && awk -v e="$tool" 'BEGIN { exit !(e > 0.01) }'; then
+      verdict="completed, tool > 1 cm off"
     elif [[ $code -eq 0 ]]; then
       verdict="completed"
     elif [[ $code -eq 6 && "$said" == "CLEARANCE NOT VERIFIED"* ]]; then

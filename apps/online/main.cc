@@ -201,6 +201,10 @@ int main(int argc, char** argv) {
   app.add_option("--vehicle-timeout", options.vehicle_timeout,
                  "Seconds without LOCAL_POSITION_NED before streaming stops and the program exits with 3")
       ->capture_default_str();
+  app.add_option("--outage-timeout", options.outage_timeout,
+                 "While flying a goal, seconds of silence waited for as an outage (holding; the vehicle re-engaged "
+                 "after its failsafe) before exit 3, in [--vehicle-timeout, 600]")
+      ->capture_default_str();
   app.add_option("--replan-threshold", options.replan_threshold, "3-D tracking error (m) that triggers a warm-started replan")
       ->capture_default_str();
   app.add_option("--replan-period", options.replan_period,
@@ -287,6 +291,10 @@ int main(int argc, char** argv) {
   // holding at the goal is already far beyond any use; more is a typo.
   if (!(std::isfinite(options.vehicle_timeout) && options.vehicle_timeout > 0.0 && options.vehicle_timeout <= 60.0)) {
     return Fail("--vehicle-timeout must be in (0, 60] s");
+  }
+  if (!(std::isfinite(options.outage_timeout) && options.outage_timeout >= options.vehicle_timeout &&
+        options.outage_timeout <= 600.0)) {
+    return Fail("--outage-timeout must be in [--vehicle-timeout, 600] s");
   }
   if (!(std::isfinite(options.replan_threshold) && options.replan_threshold > 0.0)) return Fail("--replan-threshold must be positive");
   if (!(std::isfinite(options.replan_period) && options.replan_period >= 0.0)) return Fail("--replan-period must be >= 0 (0: off)");
@@ -596,9 +604,9 @@ int main(int argc, char** argv) {
     std::printf("  latency: not measured (%s)\n",
                 no_timesync ? "--no-timesync: states judged at their arrival" : "the vehicle never answered TIMESYNC");
   }
-  std::printf("  link budget: %d holds (braked along the plan), %d fresh plans after them, %d replans not started "
-              "from a stale state\n",
-              stats.link_holds, stats.link_resumes, stats.replans_skipped_stale);
+  std::printf("  link budget: %d holds (braked along the plan), %d fresh plans after them (%d after re-engaging "
+              "OFFBOARD), %d replans not started from a stale state\n",
+              stats.link_holds, stats.link_resumes, stats.reengagements, stats.replans_skipped_stale);
   std::printf("  estimate: %d jump(s) beyond the innovation gate (%.4f m), %.4f m in all, the largest %.4f m\n",
               stats.estimate_jumps, options.innovation_gate, stats.estimate_jump_sum, stats.largest_estimate_jump);
   const link::ParserStats& link_stats = connection.stats();

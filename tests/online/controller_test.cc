@@ -413,27 +413,39 @@ TEST(OnlineControllerTest, AFailedPeriodicReplanKeepsFlyingTheCurrentPlan) {
   EXPECT_LT(Metrics(flight.log(), *controller).final_tool_error, 0.02);
 }
 
+// A vehicle silent while flying is an outage for outage_timeout s (the
+// controller holds and keeps streaming), then lost: nothing more is sent.
+// With outage_timeout = vehicle_timeout, lost at once.
 TEST(OnlineControllerTest, ASilentVehicleStopsTheStream) {
-  OnlineOptions options;
-  options.vehicle_timeout = 0.5;
-  auto controller = MakeController(options);
-  DirectFlight flight(controller.get());
-  double silent_from = -1.0;
-  flight.Run(20.0, [&](double t, sim::Simulator*) {
-    if (silent_from < 0.0 && controller->phase() == Phase::kFlying && t - controller->current_plan_start() > 1.0) {
-      silent_from = t;
-      flight.set_silent(true);
-    }
-  });
-  ASSERT_GE(silent_from, 0.0);
-  EXPECT_EQ(controller->phase(), Phase::kVehicleLost);
-  EXPECT_TRUE(controller->finished());
-  // Declared lost within one 20 ms period after the time-out.
-  EXPECT_LE(flight.time() - silent_from, options.vehicle_timeout + 0.02 + 0.02 + 1e-9);
-  EXPECT_GE(flight.time() - silent_from, options.vehicle_timeout);
-  const ControllerOutput out = controller->Tick(flight.time() + 0.02);
-  EXPECT_FALSE(out.setpoint.has_value());
-  EXPECT_TRUE(out.commands.empty());
+  for (double outage_timeout : {0.5, 2.0}) {
+    OnlineOptions options;
+    options.vehicle_timeout = 0.5;
+    options.outage_timeout = outage_timeout;
+    auto controller = MakeController(options);
+    DirectFlight flight(controller.get());
+    double silent_from = -1.0;
+    bool streamed_in_outage = false;
+    flight.Run(20.0, [&](double t, sim::Simulator*) {
+      if (silent_from < 0.0 && controller->phase() == Phase::kFlying && t - controller->current_plan_start() > 1.0) {
+        silent_from = t;
+        flight.set_silent(true);
+      }
+      if (silent_from >= 0.0 && t - silent_from > options.vehicle_timeout + 0.1 &&
+          controller->phase() == Phase::kFlying) {
+        streamed_in_outage = true;
+      }
+    });
+    ASSERT_GE(silent_from, 0.0);
+    EXPECT_EQ(controller->phase(), Phase::kVehicleLost);
+    EXPECT_TRUE(controller->finished());
+    // Declared lost within one 20 ms period after the time-out.
+    EXPECT_LE(flight.time() - silent_from, outage_timeout + 0.02 + 0.02 + 1e-9) << outage_timeout;
+    EXPECT_GE(flight.time() - silent_from, outage_timeout) << outage_timeout;
+    EXPECT_EQ(streamed_in_outage, outage_timeout > options.vehicle_timeout + 0.2) << outage_timeout;
+    const ControllerOutput out = controller->Tick(flight.time() + 0.02);
+    EXPECT_FALSE(out.setpoint.has_value());
+    EXPECT_TRUE(out.commands.empty());
+  }
 }
 
 // --------------------------------------------------------------- handshake

@@ -181,6 +181,27 @@ TEST(LatencyTest, AnOutageBrakesAlongThePlanHoldsAndResumesWithAFreshPlan) {
   EXPECT_LT(ToolError(flight.autopilot().state()), 0.01);
 }
 
+// An outage of 1.5 s both ways, longer than the autopilot's offboard-loss
+// time-out and than vehicle_timeout: the autopilot's failsafe takes the
+// vehicle out of OFFBOARD and holds it; once the link is good the online
+// mode streams a hold where the vehicle is, requests OFFBOARD again and
+// flies a fresh plan from there to the goal, within its clearance.
+TEST(LatencyTest, AfterTheAutopilotsFailsafeTheVehicleIsReengagedAndFlownToTheGoal) {
+  auto controller = MakeController();
+  link::LinkFaults faults;
+  faults.outages.push_back({4.5, 1.5});
+  LinkedFlight flight(controller.get(), faults, faults, 4);
+  flight.Run(60.0);
+  ASSERT_TRUE(controller->finished()) << PhaseName(controller->phase());
+  EXPECT_EQ(controller->phase(), Phase::kArrived);
+  EXPECT_EQ(controller->stats().link_holds, 1);
+  EXPECT_EQ(controller->stats().reengagements, 1);
+  EXPECT_EQ(controller->stats().link_resumes, 1);
+  const double required = WindowCup().task.safety_distance - 0.002;
+  EXPECT_GE(FlownClearance(flight.autopilot().flown(), 0.0), required);
+  EXPECT_LT(ToolError(flight.autopilot().state()), 0.01);
+}
+
 // Without TIMESYNC answers the flight does not start (the age of the
 // states cannot be known), unless the caller chose to fly on arrival times.
 TEST(LatencyTest, AVehicleThatNeverAnswersTimesyncIsNotFlown) {

@@ -60,6 +60,9 @@ bool OnlineOptions::IsValid(std::string* why) const {
   if (!positive(ack_timeout)) return fail("ack_timeout must be positive");
   if (max_command_attempts < 1) return fail("max_command_attempts must be at least 1");
   if (!positive(vehicle_timeout)) return fail("vehicle_timeout must be positive");
+  if (!(std::isfinite(outage_timeout) && outage_timeout >= vehicle_timeout)) {
+    return fail("outage_timeout must be at least vehicle_timeout");
+  }
   if (!positive(connect_timeout)) return fail("connect_timeout must be positive");
   if (!positive(replan_threshold)) return fail("replan_threshold must be positive");
   if (!(std::isfinite(min_replan_interval) && min_replan_interval >= 0.0)) return fail("min_replan_interval must be >= 0");
@@ -414,6 +417,17 @@ void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
                                (phase_ == Phase::kWaitingForPlan || phase_ == Phase::kFlying ||
                                 phase_ == Phase::kArrived || phase_ == Phase::kHoldingAfterFailure);
   const double grace = options_.heartbeat_period + options_.ack_timeout + 0.5;
+  if (reengaging_) return;  // the handshake in Tick watches the mode again
+  if (confirmed_phase && armed && !offboard && phase_ == Phase::kFlying && link_hold_ && !IsMission()) {
+    // Its offboard-loss failsafe (PX4: COM_OF_LOSS_T, then hold): the
+    // vehicle holds on its own; it is re-engaged once the link is good.
+    if (!left_offboard_in_outage_) {
+      Event("the autopilot left OFFBOARD during the link hold (its offboard-loss failsafe): it holds where it "
+            "is; OFFBOARD will be requested again once the link is good");
+    }
+    left_offboard_in_outage_ = true;
+    return;
+  }
   if (confirmed_phase && (!armed || !offboard) && t - confirmed_time_ > grace && !arrival_done_) {
     Fail(Phase::kHandshakeFailed, std::string("the vehicle left ") + (!offboard ? "OFFBOARD" : "the armed state"));
   }
@@ -433,7 +447,7 @@ void OnlineController::OnCommandAck(double t, Command command, AckResult result)
     }
     return;
   }
-  const bool expected = (phase_ == Phase::kRequestingOffboard && command == Command::kSetOffboardMode) ||
+  const bool expected = ((phase_ == Phase::kRequestingOffboard || reengaging_) && command == Command::kSetOffboardMode) ||
                         (phase_ == Phase::kArming && command == Command::kArm);
   if (!expected) return;
   const char* name = command == Command::kSetOffboardMode ? "OFFBOARD" : "arming";
@@ -554,6 +568,7 @@ void OnlineController::CollectPlan(double t) {
     from_ = ActivePlan{};
     blending_ = false;
     link_hold_ = false;
+    hold_until_resume_ = false;
     planned_speed_limit_ = record.speed_limit;
     last_trigger_ = t;
     ++stats_.link_resumes;
@@ -641,7 +656,7 @@ double OnlineController::PlanningSpeedLimit() const {
   return std::min(task_limit, kLinkPlanningShare * options_.link_budget * setup_.task->safety_distance / blind);
 }
 
-void OnlineController::CheckLink(double t) {
+void OnlineController::CheckLink(double t, ControllerOutput* out) {
   if (!clock_.synced() || !have_position_) return;
   const double blind = BlindTime(t);
   blind_history_.emplace_back(t, blind);
@@ -682,6 +697,50 @@ void OnlineController::CheckLink(double t) {
   if (limit < options_.min_link_speed) return;
   // It plans from rest at the measured pose: the vehicle must be holding.
   if (velocity_.norm() > kRestSpeed) return;
+  outage_noted_ = false;
+  if (left_offboard_in_outage_ && !reengaging_) {
+    // OFFBOARD first, at the pose the autopilot holds: hold setpoints there
+    // (nothing moves the vehicle), the request, then the fresh plan.
+    reengaging_ = true;
+    ++stats_.reengagements;
+    hold_ = Setpoint{};
+    hold_.position = position_;
+    hold_.yaw = traj::HopfYawOf(attitude_);
+    hold_.joints = joints_;
+    hold_.joint_rates = VecX::Zero(joints_.size());
+    hold_start_ = t;
+    offboard_confirmed_ = false;
+    hold_until_resume_ = true;
+    attempts_ = 0;
+    Event(Format("link good again (%.2f m/s allowed): streaming a hold at the measured pose, then requesting "
+                 "OFFBOARD again",
+                 limit));
+    return;
+  }
+  if (reengaging_) {
+    if (t - hold_start_ < options_.hold_time) return;
+    if (!offboard_confirmed_) {
+      if (vehicle_offboard_ && seen_heartbeat_) {
+        offboard_confirmed_ = true;
+      } else {
+        if (attempts_ > 0 && t - last_command_time_ < options_.ack_timeout) return;
+        if (attempts_ >= options_.max_command_attempts) {
+          Fail(Phase::kHandshakeFailed, "no OFFBOARD acknowledgement after the outage, " + std::to_string(attempts_) +
+                                            " attempts");
+          return;
+        }
+        out->commands.push_back({Command::kSetOffboardMode, attempts_});
+        if (attempts_ == 0) Event("requesting OFFBOARD again");
+        ++attempts_;
+        last_command_time_ = t;
+        return;
+      }
+    }
+    confirmed_time_ = t;
+    reengaging_ = false;
+    left_offboard_in_outage_ = false;
+    Event("offboard again");
+  }
   Worker::Job job;
   job.start = MeasuredBoundaryState();
   job.start.acceleration.setZero();
@@ -931,8 +990,16 @@ ControllerOutput OnlineController::Tick(double t) {
 
   // The vehicle's silence ends everything.
   if (phase_ != Phase::kVehicleLost && phase_ != Phase::kHandshakeFailed && !arrival_done_) {
-    if (have_position_ && t - position_time_ > options_.vehicle_timeout) {
-      Fail(Phase::kVehicleLost, Format("no position from the vehicle for %.2f s", t - position_time_));
+    const bool outage = phase_ == Phase::kFlying && !IsMission();
+    const double silence = t - position_time_;
+    if (have_position_ && silence > options_.vehicle_timeout && outage && silence <= options_.outage_timeout) {
+      if (!outage_noted_) {
+        Event(Format("no position from the vehicle for %.2f s: an outage; holding and waiting ", silence) +
+              Format("up to %.1f s for the link (the autopilot's failsafe holds the vehicle)", options_.outage_timeout));
+      }
+      outage_noted_ = true;
+    } else if (have_position_ && silence > options_.vehicle_timeout) {
+      Fail(Phase::kVehicleLost, Format("no position from the vehicle for %.2f s", silence));
     } else if (!HaveState() && t - first_tick_ > options_.connect_timeout) {
       Fail(Phase::kVehicleLost, Format("no complete vehicle state within %.1f s", options_.connect_timeout));
     } else if (options_.require_clock_sync && !clock_.synced() && t - first_tick_ > options_.connect_timeout) {
@@ -983,7 +1050,7 @@ ControllerOutput OnlineController::Tick(double t) {
                     : Format("flying the plan although the vehicle is still %.3f m from the start", offset));
     }
   }
-  CheckLink(t);
+  CheckLink(t, &out);
   if (phase_ == Phase::kFlying) CheckTracking(t);
   if (phase_ == Phase::kFlying && !link_hold_) {
     if (blending_ && t >= blend_start_ + options_.blend_window) {
@@ -1023,7 +1090,7 @@ ControllerOutput OnlineController::Tick(double t) {
       break;
     case Phase::kFlying:
       if (link_hold_) {
-        setpoint = LinkHoldReference(t);
+        setpoint = hold_until_resume_ ? hold_ : LinkHoldReference(t);
       } else {
         setpoint = Reference(t);
         in_blend = blending_ && t >= blend_start_;

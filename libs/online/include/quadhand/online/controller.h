@@ -21,7 +21,9 @@
 //                        or arrival_timeout s have passed, then finished()
 //   holding_after_failure a plan failed (or failed the post-check): a hold at
 //                        the last setpoint streamed, until the caller stops
-//   vehicle_lost         no position for vehicle_timeout s: nothing streamed
+//   vehicle_lost         no position for vehicle_timeout s (while flying a
+//                        goal: outage_timeout s, the link hold below):
+//                        nothing streamed
 //   handshake_failed     OFFBOARD or arming refused or never acknowledged
 //                        after max_command_attempts, or the vehicle left
 //                        OFFBOARD / disarmed during the flight: nothing streamed
@@ -81,6 +83,14 @@ struct OnlineOptions {
   double ack_timeout = 0.5;          // s to wait for each COMMAND_ACK
   int max_command_attempts = 5;      // per command, with confirmation counting up
   double vehicle_timeout = 1.0;      // s without a position measurement -> vehicle_lost
+  // While flying a goal (not a mission), a silent vehicle is an outage: the
+  // controller holds (the link hold) and waits this long (s, >=
+  // vehicle_timeout) before vehicle_lost. When the autopilot's own
+  // offboard-loss failsafe took it out of OFFBOARD meanwhile (its heartbeat
+  // says so), it is re-engaged once the link is good: hold setpoints at
+  // the measured pose for hold_time, OFFBOARD requested again, then a fresh
+  // plan from the measured state at rest (stats: reengagements).
+  double outage_timeout = 10.0;
   double connect_timeout = 10.0;     // s from the first Tick to the first complete state -> vehicle_lost
   bool replanning = true;
   double replan_threshold = 0.10;    // m of 3-D tracking error that triggers a replan
@@ -288,6 +298,7 @@ struct OnlineStats {
   int link_holds = 0;                  // holds waiting for the link
   int link_resumes = 0;                // fresh plans after such a hold
   int replans_skipped_stale = 0;       // triggers refused: the newest state was too old
+  int reengagements = 0;               // OFFBOARD requested again after the autopilot's failsafe
   // The estimate's jumps (OnlineOptions::innovation_gate): how many, their
   // sizes summed (m, each the innovation beyond what the motion explains)
   // and the largest, with its controller time.
@@ -415,7 +426,7 @@ class OnlineController {
   void MaybeReplan(double t, bool periodic, double error);
   // At a tick: replans due from the newest state, and the link budget.
   void CheckTracking(double t);
-  void CheckLink(double t);
+  void CheckLink(double t, ControllerOutput* out);
   void RequestFirstPlan(double t);
   double UplinkLatency() const;     // s, 0 without a synced clock
   double BlindTime(double t) const; // age of the newest state + uplink (median)
@@ -478,6 +489,12 @@ class OnlineController {
   bool replan_pending_ = false;
   double pending_splice_time_ = 0.0;
   bool pending_resume_ = false;        // the pending plan resumes after a link hold
+  // The autopilot left OFFBOARD during a link hold (its failsafe): the
+  // handshake is run again before the fresh plan (OutageTimeout).
+  bool left_offboard_in_outage_ = false;
+  bool reengaging_ = false;             // that handshake is under way
+  bool hold_until_resume_ = false;      // stream hold_ (not the braked plan) until the fresh plan flies
+  bool outage_noted_ = false;           // the wait beyond vehicle_timeout was announced
   std::shared_ptr<const planner::PlanResult> pending_base_;  // the plan the pending replan started from
   double arrival_time_ = 0.0;
   bool arrival_settled_ = false;
