@@ -110,7 +110,7 @@ for row in "${matrix[@]}"; do
     set -e
     kill -TERM "$proxy" "$sim" 2>/dev/null || true
     wait "$proxy" "$sim" 2>/dev/null || true
-    said=$(grep -m1 -E '^(arrived|VEHICLE LOST|REFUSED|PLANNING FAILED|INTERRUPTED|CLEARANCE)' "$base.online.txt" |
+    said=$(grep -m1 -E '^(arrived|VEHICLE LOST|REFUSED|PLANNING FAILED|INTERRUPTED|CLEARANCE|ABORTED)' "$base.online.txt" |
       sed 's/ after .*//' || true)
     rate=$(grep -o -m1 'setpoints at [0-9.]* Hz' "$base.online.txt" | grep -o '[0-9.]*' || echo "-")
     if [[ ! -s "$base.sim.csv" ]]; then

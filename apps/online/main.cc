@@ -56,6 +56,7 @@ constexpr int kExitVehicleLost = 3;
 constexpr int kExitRefused = 4;
 constexpr int kExitInterrupted = 5;
 constexpr int kExitClearanceLost = 6;
+constexpr int kExitAborted = 7;
 
 std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }
@@ -265,6 +266,10 @@ int main(int argc, char** argv) {
   app.add_option("--max-judged-gap", options.max_judged_gap,
                  "Exit 0 needs a state at least every this many seconds while flying, in (0, 5]")
       ->capture_default_str();
+  app.add_flag("--no-abort{false}", options.abort_near_goal,
+               "Do not abort near the goal: by default a state closer to the scene than the safety distance less "
+               "--clearance-tolerance on the insertion or at the goal makes the vehicle retreat along the plan to "
+               "the insertion's start (exit 7)");
   app.add_option("--innovation-gate", options.innovation_gate,
                  "A position estimate this far (m, plus what the motion explains) from its prediction is a jump; "
                  "in (0, 1]")
@@ -483,6 +488,9 @@ int main(int argc, char** argv) {
   } else if (phase == online::Phase::kHandshakeFailed) {
     code = kExitRefused;
     outcome = "REFUSED";
+  } else if (controller.aborted()) {
+    code = kExitAborted;
+    outcome = "ABORTED (retreated along the plan)";
   } else if (phase == online::Phase::kHoldingAfterFailure) {
     code = kExitPlanFailed;
     outcome = "PLANNING FAILED (holding)";

@@ -172,6 +172,9 @@ TEST(OnlineControllerTest, HoldsAtTheGoalUntilTheVehicleHasSettled) {
     OnlineOptions options;
     options.replanning = false;
     options.arrival_hold = 0.2;
+    // This gust pushes the gripper into the cup: by default, an abort (the
+    // test below); here the settling is what is tested.
+    options.abort_near_goal = false;
     if (fixed_hold) options.arrival_timeout = options.arrival_hold;
     auto controller = MakeController(options);
     DirectFlight flight(controller.get());
@@ -208,6 +211,38 @@ TEST(OnlineControllerTest, HoldsAtTheGoalUntilTheVehicleHasSettled) {
       EXPECT_LE(last.velocity.norm(), options.arrival_settle_speed);
     }
   }
+}
+
+// The same gust at the goal by default: the gripper is pushed closer to
+// the cup than the safety distance less the tolerance, so the vehicle
+// retreats along the plan backwards to the insertion's start, holds there
+// and finishes aborted, never having touched the cup.
+TEST(OnlineControllerTest, AGustAtTheGoalAbortsAndTheVehicleRetreatsAlongThePlan) {
+  OnlineOptions options;
+  options.replanning = false;
+  auto controller = MakeController(options);
+  DirectFlight flight(controller.get());
+  double arrived_at = -1.0;
+  flight.Run(60.0, [&](double t, sim::Simulator* sim) {
+    if (arrived_at < 0.0 && controller->phase() == Phase::kArrived) {
+      arrived_at = t;
+      sim::VehicleState s = sim->state();
+      s.velocity += Vec3(0.3, 0.0, 0.0);
+      sim->Reset(s, sim->time());
+    }
+  });
+  ASSERT_GE(arrived_at, 0.0);
+  ASSERT_TRUE(controller->finished());
+  EXPECT_TRUE(controller->aborted());
+  EXPECT_EQ(controller->phase(), Phase::kHoldingAfterFailure);
+  // It ends above the cup, at the insertion's start (0.10 m up the line).
+  const MeasuredState last = controller->measured();
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(WindowCup().robot(), MakePose(last.position, last.attitude.toRotationMatrix()), last.joints,
+                           &kinematics);
+  const Vec3 tool = kinematics.link_poses[WindowCup().robot().LinkIndex(WindowCup().task.tool_link)].translation();
+  EXPECT_LT((tool - (CupPosition() + Vec3(0.0, 0.0, 0.10))).norm(), 0.03) << tool.transpose();
+  EXPECT_GT(Metrics(flight.log(), *controller).min_clearance, 0.0);
 }
 
 // Exact clearance of the robot at a planning start state (as Replan measures it).

@@ -469,7 +469,10 @@ TEST_F(OnlineCliTest, AKilledOnlineModeLeavesItsLogSoFar) {
 TEST_F(OnlineCliTest, ExitsWithThreeSoonAfterTheVehicleFallsSilent) {
   const std::string task = WriteTask();
   const std::string vehicle = StartVehicle(task);
-  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--vehicle-timeout", "0.5", "--max-duration", "60"},
+  // (While flying, a silence is waited for as an outage up to
+  // --outage-timeout: here as long as the vehicle time-out.)
+  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--vehicle-timeout", "0.5", "--outage-timeout", "0.5",
+                        "--max-duration", "60"},
                        (dir_ / "online").string());
   // Kill the vehicle once the plan is being flown.
   const auto start = Clock::now();

@@ -87,6 +87,7 @@ bool OnlineOptions::IsValid(std::string* why) const {
     return fail("clearance_tolerance must be >= 0");
   }
   if (!positive(max_judged_gap)) return fail("max_judged_gap must be positive");
+  if (!(std::isfinite(abort_hold) && abort_hold >= 0.0)) return fail("abort_hold must be >= 0");
   if (!positive(innovation_gate) || !positive(innovation_acceleration)) {
     return fail("innovation_gate and innovation_acceleration must be positive");
   }
@@ -294,7 +295,68 @@ void OnlineController::WaitUntilIdle() { worker_->WaitUntilIdle(); }
 bool OnlineController::HaveState() const { return have_position_ && have_attitude_ && have_joints_; }
 
 bool OnlineController::finished() const {
-  return arrival_done_ || phase_ == Phase::kVehicleLost || phase_ == Phase::kHandshakeFailed;
+  return arrival_done_ || abort_done_ || phase_ == Phase::kVehicleLost || phase_ == Phase::kHandshakeFailed;
+}
+
+void OnlineController::CheckAbort(double t) {
+  if (aborted_) {
+    if (retreating_ && t - retreat_start_ >= retreat_duration_) {
+      retreating_ = false;
+      phase_ = Phase::kHoldingAfterFailure;
+      hold_ = HoldAt(RetreatReference(t));
+      Event(Format("retreated to the insertion's start: holding there for %.1f s", options_.abort_hold));
+    }
+    if (!retreating_ && t - retreat_start_ >= retreat_duration_ + options_.abort_hold) abort_done_ = true;
+    return;
+  }
+  if (!options_.abort_near_goal || IsMission() || !to_.plan || !to_.plan->insertion.enabled || link_hold_ ||
+      blending_ || arrival_done_ || !HaveState() || position_time_ <= abort_checked_time_) {
+    return;
+  }
+  if (phase_ != Phase::kFlying && phase_ != Phase::kArrived) return;
+  const planner::WholeBodyTrajectory& plan = *to_.plan->trajectory;
+  const VecX& T = plan.position().durations();
+  const double insertion_start = plan.duration() - T[T.size() - 1];
+  const double plan_time = std::min(plan.duration(), t - to_.start);
+  if (plan_time < insertion_start) return;
+  abort_checked_time_ = position_time_;
+  const MeasuredState state = measured();
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(setup_.scene.robot, MakePose(state.position, state.attitude.toRotationMatrix()),
+                           state.joints, &kinematics);
+  const double accepted = planner::AcceptedClearance(*setup_.task, options_.clearance_tolerance);
+  int link = -1;
+  const double clearance =
+      env::WholeBodyClearance(kinematics, setup_.scene.exact, planner::ClearanceSearchReach(*setup_.task), {}, &link);
+  if (clearance >= accepted) return;
+  aborted_ = true;
+  retreating_ = true;
+  retreat_start_ = t;
+  retreat_from_ = plan_time;
+  retreat_to_ = insertion_start;
+  retreat_duration_ = std::max(1.0, 2.0 * (retreat_from_ - retreat_to_));
+  Event(Format("the vehicle is %.4f m from the scene", clearance) +
+        " (link " + (link >= 0 ? setup_.scene.robot.link(link).name : std::string("?")) +
+        Format(") on the insertion or at the goal, under the safety distance less the tolerance (%.4f m): aborting, "
+               "retreating along the plan to the insertion's start",
+               accepted));
+}
+
+Setpoint OnlineController::RetreatReference(double t) const {
+  // The plan backwards from retreat_from_ to retreat_to_ on a smoothstep
+  // clock: at rest at both ends, the same (certified) configurations.
+  const double u = std::clamp((t - retreat_start_) / retreat_duration_, 0.0, 1.0);
+  const double span = retreat_from_ - retreat_to_;
+  const double tau = retreat_from_ - span * (3.0 * u * u - 2.0 * u * u * u);
+  const double rate = -span * (6.0 * u - 6.0 * u * u) / retreat_duration_;
+  const double rate_change = -span * (6.0 - 12.0 * u) / (retreat_duration_ * retreat_duration_);
+  const planner::WholeBodySample s = to_.plan->trajectory->Sample(tau);
+  Setpoint sp = FromSample(s);
+  sp.velocity = s.velocity * rate;
+  sp.acceleration = s.acceleration * rate * rate + s.velocity * rate_change;
+  sp.yaw_rate = s.yaw_rate * rate;
+  sp.joint_rates = s.joint_rates * rate;
+  return sp;
 }
 
 void OnlineController::Event(std::string text) { events_.push_back(std::move(text)); }
@@ -490,7 +552,8 @@ planner::BoundaryState OnlineController::MeasuredBoundaryState() const {
 }
 
 void OnlineController::MaybeReplan(double t, bool periodic, double error) {
-  if (!options_.replanning || phase_ != Phase::kFlying || link_hold_ || blending_ || replan_pending_ || !to_.plan) {
+  if (!options_.replanning || phase_ != Phase::kFlying || link_hold_ || blending_ || replan_pending_ || !to_.plan ||
+      aborted_) {
     return;
   }
   if (!periodic && t - last_trigger_ < options_.min_replan_interval) return;
@@ -663,7 +726,7 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   while (!blind_history_.empty() && blind_history_.front().first < t - options_.clock_sync.window) {
     blind_history_.pop_front();
   }
-  if (phase_ != Phase::kFlying) return;
+  if (phase_ != Phase::kFlying || aborted_) return;  // a retreat is not braked along the plan forwards
   const double allowed = LinkSpeedLimit(t);
   if (!link_hold_) {
     const std::optional<Setpoint> reference = Reference(t);
@@ -1058,13 +1121,15 @@ ControllerOutput OnlineController::Tick(double t) {
       from_ = ActivePlan{};
     }
     if (IsMission()) WaitAtJunction(t);
-    if (phase_ == Phase::kFlying && !blending_ && t - to_.start >= to_.plan->trajectory->duration()) {
+    if (phase_ == Phase::kFlying && !blending_ && !retreating_ && t - to_.start >= to_.plan->trajectory->duration()) {
       phase_ = Phase::kArrived;
       arrival_time_ = t;
       Event("the plan has ended: holding at the goal");
     }
   }
-  if (phase_ == Phase::kArrived && !arrival_done_ && gripper_pending_ < 0 && t - arrival_time_ >= options_.arrival_hold) {
+  CheckAbort(t);
+  if (phase_ == Phase::kArrived && !arrival_done_ && !aborted_ && gripper_pending_ < 0 &&
+      t - arrival_time_ >= options_.arrival_hold) {
     const double offset = ArrivalOffset();
     const double speed = velocity_.norm();
     arrival_settled_ = offset <= options_.arrival_tolerance && speed <= options_.arrival_settle_speed;
@@ -1089,7 +1154,9 @@ ControllerOutput OnlineController::Tick(double t) {
       setpoint = hold_;
       break;
     case Phase::kFlying:
-      if (link_hold_) {
+      if (retreating_) {
+        setpoint = RetreatReference(t);
+      } else if (link_hold_) {
         setpoint = hold_until_resume_ ? hold_ : LinkHoldReference(t);
       } else {
         setpoint = Reference(t);
@@ -1097,12 +1164,13 @@ ControllerOutput OnlineController::Tick(double t) {
       }
       break;
     case Phase::kArrived:
-      setpoint = HoldAt(FromSample(to_.plan->trajectory->Sample(to_.plan->trajectory->duration())));
+      setpoint = retreating_ ? RetreatReference(t)
+                             : HoldAt(FromSample(to_.plan->trajectory->Sample(to_.plan->trajectory->duration())));
       break;
     default:
       break;
   }
-  if (arrival_done_) setpoint.reset();
+  if (arrival_done_ || abort_done_) setpoint.reset();
   if (setpoint) {
     if (last_setpoint_) {
       const double step = (setpoint->position - last_setpoint_->position).norm();

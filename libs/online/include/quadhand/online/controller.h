@@ -192,6 +192,18 @@ struct OnlineOptions {
   // tolerance (OnlineStats::estimate_jumps).
   double innovation_gate = 0.005;
   double innovation_acceleration = 4.0;  // m/s^2
+  // The abort near the goal (a goal with an insertion, not a mission): on
+  // the insertion, or holding at the goal, every new state's exact
+  // clearance (link meshes against the scene, as the verdict measures it)
+  // is checked; below the safety distance less clearance_tolerance a fault
+  // (a gust, a weak motor) is pushing the gripper into what it reaches for,
+  // and the flight can no longer exit 0 anyway. The vehicle then retreats
+  // along the plan itself, backwards in time (its certified path, joints
+  // included), from where the reference is to the insertion's start, with
+  // the clock easing in and out over twice the insertion's duration (at
+  // least 1 s), holds there for abort_hold s and finishes (aborted()).
+  bool abort_near_goal = true;
+  double abort_hold = 2.0;
 
   bool IsValid(std::string* why) const;
 };
@@ -365,6 +377,8 @@ class OnlineController {
   Phase phase() const { return phase_; }
   int num_joints() const { return setup_.scene.robot.num_actuated(); }
   bool finished() const;  // arrived and held, or a phase that ends the flight
+  // The flight was aborted near the goal and retreated (abort_tracking_error).
+  bool aborted() const { return aborted_; }
   // After finished() in the arrived phase: whether the vehicle settled at the
   // goal (false: arrival_timeout passed first).
   bool arrival_settled() const { return arrival_settled_; }
@@ -494,6 +508,14 @@ class OnlineController {
   bool left_offboard_in_outage_ = false;
   bool reengaging_ = false;             // that handshake is under way
   bool hold_until_resume_ = false;      // stream hold_ (not the braked plan) until the fresh plan flies
+  // The abort near the goal (OnlineOptions::abort_tracking_error): the
+  // retreat's start (controller time), its plan times from and to, its
+  // duration; aborted_ once it has begun, abort_done_ after the hold.
+  bool retreating_ = false, aborted_ = false, abort_done_ = false;
+  double retreat_start_ = 0.0, retreat_from_ = 0.0, retreat_to_ = 0.0, retreat_duration_ = 1.0;
+  double abort_checked_time_ = -1.0;  // the newest state CheckAbort measured
+  void CheckAbort(double t);
+  Setpoint RetreatReference(double t) const;
   bool outage_noted_ = false;           // the wait beyond vehicle_timeout was announced
   std::shared_ptr<const planner::PlanResult> pending_base_;  // the plan the pending replan started from
   double arrival_time_ = 0.0;
