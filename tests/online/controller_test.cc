@@ -158,6 +158,21 @@ TEST(OnlineControllerTest, APushTriggersAReplanThatIsSplicedWithoutAJump) {
 // moving past arrival_hold, and the flight ends only once the tool is back
 // within arrival_tolerance of the cup and the base is slow; with arrival_timeout == arrival_hold the
 // same gust ends a fixed hold with the vehicle still off.
+// Flies the default task with a gust (0.3 m/s sideways) as the plan ends;
+// returns when it came (-1: never).
+double FlyWithAGustAtTheGoal(OnlineController* controller, DirectFlight* flight) {
+  double arrived_at = -1.0;
+  flight->Run(60.0, [&](double t, sim::Simulator* sim) {
+    if (arrived_at < 0.0 && controller->phase() == Phase::kArrived) {
+      arrived_at = t;
+      sim::VehicleState s = sim->state();
+      s.velocity += Vec3(0.3, 0.0, 0.0);
+      sim->Reset(s, sim->time());
+    }
+  });
+  return arrived_at;
+}
+
 TEST(OnlineControllerTest, HoldsAtTheGoalUntilTheVehicleHasSettled) {
   {
     OnlineOptions bad;
@@ -178,15 +193,7 @@ TEST(OnlineControllerTest, HoldsAtTheGoalUntilTheVehicleHasSettled) {
     if (fixed_hold) options.arrival_timeout = options.arrival_hold;
     auto controller = MakeController(options);
     DirectFlight flight(controller.get());
-    double arrived_at = -1.0;
-    flight.Run(60.0, [&](double t, sim::Simulator* sim) {
-      if (arrived_at < 0.0 && controller->phase() == Phase::kArrived) {
-        arrived_at = t;
-        sim::VehicleState s = sim->state();
-        s.velocity += Vec3(0.3, 0.0, 0.0);
-        sim->Reset(s, sim->time());
-      }
-    });
+    const double arrived_at = FlyWithAGustAtTheGoal(controller.get(), &flight);
     ASSERT_GE(arrived_at, 0.0);
     ASSERT_TRUE(controller->finished());
     EXPECT_EQ(controller->phase(), Phase::kArrived);
@@ -222,15 +229,7 @@ TEST(OnlineControllerTest, AGustAtTheGoalAbortsAndTheVehicleRetreatsAlongThePlan
   options.replanning = false;
   auto controller = MakeController(options);
   DirectFlight flight(controller.get());
-  double arrived_at = -1.0;
-  flight.Run(60.0, [&](double t, sim::Simulator* sim) {
-    if (arrived_at < 0.0 && controller->phase() == Phase::kArrived) {
-      arrived_at = t;
-      sim::VehicleState s = sim->state();
-      s.velocity += Vec3(0.3, 0.0, 0.0);
-      sim->Reset(s, sim->time());
-    }
-  });
+  const double arrived_at = FlyWithAGustAtTheGoal(controller.get(), &flight);
   ASSERT_GE(arrived_at, 0.0);
   ASSERT_TRUE(controller->finished());
   EXPECT_TRUE(controller->aborted());

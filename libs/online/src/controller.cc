@@ -294,6 +294,15 @@ void OnlineController::WaitUntilIdle() { worker_->WaitUntilIdle(); }
 
 bool OnlineController::HaveState() const { return have_position_ && have_attitude_ && have_joints_; }
 
+Setpoint OnlineController::HoldAtMeasuredPose() const {
+  Setpoint hold;
+  hold.position = position_;
+  hold.yaw = traj::HopfYawOf(attitude_);
+  hold.joints = joints_;
+  hold.joint_rates = VecX::Zero(joints_.size());
+  return hold;
+}
+
 bool OnlineController::finished() const {
   return arrival_done_ || abort_done_ || phase_ == Phase::kVehicleLost || phase_ == Phase::kHandshakeFailed;
 }
@@ -766,11 +775,7 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
     // (nothing moves the vehicle), the request, then the fresh plan.
     reengaging_ = true;
     ++stats_.reengagements;
-    hold_ = Setpoint{};
-    hold_.position = position_;
-    hold_.yaw = traj::HopfYawOf(attitude_);
-    hold_.joints = joints_;
-    hold_.joint_rates = VecX::Zero(joints_.size());
+    hold_ = HoldAtMeasuredPose();
     hold_start_ = t;
     offboard_confirmed_ = false;
     hold_until_resume_ = true;
@@ -1076,11 +1081,7 @@ ControllerOutput OnlineController::Tick(double t) {
   switch (phase_) {
     case Phase::kWaitingForVehicle:
       if (HaveState()) {
-        hold_ = Setpoint{};
-        hold_.position = position_;
-        hold_.yaw = traj::HopfYawOf(attitude_);
-        hold_.joints = joints_;
-        hold_.joint_rates = VecX::Zero(joints_.size());
+        hold_ = HoldAtMeasuredPose();
         hold_start_ = t;
         phase_ = Phase::kStreamingHold;
         Event(Format("vehicle state received: holding at (%.3f, ", position_.x()) +

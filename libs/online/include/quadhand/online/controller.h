@@ -515,6 +515,8 @@ class OnlineController {
   double retreat_start_ = 0.0, retreat_from_ = 0.0, retreat_to_ = 0.0, retreat_duration_ = 1.0;
   double abort_checked_time_ = -1.0;  // the newest state CheckAbort measured
   void CheckAbort(double t);
+  // A hold (every rate zero) at the newest measured position, yaw and joints.
+  Setpoint HoldAtMeasuredPose() const;
   Setpoint RetreatReference(double t) const;
   bool outage_noted_ = false;           // the wait beyond vehicle_timeout was announced
   std::shared_ptr<const planner::PlanResult> pending_base_;  // the plan the pending replan started from
