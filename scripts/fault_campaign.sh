@@ -54,7 +54,8 @@ if [[ "$task" == data/tasks/window_cup.yaml && ! -d data/sdf/quadhand ]]; then
 fi
 mkdir -p "$out"
 
-# name | quadhand-linkproxy options (both directions) | simulator faults (YAML flow map, docs/sim.md)
+# name | quadhand-linkproxy options (both directions; "@kill=S": no link fault, quadhand-online killed
+#        with SIGKILL S seconds after it starts) | simulator faults (YAML flow map, docs/sim.md)
 matrix=(
   "calm||"
   "loss20_delay50|--loss 0.2 --delay 0.05 --jitter 0.02|"
@@ -75,6 +76,7 @@ matrix=(
   "drift2mm/s||{estimate: {drift: [0.002, 0.0, 0]}}"
   "freeze0.3s||{estimate: {freeze: {time: 3, duration: 0.3}}}"
   "nan0.2s||{estimate: {nan: {time: 3, duration: 0.2}}}"
+  "planner_killed|@kill=5|"
 )
 if [[ $smoke -eq 1 ]]; then
   matrix=("burst10_delay150|--loss 0.1 --burst 5 --delay 0.15 --jitter 0.05|"
@@ -88,6 +90,8 @@ failures=0
 for row in "${matrix[@]}"; do
   IFS='|' read -r name proxy_text sim_faults <<<"$row"
   if [[ -n "$only" && "$only" != *",$name,"* ]]; then continue; fi
+  kill_after=""
+  if [[ "$proxy_text" == @kill=* ]]; then kill_after="${proxy_text#@kill=}"; proxy_text=""; fi
   read -r -a proxy_options <<<"$proxy_text"
   for ((seed = 1; seed <= seeds; ++seed)); do
     base="$out/${name//\//_}_seed$seed"
@@ -104,13 +108,28 @@ for row in "${matrix[@]}"; do
     proxy=$!
     sleep 0.3
     set +e
-    "$build/bin/quadhand-online" "$task" --vehicle "udp://127.0.0.1:$proxy_port" --max-duration 100 \
-      --log "$base.online.csv" "${online_options[@]}" >"$base.online.txt" 2>&1
-    code=$?
+    if [[ -n "$kill_after" ]]; then
+      # The planner dies mid-flight: the autopilot's offboard-loss failsafe
+      # must hold the vehicle; it is judged on the simulator's record, which
+      # runs on for 5 s after the kill.
+      "$build/bin/quadhand-online" "$task" --vehicle "udp://127.0.0.1:$proxy_port" --max-duration 100 \
+        --log "$base.online.csv" "${online_options[@]}" >"$base.online.txt" 2>&1 &
+      online=$!
+      sleep "$kill_after"
+      kill -KILL "$online" 2>/dev/null
+      { wait "$online"; } 2>/dev/null
+      code=$?
+      echo "KILLED by SIGKILL at $kill_after s" >>"$base.online.txt"
+      sleep 5
+    else
+      "$build/bin/quadhand-online" "$task" --vehicle "udp://127.0.0.1:$proxy_port" --max-duration 100 \
+        --log "$base.online.csv" "${online_options[@]}" >"$base.online.txt" 2>&1
+      code=$?
+    fi
     set -e
     kill -TERM "$proxy" "$sim" 2>/dev/null || true
     wait "$proxy" "$sim" 2>/dev/null || true
-    said=$(grep -m1 -E '^(arrived|VEHICLE LOST|REFUSED|PLANNING FAILED|INTERRUPTED|CLEARANCE|ABORTED)' "$base.online.txt" |
+    said=$(grep -m1 -E '^(arrived|VEHICLE LOST|REFUSED|PLANNING FAILED|INTERRUPTED|CLEARANCE|ABORTED|KILLED)' "$base.online.txt" |
       sed 's/ after .*//' || true)
     rate=$(grep -o -m1 'setpoints at [0-9.]* Hz' "$base.online.txt" | grep -o '[0-9.]*' || echo "-")
     if [[ ! -s "$base.sim.csv" ]]; then
