@@ -76,6 +76,7 @@ matrix=(
   "drift2mm/s||{estimate: {drift: [0.002, 0.0, 0]}}"
   "freeze0.3s||{estimate: {freeze: {time: 3, duration: 0.3}}}"
   "nan0.2s||{estimate: {nan: {time: 3, duration: 0.2}}}"
+  "freeze1.5s||{estimate: {freeze: {time: 4, duration: 1.5}}}"
   "planner_killed|@kill=5|"
 )
 if [[ $smoke -eq 1 ]]; then

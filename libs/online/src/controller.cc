@@ -1063,7 +1063,9 @@ ControllerOutput OnlineController::Tick(double t) {
     if (have_position_ && silence > options_.vehicle_timeout && outage && silence <= options_.outage_timeout) {
       if (!outage_noted_) {
         Event(Format("no position from the vehicle for %.2f s: an outage; holding and waiting ", silence) +
-              Format("up to %.1f s for the link (the autopilot's failsafe holds the vehicle)", options_.outage_timeout));
+              Format("up to %.1f s for the link (the hold is streamed; if it does not reach the vehicle, the ",
+                     options_.outage_timeout) +
+              "autopilot's offboard-loss failsafe holds it)");
       }
       outage_noted_ = true;
     } else if (have_position_ && silence > options_.vehicle_timeout) {
