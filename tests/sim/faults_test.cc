@@ -170,9 +170,12 @@ TEST(ServoFaultTest, ASlowServoLagsAndAStalledOneHolds) {
 TEST(PayloadFaultTest, TheObjectIsHeavierThanTheControllerIsTold) {
   SimConfig config = Config();
   config.faults.payload_mass_factor = 1.5;
+  config.faults.wind.steady = Vec3(1.0, 0.0, 0.0);
   Simulator sim(Model(config), 1);
   const double controller_before = sim.controller().mass();
+  const std::vector<double> drag_areas = sim.model().drag_areas();
   ASSERT_TRUE(sim.SetPayload(0.2, Vec3(0.05, 0, 0)).ok());
+  EXPECT_EQ(sim.model().drag_areas(), drag_areas);  // the same vehicle, its meshes not read again
   EXPECT_NEAR(sim.model().payload_mass(), 0.3, 1e-12);
   EXPECT_NEAR(sim.controller().mass(), controller_before + 0.2, 1e-12);
   ASSERT_TRUE(sim.SetPayload(0.0, Vec3::Zero()).ok());
@@ -219,7 +222,9 @@ TEST_F(EstimateTelemetryTest, AFrozenEstimateRepeatsItsStampAndNanFillsTheFields
   uint32_t last = 0;
   for (const link::LocalPositionNed& p : Fly(frozen, 1.2)) {
     if (p.time_boot_ms == last) ++repeated;
-    if (p.time_boot_ms != last) EXPECT_GT(p.time_boot_ms, last);
+    if (p.time_boot_ms != last) {
+      EXPECT_GT(p.time_boot_ms, last);
+    }
     last = p.time_boot_ms;
   }
   EXPECT_GE(repeated, 5);     // the 0.3 s freeze at the telemetry's rate

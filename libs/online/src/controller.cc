@@ -294,6 +294,19 @@ void OnlineController::WaitUntilIdle() { worker_->WaitUntilIdle(); }
 
 bool OnlineController::HaveState() const { return have_position_ && have_attitude_ && have_joints_; }
 
+namespace {
+
+// Plan time at which the insertion piece (the last) begins; the plan's end
+// when it has none.
+double InsertionStart(const planner::PlanResult& plan) {
+  const planner::WholeBodyTrajectory& trajectory = *plan.trajectory;
+  if (!plan.insertion.enabled) return trajectory.duration();
+  const VecX& T = trajectory.position().durations();
+  return trajectory.duration() - T[T.size() - 1];
+}
+
+}  // namespace
+
 Setpoint OnlineController::HoldAtMeasuredPose() const {
   Setpoint hold;
   hold.position = position_;
@@ -323,20 +336,15 @@ void OnlineController::CheckAbort(double t) {
     return;
   }
   if (phase_ != Phase::kFlying && phase_ != Phase::kArrived) return;
-  const planner::WholeBodyTrajectory& plan = *to_.plan->trajectory;
-  const VecX& T = plan.position().durations();
-  const double insertion_start = plan.duration() - T[T.size() - 1];
-  const double plan_time = std::min(plan.duration(), t - to_.start);
+  const double insertion_start = InsertionStart(*to_.plan);
+  const double plan_time = std::min(to_.plan->trajectory->duration(), t - to_.start);
   if (plan_time < insertion_start) return;
   abort_checked_time_ = position_time_;
-  const MeasuredState state = measured();
-  robot::KinematicsState kinematics;
-  robot::ComputeKinematics(setup_.scene.robot, MakePose(state.position, state.attitude.toRotationMatrix()),
-                           state.joints, &kinematics);
   const double accepted = planner::AcceptedClearance(*setup_.task, options_.clearance_tolerance);
   int link = -1;
-  const double clearance =
-      env::WholeBodyClearance(kinematics, setup_.scene.exact, planner::ClearanceSearchReach(*setup_.task), {}, &link);
+  robot::KinematicsState kinematics;
+  const double clearance = MeasuredClearance(setup_.scene.robot, setup_.scene.exact, measured(),
+                                             planner::ClearanceSearchReach(*setup_.task), &kinematics, &link);
   if (clearance >= accepted) return;
   aborted_ = true;
   retreating_ = true;
@@ -580,10 +588,7 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   const double t_splice = t + options_.replan_lead;
   const double plan_time = t_splice - to_.start;
   // Not in (or right before) the insertion piece: Replan would refuse.
-  const VecX& T = trajectory.position().durations();
-  double last_start = trajectory.duration();
-  if (to_.plan->insertion.enabled) last_start -= T[T.size() - 1];
-  if (plan_time >= last_start - setup_.replan_options.min_piece_duration) return;
+  if (plan_time >= InsertionStart(*to_.plan) - setup_.replan_options.min_piece_duration) return;
 
   // The measured state predicted to the splice time, the tracking error held
   // constant: the error is against the reference the vehicle was following
@@ -787,22 +792,9 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   }
   if (reengaging_) {
     if (t - hold_start_ < options_.hold_time) return;
-    if (!offboard_confirmed_) {
-      if (vehicle_offboard_ && seen_heartbeat_) {
-        offboard_confirmed_ = true;
-      } else {
-        if (attempts_ > 0 && t - last_command_time_ < options_.ack_timeout) return;
-        if (attempts_ >= options_.max_command_attempts) {
-          Fail(Phase::kHandshakeFailed, "no OFFBOARD acknowledgement after the outage, " + std::to_string(attempts_) +
-                                            " attempts");
-          return;
-        }
-        out->commands.push_back({Command::kSetOffboardMode, attempts_});
-        if (attempts_ == 0) Event("requesting OFFBOARD again");
-        ++attempts_;
-        last_command_time_ = t;
-        return;
-      }
+    if (vehicle_offboard_ && seen_heartbeat_) offboard_confirmed_ = true;
+    if (!CommandUntilConfirmed(t, Command::kSetOffboardMode, offboard_confirmed_, "OFFBOARD after the outage", out)) {
+      return;
     }
     confirmed_time_ = t;
     reengaging_ = false;
@@ -877,34 +869,42 @@ void OnlineController::RequestFirstPlan(double t) {
         (limit < setup_.task->limits.v_max ? Format(" (speed limit %.2f m/s for the link)", limit) : std::string()));
 }
 
-void OnlineController::RunHandshake(double t, ControllerOutput* out) {
-  auto step = [&](Command command, bool confirmed, const char* name) {
-    if (confirmed) return true;
-    if (attempts_ > 0 && t - last_command_time_ < options_.ack_timeout) return false;
-    if (attempts_ >= options_.max_command_attempts) {
-      Fail(Phase::kHandshakeFailed, std::string("no ") + name + " acknowledgement after " +
-                                        std::to_string(attempts_) + " attempts");
-      return false;
-    }
-    out->commands.push_back({command, attempts_});
-    if (attempts_ == 0) Event(std::string("requesting ") + name);
-    ++attempts_;
-    last_command_time_ = t;
+bool OnlineController::CommandUntilConfirmed(double t, Command command, bool confirmed, const std::string& name,
+                                             ControllerOutput* out) {
+  if (confirmed) return true;
+  if (attempts_ > 0 && t - last_command_time_ < options_.ack_timeout) return false;
+  if (attempts_ >= options_.max_command_attempts) {
+    Fail(Phase::kHandshakeFailed, "no " + name + " acknowledgement after " + std::to_string(attempts_) + " attempts");
     return false;
-  };
+  }
+  out->commands.push_back({command, attempts_});
+  if (attempts_ == 0) Event("requesting " + name);
+  ++attempts_;
+  last_command_time_ = t;
+  return false;
+}
+
+void OnlineController::RunHandshake(double t, ControllerOutput* out) {
   if (phase_ == Phase::kRequestingOffboard) {
     if (vehicle_offboard_ && seen_heartbeat_) offboard_confirmed_ = true;
-    if (!step(Command::kSetOffboardMode, offboard_confirmed_, "OFFBOARD")) return;
+    if (!CommandUntilConfirmed(t, Command::kSetOffboardMode, offboard_confirmed_, "OFFBOARD", out)) return;
     phase_ = Phase::kArming;
     attempts_ = 0;
   }
   if (phase_ == Phase::kArming) {
     if (vehicle_armed_ && seen_heartbeat_) armed_confirmed_ = true;
-    if (!step(Command::kArm, armed_confirmed_, "arming")) return;
+    if (!CommandUntilConfirmed(t, Command::kArm, armed_confirmed_, "arming", out)) return;
     confirmed_time_ = t;
     phase_ = Phase::kWaitingForPlan;
     Event(first_plan_ ? "offboard and armed" : "offboard and armed: waiting for the plan");
   }
+}
+
+double MeasuredClearance(const robot::RobotModel& robot, const env::ExactMeshModel& exact, const MeasuredState& state,
+                         double reach, robot::KinematicsState* kinematics, int* link) {
+  robot::ComputeKinematics(robot, MakePose(state.position, state.attitude.toRotationMatrix()), state.joints,
+                           kinematics);
+  return env::WholeBodyClearance(*kinematics, exact, reach, {}, link);
 }
 
 std::optional<double> ToolGoalError(const robot::RobotModel& robot, const planner::Task& task,

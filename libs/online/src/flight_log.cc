@@ -180,10 +180,9 @@ FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const rob
                              const Vec3& terminal_position, double reach, double end_time) {
   robot::KinematicsState kinematics;
   auto judge = [&](const MeasuredState& m) {
-    robot::ComputeKinematics(robot, MakePose(m.position, m.attitude.toRotationMatrix()), m.joints, &kinematics);
     Judged j;
     j.robot = &robot;
-    j.clearance = env::WholeBodyClearance(kinematics, exact, reach, {}, &j.link);
+    j.clearance = MeasuredClearance(robot, exact, m, reach, &kinematics, &j.link);
     return j;
   };
   return Evaluate(samples, robot.num_actuated(), judge, robot, task, terminal_position, reach, end_time);
@@ -231,10 +230,9 @@ FlightMetrics EvaluateMissionFlight(const std::vector<FlightSample>& samples, co
     size_t k = 0;
     while (k + 1 < legs.size() && t > legs[k].end_s) ++k;
     const planner::MissionLeg& leg = legs[k];
-    robot::ComputeKinematics(*leg.robot, MakePose(m.position, m.attitude.toRotationMatrix()), m.joints, &kinematics);
     Judged j;
     j.robot = leg.robot;
-    j.clearance = env::WholeBodyClearance(kinematics, *leg.robot_exact, reach, {}, &j.link);
+    j.clearance = MeasuredClearance(*leg.robot, *leg.robot_exact, m, reach, &kinematics, &j.link);
     if (leg.object_exact != nullptr && leg.object_link >= 0) {
       Pose object = kinematics.link_poses[leg.object_link];
       if (leg.held_grasp_step >= 0 && held_in_tool[leg.held_grasp_step]) {

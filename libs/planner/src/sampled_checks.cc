@@ -171,13 +171,17 @@ class ViaPassage final : public SampledCheck {
     bool passed = true;
     double worst_ratio = -1.0;
     CheckResult worst{CheckKind::kVia, -1, CheckKindName(CheckKind::kVia), true, 0.0, 0.0, 0.0, ""};
-    for (size_t k = 0; k < vias.size(); ++k) {
+    for (size_t k = 0; k < vias.size() && !track_.empty(); ++k) {
       const Vec3& point = vias[k].position;
       size_t best = from;
-      for (size_t i = from; i < track_.size(); ++i) {
-        if ((track_[i].second - point).norm() < (track_[best].second - point).norm()) best = i;
+      double best_distance = (track_[from].second - point).norm();
+      for (size_t i = from + 1; i < track_.size(); ++i) {
+        const double d = (track_[i].second - point).norm();
+        if (d < best_distance) {
+          best = i;
+          best_distance = d;
+        }
       }
-      if (track_.empty()) break;
       auto distance = [&](double t) { return (in_.trajectory.Sample(t).position - point).norm(); };
       double lo = track_[best > from ? best - 1 : best].first;
       double hi = track_[best + 1 < track_.size() ? best + 1 : best].first;
@@ -192,9 +196,9 @@ class ViaPassage final : public SampledCheck {
       }
       double t = 0.5 * (lo + hi);
       double d = distance(t);
-      if (track_[best].second.allFinite() && (track_[best].second - point).norm() < d) {
+      if (best_distance < d) {  // the refinement never ends farther than the sample it began from
         t = track_[best].first;
-        d = (track_[best].second - point).norm();
+        d = best_distance;
       }
       report->via_times.push_back(t);
       const bool ok = d <= vias[k].tolerance;

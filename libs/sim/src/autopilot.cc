@@ -221,7 +221,9 @@ void Autopilot::EnterHold() {
 
 Setpoint Autopilot::CurrentSetpoint() const {
   if (mode_ != FlightMode::kOffboard || !armed_ || !have_offboard_) return hold_;
-  const VehicleState s = simulator_.Estimate();
+  // Where it believes it is (faults.estimate); the attitude is not faulted.
+  const Vec3 position = simulator_.EstimatedPosition();
+  const Quat& attitude = simulator_.state().attitude;
   Setpoint sp;
   const uint16_t m = offboard_.type_mask;
   // Ignore bits are per ENU axis here (converted on receipt). An ignored
@@ -229,11 +231,11 @@ Setpoint Autopilot::CurrentSetpoint() const {
   // velocity, acceleration and yaw rate are zero feed-forward; an ignored yaw
   // follows the vehicle's yaw (yaw-rate control).
   for (int i = 0; i < 3; ++i) {
-    sp.position[i] = (m & (typemask::kXIgnore << i)) ? s.position[i] : offboard_.position[i];
+    sp.position[i] = (m & (typemask::kXIgnore << i)) ? position[i] : offboard_.position[i];
     sp.velocity[i] = (m & (typemask::kVxIgnore << i)) ? 0.0 : offboard_.velocity[i];
     sp.acceleration[i] = (m & (typemask::kAxIgnore << i)) ? 0.0 : offboard_.acceleration[i];
   }
-  sp.yaw = (m & typemask::kYawIgnore) ? traj::HopfYawOf(s.attitude) : offboard_.yaw;
+  sp.yaw = (m & typemask::kYawIgnore) ? traj::HopfYawOf(attitude) : offboard_.yaw;
   sp.yaw_rate = (m & typemask::kYawRateIgnore) ? 0.0 : offboard_.yaw_rate;
   sp.joints = joint_target_;
   sp.joint_rates = joint_rate_target_;

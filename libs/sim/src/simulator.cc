@@ -54,12 +54,12 @@ Simulator::Simulator(VehicleModel model, uint64_t seed)
 }
 
 core::Status Simulator::SetPayload(double mass, const Vec3& offset) {
-  SimConfig config = model_.config();
-  const double real_mass = mass * config.faults.payload_mass_factor;
-  config.payload.attached = real_mass > 0.0;
-  config.payload.mass = real_mass > 0.0 ? real_mass : config.payload.mass;
-  config.payload.offset = offset;
-  auto model = VehicleModel::Create(model_.robot(), config);
+  PayloadConfig payload = model_.config().payload;
+  const double real_mass = mass * model_.config().faults.payload_mass_factor;
+  payload.attached = real_mass > 0.0;
+  payload.mass = real_mass > 0.0 ? real_mass : payload.mass;
+  payload.offset = offset;
+  auto model = model_.WithPayload(payload);
   if (!model.ok()) return model.status();
   // The controller learns the change of mass (the load's mass is known, as a
   // hover-thrust estimate would find it); the shift of the centre of mass is
@@ -83,17 +83,20 @@ void Simulator::Reset(const VehicleState& state, double time) {
   output_ = ControllerOutput{};
 }
 
+Vec3 Simulator::EstimatedPosition() const {
+  return state_.position + model_.config().faults.estimate.PositionErrorAt(time_);
+}
+
 VehicleState Simulator::Estimate() const {
   VehicleState estimate = state_;
-  const EstimateFault& fault = model_.config().faults.estimate;
-  estimate.position += fault.PositionErrorAt(time_);
-  estimate.velocity += fault.drift;
+  estimate.position = EstimatedPosition();
+  estimate.velocity += model_.config().faults.estimate.drift;
   return estimate;
 }
 
 Measurement Simulator::Measure() {
-  const VehicleState estimate = Estimate();
-  Measurement m{estimate.position, estimate.velocity, estimate.attitude, estimate.body_rate};
+  Measurement m{EstimatedPosition(), state_.velocity + model_.config().faults.estimate.drift, state_.attitude,
+                state_.body_rate};
   const NoiseConfig& noise = model_.config().noise;
   if (!noise.enabled) return m;
   std::normal_distribution<double> normal(0.0, 1.0);

@@ -38,6 +38,17 @@ Mat6 SpatialInertia(const MassProperties& body) {
 }
 
 core::Result<VehicleModel> VehicleModel::Create(const robot::RobotModel& robot, const SimConfig& config) {
+  return Create(robot, config, nullptr);
+}
+
+core::Result<VehicleModel> VehicleModel::WithPayload(const PayloadConfig& payload) const {
+  SimConfig config = config_;
+  config.payload = payload;
+  return Create(robot_, config, &drag_areas_);
+}
+
+core::Result<VehicleModel> VehicleModel::Create(const robot::RobotModel& robot, const SimConfig& config,
+                                                const std::vector<double>* drag_areas) {
   std::string why;
   if (!config.IsValid(&why)) return Status::InvalidArgument("simulator configuration: " + why);
   VehicleModel model(robot, config);
@@ -119,8 +130,10 @@ core::Result<VehicleModel> VehicleModel::Create(const robot::RobotModel& robot, 
   // Each arm link's drag area (faults.wind): Cd times the mean face area of
   // its collision geometry's box in its own frame, a frontal area that does
   // not depend on where the wind comes from. The base's is configured.
+  // Reused when only the payload changes (the collision meshes are read).
   model.drag_areas_.assign(robot.num_links(), 0.0);
-  for (int link : config.faults.wind.active() ? robot.CollisionLinks() : std::vector<int>{}) {
+  if (drag_areas != nullptr) model.drag_areas_ = *drag_areas;
+  for (int link : config.faults.wind.active() && drag_areas == nullptr ? robot.CollisionLinks() : std::vector<int>{}) {
     if (link == 0) continue;
     auto mesh = robot::LinkCollisionMesh(robot, link);
     if (!mesh.ok() || mesh->vertices.empty()) continue;

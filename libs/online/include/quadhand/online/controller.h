@@ -250,6 +250,14 @@ struct MeasuredState {
 std::optional<double> ToolGoalError(const robot::RobotModel& robot, const planner::Task& task,
                                     const MeasuredState& state);
 
+// The exact clearance of a measured state (its base pose and joints, the
+// link meshes against the scene's points), searched out to `reach`: what
+// the flight's verdict judges each state by and what the abort near the
+// goal watches. `kinematics` receives the state's forward kinematics;
+// `link` (optional) gets the closest link.
+double MeasuredClearance(const robot::RobotModel& robot, const env::ExactMeshModel& exact, const MeasuredState& state,
+                         double reach, robot::KinematicsState* kinematics, int* link = nullptr);
+
 // What the planner needs; the scene, task and solver must outlive the controller.
 struct PlanningSetup {
   planner::PlanningScene scene;
@@ -451,6 +459,11 @@ class OnlineController {
   void Fail(Phase phase, const std::string& why);
   planner::BoundaryState MeasuredBoundaryState() const;
   void RunHandshake(double t, ControllerOutput* out);
+  // Sends `command` (attempt attempts_) unless `confirmed`, retrying every
+  // ack_timeout up to max_command_attempts (then handshake_failed, "no
+  // <name> acknowledgement"); true once confirmed.
+  bool CommandUntilConfirmed(double t, Command command, bool confirmed, const std::string& name,
+                             ControllerOutput* out);
 
   PlanningSetup setup_;
   OnlineOptions options_;

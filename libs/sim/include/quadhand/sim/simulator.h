@@ -61,6 +61,8 @@ class Simulator {
   // position error (and its drift's velocity) added. It is what the
   // controller flies on (with the noise) and what telemetry reports.
   VehicleState Estimate() const;
+  // Its position alone (what the per-step loop needs, without copying the joints).
+  Vec3 EstimatedPosition() const;
   // The air's velocity over the last step (faults.wind), world.
   const Vec3& wind() const { return input_.wind; }
   const ControlInput& last_input() const { return input_; }

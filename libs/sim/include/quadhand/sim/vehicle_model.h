@@ -50,6 +50,9 @@ class VehicleModel {
   // a PCGC joint that is not a mimic joint, no `tool` link, servo limit lists
   // of the wrong length, or an invalid configuration.
   static core::Result<VehicleModel> Create(const robot::RobotModel& robot, const SimConfig& config);
+  // The same vehicle with another payload (Simulator::SetPayload: a gripper
+  // closing or opening), without reading the robot's meshes again.
+  core::Result<VehicleModel> WithPayload(const PayloadConfig& payload) const;
 
   const robot::RobotModel& robot() const { return robot_; }
   const SimConfig& config() const { return config_; }
@@ -93,6 +96,9 @@ class VehicleModel {
 
  private:
   VehicleModel(const robot::RobotModel& robot, const SimConfig& config) : robot_(robot), config_(config) {}
+  // `drag_areas`: this robot's, already computed (null: computed here).
+  static core::Result<VehicleModel> Create(const robot::RobotModel& robot, const SimConfig& config,
+                                           const std::vector<double>* drag_areas);
 
   robot::RobotModel robot_;
   SimConfig config_;
