@@ -127,6 +127,22 @@ TEST_F(PlanCliTest, RejectsBadTasks) {
     std::ofstream(path) << text;
     ExpectBadInput(path, urdf + ": link 'base'");
   }
+  {
+    // A 0.4 m box exported in millimetres and read as metres: refused in one
+    // line naming the link, not by exhausting memory while sampling it.
+    std::ofstream(dir_ / "mm.off") << "OFF\n8 6 0\n-200 -200 -200\n200 -200 -200\n200 200 -200\n-200 200 -200\n"
+                                      "-200 -200 200\n200 -200 200\n200 200 200\n-200 200 200\n4 0 3 2 1\n"
+                                      "4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7\n";
+    const std::string urdf = (dir_ / "mm.urdf").string();
+    std::ofstream(urdf) << "<robot name=\"r\"><link name=\"base\"><collision><geometry><mesh filename=\"mm.off\"/>"
+                           "</geometry></collision></link></robot>\n";
+    std::string text = testing::WindowCupTaskText({{"robot:", "robot: " + urdf}, {"  joints:", "  joints: []"},
+                                                   {"  tool:", ""}, {"    position: [-3.2", ""},
+                                                   {"    orientation:", ""}, {"    insertion:", ""}});
+    const std::string path = (dir_ / "mm_robot.yaml").string();
+    std::ofstream(path) << text;
+    ExpectBadInput(path, "link 'base': the collision mesh is 400 x 400 x 400 m");
+  }
 }
 
 // A scan as its sensor wrote it: the default scene in a sensor frame (PLY,

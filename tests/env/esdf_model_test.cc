@@ -111,6 +111,27 @@ TEST(LinkSurfaceSamplesTest, CoverEveryTriangleWithinTheSpacing) {
   EXPECT_EQ(covered, static_cast<int>(samples.points.size()));
 }
 
+TEST(LinkSurfaceSamplesTest, TheEstimateMatchesTheSamplesAndAMeshInMillimetresIsRefused) {
+  geometry::TriangleMesh box;  // a 0.3 m cube, two triangles per face
+  for (int i = 0; i < 8; ++i) box.vertices.emplace_back(0.3 * (i & 1), 0.3 * ((i >> 1) & 1), 0.3 * ((i >> 2) & 1));
+  const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& f : faces) {
+    box.triangles.emplace_back(f[0], f[1], f[2]);
+    box.triangles.emplace_back(f[0], f[2], f[3]);
+  }
+  const double spacing = 0.01;
+  const double sampled = static_cast<double>(SampleLinkSurface(box, spacing).points.size());
+  EXPECT_NEAR(EstimatedSurfaceSampleCount(box, spacing), sampled, 0.15 * sampled);
+  EXPECT_TRUE(CheckSurfaceSampleCount(box, spacing, "link 'small'").ok());
+  // The same cube read in millimetres: 300 m, 5.4e5 m^2.
+  for (Vec3& v : box.vertices) v *= 1000.0;
+  const core::Status refused = CheckSurfaceSampleCount(box, spacing, "link 'mm'");
+  EXPECT_EQ(refused.code(), core::StatusCode::kInvalidArgument);
+  EXPECT_NE(refused.message().find("link 'mm': the collision mesh is 300 x 300 x 300 m"), std::string::npos)
+      << refused.message();
+  EXPECT_NE(refused.message().find("scale=\"0.001\""), std::string::npos) << refused.message();
+}
+
 TEST(EsdfModelTest, DistancesMatchExactPointDistancesWithinAVoxel) {
   const std::vector<Vec3> points = SphereAndFloor();
   EsdfOptions options;

@@ -48,6 +48,10 @@ core::Result<std::unique_ptr<EsdfModel>> EsdfModel::Create(const robot::RobotMod
   for (int link : links) {
     auto mesh = robot::LinkCollisionMesh(robot, link);
     if (!mesh.ok()) return mesh.status().WithPrefix("esdf: link '" + robot.link(link).name + "'");
+    // Checked here too, for the link's name in the message.
+    const core::Status fits =
+        CheckSurfaceSampleCount(*mesh, options.surface_spacing, "esdf: link '" + robot.link(link).name + "'");
+    if (!fits.ok()) return fits;
     meshes.push_back(std::move(*mesh));
   }
   return Create(std::move(links), meshes, points, options);
@@ -77,6 +81,9 @@ core::Result<std::unique_ptr<EsdfModel>> EsdfModel::Create(std::vector<int> link
   model->links_ = std::move(links);
   model->slot_of_link_ = SlotsOfLinks(model->links_);
   for (size_t i = 0; i < model->links_.size(); ++i) {
+    const core::Status fits =
+        CheckSurfaceSampleCount(meshes[i], options.surface_spacing, "esdf: collision link " + std::to_string(model->links_[i]));
+    if (!fits.ok()) return fits;
     model->samples_.push_back(SampleLinkSurface(meshes[i], options.surface_spacing));
   }
 

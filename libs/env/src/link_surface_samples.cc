@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <tuple>
 
 namespace quadhand::env {
@@ -16,7 +17,37 @@ Key Quantize(const Vec3& p, double step) {
           static_cast<long long>(std::llround(p.z() / step))};
 }
 
+double SurfaceArea(const geometry::TriangleMesh& mesh) {
+  double area = 0.0;
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    area += 0.5 * (mesh.vertices[t[1]] - mesh.vertices[t[0]]).cross(mesh.vertices[t[2]] - mesh.vertices[t[0]]).norm();
+  }
+  return area;
+}
+
 }  // namespace
+
+double EstimatedSurfaceSampleCount(const geometry::TriangleMesh& mesh, double spacing) {
+  return SurfaceArea(mesh) / (spacing * spacing * std::sqrt(3.0) / 2.0) + static_cast<double>(mesh.vertices.size());
+}
+
+core::Status CheckSurfaceSampleCount(const geometry::TriangleMesh& mesh, double spacing, const std::string& what) {
+  const double count = EstimatedSurfaceSampleCount(mesh, spacing);
+  if (count <= kMaxSurfaceSamples) return core::Status::Ok();
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (const Vec3& v : mesh.vertices) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  const double area = SurfaceArea(mesh);
+  const Vec3 size = hi - lo;
+  char text[320];
+  std::snprintf(text, sizeof(text),
+                "the collision mesh is %.3g x %.3g x %.3g m with %.3g m^2 of surface; sampling it every %g mm "
+                "needs %.2g points, more than %.0g (a mesh in millimetres needs scale=\"0.001\" in the URDF)",
+                size.x(), size.y(), size.z(), area, spacing * 1e3, count, kMaxSurfaceSamples);
+  return core::Status::InvalidArgument(what + ": " + text);
+}
 
 LinkSurfaceSamples SampleLinkSurface(const geometry::TriangleMesh& mesh, double spacing, double cluster_size) {
   LinkSurfaceSamples out;

@@ -142,6 +142,12 @@ core::Result<std::unique_ptr<SelfCollisionModel>> SelfCollisionModel::Create(
     auto elements = robot::LinkCollisionElements(robot, link);
     if (!elements.ok()) return elements.status();
     for (const geometry::TriangleMesh& mesh : *elements) {
+      const core::Status fits =
+          CheckSurfaceSampleCount(mesh, std::min(options.sample_spacing, options.penalty_spacing),
+                                  "self-collision: link '" + robot.link(link).name + "'");
+      if (!fits.ok()) return fits;
+    }
+    for (const geometry::TriangleMesh& mesh : *elements) {
       if (!mesh.vertices.empty()) model->anchors_[link].push_back(mesh.vertices.front());
     }
     link_elements[link] = std::move(*elements);

@@ -152,6 +152,10 @@ core::Result<std::unique_ptr<SfcModel>> SfcModel::Create(const robot::RobotModel
   for (int link : links) {
     auto mesh = robot::LinkCollisionMesh(robot, link);
     if (!mesh.ok()) return mesh.status().WithPrefix("sfc: link '" + robot.link(link).name + "'");
+    // Checked here too, for the link's name in the message.
+    const core::Status fits =
+        CheckSurfaceSampleCount(*mesh, options.surface_spacing, "sfc: link '" + robot.link(link).name + "'");
+    if (!fits.ok()) return fits;
     meshes.push_back(std::move(*mesh));
   }
   return Create(std::move(links), meshes, points, path, options);
@@ -179,6 +183,9 @@ core::Result<std::unique_ptr<SfcModel>> SfcModel::Create(std::vector<int> links,
   model->links_ = std::move(links);
   model->slot_of_link_ = SlotsOfLinks(model->links_);
   for (size_t i = 0; i < model->links_.size(); ++i) {
+    const core::Status fits =
+        CheckSurfaceSampleCount(meshes[i], options.surface_spacing, "sfc: collision link " + std::to_string(model->links_[i]));
+    if (!fits.ok()) return fits;
     model->samples_.push_back(SampleLinkSurface(meshes[i], options.surface_spacing));
   }
 

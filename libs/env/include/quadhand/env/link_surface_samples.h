@@ -15,8 +15,10 @@
 // with one test (a cluster far from every obstacle, or deep inside a polytope).
 #pragma once
 
+#include <string>
 #include <vector>
 
+#include "quadhand/core/status.h"
 #include "quadhand/core/types.h"
 #include "quadhand/geometry/triangle_mesh.h"
 
@@ -38,5 +40,20 @@ struct LinkSurfaceSamples {
 // cluster_size > 0, metres. An empty mesh gives no samples.
 LinkSurfaceSamples SampleLinkSurface(const geometry::TriangleMesh& mesh, double spacing,
                                      double cluster_size = 0.04);
+
+// The most samples one mesh may need (about 200 MB while sampling). A robot
+// link or a held object of a few square metres stays far below it at any
+// allowed spacing; a mesh above it is almost always one exported in
+// millimetres and read as metres.
+inline constexpr double kMaxSurfaceSamples = 4e6;
+
+// About how many samples SampleLinkSurface gives (its area over
+// spacing^2 sqrt(3)/2, plus the vertices), without sampling.
+double EstimatedSurfaceSampleCount(const geometry::TriangleMesh& mesh, double spacing);
+
+// Ok when sampling `mesh` at `spacing` stays within kMaxSurfaceSamples;
+// otherwise InvalidArgument naming `what`, the mesh's area and size, so
+// that a wrong unit is refused in one line rather than exhausting memory.
+core::Status CheckSurfaceSampleCount(const geometry::TriangleMesh& mesh, double spacing, const std::string& what);
 
 }  // namespace quadhand::env
