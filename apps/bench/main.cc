@@ -164,17 +164,31 @@ int main(int argc, char** argv) {
   robot::PrependRosPackagePath(package_path);
   auto context = planner::PlanningContext::Load(config->task_path, context_options);
   if (!context.ok()) return Fail(context.status().message());
+  const planner::Task* task = &(*context)->task();
+  const robot::RobotModel* robot = &(*context)->robot();
+  const env::ExactMeshModel* exact = &(*context)->exact();
+  // Every trial's start is drawn before anything is printed, so that a start
+  // box with no free start is refused in the one line of bad input.
+  const int mine = (trials + shards - 1 - ((shard - first % shards + shards) % shards)) / shards;
+  std::map<int, planner::BoundaryState> starts;
+  for (int k = first; k < first + trials; ++k) {
+    if (k % shards != shard) continue;
+    planner::BoundaryState start = task->start;
+    if (!DrawStart(static_cast<unsigned>(k), *config, *robot, *exact, task->safety_distance, &start)) {
+      return Fail(config_path + ": start_box: trial " + std::to_string(k) +
+                  ": no start clear of the scene by the safety distance in 1000 draws");
+    }
+    start.joint_rates = VecX::Zero(robot->num_actuated());
+    starts.emplace(k, std::move(start));
+  }
   std::fprintf(stderr, "loaded %s and built %zu representation(s)\n", config->task_path.c_str(),
                representations.size());
-  const planner::Task* task = &(*context)->task();
   for (const std::string& repair : robot::TakeMeshRepairReports()) {
     std::fprintf(stderr, "quadhand-bench: %s\n", repair.c_str());
   }
   for (const std::string& caution : planner::TaskCautions(*task)) {
     std::fprintf(stderr, "quadhand-bench: caution: %s\n", caution.c_str());
   }
-  const robot::RobotModel* robot = &(*context)->robot();
-  const env::ExactMeshModel* exact = &(*context)->exact();
   const planner::PlannerOptions options = planner_config->planner;
 
   std::ostringstream lines;
@@ -183,14 +197,9 @@ int main(int argc, char** argv) {
   // representation's are built by its first trial and kept.
   std::vector<planner::MissionPhaseCache> phases((*context)->representations().size());
   int done = 0;
-  const int mine = (trials + shards - 1 - ((shard - first % shards + shards) % shards)) / shards;
-  for (int k = first; k < first + trials; ++k) {
-    if (k % shards != shard) continue;
+  for (const auto& [k, start] : starts) {
     planner::Task trial = *task;
-    if (!DrawStart(static_cast<unsigned>(k), *config, *robot, *exact, task->safety_distance, &trial.start)) {
-      return Fail("trial " + std::to_string(k) + ": no collision-free start found in 1000 draws");
-    }
-    trial.start.joint_rates = VecX::Zero(robot->num_actuated());
+    trial.start = start;
     for (size_t ri = 0; ri < (*context)->representations().size(); ++ri) {
       const planner::Representation& model = (*context)->representations()[ri];
       for (size_t si = 0; si < solver_list.size(); ++si) {

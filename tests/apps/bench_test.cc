@@ -121,6 +121,15 @@ TEST_F(BenchCliTest, BadInputExitsWithTwoAndOneLine) {
   ExpectBadInput("--config " + Path("twice.yaml"), "duplicate key 'task'");
   // Found before any trial runs (2^31 - 1 - 600 + 1000 overflows an int).
   ExpectBadInput(" --config " + Config() + " --first 2147483000 --trials 1000", "--first + --trials");
+  // A start box inside the first wall: refused before anything else is printed.
+  std::ofstream(Path("in_wall.yaml")) << "task: task.yaml\nstart_box: {min: [-1.02, 1.0, 1.4], max: [-0.98, 1.2, 1.5]}\n";
+  {
+    const auto r = RunCommand(kBench + " --config " + Path("in_wall.yaml") + " --trials 2 --out " + Path("bad.jsonl"));
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(CountLines(r.err), 1) << r.err;
+    EXPECT_NE(r.err.find("in_wall.yaml: start_box: trial 0: no start clear of the scene"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(Path("bad.jsonl")));
+  }
   for (const std::string& out : {dir_.string(), Config(), Path("missing/records.jsonl")}) {
     const auto r = RunCommand(kBench + config + " --out " + out);
     EXPECT_EQ(r.exit_code, 2) << out << "\n" << r.err;
