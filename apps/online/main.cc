@@ -559,6 +559,9 @@ int main(int argc, char** argv) {
   }
   std::printf("\n");
   if (!judgement.empty()) std::printf("  %s\n", judgement.c_str());
+  // What the vehicle does now that quadhand-online stops steering it.
+  std::printf("  the autopilot was last seen in %s, %s\n", online::AutopilotModeName(controller.autopilot_mode()),
+              controller.autopilot_armed() ? "armed" : "disarmed");
   if (send_errors > 0) std::printf("  %ld sends failed (first: %s)\n", send_errors, first_send_error.c_str());
   std::vector<double> replan_ms, warm_ms;
   int replan_failures = 0, fallbacks = 0;

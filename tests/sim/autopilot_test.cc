@@ -252,6 +252,63 @@ TEST_F(AutopilotTest, OffboardLossHoldsPosition) {
   EXPECT_EQ(All<link::Heartbeat>(sent_).back().custom_mode, link::mav::Px4CustomMode(link::mav::kPx4MainModePosition));
 }
 
+TEST_F(AutopilotTest, TheLandFailsafeHoldsForItsDelayThenLandsAndDisarms) {
+  SimConfig config = testing::Config();
+  config.failsafe.action = FailsafeConfig::Action::kLand;
+  config.failsafe.delay = 2.0;
+  config.failsafe.land_speed = 0.5;
+  config.failsafe.land_height = 0.2;
+  AutopilotOptions options;
+  StartPose start;
+  start.position = Vec3(0.5, 0, 1.2);
+  auto created = Autopilot::Create(Simulator(Model(config), 7), start, options);
+  ASSERT_TRUE(created.ok()) << created.status().message();
+  autopilot_ = std::make_unique<Autopilot>(std::move(*created));
+  GoOffboard(PositionTarget(start.position, 0.0));
+  const double t_stop = autopilot_->time();
+  sent_.clear();
+  AdvanceTo(t_stop + 0.6);
+  EXPECT_EQ(autopilot_->mode(), FlightMode::kPosition);  // the hold first
+  AdvanceTo(t_stop + 2.4);
+  EXPECT_EQ(autopilot_->mode(), FlightMode::kPosition);
+  EXPECT_NEAR(autopilot_->state().position.z(), 1.2, 0.02);
+  AdvanceTo(t_stop + 2.6);
+  ASSERT_EQ(autopilot_->mode(), FlightMode::kLand);
+  // Straight down at the land speed: a second in, about 0.5 m lower, same x, y.
+  AdvanceTo(t_stop + 3.6);
+  EXPECT_NEAR(autopilot_->state().position.z(), 1.2 - 0.5 * 1.0, 0.1);
+  EXPECT_NEAR(autopilot_->state().position.x(), 0.5, 0.03);
+  EXPECT_TRUE(autopilot_->armed());
+  AdvanceTo(t_stop + 6.0);
+  EXPECT_NEAR(autopilot_->state().position.z(), 0.2, 0.03);
+  EXPECT_FALSE(autopilot_->armed());
+  std::vector<std::string> texts;
+  for (const link::StatusText& text : All<link::StatusText>(sent_)) texts.push_back(text.text);
+  ASSERT_EQ(texts.size(), 3u);
+  EXPECT_NE(texts[0].find("Offboard lost"), std::string::npos);
+  EXPECT_EQ(texts[1], "Failsafe: landing");
+  EXPECT_EQ(texts[2], "Landed");
+  EXPECT_EQ(All<link::Heartbeat>(sent_).back().custom_mode,
+            link::mav::Px4CustomMode(link::mav::kPx4MainModeAuto, link::mav::kPx4AutoSubModeLand));
+}
+
+TEST_F(AutopilotTest, AModeChangeDuringTheFailsafesHoldCancelsTheLand) {
+  SimConfig config = testing::Config();
+  config.failsafe.action = FailsafeConfig::Action::kLand;
+  config.failsafe.delay = 3.0;
+  auto created = Autopilot::Create(Simulator(Model(config), 7), StartPose{}, AutopilotOptions{});
+  ASSERT_TRUE(created.ok()) << created.status().message();
+  autopilot_ = std::make_unique<Autopilot>(std::move(*created));
+  GoOffboard(PositionTarget(Vec3(0, 0, 1), 0.0));
+  AdvanceTo(autopilot_->time() + 0.7);
+  ASSERT_EQ(autopilot_->mode(), FlightMode::kPosition);
+  // The planner is back: streams, and asks for OFFBOARD again within the delay.
+  GoOffboard(PositionTarget(Vec3(0, 0, 1), 0.0));
+  Stream(PositionTarget(Vec3(0, 0, 1), 0.0), autopilot_->time() + 2.0);
+  EXPECT_EQ(autopilot_->mode(), FlightMode::kOffboard);
+  EXPECT_TRUE(autopilot_->armed());
+}
+
 TEST_F(AutopilotTest, JointSetpointsMoveTheJoints) {
   const VecX start = autopilot_->state().joints;
   link::DebugFloatArray array;

@@ -265,6 +265,14 @@ TEST(FaultConfigTest, TheKeysAreReadAndBadValuesNamed) {
   EXPECT_EQ(f.estimate.jump, Vec3(0.02, 0, 0));
   EXPECT_EQ(f.estimate.freeze_duration, 1.0);
   EXPECT_EQ(f.estimate.nan_time, 6.0);
+  EXPECT_EQ(parsed->failsafe.action, FailsafeConfig::Action::kHold);  // the default
+  auto land = ParseSimConfig(robot + "failsafe: {action: land, delay: 2, land_speed: 0.5, land_height: 0.1}\n", ".",
+                             "f.yaml");
+  ASSERT_TRUE(land.ok()) << land.status().message();
+  EXPECT_EQ(land->failsafe.action, FailsafeConfig::Action::kLand);
+  EXPECT_EQ(land->failsafe.delay, 2.0);
+  EXPECT_EQ(land->failsafe.land_speed, 0.5);
+  EXPECT_EQ(land->failsafe.land_height, 0.1);
   const std::pair<std::string, std::string> bad[] = {
       {"faults: {wind: {gusts: 1}}", "f.yaml: faults.wind.gusts: unknown key"},
       {"faults: {wind: {steady: [40, 0, 0]}}", "faults.wind.steady must be at most 30 m/s"},
@@ -275,6 +283,10 @@ TEST(FaultConfigTest, TheKeysAreReadAndBadValuesNamed) {
       {"faults: {payload_mass_factor: .nan}", "f.yaml: faults.payload_mass_factor: must be finite"},
       {"faults: {estimate: {freeze: {time: 1}}}", "f.yaml: faults.estimate.freeze.duration: missing"},
       {"faults: {estimate: {jump: {time: 1}}}", "f.yaml: faults.estimate.jump.offset: missing"},
+      {"failsafe: {action: fly}", "f.yaml: failsafe.action: must be hold or land, not 'fly'"},
+      {"failsafe: {land_speed: 0}", "failsafe.land_speed must be in (0, 5] m/s"},
+      {"failsafe: {delay: -1}", "failsafe.delay must be in [0, 3600] s"},
+      {"failsafe: {hold: 1}", "f.yaml: failsafe.hold: unknown key"},
   };
   for (const auto& [text, fragment] : bad) {
     auto r = ParseSimConfig(robot + text + "\n", ".", "f.yaml");

@@ -34,6 +34,18 @@ constexpr double kRestSpeed = 0.05;      // m/s: a holding vehicle, planned from
 
 }  // namespace
 
+const char* AutopilotModeName(AutopilotMode mode) {
+  switch (mode) {
+    case AutopilotMode::kOffboard: return "OFFBOARD";
+    case AutopilotMode::kPosition: return "POSITION";
+    case AutopilotMode::kHold: return "HOLD";
+    case AutopilotMode::kLand: return "LAND";
+    case AutopilotMode::kOther: return "another mode";
+    case AutopilotMode::kUnknown: break;
+  }
+  return "an unknown mode";
+}
+
 const char* PhaseName(Phase phase) {
   switch (phase) {
     case Phase::kWaitingForVehicle: return "waiting_for_vehicle";
@@ -510,6 +522,17 @@ void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
   if (confirmed_phase && (!armed || !offboard) && t - confirmed_time_ > grace && !arrival_done_) {
     Fail(Phase::kHandshakeFailed, std::string("the vehicle left ") + (!offboard ? "OFFBOARD" : "the armed state"));
   }
+}
+
+void OnlineController::OnAutopilotMode(double t, AutopilotMode mode, bool armed) {
+  (void)t;
+  if (mode == autopilot_mode_) return;
+  const bool first = autopilot_mode_ == AutopilotMode::kUnknown;
+  autopilot_mode_ = mode;
+  if (first) return;
+  std::string text = std::string("the autopilot is now in ") + AutopilotModeName(mode) + (armed ? "" : " (disarmed)");
+  if (mode == AutopilotMode::kLand) text += ": it is landing (its failsafe, or its pilot)";
+  Event(text);
 }
 
 void OnlineController::OnCommandAck(double t, Command command, AckResult result) {

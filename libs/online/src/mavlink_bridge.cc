@@ -9,6 +9,18 @@ namespace {
 
 constexpr uint8_t kResultInProgress = 5;  // MAV_RESULT_IN_PROGRESS
 
+// PX4's custom mode: main mode in bits 16..23, AUTO's sub mode in 24..31.
+AutopilotMode Px4Mode(bool custom, uint32_t custom_mode) {
+  if (!custom) return AutopilotMode::kOther;
+  const uint32_t main_mode = (custom_mode >> 16) & 0xFFu, sub_mode = (custom_mode >> 24) & 0xFFu;
+  constexpr uint32_t kAutoSubModeLoiter = 3;  // PX4's Hold
+  if (main_mode == link::mav::kPx4MainModeOffboard) return AutopilotMode::kOffboard;
+  if (main_mode == link::mav::kPx4MainModePosition) return AutopilotMode::kPosition;
+  if (main_mode == link::mav::kPx4MainModeAuto && sub_mode == link::mav::kPx4AutoSubModeLand) return AutopilotMode::kLand;
+  if (main_mode == link::mav::kPx4MainModeAuto && sub_mode == kAutoSubModeLoiter) return AutopilotMode::kHold;
+  return AutopilotMode::kOther;
+}
+
 uint32_t TimeBootMs(double t) { return static_cast<uint32_t>(std::llround(std::max(0.0, t) * 1e3)); }
 
 }  // namespace
@@ -22,6 +34,7 @@ bool DeliverToController(const link::Message& message, uint8_t from_system, doub
     const bool custom = (heartbeat->base_mode & link::mav::kModeFlagCustomModeEnabled) != 0;
     const uint32_t main_mode = (heartbeat->custom_mode >> 16) & 0xFFu;
     controller->OnHeartbeat(t, armed, custom && main_mode == link::mav::kPx4MainModeOffboard);
+    controller->OnAutopilotMode(t, Px4Mode(custom, heartbeat->custom_mode), armed);
     return true;
   }
   if (const auto* position = std::get_if<link::LocalPositionNed>(&message)) {

@@ -73,7 +73,17 @@ bool AutopilotOptions::IsValid(std::string* why) const {
   return true;
 }
 
-const char* FlightModeName(FlightMode mode) { return mode == FlightMode::kOffboard ? "OFFBOARD" : "POSITION"; }
+const char* FlightModeName(FlightMode mode) {
+  switch (mode) {
+    case FlightMode::kOffboard:
+      return "OFFBOARD";
+    case FlightMode::kLand:
+      return "LAND";
+    case FlightMode::kPosition:
+      break;
+  }
+  return "POSITION";
+}
 
 core::Result<StartPose> ParseStartPose(const std::string& text) {
   auto bad = [&]() {
@@ -220,6 +230,15 @@ void Autopilot::EnterHold() {
 }
 
 Setpoint Autopilot::CurrentSetpoint() const {
+  if (mode_ == FlightMode::kLand) {
+    // Straight down from where it held, at the land speed, to the ground.
+    const FailsafeConfig& failsafe = simulator_.model().config().failsafe;
+    Setpoint sp = hold_;
+    const double z = hold_.position.z() - failsafe.land_speed * (time() - land_start_time_);
+    sp.position.z() = std::max(failsafe.land_height, z);
+    if (z > failsafe.land_height) sp.velocity.z() = -failsafe.land_speed;
+    return sp;
+  }
   if (mode_ != FlightMode::kOffboard || !armed_ || !have_offboard_) return hold_;
   // Where it believes it is (faults.estimate); the attitude is not faulted.
   const Vec3 position = simulator_.EstimatedPosition();
@@ -280,6 +299,7 @@ void Autopilot::HandleCommand(const link::CommandLong& command, uint8_t from_sys
       ack.result = link::mav::kResultDenied;
     } else if (main_mode == static_cast<long>(link::mav::kPx4MainModePosition)) {
       if (mode_ != FlightMode::kPosition) EnterHold();
+      land_pending_ = false;
       ack.result = link::mav::kResultAccepted;
     } else if (main_mode == static_cast<long>(link::mav::kPx4MainModeOffboard)) {
       const bool streaming = have_offboard_ && now - last_setpoint_time_ <= options_.offboard_timeout + kTimeEpsilon &&
@@ -288,6 +308,7 @@ void Autopilot::HandleCommand(const link::CommandLong& command, uint8_t from_sys
         ack.result = link::mav::kResultAccepted;
       } else if (streaming) {
         mode_ = FlightMode::kOffboard;
+        land_pending_ = false;
         // Without a fresh JOINT_SP the arm keeps the pose it holds now.
         if (now - last_joint_setpoint_time_ > options_.offboard_timeout + kTimeEpsilon) {
           joint_target_ = hold_.joints;
@@ -313,7 +334,8 @@ void Autopilot::HandleCommand(const link::CommandLong& command, uint8_t from_sys
       // Disarmed in the air: a real vehicle would fall; the simulated one
       // keeps hovering in POSITION mode where it is.
       armed_ = false;
-      if (mode_ == FlightMode::kOffboard) EnterHold();
+      if (mode_ != FlightMode::kPosition) EnterHold();
+      land_pending_ = false;
       ack.result = link::mav::kResultAccepted;
     } else {
       ack.result = link::mav::kResultDenied;
@@ -416,10 +438,34 @@ core::Status Autopilot::AdvanceTo(double t, std::vector<link::Message>* out) {
     if (mode_ == FlightMode::kOffboard && time() - last_setpoint_time_ > options_.offboard_timeout + kTimeEpsilon) {
       EnterHold();
       out->push_back(Text(kSeverityWarning, "Offboard lost: holding position"));
+      land_pending_ = simulator_.model().config().failsafe.action == FailsafeConfig::Action::kLand;
+      failsafe_since_ = time();
     }
+    AdvanceFailsafe(out);
     EmitDue(out);
   }
   return core::Status::Ok();
+}
+
+void Autopilot::AdvanceFailsafe(std::vector<link::Message>* out) {
+  const FailsafeConfig& failsafe = simulator_.model().config().failsafe;
+  if (land_pending_ && mode_ == FlightMode::kPosition && time() >= failsafe_since_ + failsafe.delay - kTimeEpsilon) {
+    land_pending_ = false;
+    mode_ = FlightMode::kLand;
+    land_start_time_ = time();
+    landed_ = false;
+    out->push_back(Text(kSeverityWarning, "Failsafe: landing"));
+  }
+  // Landed once it believes it is at the ground and has stopped (PX4's land
+  // detector, without a ground to touch): disarmed, as PX4 disarms after
+  // landing; the simulated vehicle then stays there.
+  if (mode_ == FlightMode::kLand && !landed_ && CurrentSetpoint().position.z() <= failsafe.land_height &&
+      std::abs(simulator_.EstimatedPosition().z() - failsafe.land_height) < 0.05 &&
+      simulator_.state().velocity.norm() < 0.1) {
+    landed_ = true;
+    armed_ = false;
+    out->push_back(Text(kSeverityInfo, "Landed"));
+  }
 }
 
 void Autopilot::EmitDue(std::vector<link::Message>* out) {
@@ -429,8 +475,10 @@ void Autopilot::EmitDue(std::vector<link::Message>* out) {
     heartbeat.type = link::mav::kTypeQuadrotor;
     heartbeat.autopilot = link::mav::kAutopilotPx4;
     heartbeat.base_mode = link::mav::kModeFlagCustomModeEnabled | (armed_ ? link::mav::kModeFlagSafetyArmed : 0);
-    heartbeat.custom_mode = link::mav::Px4CustomMode(mode_ == FlightMode::kOffboard ? link::mav::kPx4MainModeOffboard
-                                                                                    : link::mav::kPx4MainModePosition);
+    heartbeat.custom_mode =
+        mode_ == FlightMode::kOffboard ? link::mav::Px4CustomMode(link::mav::kPx4MainModeOffboard)
+        : mode_ == FlightMode::kLand   ? link::mav::Px4CustomMode(link::mav::kPx4MainModeAuto, link::mav::kPx4AutoSubModeLand)
+                                       : link::mav::Px4CustomMode(link::mav::kPx4MainModePosition);
     heartbeat.system_status = armed_ ? link::mav::kStateActive : link::mav::kStateStandby;
     out->push_back(heartbeat);
     next_heartbeat_ += options_.heartbeat_period;

@@ -51,6 +51,7 @@ class Reader {
     return Status::Ok();
   }
   std::string Missing(const std::string& key) const { return source_ + ": " + Join(key) + ": missing"; }
+  Status Invalid(const std::string& key, const std::string& what) const { return Bad(Join(key), what); }
   Status Get(const std::string& key, bool* value) const {
     if (!Has(key)) return Status::Ok();
     try {
@@ -166,7 +167,7 @@ Status ParseFaults(const Reader& f, FaultConfig* faults) {
 Status ParseInto(const YAML::Node& root, const std::string& base_dir, const std::string& source, SimConfig* c) {
   const Reader r(root, "", source);
   QUADHAND_RETURN_IF_ERROR(r.CheckKeys({"robot", "step", "gravity", "pcgc", "payload", "rotors", "linear_drag",
-                                        "servo", "controller", "noise", "faults"}));
+                                        "servo", "controller", "noise", "faults", "failsafe"}));
   std::string robot;
   QUADHAND_RETURN_IF_ERROR(r.Get("robot", &robot));
   if (!robot.empty()) c->robot_path = core::ResolvePath(base_dir, robot);
@@ -235,6 +236,17 @@ Status ParseInto(const YAML::Node& root, const std::string& base_dir, const std:
     QUADHAND_RETURN_IF_ERROR(p.Get("body_rate", &c->noise.body_rate));
   }
   if (r.Has("faults")) QUADHAND_RETURN_IF_ERROR(ParseFaults(r.Child("faults"), &c->faults));
+  if (r.Has("failsafe")) {
+    const Reader p = r.Child("failsafe");
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"action", "delay", "land_speed", "land_height"}));
+    std::string action = c->failsafe.action == FailsafeConfig::Action::kLand ? "land" : "hold";
+    QUADHAND_RETURN_IF_ERROR(p.Get("action", &action));
+    if (action != "hold" && action != "land") return p.Invalid("action", "must be hold or land, not '" + action + "'");
+    c->failsafe.action = action == "land" ? FailsafeConfig::Action::kLand : FailsafeConfig::Action::kHold;
+    QUADHAND_RETURN_IF_ERROR(p.Get("delay", &c->failsafe.delay));
+    QUADHAND_RETURN_IF_ERROR(p.Get("land_speed", &c->failsafe.land_speed));
+    QUADHAND_RETURN_IF_ERROR(p.Get("land_height", &c->failsafe.land_height));
+  }
   return Status::Ok();
 }
 
@@ -299,6 +311,11 @@ bool SimConfig::IsValid(std::string* why) const {
       !in(noise.body_rate, 0.0, 10.0)) {
     return Fail(why, "noise standard deviations must be in [0, 1] m, [0, 10] m/s, [0, 1] rad and [0, 10] rad/s");
   }
+  if (!in(failsafe.delay, 0.0, 3600.0)) return Fail(why, "failsafe.delay must be in [0, 3600] s");
+  if (!(failsafe.land_speed > 0.0 && failsafe.land_speed <= 5.0)) {
+    return Fail(why, "failsafe.land_speed must be in (0, 5] m/s");
+  }
+  if (!in(failsafe.land_height, -1000.0, 1000.0)) return Fail(why, "failsafe.land_height must be in [-1000, 1000] m");
   // The joint count is the robot's: VehicleModel::Create checks the stalled
   // joint against it.
   return faults.IsValid(1 << 20, why);

@@ -37,10 +37,15 @@ constexpr uint8_t kResultTemporarilyRejected = 1;
 constexpr uint8_t kResultDenied = 2;
 constexpr uint8_t kResultUnsupported = 3;
 constexpr uint8_t kResultFailed = 4;
-// PX4 custom mode: main mode in bits 16..23 of custom_mode.
+// PX4 custom mode: main mode in bits 16..23 of custom_mode, sub mode in
+// bits 24..31 (AUTO's LAND is main 4, sub 6).
 constexpr uint32_t kPx4MainModePosition = 3;
+constexpr uint32_t kPx4MainModeAuto = 4;
 constexpr uint32_t kPx4MainModeOffboard = 6;
-constexpr uint32_t Px4CustomMode(uint32_t main_mode) { return main_mode << 16; }
+constexpr uint32_t kPx4AutoSubModeLand = 6;
+constexpr uint32_t Px4CustomMode(uint32_t main_mode, uint32_t sub_mode = 0) {
+  return (main_mode << 16) | (sub_mode << 24);
+}
 }  // namespace mav
 
 struct Heartbeat {  // HEARTBEAT (0)

@@ -233,6 +233,11 @@ struct CommandRequest {
 // How an acknowledgement answered a command.
 enum class AckResult { kAccepted, kTemporarilyRejected, kRejected };
 
+// The autopilot's flight mode as its heartbeat gives it (PX4 custom modes):
+// what the vehicle does when quadhand-online does not steer it.
+enum class AutopilotMode { kUnknown, kOffboard, kPosition, kHold, kLand, kOther };
+const char* AutopilotModeName(AutopilotMode mode);  // "OFFBOARD", "POSITION", "HOLD", "LAND", ...
+
 // The latest measurements, ENU/FLU (what the controller plans from).
 struct MeasuredState {
   double time = 0.0;  // controller time of the position
@@ -370,6 +375,11 @@ class OnlineController {
   void OnJoints(double t, const VecX& joints, const VecX& joint_rates);
   // The vehicle's heartbeat: armed flag and whether it is in OFFBOARD.
   void OnHeartbeat(double t, bool armed, bool offboard);
+  // The mode the same heartbeat gives: each change is an event, so that
+  // the log says what the autopilot did (a failsafe's hold or land).
+  void OnAutopilotMode(double t, AutopilotMode mode, bool armed);
+  AutopilotMode autopilot_mode() const { return autopilot_mode_; }
+  bool autopilot_armed() const { return vehicle_armed_; }
   void OnCommandAck(double t, Command command, AckResult result);
   // A TIMESYNC answer (tc1: the vehicle's ns, ts1: ours) arrived at t.
   void OnTimesync(double t, int64_t tc1, int64_t ts1);
@@ -481,6 +491,7 @@ class OnlineController {
   VecX joints_, joint_rates_;
   double attitude_time_ = -1e300, joints_time_ = -1e300;
   bool vehicle_armed_ = false, vehicle_offboard_ = false, seen_heartbeat_ = false;
+  AutopilotMode autopilot_mode_ = AutopilotMode::kUnknown;
   ClockSync clock_;
   bool position_checked_ = true;    // the newest position was looked at by CheckTracking
   bool age_noted_ = true;           // the newest position's age is in the stats

@@ -18,6 +18,10 @@
 //   is what PX4's commander answers to a refused mode change.
 // - Offboard loss: no SET_POSITION_TARGET_LOCAL_NED for `offboard_timeout` s
 //   in OFFBOARD -> POSITION, holding where the vehicle is, with a STATUSTEXT.
+//   With the configuration's failsafe.action `land` (config.h), still in
+//   that hold `failsafe.delay` s later -> LAND (AUTO.LAND): a vertical
+//   descent at `land_speed` to `land_height`, then disarmed. A mode change
+//   requested before then cancels it.
 // - TIMESYNC: a request (tc1 = 0) is answered with tc1 = the simulated time
 //   in ns (the clock of every time stamp it sends) and the request's ts1.
 // - Sends HEARTBEAT every `heartbeat_period` and LOCAL_POSITION_NED,
@@ -81,8 +85,8 @@ struct AutopilotOptions {
   bool IsValid(std::string* why) const;
 };
 
-enum class FlightMode { kPosition, kOffboard };
-const char* FlightModeName(FlightMode mode);  // "POSITION", "OFFBOARD"
+enum class FlightMode { kPosition, kOffboard, kLand };
+const char* FlightModeName(FlightMode mode);  // "POSITION", "OFFBOARD", "LAND"
 
 // Where the vehicle starts hovering: ENU position, yaw (rad, from east,
 // counter-clockwise) and actuated joint angles (URDF order).
@@ -160,6 +164,9 @@ class Autopilot {
   void HandleJointSetpoint(const link::DebugFloatArray& array);
   // POSITION mode holding the current position, yaw and joints.
   void EnterHold();
+  // The failsafe's land after its hold: starts it when due, and disarms
+  // once landed (failsafe in config.h).
+  void AdvanceFailsafe(std::vector<link::Message>* out);
   void EmitDue(std::vector<link::Message>* out);
   void RecordFlown();
 
@@ -186,6 +193,12 @@ class Autopilot {
   uint64_t setpoints_rejected_ = 0;
   bool gripper_closed_ = false;
   int next_load_ = 0;
+  // The offboard-loss failsafe's land: pending from the loss until it
+  // starts or a mode change cancels it.
+  bool land_pending_ = false;
+  double failsafe_since_ = 0.0;
+  double land_start_time_ = 0.0;
+  bool landed_ = false;
   std::vector<PlanRow> flown_;
 };
 

@@ -73,6 +73,19 @@ struct NoiseConfig {
   double body_rate = 0.01;   // rad/s
 };
 
+// What the autopilot does once the offboard stream is lost (docs/sim.md,
+// "Failsafe"), after PX4's COM_OBL_RC_ACT and COM_FAIL_ACT_T: it always
+// holds first; `land` then lands after `delay`. Hold is the default because
+// an aerial manipulator between obstacles has no free space below it that
+// anyone checked: a blind descent there is what the failsafe must avoid.
+struct FailsafeConfig {
+  enum class Action { kHold, kLand };
+  Action action = Action::kHold;
+  double delay = 5.0;        // s of hold before landing (COM_FAIL_ACT_T)
+  double land_speed = 0.7;   // m/s of descent (MPC_LAND_SPEED)
+  double land_height = 0.0;  // world z of the base frame when landed: no ground contact is simulated
+};
+
 struct SimConfig {
   std::string robot_path;           // URDF, resolved against the YAML file's folder
   double step = 0.001;              // RK4 step = control period, s (<= 0.002: at least 500 Hz)
@@ -90,6 +103,7 @@ struct SimConfig {
   ControllerConfig controller;
   NoiseConfig noise;
   FaultConfig faults;  // faults.h; none by default
+  FailsafeConfig failsafe;
 
   // Checks ranges; `why` (optional) names the first bad key.
   bool IsValid(std::string* why) const;
