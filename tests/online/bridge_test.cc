@@ -107,6 +107,41 @@ TEST(BridgeTest, SetpointMessagesCarryNedValuesAndTheJointLayout) {
   EXPECT_EQ(arm.target_system, 1);
 }
 
+TEST(BridgeTest, TheAutopilotsModeIsReadFromItsHeartbeatAndEachChangeIsAnEvent) {
+  auto controller = MakeController();
+  const LinkTargets targets;
+  auto heartbeat = [&](uint32_t custom_mode, bool armed) {
+    link::Heartbeat h;
+    h.type = link::mav::kTypeQuadrotor;
+    h.autopilot = link::mav::kAutopilotPx4;
+    h.base_mode = link::mav::kModeFlagCustomModeEnabled | (armed ? link::mav::kModeFlagSafetyArmed : 0);
+    h.custom_mode = custom_mode;
+    return h;
+  };
+  EXPECT_EQ(controller->autopilot_mode(), AutopilotMode::kUnknown);
+  DeliverToController(heartbeat(link::mav::Px4CustomMode(link::mav::kPx4MainModePosition), false), 1, 0.0, targets,
+                      controller.get());
+  EXPECT_EQ(controller->autopilot_mode(), AutopilotMode::kPosition);
+  DeliverToController(heartbeat(link::mav::Px4CustomMode(link::mav::kPx4MainModeOffboard), true), 1, 1.0, targets,
+                      controller.get());
+  EXPECT_EQ(controller->autopilot_mode(), AutopilotMode::kOffboard);
+  DeliverToController(
+      heartbeat(link::mav::Px4CustomMode(link::mav::kPx4MainModeAuto, link::mav::kPx4AutoSubModeLand), true), 1, 2.0,
+      targets, controller.get());
+  EXPECT_EQ(controller->autopilot_mode(), AutopilotMode::kLand);
+  DeliverToController(heartbeat(link::mav::Px4CustomMode(link::mav::kPx4MainModeAuto, 3), true), 1, 3.0, targets,
+                      controller.get());
+  EXPECT_EQ(controller->autopilot_mode(), AutopilotMode::kHold);
+  const std::vector<std::string> events = controller->Tick(3.0).events;
+  std::string all;
+  for (const std::string& e : events) all += e + "\n";
+  // The first mode seen is no change; the three after it are.
+  EXPECT_NE(all.find("the autopilot is now in OFFBOARD"), std::string::npos) << all;
+  EXPECT_NE(all.find("the autopilot is now in LAND: it is landing"), std::string::npos) << all;
+  EXPECT_NE(all.find("the autopilot is now in HOLD"), std::string::npos) << all;
+  EXPECT_EQ(all.find("now in POSITION"), std::string::npos) << all;
+}
+
 TEST(BridgeTest, TelemetryReachesTheControllerInEnu) {
   auto controller = MakeController();
   const LinkTargets targets;
