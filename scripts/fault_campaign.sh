@@ -10,7 +10,7 @@
 # does not bear out.
 #
 #   scripts/fault_campaign.sh [--smoke] [--only KIND[:SEVERITY],...] [--seeds N] [--jobs N] [--task FILE]
-#                             [--build DIR] [--out DIR] [-- ONLINE_OPTIONS...]
+#                             [--build DIR] [--out DIR] [--summary] [-- ONLINE_OPTIONS...]
 #
 # --smoke: one slow, lossy link and one 2 cm jump of the estimate, one seed
 # (the suite runs it). --only: the rows of those kinds, or of one severity
@@ -18,7 +18,10 @@
 # flights per row (default 3). --jobs: flights at a time (default 2; the
 # planner-killed and CPU-load rows always fly alone). --task: the task flown
 # (default data/tasks/window_cup.yaml, whose link SDFs scripts/quickstart.sh
-# makes). --build: where bin/ is (default build). --out: where the records go.
+# makes; a mission, e.g. data/tasks/missions/gap_crossing_grasp.yaml, is
+# judged with its held object, docs/reliability.md). --build: where bin/ is
+# (default build). --out: where the records go. --summary: fly nothing,
+# print the table of the records already in --out.
 # Each row is a link fault (quadhand-linkproxy's options, or its YAML for
 # one-way faults) and/or a simulator fault (the faults: key of docs/sim.md,
 # written into a copy of data/sim/quadhand_sim.yaml), at three severities.
@@ -28,12 +31,14 @@ build=build
 seeds=3
 jobs=2
 smoke=0
+summary_only=0
 only=""
 task=data/tasks/window_cup.yaml
 out=out/fault_campaign
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --smoke) smoke=1; seeds=1; shift ;;
+    --summary) summary_only=1; shift ;;
     --seeds) seeds="$2"; shift 2 ;;
     --jobs) jobs="$2"; shift 2 ;;
     --only) only=",$2,"; shift 2 ;;
@@ -41,7 +46,7 @@ while [[ $# -gt 0 ]]; do
     --build) build="$2"; shift 2 ;;
     --out) out="$2"; shift 2 ;;
     --) shift; break ;;
-    -h|--help) sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "fault_campaign: unknown option $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -61,7 +66,11 @@ if [[ "$task" == data/tasks/window_cup.yaml && ! -d data/sdf/quadhand ]]; then
   exit 2
 fi
 mkdir -p "$out"
-rm -f "$out"/*.result
+if [[ $summary_only -eq 0 ]]; then rm -f "$out"/*.result; fi
+# A mission's flight: the payload rows make its grasped object heavier or
+# lighter than declared, and its record has no single goal (tool error -).
+mission=0
+if grep -q '^mission:' "$task"; then mission=1; fi
 
 # kind | severity | class | link | simulator
 #   class: mild (the issue's mild faults: the task must complete), severe
@@ -72,7 +81,8 @@ rm -f "$out"/*.result
 #     after it starts; "@load=N" no link fault, N busy processes on the
 #     machine for the whole flight.
 #   simulator: the faults: map of docs/sim.md; "@payload=F" a payload at the
-#     tool of F times the 150 g the controller is told.
+#     tool of F times the 150 g the controller is told (a mission: its
+#     grasped objects weigh F times their declared mass).
 matrix=(
   "calm|none|mild||"
   "loss|5%|mild|--loss 0.05 --delay 0.02 --jitter 0.01|"
@@ -164,7 +174,10 @@ fly() {
   # absolute, and the row's faults.
   sed "s|^robot: .*|robot: $PWD/meshes/quadhand/quadhand.urdf|" data/sim/quadhand_sim.yaml >"$base.sim.yaml"
   local sim_options=()
-  if [[ "$sim_faults" == @payload=* ]]; then
+  if [[ "$sim_faults" == @payload=* && $mission -eq 1 ]]; then
+    # A mission's grasped object weighs F times its declared mass.
+    echo "faults: {payload_mass_factor: ${sim_faults#@payload=}}" >>"$base.sim.yaml"
+  elif [[ "$sim_faults" == @payload=* ]]; then
     # The controller is told the vehicle (1.70 kg) and a 150 g payload; the
     # tool carries F times that.
     local factor="${sim_faults#@payload=}"
@@ -231,6 +244,11 @@ fly() {
   fi
   clearance=$(sed -E 's/.*"min_clearance": ([-0-9.e]+).*/\1/' <<<"$check")
   tool=$(sed -E 's/.*"tool_error": ([-0-9.e]+).*/\1/' <<<"$check")
+  # A mission's held object counts as the robot does: the flown minimum is
+  # the whole body's, object included.
+  local object
+  object=$(sed -nE 's/.*"held_object_min_clearance": ([-0-9.e]+).*/\1/p' <<<"$check")
+  if [[ -n "$object" ]] && awk -v o="$object" -v c="$clearance" 'BEGIN { exit !(o < c) }'; then clearance="$object"; fi
   # At rest at the record's end (the last row's speed): where a flight that
   # did not complete was left.
   rest=$(tail -n 1 "$base.sim.csv" | awk -F, '{ printf "%.3f", sqrt($5 * $5 + $6 * $6 + $7 * $7) }')
@@ -269,7 +287,9 @@ for row in "${matrix[@]}"; do
     name="${kind}_${severity}"
     base="$out/${name//[^A-Za-z0-9_.+-]/_}_seed$seed"
     bases+=("$base")
-    if [[ $exclusive -eq 1 ]]; then
+    if [[ $summary_only -eq 1 ]]; then
+      continue
+    elif [[ $exclusive -eq 1 ]]; then
       wait
       fly "$kind" "$severity" "$class" "$link" "$sim_faults" "$seed" "$base"
     else
@@ -300,12 +320,14 @@ for path in paths:
     rows.append(dict(kind=f[0], severity=f[1], cls=f[2], seed=int(f[3]), code=int(f[4]), said=f[5],
                      clearance=float(f[6]), tool=float(f[7]), rate=None if f[8] == "-" else float(f[8]),
                      rest=float(f[9]), check=int(f[10]), verdict=f[11]))
+def tool_text(tool):
+    return "-" if tool < 0 else f"{tool:.4f}m"  # a mission has no single goal
 print(f"{'fault':<15}{'severity':<14}{'seed':>4}{'exit':>5}  {'quadhand-online said':<26}{'flown min':>10}"
       f"{'tool err':>10}{'rate Hz':>8}  verdict")
 for r in rows:
     rate = "-" if r["rate"] is None else f"{r['rate']:.2f}"
     print(f"{r['kind']:<15}{r['severity']:<14}{r['seed']:>4}{r['code']:>5}  {r['said'][:25]:<26}"
-          f"{r['clearance']:>9.4f}m{r['tool']:>9.4f}m{rate:>8}  {r['verdict']}")
+          f"{r['clearance']:>9.4f}m{tool_text(r['tool']):>10}{rate:>8}  {r['verdict']}")
 # Per fault and severity.
 print()
 print(f"{'fault':<15}{'severity':<14}{'class':<8}{'flights':>8}{'completed':>10}{'safe end':>9}"
@@ -323,8 +345,9 @@ for (kind, severity), g in groups.items():
     rates = [r["rate"] for r in g if r["rate"] is not None]
     print(f"{kind:<15}{severity:<14}{g[0]['cls']:<8}{len(g):>8}{sum(map(completed, g)):>10}{sum(map(safe_end, g)):>9}"
           f"{min(r['clearance'] for r in g) * 100:>9.2f}cm"
-          f"{min(r['tool'] for r in g) * 1000:>8.1f}-{max(r['tool'] for r in g) * 1000:.1f}mm"
-          f"{(min(rates) if rates else float('nan')):>9.2f}  {','.join(str(r['code']) for r in g)}")
+          + (f"{'-':>18}" if min(r['tool'] for r in g) < 0 else
+             f"{min(r['tool'] for r in g) * 1000:>14.1f}-{max(r['tool'] for r in g) * 1000:.1f}mm")
+          + f"{(min(rates) if rates else float('nan')):>9.2f}  {','.join(str(r['code']) for r in g)}")
 collisions = [r for r in rows if r["clearance"] < 0]
 dishonest = [r for r in rows if r["code"] == 0 and r["check"] != 0]
 mild = [r for r in rows if r["cls"] == "mild"]

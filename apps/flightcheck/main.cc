@@ -6,12 +6,18 @@
 // post-check's model), the longest time between two rows, and the tool's
 // and the base's final errors. It shares nothing with the programs that
 // flew: the fault campaign judges every flight with it. docs/reliability.md.
+// A mission's record has a gripper column: at each change the scene and the
+// robot change as the planner's phases do (the object held where the flown
+// tool closed on it, left where it opened), and the held object is judged
+// too: never into the scene.
 //
 // Exit codes: 0 the flight kept the safety distance (less --tolerance);
 // 6 it did not, or a gap between rows exceeded --max-gap; 2 bad input.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -19,6 +25,8 @@
 
 #include "app_options.h"
 #include "quadhand/core/log.h"
+#include "quadhand/core/text.h"
+#include "quadhand/planner/mission_plan.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/robot/kinematics.h"
@@ -80,24 +88,45 @@ int main(int argc, char** argv) {
   auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;
-  // A mission's flight changes its scene and its robot at every grasp and
-  // release, at times only the plan knows: judging it against the task's
-  // scene alone would call a flight safe that was not checked.
-  if (!planner::PlansAsGoal(ctx.task())) {
-    return Fail(task_path + ": a mission of " + std::to_string(ctx.task().mission.size()) +
-                " steps: its flight is judged by quadhand-online, leg by leg with the held object (docs/online.md, "
-                "Missions); quadhand-flightcheck judges goals");
-  }
   const robot::RobotModel& robot = ctx.robot();
   auto flown = sim::LoadPlanCsv(flown_path, robot.ActuatedJointNames());
   if (!flown.ok()) return Fail(flown.status().message());
-
+  // A mission's flight changes its scene and its robot at every grasp and
+  // release: they are replayed at the gripper events of the record, with
+  // the tool where it was then (planner::MissionReplay).
+  std::unique_ptr<planner::MissionReplay> replay;
+  int gripper = 0;
+  if (!planner::PlansAsGoal(ctx.task())) {
+    auto started = planner::MissionReplay::Start(ctx, config->planner.mission);
+    if (!started.ok()) return Fail(started.status().message());
+    replay = std::move(*started);
+    bool acts = false;
+    for (const planner::MissionStep& step : ctx.task().mission) {
+      acts = acts || step.kind == planner::StepKind::kRelease ||
+             (step.kind == planner::StepKind::kGrasp && !step.held_at_start);
+    }
+    if (acts && flown->rows.front().gripper < 0) {
+      return Fail(flown_path + ": no 'gripper' column, and the mission of " + task_path +
+                  " grasps or releases: the record must say when (quadhand-sim --log writes it)");
+    }
+    gripper = replay->held_step() >= 0 ? 1 : 0;
+  }
   robot::KinematicsState kinematics;
   double least = 1e300, least_time = std::nan(""), gap = 0.0, gap_time = std::nan(""), last_time = 0.0;
+  double least_object = std::numeric_limits<double>::infinity(), least_object_time = std::nan("");
   std::string closest;
   long judged = 0;
+  int gripper_events = 0;
   const sim::PlanRow* last = nullptr;
   for (const sim::PlanRow& row : flown->rows) {
+    const Pose base = MakePose(row.position, row.attitude.toRotationMatrix());
+    if (replay && row.gripper >= 0 && row.gripper != gripper) {
+      const Pose tool = robot::LinkPose(robot, base, row.joints, robot.LinkIndex(ctx.task().tool_link));
+      const core::Status changed = row.gripper == 1 ? replay->GripperClosed(tool) : replay->GripperOpened(tool);
+      if (!changed.ok()) return Fail(flown_path + core::Format(": t = %.3f s: ", row.t) + changed.message());
+      gripper = row.gripper;
+      ++gripper_events;
+    }
     if (row.t < from || row.t > until) continue;
     if (judged > 0 && row.t - last_time > gap) {
       gap = row.t - last_time;
@@ -106,9 +135,20 @@ int main(int argc, char** argv) {
     last_time = row.t;
     ++judged;
     last = &row;
-    robot::ComputeKinematics(robot, MakePose(row.position, row.attitude.toRotationMatrix()), row.joints, &kinematics);
     int link = -1;
-    const double d = env::WholeBodyClearance(kinematics, ctx.exact(), 1.0, {}, &link);
+    double d = 0.0;
+    if (replay) {
+      const planner::MissionReplay::Clearances c = replay->Measure(base, row.joints, 1.0);
+      d = c.robot;
+      link = c.robot_link;
+      if (c.object < least_object) {
+        least_object = c.object;
+        least_object_time = row.t;
+      }
+    } else {
+      robot::ComputeKinematics(robot, base, row.joints, &kinematics);
+      d = env::WholeBodyClearance(kinematics, ctx.exact(), 1.0, {}, &link);
+    }
     if (d < least) {
       least = d;
       least_time = row.t;
@@ -127,16 +167,23 @@ int main(int argc, char** argv) {
   if (ctx.task().terminal) base_error = (last->position - ctx.task().terminal->position).norm();
 
   const double required = planner::AcceptedClearance(ctx.task(), tolerance);
-  const bool kept = least >= required;
+  // A held object may come to its support at a grasp or release (contracts
+  // 0.3), but never into the scene; how far it had to stay elsewhere depends
+  // on the plan's steps, which quadhand-online judges (docs/online.md).
+  const bool held = std::isfinite(least_object);
+  const bool kept = least >= required && (!held || least_object >= -tolerance);
   const bool seen = max_gap <= 0.0 || gap <= max_gap;
   const int code = kept && seen ? kExitKept : kExitLost;
   if (json) {
     std::printf("{\"kept\": %s, \"seen\": %s, \"min_clearance\": %.6f, \"link\": \"%s\", \"t\": %.4f, "
                 "\"required\": %.6f, \"rows\": %ld, \"max_gap\": %.4f, \"max_gap_t\": %.4f, \"tool_error\": %.6f, "
-                "\"base_error\": %.6f}\n",
+                "\"base_error\": %.6f, \"gripper_events\": %d, \"held_object_min_clearance\": %s, "
+                "\"held_object_t\": %.4f}\n",
                 kept ? "true" : "false", seen ? "true" : "false", least, closest.c_str(), least_time, required, judged,
                 gap, std::isnan(gap_time) ? 0.0 : gap_time, std::isnan(tool_error) ? -1.0 : tool_error,
-                std::isnan(base_error) ? -1.0 : base_error);
+                std::isnan(base_error) ? -1.0 : base_error, gripper_events,
+                held ? core::Format("%.6f", least_object).c_str() : "null",
+                std::isnan(least_object_time) ? 0.0 : least_object_time);
   } else {
     std::printf("%s: min exact clearance %.4f m (link %s, t = %.2f s); required %.4f m (safety distance %.4f m "
                 "less %.4f m)\n",
@@ -144,6 +191,14 @@ int main(int argc, char** argv) {
                 least_time, required, ctx.task().safety_distance, tolerance);
     std::printf("  %ld rows judged, longest gap %.3f s%s; final tool error %.4f m, base %.4f m from the goal\n", judged,
                 gap, seen ? "" : " (over --max-gap)", tool_error, base_error);
+    if (replay) {
+      std::printf("  mission: %d gripper events; held object: %s\n", gripper_events,
+                  held ? core::Format("min exact clearance %.4f m (t = %.2f s; it must stay out of the scene, "
+                                      ">= %.4f m)",
+                                      least_object, least_object_time, -tolerance)
+                             .c_str()
+                       : "none held");
+    }
   }
   return code;
 }

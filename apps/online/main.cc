@@ -490,7 +490,8 @@ int main(int argc, char** argv) {
     outcome = "REFUSED";
   } else if (controller.aborted()) {
     code = kExitAborted;
-    outcome = "ABORTED (retreated along the plan)";
+    outcome = controller.joint_stalled() ? "ABORTED (a joint stalled; held where the vehicle stopped)"
+                                         : "ABORTED (retreated along the plan)";
   } else if (phase == online::Phase::kHoldingAfterFailure) {
     code = kExitPlanFailed;
     outcome = "PLANNING FAILED (holding)";

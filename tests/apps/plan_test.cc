@@ -707,16 +707,87 @@ TEST_F(PlanCliTest, AMissionOfOneHoldOrViaPlans) {
 
 // quadhand-flightcheck judges goals: a mission's flight changes its scene and
 // robot at times only the plan knows, so it is refused, not half-judged.
-TEST_F(PlanCliTest, FlightcheckRefusesAMissionItCannotJudge) {
+// quadhand-flightcheck replays a mission's grasp at the record's gripper
+// event: the plan itself, read as a flown record, keeps its clearance and
+// its held cup stays out of the scene; moved 6 cm sideways and 3 cm down
+// after the grasp, the cup goes into its pedestal and the record fails; a
+// record without the gripper column cannot be judged.
+TEST_F(PlanCliTest, FlightcheckJudgesAMissionsRecordWithTheHeldObject) {
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
   const std::string mission = (dir_ / "mission.yaml").string();
   std::ofstream(mission) << WindowCupMissionText(kGraspTheCup + "  - move: {length: 0.15}\n");
-  const std::string flown = (dir_ / "flown.csv").string();
-  std::ofstream(flown) << "t,px\n0,0\n";
-  const auto r = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + mission + " " + flown);
+  ASSERT_EQ(RunCommand(kPlan + " " + mission + " --out " + out + " --report " + report).exit_code, 0);
+  const std::string check = std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + mission + " ";
+  {
+    const auto r = RunCommand(check + out + " --json");
+    EXPECT_EQ(r.exit_code, 0) << r.err << r.out;
+    const nlohmann::json verdict = nlohmann::json::parse(r.out);
+    EXPECT_EQ(verdict["gripper_events"], 1);
+    ASSERT_TRUE(verdict["held_object_min_clearance"].is_number()) << r.out;
+    EXPECT_GE(verdict["held_object_min_clearance"].get<double>(), -0.002);
+    EXPECT_GE(verdict["min_clearance"].get<double>(), verdict["required"].get<double>());
+  }
+  // The same record, moved from 0.6 s after the gripper closed.
+  std::istringstream plan(ReadAll(out));
+  std::string line, lowered, no_gripper;
+  std::getline(plan, line);
+  lowered = line + "\n";
+  std::vector<std::string> names;
+  for (std::string name; !line.empty();) {
+    const size_t comma = line.find(',');
+    names.push_back(line.substr(0, comma));
+    line = comma == std::string::npos ? "" : line.substr(comma + 1);
+  }
+  const size_t gripper_column = std::find(names.begin(), names.end(), "gripper") - names.begin();
+  ASSERT_LT(gripper_column, names.size());
+  double closed_at = -1.0;
+  for (std::string row; std::getline(plan, row);) {
+    std::vector<std::string> fields;
+    for (std::stringstream cells(row); cells.good();) {
+      std::string cell;
+      std::getline(cells, cell, ',');
+      fields.push_back(cell);
+    }
+    const double t = std::stod(fields[0]);
+    if (fields[gripper_column] == "1" && closed_at < 0.0) closed_at = t;
+    if (closed_at >= 0.0 && t > closed_at + 0.6) {
+      fields[1] = std::to_string(std::stod(fields[1]) + 0.06);
+      fields[3] = std::to_string(std::stod(fields[3]) - 0.03);
+    }
+    for (size_t k = 0; k < fields.size(); ++k) lowered += (k ? "," : "") + fields[k];
+    lowered += "\n";
+  }
+  const std::string sunk = (dir_ / "sunk.csv").string();
+  std::ofstream(sunk) << lowered;
+  {
+    const auto r = RunCommand(check + sunk + " --json");
+    EXPECT_EQ(r.exit_code, 6) << r.err << r.out;
+    const nlohmann::json verdict = nlohmann::json::parse(r.out);
+    EXPECT_LT(verdict["held_object_min_clearance"].get<double>(), -0.01) << r.out;
+    EXPECT_GT(verdict["held_object_t"].get<double>(), closed_at + 0.6);
+  }
+  // Without the gripper column: refused in one line naming both files.
+  const std::string bare = (dir_ / "bare.csv").string();
+  {
+    std::istringstream in(ReadAll(out));
+    std::ofstream bare_file(bare);
+    for (std::string row; std::getline(in, row);) {
+      std::vector<std::string> fields;
+      for (std::stringstream cells(row); cells.good();) {
+        std::string cell;
+        std::getline(cells, cell, ',');
+        fields.push_back(cell);
+      }
+      for (size_t k = 0; k < fields.size(); ++k) {
+        if (k != gripper_column) bare_file << (k ? "," : "") << fields[k];
+      }
+      bare_file << "\n";
+    }
+  }
+  const auto r = RunCommand(check + bare);
   EXPECT_EQ(r.exit_code, 2) << r.err << r.out;
   EXPECT_EQ(CountLines(r.err), 1) << r.err;
-  EXPECT_NE(r.err.find(mission + ": a mission of 3 steps: its flight is judged by quadhand-online"), std::string::npos)
-      << r.err;
+  EXPECT_NE(r.err.find(bare + ": no 'gripper' column, and the mission of " + mission), std::string::npos) << r.err;
 }
 
 // The bundled scenes are what their scripts make.

@@ -244,6 +244,46 @@ TEST(OnlineControllerTest, AGustAtTheGoalAbortsAndTheVehicleRetreatsAlongThePlan
   EXPECT_GT(Metrics(flight.log(), *controller).min_clearance, 0.0);
 }
 
+// A servo that stalls mid-flight (the simulator's servo fault): the joint
+// stops while the plan moves it, and the flight is aborted where it is; the
+// same flight with a slow servo (0.2 s of extra lag) is not a stall and
+// arrives. (Before it is found, the base may already have strayed: the
+// fault campaign's servo_stall rows measure how far.)
+TEST(OnlineControllerTest, AStalledJointAbortsTheFlightWhereItIsAndASlowOneDoesNot) {
+  OnlineOptions options;
+  options.replanning = false;
+  {
+    auto controller = MakeController(options);
+    sim::FaultConfig faults;
+    faults.servo.stall_joint = 1;
+    faults.servo.stall_time = 3.5;
+    DirectFlight flight(controller.get(), faults);
+    flight.Run(40.0);
+    ASSERT_TRUE(controller->finished());
+    EXPECT_TRUE(controller->aborted());
+    EXPECT_TRUE(controller->joint_stalled()) << flight.Events();
+    EXPECT_EQ(controller->phase(), Phase::kHoldingAfterFailure);
+    // Within two seconds of the stall (the plan moves this joint slowly
+    // there: it is found by how far it falls behind), at rest since.
+    const std::string events = flight.Events();
+    const size_t at = events.find("joint joint2 does not follow the plan");
+    ASSERT_NE(at, std::string::npos) << events;
+    const double found = std::stod(events.substr(events.rfind('[', at) + 1));
+    EXPECT_LT(found, 3.5 + 2.0) << events;
+    EXPECT_LT(flight.simulator().state().velocity.norm(), 0.1);
+  }
+  {
+    auto controller = MakeController(options);
+    sim::FaultConfig faults;
+    faults.servo.extra_lag = 0.2;
+    DirectFlight flight(controller.get(), faults);
+    flight.Run(40.0);
+    ASSERT_TRUE(controller->finished());
+    EXPECT_FALSE(controller->aborted());
+    EXPECT_EQ(controller->phase(), Phase::kArrived);
+  }
+}
+
 // Exact clearance of the robot at a planning start state (as Replan measures it).
 double StateClearance(const Vec3& position, double yaw, const VecX& joints, double reach) {
   robot::KinematicsState kinematics;

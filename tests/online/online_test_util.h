@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include "quadhand/core/text.h"
 #include "quadhand/online/controller.h"
 #include "quadhand/online/flight_log.h"
 #include "quadhand/online/mavlink_bridge.h"
@@ -27,10 +28,17 @@ namespace quadhand::online::testing {
 
 using quadhand::testing::WindowCup;
 
-inline sim::VehicleModel VehicleModel() {
+inline sim::SimConfig SimConfig() {
   auto config = sim::LoadSimConfig(std::string(QUADHAND_SOURCE_DIR) + "/data/sim/quadhand_sim.yaml");
   EXPECT_TRUE(config.ok()) << config.status().message();
-  auto model = sim::VehicleModel::Create(WindowCup().robot(), *config);
+  return config.ok() ? *config : sim::SimConfig{};
+}
+
+// The bundled vehicle, with `faults` (none by default).
+inline sim::VehicleModel VehicleModel(const sim::FaultConfig& faults = {}) {
+  sim::SimConfig config = SimConfig();
+  config.faults = faults;
+  auto model = sim::VehicleModel::Create(WindowCup().robot(), config);
   EXPECT_TRUE(model.ok()) << model.status().message();
   return *model;
 }
@@ -79,7 +87,8 @@ inline sim::Setpoint ToSim(const Setpoint& s) {
 // move or silence the vehicle.
 class DirectFlight {
  public:
-  explicit DirectFlight(OnlineController* controller) : controller_(controller), sim_(VehicleModel(), 11) {
+  explicit DirectFlight(OnlineController* controller, const sim::FaultConfig& faults = {})
+      : controller_(controller), sim_(VehicleModel(faults), 11) {
     const planner::Task& task = WindowCup().task;
     sim::VehicleState state = sim::VehicleState::AtRest(sim_.model(), task.start.position, task.start.joints);
     state.attitude = Quat(Eigen::AngleAxisd(task.start.yaw, Vec3::UnitZ()));
@@ -105,6 +114,7 @@ class DirectFlight {
         if (period_ % 50 == 0) controller_->OnHeartbeat(t_, armed_, offboard_);
       }
       const ControllerOutput out = controller_->Tick(t_);
+      for (const std::string& e : out.events) events_.push_back(core::Format("[%6.2f s] ", t_) + e);
       controller_->WaitUntilIdle();
       if (!silent_) AnswerTimesync(controller_, out, t_);
       for (const CommandRequest& c : out.commands) {
@@ -128,6 +138,12 @@ class DirectFlight {
   }
 
   double time() const { return t_; }
+  // The controller's events, each with its time: for a failure's message.
+  std::string Events() const {
+    std::string all;
+    for (const std::string& e : events_) all += e + "\n";
+    return all;
+  }
   void set_silent(bool silent) { silent_ = silent; }
   const sim::Simulator& simulator() const { return sim_; }
   const FlightLog& log() const { return log_; }
@@ -136,6 +152,7 @@ class DirectFlight {
  private:
   OnlineController* controller_;
   sim::Simulator sim_;
+  std::vector<std::string> events_;
   sim::Setpoint hold_, current_;
   bool armed_ = false, offboard_ = false, silent_ = false;
   double t_ = 0.0, last_stream_time_ = -1e9;

@@ -69,7 +69,7 @@ std::string PlanTableCsv(const PlanTable& table) {
 }
 
 core::Result<PlanTable> ParsePlanFile(const std::string& text, const std::vector<std::string>& joint_names,
-                                      const std::string& source) {
+                                      const std::string& source, const std::vector<std::string>& optional_columns) {
   auto bad = [&](const std::string& what) { return core::Status::InvalidArgument(source + ": " + what); };
   std::istringstream in(text);
   std::string line;
@@ -83,6 +83,12 @@ core::Result<PlanTable> ParsePlanFile(const std::string& text, const std::vector
   for (const auto& name : table.columns) {
     const auto it = column.find(name);
     if (it == column.end()) return bad("missing column '" + name + "' (see contracts.md: plan file)");
+    index.push_back(it->second);
+  }
+  for (const std::string& name : optional_columns) {
+    const auto it = column.find(name);
+    if (it == column.end()) continue;
+    table.columns.push_back(name);
     index.push_back(it->second);
   }
 

@@ -100,6 +100,8 @@ bool OnlineOptions::IsValid(std::string* why) const {
   }
   if (!positive(max_judged_gap)) return fail("max_judged_gap must be positive");
   if (!(std::isfinite(abort_hold) && abort_hold >= 0.0)) return fail("abort_hold must be >= 0");
+  if (!(std::isfinite(joint_stall_rate) && joint_stall_rate >= 0.0)) return fail("joint_stall_rate must be >= 0");
+  if (!positive(joint_stall_time)) return fail("joint_stall_time must be positive");
   if (!positive(innovation_gate) || !positive(innovation_acceleration)) {
     return fail("innovation_gate and innovation_acceleration must be positive");
   }
@@ -369,6 +371,78 @@ void OnlineController::CheckAbort(double t) {
         Format(") on the insertion or at the goal, under the safety distance less the tolerance (%.4f m): aborting, "
                "retreating along the plan to the insertion's start",
                accepted));
+}
+
+// How far (rad) a following joint may be from the plan beyond what the
+// plan moved it within the lag: the servo's steady error and noise.
+constexpr double kJointStallSlack = 0.03;
+
+void OnlineController::CheckJointStall(double t) {
+  if (options_.joint_stall_rate <= 0.0 || phase_ != Phase::kFlying || aborted_ || link_hold_ || blending_ ||
+      !to_.plan || !have_joints_ || joints_time_ <= stall_checked_time_) {
+    return;
+  }
+  stall_checked_time_ = joints_time_;
+  // The plan at the state's own time and before it. A servo follows its
+  // command late by its lag, and the command reaches the vehicle late by
+  // the uplink: within kLag plus the uplink, a joint that follows is no
+  // farther from the plan than the plan moved it in that time.
+  const double at = joints_time_ - to_.start;
+  constexpr double kLag = 0.3;
+  const double lag = kLag + (clock_.synced() ? clock_.latency().uplink_max : 0.0);
+  if (at - lag < 0.0 || at > to_.plan->trajectory->duration()) {
+    stall_since_ = -1.0;
+    return;
+  }
+  std::vector<planner::WholeBodySample> window;
+  for (int i = 0; i <= 4; ++i) window.push_back(to_.plan->trajectory->Sample(at - lag * i / 4.0));
+  int stalled = -1;
+  double planned_rate = 0.0, error = 0.0;
+  for (int k = 0; k < joint_rates_.size() && stalled < 0; ++k) {
+    // Stopped: the plan moved the joint fast, one way, all window long,
+    // and it hardly moves.
+    double least = std::numeric_limits<double>::infinity(), most = 0.0;
+    const double sign = window.front().joint_rates[k] >= 0.0 ? 1.0 : -1.0;
+    bool one_way = true;
+    for (const planner::WholeBodySample& s : window) {
+      one_way = one_way && s.joint_rates[k] * sign > 0.0;
+      least = std::min(least, std::abs(s.joint_rates[k]));
+      most = std::max(most, std::abs(s.joint_rates[k]));
+    }
+    const bool stopped =
+        one_way && least >= options_.joint_stall_rate && std::abs(joint_rates_[k]) < 0.1 * least;
+    // Left behind: farther from the plan than the lag explains (a joint
+    // stuck while the plan moves it slowly).
+    const double behind = std::abs(joints_[k] - window.front().joints[k]);
+    if (stopped || behind > kJointStallSlack + lag * most) {
+      stalled = k;
+      planned_rate = most;
+      error = behind;
+    }
+  }
+  if (stalled < 0) {
+    stall_since_ = -1.0;
+    return;
+  }
+  if (stall_since_ < 0.0) stall_since_ = joints_time_;
+  if (joints_time_ - stall_since_ < options_.joint_stall_time) return;
+  const std::string name = setup_.scene.robot.joint(setup_.scene.robot.actuated_joints()[stalled]).name;
+  // An abort without a retreat (the plan backwards needs the joint too):
+  // the hold at the measured pose for abort_hold, then the end (exit 7).
+  if (last_setpoint_) failed_plan_time_ = last_setpoint_time_ - to_.start;
+  phase_ = Phase::kHoldingAfterFailure;
+  blending_ = false;
+  hold_ = HoldAtMeasuredPose();
+  aborted_ = true;
+  joint_stalled_ = true;
+  retreating_ = false;
+  retreat_start_ = t;
+  retreat_duration_ = 0.0;
+  Event(Format("joint %s does not follow the plan: %.3f rad from it, moving at %.3f rad/s where the plan moves it "
+               "at up to %.2f rad/s (for %.2f s); the plan's clearance assumed it follows: aborting, holding where "
+               "the vehicle is (%.3f, %.3f, %.3f) for %.1f s",
+               name.c_str(), error, std::abs(joint_rates_[stalled]), planned_rate, joints_time_ - stall_since_,
+               hold_.position.x(), hold_.position.y(), hold_.position.z(), options_.abort_hold));
 }
 
 Setpoint OnlineController::RetreatReference(double t) const {
@@ -1154,6 +1228,7 @@ ControllerOutput OnlineController::Tick(double t) {
     }
   }
   CheckAbort(t);
+  CheckJointStall(t);
   if (phase_ == Phase::kArrived && !arrival_done_ && !aborted_ && gripper_pending_ < 0 &&
       t - arrival_time_ >= options_.arrival_hold) {
     const double offset = ArrivalOffset();

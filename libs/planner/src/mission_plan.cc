@@ -308,6 +308,88 @@ std::vector<Vec3> ObjectSurface(const std::vector<geometry::TriangleMesh>& eleme
   return surface;
 }
 
+// The phase after grasp step `i` of `task`, the tool at `tool` (world) as
+// it closes: the object held where it lies relative to the tool (as the
+// task places it when it is held from the start), its points, and those
+// within its scene_margin, gone from both clouds.
+core::Result<Phase> PhaseAfterGrasp(const PlanningContext& base, const Phase& before, const Task& task, size_t i,
+                                    const Pose& tool, const MissionPlanOptions& options) {
+  const MissionStep& step = task.mission[i];
+  HeldObject held;
+  held.grasp_step = i;
+  held.object = step.object;
+  auto points = before.points;
+  auto checked = before.checked_points;
+  auto elements = ObjectElements(base.robot(), step.object);
+  if (!elements.ok()) return elements.status().WithPrefix(task.file + ": " + StepName(task.mission, i));
+  if (step.held_at_start) {
+    held.object_in_tool = step.object.pose;
+  } else {
+    held.object_in_tool = tool.inverse() * step.object.pose;
+    auto without = [&](const std::vector<Vec3>& cloud) -> core::Result<std::shared_ptr<const std::vector<Vec3>>> {
+      auto kept = WithoutObject(cloud, *elements, step.object.pose, step.scene_margin);
+      if (!kept.ok()) return kept.status();
+      if (kept->empty()) {
+        return core::Status::InvalidArgument(task.file + ": " + StepName(task.mission, i) +
+                                             ": the object's scene_margin takes every scene point");
+      }
+      return std::make_shared<const std::vector<Vec3>>(std::move(*kept));
+    };
+    const bool same = points == checked;
+    auto kept = without(*points);
+    if (!kept.ok()) return kept.status();
+    points = std::move(*kept);
+    if (same) {
+      checked = points;
+    } else {
+      auto kept_checked = without(*checked);
+      if (!kept_checked.ok()) return kept_checked.status();
+      checked = std::move(*kept_checked);
+    }
+  }
+  auto phase = MakePhase(base, held, std::move(*elements), points, checked, options);
+  if (!phase.ok()) return phase.status().WithPrefix(task.file + ": " + StepName(task.mission, i));
+  phase->points_before_grasp = before.points;
+  phase->checked_before_grasp = before.checked_points;
+  return phase;
+}
+
+// The phase after the held object's release at step `i`, left at
+// `object_pose` (world): its surface joins the scene. The points its grasp
+// took (the object's own scan, and whatever it stood on within
+// scene_margin) come back: the scan is the only evidence of that space, and
+// without them the support would keep a hole the size of the object that a
+// later leg could be certified through. Where the object was is then
+// occupied by its old scan (conservative: an object put back where it was
+// taken from meets it).
+core::Result<Phase> PhaseAfterRelease(const PlanningContext& base, const Phase& before, const Task& task, size_t i,
+                                      const Pose& object_pose, const MissionPlanOptions& options) {
+  if (!before.held) return core::Status::Internal("release without a held object");
+  const std::vector<Vec3> surface = ObjectSurface(before.object_elements, object_pose, options.released_surface_spacing);
+  auto with = [&surface](const std::vector<Vec3>& cloud) {
+    auto out = std::make_shared<std::vector<Vec3>>(cloud);
+    out->insert(out->end(), surface.begin(), surface.end());
+    return std::shared_ptr<const std::vector<Vec3>>(std::move(out));
+  };
+  auto points = with(*before.points_before_grasp);
+  auto checked = before.points_before_grasp == before.checked_before_grasp ? points
+                                                                            : with(*before.checked_before_grasp);
+  auto phase = MakePhase(base, std::nullopt, {}, points, checked, options);
+  if (!phase.ok()) return phase.status().WithPrefix(task.file + ": " + StepName(task.mission, i));
+  return phase;
+}
+
+// The first phase: the task's scene (its clouds are the context's).
+std::shared_ptr<Phase> FirstPhase(const PlanningContext& base) {
+  auto first = std::make_shared<Phase>();
+  first->context = &base;
+  first->points = std::shared_ptr<const std::vector<Vec3>>(&base.points(), [](auto*) {});
+  first->checked_points = &base.points() == &base.checked_points()
+                              ? first->points
+                              : std::shared_ptr<const std::vector<Vec3>>(&base.checked_points(), [](auto*) {});
+  return first;
+}
+
 // Folds one leg's post-check into the mission's: every check's worst,
 // times shifted by the leg's start.
 void MergeReport(const PostCheckReport& leg, double offset, bool first, PostCheckReport* all) {
@@ -724,20 +806,9 @@ core::Result<bool> MissionPlanner::InsertionLeg(size_t i, bool places) {
 
 core::Status MissionPlanner::Grasp(size_t i) {
   const MissionStep& step = task_.mission[i];
-  const robot::RobotModel& robot = base_.robot();
   QUADHAND_RETURN_IF_ERROR(RequireToolLink(i));
-  const int tool_link = tool_link_;
-  HeldObject held;
-  held.grasp_step = i;
-  held.object = step.object;
-  auto points = phase_->points;
-  auto checked = phase_->checked_points;
-  auto elements = ObjectElements(robot, step.object);
-  if (!elements.ok()) return elements.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
-  if (step.held_at_start) {
-    held.object_in_tool = step.object.pose;
-  } else {
-    const Pose tool = LinkAtState(robot, tool_link);
+  const Pose tool = LinkAtState(base_.robot(), tool_link_);
+  if (!step.held_at_start) {
     // The task's check of the reach waits for the kinematics when the reach
     // before gives only a state: here the tool is where the plan put it.
     const double gap = DistanceToObjectSurface(step.object, tool.translation());
@@ -748,61 +819,18 @@ core::Status MissionPlanner::Grasp(size_t i) {
                        "position at this step (at most %.2f m)",
                        gap, kGraspReach));
     }
-    held.object_in_tool = tool.inverse() * step.object.pose;
-    // The object leaves the scene: every point within scene_margin of it,
-    // from both clouds (one when they are the same).
-    auto without = [&](const std::vector<Vec3>& cloud) -> core::Result<std::shared_ptr<const std::vector<Vec3>>> {
-      auto kept = WithoutObject(cloud, *elements, step.object.pose, step.scene_margin);
-      if (!kept.ok()) return kept.status();
-      if (kept->empty()) {
-        return core::Status::InvalidArgument(task_.file + ": " + StepName(task_.mission, i) +
-                                             ": the object's scene_margin takes every scene point");
-      }
-      return std::make_shared<const std::vector<Vec3>>(std::move(*kept));
-    };
-    const bool same = points == checked;
-    auto kept = without(*points);
-    if (!kept.ok()) return kept.status();
-    points = std::move(*kept);
-    if (same) {
-      checked = points;
-    } else {
-      auto kept_checked = without(*checked);
-      if (!kept_checked.ok()) return kept_checked.status();
-      checked = std::move(*kept_checked);
-    }
   }
-  auto phase = MakePhase(base_, held, std::move(*elements), points, checked, options_.mission);
-  if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
-  phase->points_before_grasp = phase_->points;
-  phase->checked_before_grasp = phase_->checked_points;
+  auto phase = PhaseAfterGrasp(base_, *phase_, task_, i, tool, options_.mission);
+  if (!phase.ok()) return phase.status();
   phase_ = std::make_shared<const Phase>(std::move(*phase));
   return core::Status::Ok();
 }
 
 core::Status MissionPlanner::Release(size_t i) {
   if (!phase_->held) return core::Status::Internal("release without a held object");
-  const robot::RobotModel& robot = phase_->context->robot();
-  const Pose object_pose = LinkAtState(robot, phase_->object_link);
-  const std::vector<Vec3> surface =
-      ObjectSurface(phase_->object_elements, object_pose, options_.mission.released_surface_spacing);
-  auto with = [&surface](const std::vector<Vec3>& cloud) {
-    auto out = std::make_shared<std::vector<Vec3>>(cloud);
-    out->insert(out->end(), surface.begin(), surface.end());
-    return std::shared_ptr<const std::vector<Vec3>>(std::move(out));
-  };
-  // The points the grasp took (the object's own scan, and whatever it
-  // stood on within scene_margin) come back: the scan is the only evidence
-  // of that space, and without them the support would keep a hole the size
-  // of the object that a later leg could be certified through. Where the
-  // object was is then occupied by its old scan (conservative: an object
-  // put back where it was taken from meets it).
-  auto points = with(*phase_->points_before_grasp);
-  auto checked = phase_->points_before_grasp == phase_->checked_before_grasp
-                     ? points
-                     : with(*phase_->checked_before_grasp);
-  auto phase = MakePhase(base_, std::nullopt, {}, points, checked, options_.mission);
-  if (!phase.ok()) return phase.status().WithPrefix(task_.file + ": " + StepName(task_.mission, i));
+  const Pose object_pose = LinkAtState(phase_->context->robot(), phase_->object_link);
+  auto phase = PhaseAfterRelease(base_, *phase_, task_, i, object_pose, options_.mission);
+  if (!phase.ok()) return phase.status();
   phase_ = std::make_shared<const Phase>(std::move(*phase));
   return core::Status::Ok();
 }
@@ -945,13 +973,7 @@ core::Result<PlanResult> MissionPlanner::Run() {
   }
   result_.steps.resize(task_.mission.size());
   for (size_t i = 0; i < task_.mission.size(); ++i) result_.steps[i].kind = task_.mission[i].kind;
-  auto first = std::make_shared<Phase>();
-  first->context = &base_;
-  first->points = std::shared_ptr<const std::vector<Vec3>>(&base_.points(), [](auto*) {});
-  first->checked_points = &base_.points() == &base_.checked_points()
-                              ? first->points
-                              : std::shared_ptr<const std::vector<Vec3>>(&base_.checked_points(), [](auto*) {});
-  phase_ = std::move(first);
+  phase_ = FirstPhase(base_);
   for (size_t i = 0; i < task_.mission.size(); ++i) {
     auto planned = PlanStep(i);
     if (!planned.ok()) return planned.status();
@@ -990,6 +1012,95 @@ core::Result<PlanResult> PlanTask(const PlanningContext& context, const Task& ta
     return result;
   }
   return MissionPlanner(context, task, representation, options, solver, cache).Run();
+}
+
+class MissionReplay::Impl {
+ public:
+  Impl(const PlanningContext& base, const MissionPlanOptions& options) : base_(base), options_(options) {}
+
+  const PlanningContext& base_;
+  MissionPlanOptions options_;
+  std::shared_ptr<const Phase> phase_;
+  size_t next_grasp_ = 0;  // where the search for the next grasp step starts
+  int tool_link_ = -1;
+};
+
+MissionReplay::MissionReplay(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+MissionReplay::~MissionReplay() = default;
+
+core::Result<std::unique_ptr<MissionReplay>> MissionReplay::Start(const PlanningContext& context,
+                                                                  const MissionPlanOptions& options) {
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("mission options: " + why);
+  auto impl = std::make_unique<Impl>(context, options);
+  impl->tool_link_ = context.robot().LinkIndex(context.task().tool_link);
+  impl->phase_ = FirstPhase(context);
+  const Task& task = context.task();
+  if (!task.mission.empty() && task.mission.front().kind == StepKind::kGrasp && task.mission.front().held_at_start) {
+    auto phase = PhaseAfterGrasp(context, *impl->phase_, task, 0, Pose::Identity(), impl->options_);
+    if (!phase.ok()) return phase.status();
+    impl->phase_ = std::make_shared<const Phase>(std::move(*phase));
+    impl->next_grasp_ = 1;
+  }
+  return std::unique_ptr<MissionReplay>(new MissionReplay(std::move(impl)));
+}
+
+core::Status MissionReplay::GripperClosed(const Pose& tool) {
+  Impl& m = *impl_;
+  const Task& task = m.base_.task();
+  if (m.phase_->held) {
+    return core::Status::InvalidArgument(task.file + ": the gripper closed again while holding the object of " +
+                                         StepName(task.mission, m.phase_->held->grasp_step));
+  }
+  size_t i = m.next_grasp_;
+  while (i < task.mission.size() && task.mission[i].kind != StepKind::kGrasp) ++i;
+  if (i >= task.mission.size()) {
+    return core::Status::InvalidArgument(task.file + ": the gripper closed, but the mission has no grasp left");
+  }
+  if (m.tool_link_ < 0) {
+    return core::Status::InvalidArgument(task.file + ": the robot has no tool link '" + task.tool_link + "'");
+  }
+  auto phase = PhaseAfterGrasp(m.base_, *m.phase_, task, i, tool, m.options_);
+  if (!phase.ok()) return phase.status();
+  m.phase_ = std::make_shared<const Phase>(std::move(*phase));
+  m.next_grasp_ = i + 1;
+  return core::Status::Ok();
+}
+
+core::Status MissionReplay::GripperOpened(const Pose& tool) {
+  Impl& m = *impl_;
+  if (!m.phase_->held) return core::Status::Ok();
+  const Task& task = m.base_.task();
+  const size_t grasp = m.phase_->held->grasp_step;
+  size_t release = grasp;
+  while (release < task.mission.size() && task.mission[release].kind != StepKind::kRelease) ++release;
+  const Pose object_pose = tool * m.phase_->held->object_in_tool;
+  auto phase = PhaseAfterRelease(m.base_, *m.phase_, task, std::min(release, task.mission.size() - 1), object_pose,
+                                 m.options_);
+  if (!phase.ok()) return phase.status();
+  m.phase_ = std::make_shared<const Phase>(std::move(*phase));
+  return core::Status::Ok();
+}
+
+MissionReplay::Clearances MissionReplay::Measure(const Pose& base, const VecX& joints, double reach) const {
+  const Phase& phase = *impl_->phase_;
+  const robot::RobotModel& robot = phase.context->robot();
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(robot, base, joints, &kinematics);
+  Clearances c;
+  c.object = std::numeric_limits<double>::infinity();
+  if (!phase.held) {
+    c.robot = env::WholeBodyClearance(kinematics, phase.context->exact(), reach, {}, &c.robot_link);
+    return c;
+  }
+  c.robot = env::WholeBodyClearance(kinematics, *phase.robot_only, reach, {}, &c.robot_link);
+  c.object = phase.object_only->LinkClearance(phase.object_link, kinematics.link_poses[phase.object_link], reach, {});
+  return c;
+}
+
+const robot::RobotModel& MissionReplay::robot() const { return impl_->phase_->context->robot(); }
+
+long MissionReplay::held_step() const {
+  return impl_->phase_->held ? static_cast<long>(impl_->phase_->held->grasp_step) : -1;
 }
 
 }  // namespace quadhand::planner

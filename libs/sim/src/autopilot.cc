@@ -548,6 +548,9 @@ void Autopilot::RecordFlown() {
   row.yaw_rate = traj::HopfYawRateOf(s.attitude, s.body_rate);
   row.joints = s.joints;
   row.joint_rates = s.joint_rates;
+  // A mission's record says when the gripper held something: the checks
+  // of the flight change their scene and robot there.
+  if (!options_.gripper_loads.empty()) row.gripper = gripper_closed_ ? 1 : 0;
   flown_.push_back(std::move(row));
 }
 

@@ -13,10 +13,10 @@ double WrapAngle(double a) { return std::remainder(a, 2.0 * M_PI); }
 
 }  // namespace
 
-std::string PlanCsvHeader(const std::vector<std::string>& joint_names) {
+std::string PlanCsvHeader(const std::vector<std::string>& joint_names, bool gripper_column) {
   std::string header;
   for (const std::string& column : io::PlanColumns(joint_names)) header += (header.empty() ? "" : ",") + column;
-  return header;
+  return gripper_column ? header + ",gripper" : header;
 }
 
 std::string PlanCsvRow(const PlanRow& r) {
@@ -33,22 +33,25 @@ std::string PlanCsvRow(const PlanRow& r) {
   io::AppendCsvNumber(&out, r.yaw_rate);
   for (int i = 0; i < r.joints.size(); ++i) io::AppendCsvNumber(&out, r.joints[i]);
   for (int i = 0; i < r.joint_rates.size(); ++i) io::AppendCsvNumber(&out, r.joint_rates[i]);
+  if (r.gripper >= 0) io::AppendCsvNumber(&out, r.gripper);
   return out;
 }
 
 std::string WritePlanCsv(const Plan& plan) {
-  std::string out = PlanCsvHeader(plan.joint_names) + "\n";
+  const bool gripper = !plan.rows.empty() && plan.rows.front().gripper >= 0;
+  std::string out = PlanCsvHeader(plan.joint_names, gripper) + "\n";
   for (const PlanRow& row : plan.rows) out += PlanCsvRow(row) + "\n";
   return out;
 }
 
 core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::string>& joint_names,
                                 const std::string& source) {
-  auto table = io::ParsePlanFile(text, joint_names, source);
+  auto table = io::ParsePlanFile(text, joint_names, source, {"gripper"});
   if (!table.ok()) return table.status();
   Plan plan;
   plan.joint_names = joint_names;
   const int n = static_cast<int>(joint_names.size());
+  const bool has_gripper = table->values.cols() > 16 + 2 * n;
   for (Eigen::Index i = 0; i < table->values.rows(); ++i) {
     const auto v = table->values.row(i);
     PlanRow r;
@@ -61,6 +64,14 @@ core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::
     r.yaw_rate = v[15];
     r.joints = v.segment(16, n).transpose();
     r.joint_rates = v.segment(16 + n, n).transpose();
+    if (has_gripper) {
+      const double g = v[16 + 2 * n];
+      if (g != 0.0 && g != 1.0) {
+        return core::Status::InvalidArgument(source + ": row " + std::to_string(i + 1) +
+                                             ": column 'gripper': must be 0 (open) or 1 (closed)");
+      }
+      r.gripper = static_cast<int>(g);
+    }
     plan.rows.push_back(std::move(r));
   }
   return plan;

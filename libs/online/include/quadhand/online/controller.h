@@ -204,6 +204,15 @@ struct OnlineOptions {
   // least 1 s), holds there for abort_hold s and finishes (aborted()).
   bool abort_near_goal = true;
   double abort_hold = 2.0;
+  // A joint that stops while the plan moves it (a stalled or broken servo):
+  // the plan's clearance assumed the arm moves with the base, so when a
+  // joint's measured rate stays under a tenth of the plan's while the plan
+  // has moved that joint at joint_stall_rate (rad/s) or faster, in one
+  // direction, for the last 0.3 s, over joint_stall_time (s) of its
+  // states, the vehicle stops where it is and holds (the flight failed).
+  // A slow servo (a lag) still moves and is not a stall. 0: no check.
+  double joint_stall_rate = 0.3;
+  double joint_stall_time = 0.1;
 
   bool IsValid(std::string* why) const;
 };
@@ -397,6 +406,9 @@ class OnlineController {
   bool finished() const;  // arrived and held, or a phase that ends the flight
   // The flight was aborted near the goal and retreated (abort_tracking_error).
   bool aborted() const { return aborted_; }
+  // The abort was a joint that stopped following the plan (held where the
+  // vehicle was, no retreat).
+  bool joint_stalled() const { return joint_stalled_; }
   // After finished() in the arrived phase: whether the vehicle settled at the
   // goal (false: arrival_timeout passed first).
   bool arrival_settled() const { return arrival_settled_; }
@@ -535,9 +547,15 @@ class OnlineController {
   // The abort near the goal (OnlineOptions::abort_tracking_error): the
   // retreat's start (controller time), its plan times from and to, its
   // duration; aborted_ once it has begun, abort_done_ after the hold.
-  bool retreating_ = false, aborted_ = false, abort_done_ = false;
+  bool retreating_ = false, aborted_ = false, abort_done_ = false, joint_stalled_ = false;
   double retreat_start_ = 0.0, retreat_from_ = 0.0, retreat_to_ = 0.0, retreat_duration_ = 1.0;
   double abort_checked_time_ = -1.0;  // the newest state CheckAbort measured
+  // CheckJointStall: the newest joint state looked at, and since when (its
+  // time) some joint has not followed the plan; -1: none.
+  double stall_checked_time_ = -1.0;
+  double stall_since_ = -1.0;
+  // A joint that stopped while the plan moved it: holds at the measured pose.
+  void CheckJointStall(double t);
   void CheckAbort(double t);
   // A hold (every rate zero) at the newest measured position, yaw and joints.
   Setpoint HoldAtMeasuredPose() const;

@@ -68,4 +68,45 @@ core::Result<PlanResult> PlanTask(const PlanningContext& context, const Task& ta
                                   const PlannerOptions& options, const opt::Solver& solver,
                                   MissionPhaseCache* cache = nullptr);
 
+// A mission's scene and held object as a flight really went, for judging
+// its record (quadhand-flightcheck): the phases PlanTask builds, changed at
+// the gripper events the vehicle reported and with the tool where it was
+// then (the object is held where the flown tool closed on it, and left
+// where the flown tool opened), not where a plan meant them to be.
+class MissionReplay {
+ public:
+  // The first phase of context.task()'s mission (an object held from the
+  // start attached). Errors name the task file and the step.
+  static core::Result<std::unique_ptr<MissionReplay>> Start(const PlanningContext& context,
+                                                            const MissionPlanOptions& options);
+  ~MissionReplay();
+
+  // The gripper closed with the tool at `tool` (world): the next grasp
+  // step's object is held. InvalidArgument when the mission has no grasp
+  // left for it, or something is held already.
+  core::Status GripperClosed(const Pose& tool);
+  // The gripper opened with the tool at `tool`: the held object is left
+  // there and joins the scene. Opening with nothing held changes nothing.
+  core::Status GripperOpened(const Pose& tool);
+
+  struct Clearances {
+    double robot = 0.0;  // the robot's links (without the held object), m
+    int robot_link = -1;
+    double object = 0.0;  // the held object; +infinity when nothing is held
+  };
+  // Exact clearances, against the phase's scene, of the robot at this base
+  // pose and these joints (the search capped at `reach`).
+  Clearances Measure(const Pose& base, const VecX& joints, double reach) const;
+  // The robot of the current phase (a held object is its last link).
+  const robot::RobotModel& robot() const;
+  // The grasp step of the held object; -1 when nothing is held.
+  long held_step() const;
+
+  class Impl;
+
+ private:
+  explicit MissionReplay(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
 }  // namespace quadhand::planner

@@ -135,8 +135,11 @@ class Autopilot {
   const Simulator& simulator() const { return simulator_; }
   // The setpoint the controller is given now (hold or offboard), ENU.
   Setpoint CurrentSetpoint() const;
-  // Flown states at the telemetry times (record_flown), in the plan columns.
+  // Flown states at the telemetry times (record_flown), in the plan columns,
+  // with the gripper (0 open, 1 closed) when records_gripper(): a mission's
+  // grasps were given (gripper_loads).
   const std::vector<PlanRow>& flown() const { return flown_; }
+  bool records_gripper() const { return !options_.gripper_loads.empty(); }
   uint64_t setpoints_received() const { return setpoints_received_; }
   uint64_t setpoints_rejected() const { return setpoints_rejected_; }
   // The gripper: closed (holding its load, if any) and the grabs so far.

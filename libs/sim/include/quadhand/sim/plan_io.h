@@ -23,6 +23,9 @@ struct PlanRow {
   double yaw_rate = 0.0;
   VecX joints;
   VecX joint_rates;
+  // The `gripper` column of a mission's plan or flown record (0 open, 1
+  // closed); -1 where the file has none.
+  int gripper = -1;
 };
 
 struct Plan {
@@ -35,7 +38,8 @@ struct Plan {
 
 // Parses a plan; `source` (the file name) starts every error message.
 // Errors: missing columns, rows of the wrong width, non-numbers or non-finite
-// values (with their line), time not strictly increasing, fewer than 2 rows.
+// values (with their line), time not strictly increasing, fewer than 2 rows,
+// a `gripper` column (read when there is one) holding other than 0 or 1.
 core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::string>& joint_names,
                                 const std::string& source);
 core::Result<Plan> LoadPlanCsv(const std::string& path, const std::vector<std::string>& joint_names);
@@ -45,9 +49,11 @@ core::Result<Plan> LoadPlanCsv(const std::string& path, const std::vector<std::s
 // accelerations of the surrounding rows (zero outside the plan).
 Setpoint SamplePlan(const Plan& plan, double t);
 
-// The header line (without newline) of a plan file for these joints.
-std::string PlanCsvHeader(const std::vector<std::string>& joint_names);
-// One row of numbers in the plan columns' order (no newline, >= 10 significant digits).
+// The header line (without newline) of a plan file for these joints, with
+// the `gripper` column after the joint rates when asked.
+std::string PlanCsvHeader(const std::vector<std::string>& joint_names, bool gripper_column = false);
+// One row of numbers in the plan columns' order (no newline, >= 10
+// significant digits), then the gripper when the row has one.
 std::string PlanCsvRow(const PlanRow& row);
 // A whole plan file.
 std::string WritePlanCsv(const Plan& plan);
