@@ -129,7 +129,7 @@ matrix=(
   "servo_stall|j2@2s|other||{servo: {stall_joint: 1, stall_time: 2}}"
   "payload|-30%|mild||@payload=0.7"
   "payload|+30%|mild||@payload=1.3"
-  "payload|+60%|beyond||@payload=1.6"
+  "payload|+45%|beyond||@payload=1.45"
   "jump|1cm|mild||{estimate: {jump: {time: 3, offset: [0.01, 0, 0]}}}"
   "jump|2cm|mild||{estimate: {jump: {time: 3, offset: [0, 0.014, -0.014]}}}"
   "jump|5cm|beyond||{estimate: {jump: {time: 3, offset: [0, -0.05, 0]}}}"
