@@ -490,7 +490,7 @@ int main(int argc, char** argv) {
     outcome = "REFUSED";
   } else if (controller.aborted()) {
     code = kExitAborted;
-    outcome = controller.joint_stalled() ? "ABORTED (a joint stalled; held where the vehicle stopped)"
+    outcome = controller.joint_stalled() ? "ABORTED (a joint stalled; braked along the plan and held)"
                                          : "ABORTED (retreated along the plan)";
   } else if (phase == online::Phase::kHoldingAfterFailure) {
     code = kExitPlanFailed;

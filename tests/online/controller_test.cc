@@ -263,6 +263,7 @@ TEST(OnlineControllerTest, AStalledJointAbortsTheFlightWhereItIsAndASlowOneDoesN
     EXPECT_TRUE(controller->aborted());
     EXPECT_TRUE(controller->joint_stalled()) << flight.Events();
     EXPECT_EQ(controller->phase(), Phase::kHoldingAfterFailure);
+    EXPECT_NE(flight.Events().find("stopped along the plan: holding there"), std::string::npos) << flight.Events();
     // Within two seconds of the stall (the plan moves this joint slowly
     // there: it is found by how far it falls behind), at rest since.
     const std::string events = flight.Events();

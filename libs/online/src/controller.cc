@@ -342,6 +342,13 @@ void OnlineController::CheckAbort(double t) {
       hold_ = HoldAt(RetreatReference(t));
       Event(Format("retreated to the insertion's start: holding there for %.1f s", options_.abort_hold));
     }
+    if (joint_stalled_ && phase_ == Phase::kFlying && t - retreat_start_ >= retreat_duration_) {
+      // Stopped along the plan: hold there.
+      if (const std::optional<Setpoint> stop = LinkHoldReference(t)) hold_ = HoldAt(*stop);
+      phase_ = Phase::kHoldingAfterFailure;
+      link_hold_ = false;
+      Event(Format("stopped along the plan: holding there for %.1f s", options_.abort_hold));
+    }
     if (!retreating_ && t - retreat_start_ >= retreat_duration_ + options_.abort_hold) abort_done_ = true;
     return;
   }
@@ -428,21 +435,26 @@ void OnlineController::CheckJointStall(double t) {
   if (joints_time_ - stall_since_ < options_.joint_stall_time) return;
   const std::string name = setup_.scene.robot.joint(setup_.scene.robot.actuated_joints()[stalled]).name;
   // An abort without a retreat (the plan backwards needs the joint too):
-  // the hold at the measured pose for abort_hold, then the end (exit 7).
-  if (last_setpoint_) failed_plan_time_ = last_setpoint_time_ - to_.start;
-  phase_ = Phase::kHoldingAfterFailure;
-  blending_ = false;
-  hold_ = HoldAtMeasuredPose();
+  // the vehicle brakes along the plan's path as for a slow link (a hard
+  // stop at the measured pose overshoots and tilts, and went into window
+  // frames in the campaign), holds where it stopped for abort_hold, and
+  // the flight ends (exit 7).
+  const std::optional<Setpoint> reference = Reference(t);
+  const double speed = reference ? reference->velocity.norm() : 0.0;
+  link_hold_ = true;
+  link_hold_start_ = t;
+  link_brake_duration_ = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
+  hold_until_resume_ = false;
   aborted_ = true;
   joint_stalled_ = true;
   retreating_ = false;
   retreat_start_ = t;
-  retreat_duration_ = 0.0;
+  retreat_duration_ = link_brake_duration_;
   Event(Format("joint %s does not follow the plan: %.3f rad from it, moving at %.3f rad/s where the plan moves it "
-               "at up to %.2f rad/s (for %.2f s); the plan's clearance assumed it follows: aborting, holding where "
-               "the vehicle is (%.3f, %.3f, %.3f) for %.1f s",
+               "at up to %.2f rad/s (for %.2f s); the plan's clearance assumed it follows: aborting, braking along "
+               "the plan over %.2f s and holding there for %.1f s",
                name.c_str(), error, std::abs(joint_rates_[stalled]), planned_rate, joints_time_ - stall_since_,
-               hold_.position.x(), hold_.position.y(), hold_.position.z(), options_.abort_hold));
+               link_brake_duration_, options_.abort_hold));
 }
 
 Setpoint OnlineController::RetreatReference(double t) const {

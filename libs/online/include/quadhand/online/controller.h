@@ -209,7 +209,8 @@ struct OnlineOptions {
   // joint's measured rate stays under a tenth of the plan's while the plan
   // has moved that joint at joint_stall_rate (rad/s) or faster, in one
   // direction, for the last 0.3 s, over joint_stall_time (s) of its
-  // states, the vehicle stops where it is and holds (the flight failed).
+  // states, the vehicle brakes along the plan, holds and the flight ends
+  // aborted.
   // A slow servo (a lag) still moves and is not a stall. 0: no check.
   double joint_stall_rate = 0.3;
   double joint_stall_time = 0.1;
