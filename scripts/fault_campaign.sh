@@ -264,7 +264,7 @@ fly() {
   elif [[ -n "$kill_after" ]]; then
     verdict="killed; failsafe"
   elif [[ $code -eq 7 ]]; then
-    verdict="aborted (retreated)"
+    verdict="aborted, stopped safely"
   elif [[ $code -eq 6 && "$said" == "CLEARANCE NOT VERIFIED"* ]]; then
     verdict="not verified, reported"
   elif [[ $code -eq 6 ]]; then
@@ -300,6 +300,7 @@ for row in "${matrix[@]}"; do
 done
 wait
 elapsed=$(($(date +%s) - start_time))
+if [[ $summary_only -eq 1 ]]; then elapsed=-1; fi
 
 results=()
 for base in "${bases[@]}"; do
@@ -356,8 +357,9 @@ low = [r for r in rows if r["check"] != 0 and r["code"] not in (7,) and r["clear
 loaded = [r["rate"] for r in rows if r["kind"] == "cpu_load" and r["rate"] is not None]
 kinds = {r["kind"] for r in rows if r["kind"] != "calm"}
 print()
-print(f"{len(rows)} flights, {len(kinds)} fault kinds, {len(groups)} rows, in {elapsed // 60} min {elapsed % 60} s "
-      f"({jobs} at a time; the killed and CPU-load rows alone)")
+print(f"{len(rows)} flights, {len(kinds)} fault kinds, {len(groups)} rows, "
+      + (f"in {elapsed // 60} min {elapsed % 60} s ({jobs} at a time; the killed and CPU-load rows alone)"
+         if elapsed >= 0 else "from the records of earlier runs"))
 print(f"collisions (flown clearance < 0): {len(collisions)}")
 print(f"exit 0 not borne out by the record: {len(dishonest)}")
 print(f"below the safety distance less 2 mm without a retreat (reported, exit 6): {len(low)}"
