@@ -222,6 +222,10 @@ fly() {
     "$build/bin/quadhand-online" "$task" --vehicle "udp://127.0.0.1:$proxy_port" --max-duration 100 \
       --log "$base.online.csv" "${online_options[@]}" >"$base.online.txt" 2>&1
     code=$?
+    # A flight that did not complete is judged where it was left: 5 s more
+    # of the simulator's record (the autopilot's failsafe, after an online
+    # mode that gave up).
+    if [[ $code -ne 0 ]]; then sleep 5; fi
   fi
   set -e
   kill -TERM "$proxy" "$sim" "${loaders[@]}" 2>/dev/null || true

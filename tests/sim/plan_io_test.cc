@@ -65,6 +65,20 @@ TEST(PlanIoTest, RoundTripsAndFindsColumnsByName) {
                             kJoints, "p.csv");
   ASSERT_TRUE(extra.ok()) << extra.status().message();
   EXPECT_NEAR(extra->rows[1].joints[0], 0.2, 1e-15);
+  // A mission's gripper column comes back; a subnormal rate (a simulator's
+  // joint coming to rest) is a finite number, an overflow is not.
+  auto mission = ParsePlanCsv("t,px,py,pz,vx,vy,vz,ax,ay,az,qw,qx,qy,qz,yaw,yaw_rate,joint1,joint2,joint3,"
+                              "joint1_rate,joint2_rate,joint3_rate,gripper\n"
+                              "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,1.552353207e-308,0,0\n"
+                              "1,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.2,0,0,0,0,-5.1e-309,1\n",
+                              kJoints, "p.csv");
+  ASSERT_TRUE(mission.ok()) << mission.status().message();
+  EXPECT_EQ(mission->rows[0].gripper, 0);
+  EXPECT_EQ(mission->rows[1].gripper, 1);
+  EXPECT_GT(mission->rows[0].joint_rates[1], 0.0);
+  EXPECT_EQ(WritePlanCsv(*mission).substr(0, 5), "t,px,");
+  EXPECT_NE(WritePlanCsv(*mission).find("joint3_rate,gripper\n"), std::string::npos);
+  EXPECT_EQ(plan->rows[0].gripper, -1);
 }
 
 TEST(PlanIoTest, RejectsMalformedPlans) {
@@ -77,6 +91,12 @@ TEST(PlanIoTest, RejectsMalformedPlans) {
                        "0.1,0,0,abc,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0\n",
               "line 3: column 'pz'");
   ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,nan,0,0,0,0,0\n", "column 'joint1'");
+  ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,1e309,0,0,0,0,0\n", "column 'joint1'");
+  ExpectError(std::string("t,px,py,pz,vx,vy,vz,ax,ay,az,qw,qx,qy,qz,yaw,yaw_rate,joint1,joint2,joint3,joint1_rate,"
+                          "joint2_rate,joint3_rate,gripper\n") +
+                  "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0,0.5\n"
+                  "1,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0,1\n",
+              "column 'gripper': must be 0 (open) or 1 (closed)");
   ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0\n"
                        "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0\n",
               "does not increase");

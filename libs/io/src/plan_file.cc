@@ -34,7 +34,10 @@ bool ParseNumber(const std::string& text, double* value) {
   char* end = nullptr;
   errno = 0;
   *value = std::strtod(s.c_str(), &end);
-  return end == s.c_str() + s.size() && errno != ERANGE && std::isfinite(*value);
+  // ERANGE also flags an underflow to a subnormal or zero (1e-309, which
+  // the simulator writes for a rate decaying to rest): that value is finite
+  // and right. Only an overflow (inf) is refused.
+  return end == s.c_str() + s.size() && std::isfinite(*value) && !(errno == ERANGE && std::abs(*value) > 1.0);
 }
 
 }  // namespace
