@@ -870,6 +870,10 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   // has stayed good enough for a useful speed over the whole window. A
   // mission is not planned again from the middle of its steps: it holds.
   if (IsMission()) {
+    // The brake along the plan first: a hold at the last setpoint while
+    // flying at speed overshoots it (a frozen estimate in the campaign sent
+    // the vehicle into the gap's frame that way).
+    if (t - link_hold_start_ < link_brake_duration_) return;
     Fail(Phase::kHoldingAfterFailure, "the link failed in the middle of the mission; a mission is not resumed "
                                       "after a link hold");
     return;
@@ -1167,7 +1171,8 @@ ControllerOutput OnlineController::Tick(double t) {
 
   // The vehicle's silence ends everything.
   if (phase_ != Phase::kVehicleLost && phase_ != Phase::kHandshakeFailed && !arrival_done_) {
-    const bool outage = phase_ == Phase::kFlying && !IsMission();
+    // A mission is not resumed after an outage, but its brake is waited for.
+    const bool outage = phase_ == Phase::kFlying && (!IsMission() || link_hold_);
     const double silence = t - position_time_;
     if (have_position_ && silence > options_.vehicle_timeout && outage && silence <= options_.outage_timeout) {
       if (!outage_noted_) {
