@@ -205,12 +205,13 @@ struct OnlineOptions {
   bool abort_near_goal = true;
   double abort_hold = 2.0;
   // A joint that stops while the plan moves it (a stalled or broken servo):
-  // the plan's clearance assumed the arm moves with the base, so when a
-  // joint's measured rate stays under a tenth of the plan's while the plan
-  // has moved that joint at joint_stall_rate (rad/s) or faster, in one
-  // direction, for the last 0.3 s, over joint_stall_time (s) of its
-  // states, the vehicle brakes along the plan, holds and the flight ends
-  // aborted.
+  // the plan's clearance assumed the arm moves with the base. When, over
+  // joint_stall_time (s) of its states, a joint's measured rate stays under
+  // a tenth of the plan's while the plan has moved it at joint_stall_rate
+  // (rad/s) or faster, one way, for the last 0.3 s plus the uplink, or the
+  // joint is farther from the plan than the plan moved it in that time
+  // (plus 0.03 rad), the vehicle brakes along the plan, holds and the
+  // flight ends aborted.
   // A slow servo (a lag) still moves and is not a stall. 0: no check.
   double joint_stall_rate = 0.3;
   double joint_stall_time = 0.1;
