@@ -441,9 +441,7 @@ void OnlineController::CheckJointStall(double t) {
   // the flight ends (exit 7).
   const std::optional<Setpoint> reference = Reference(t);
   const double speed = reference ? reference->velocity.norm() : 0.0;
-  link_hold_ = true;
-  link_hold_start_ = t;
-  link_brake_duration_ = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
+  BrakeAlongPlan(t, speed);
   hold_until_resume_ = false;
   aborted_ = true;
   joint_stalled_ = true;
@@ -855,10 +853,7 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
     const std::optional<Setpoint> reference = Reference(t);
     const double speed = reference ? reference->velocity.norm() : 0.0;
     if (speed <= kLinkHoldSlack * allowed && blind <= options_.max_blind_time) return;
-    // Brake along the current plan's path: its clock slows to a stop.
-    link_hold_ = true;
-    link_hold_start_ = t;
-    link_brake_duration_ = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
+    BrakeAlongPlan(t, speed);
     ++stats_.link_holds;
     Event(Format("link too slow for the speed: %.2f m/s planned, %.2f m/s allowed ", speed, allowed) +
           Format("(blind for %.0f ms: the newest state's age and the uplink): braking along the plan and holding "
@@ -926,6 +921,14 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   worker_->Submit(std::move(job));
   pending_resume_ = true;
   Event(Format("link good again (%.2f m/s allowed): planning afresh from the measured state", limit));
+}
+
+void OnlineController::BrakeAlongPlan(double t, double speed) {
+  // The current plan's clock slows to a stop (LinkHoldReference): the same
+  // path, at half the task's acceleration limit on average.
+  link_hold_ = true;
+  link_hold_start_ = t;
+  link_brake_duration_ = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
 }
 
 std::optional<Setpoint> OnlineController::LinkHoldReference(double t) const {

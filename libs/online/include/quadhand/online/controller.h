@@ -556,8 +556,12 @@ class OnlineController {
   // time) some joint has not followed the plan; -1: none.
   double stall_checked_time_ = -1.0;
   double stall_since_ = -1.0;
-  // A joint that stopped while the plan moved it: holds at the measured pose.
+  // A joint that stopped while the plan moved it: brakes along the plan,
+  // holds and ends the flight aborted.
   void CheckJointStall(double t);
+  // Starts braking along the current plan from `speed` (m/s) at t: a slow
+  // link's hold, a stalled joint's abort.
+  void BrakeAlongPlan(double t, double speed);
   void CheckAbort(double t);
   // A hold (every rate zero) at the newest measured position, yaw and joints.
   Setpoint HoldAtMeasuredPose() const;
