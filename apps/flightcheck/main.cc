@@ -121,8 +121,8 @@ int main(int argc, char** argv) {
   for (const sim::PlanRow& row : flown->rows) {
     const Pose base = MakePose(row.position, row.attitude.toRotationMatrix());
     if (replay && row.gripper >= 0 && row.gripper != gripper) {
-      const Pose tool = robot::LinkPose(robot, base, row.joints, robot.LinkIndex(ctx.task().tool_link));
-      const core::Status changed = row.gripper == 1 ? replay->GripperClosed(tool) : replay->GripperOpened(tool);
+      const core::Status changed =
+          row.gripper == 1 ? replay->GripperClosed(base, row.joints) : replay->GripperOpened(base, row.joints);
       if (!changed.ok()) return Fail(flown_path + core::Format(": t = %.3f s: ", row.t) + changed.message());
       gripper = row.gripper;
       ++gripper_events;

@@ -152,10 +152,6 @@ core::Result<std::unique_ptr<SfcModel>> SfcModel::Create(const robot::RobotModel
   for (int link : links) {
     auto mesh = robot::LinkCollisionMesh(robot, link);
     if (!mesh.ok()) return mesh.status().WithPrefix("sfc: link '" + robot.link(link).name + "'");
-    // Checked here too, for the link's name in the message.
-    const core::Status fits =
-        CheckSurfaceSampleCount(*mesh, options.surface_spacing, "sfc: link '" + robot.link(link).name + "'");
-    if (!fits.ok()) return fits;
     meshes.push_back(std::move(*mesh));
   }
   return Create(std::move(links), meshes, points, path, options);

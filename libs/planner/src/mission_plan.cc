@@ -1044,7 +1044,7 @@ core::Result<std::unique_ptr<MissionReplay>> MissionReplay::Start(const Planning
   return std::unique_ptr<MissionReplay>(new MissionReplay(std::move(impl)));
 }
 
-core::Status MissionReplay::GripperClosed(const Pose& tool) {
+core::Status MissionReplay::GripperClosed(const Pose& base, const VecX& joints) {
   Impl& m = *impl_;
   const Task& task = m.base_.task();
   if (m.phase_->held) {
@@ -1059,6 +1059,7 @@ core::Status MissionReplay::GripperClosed(const Pose& tool) {
   if (m.tool_link_ < 0) {
     return core::Status::InvalidArgument(task.file + ": the robot has no tool link '" + task.tool_link + "'");
   }
+  const Pose tool = robot::LinkPose(m.base_.robot(), base, joints, m.tool_link_);
   auto phase = PhaseAfterGrasp(m.base_, *m.phase_, task, i, tool, m.options_);
   if (!phase.ok()) return phase.status();
   m.phase_ = std::make_shared<const Phase>(std::move(*phase));
@@ -1066,14 +1067,15 @@ core::Status MissionReplay::GripperClosed(const Pose& tool) {
   return core::Status::Ok();
 }
 
-core::Status MissionReplay::GripperOpened(const Pose& tool) {
+core::Status MissionReplay::GripperOpened(const Pose& base, const VecX& joints) {
   Impl& m = *impl_;
   if (!m.phase_->held) return core::Status::Ok();
   const Task& task = m.base_.task();
   const size_t grasp = m.phase_->held->grasp_step;
   size_t release = grasp;
   while (release < task.mission.size() && task.mission[release].kind != StepKind::kRelease) ++release;
-  const Pose object_pose = tool * m.phase_->held->object_in_tool;
+  // The object is the phase robot's last link: where the tool holds it.
+  const Pose object_pose = robot::LinkPose(m.phase_->context->robot(), base, joints, m.phase_->object_link);
   auto phase = PhaseAfterRelease(m.base_, *m.phase_, task, std::min(release, task.mission.size() - 1), object_pose,
                                  m.options_);
   if (!phase.ok()) return phase.status();

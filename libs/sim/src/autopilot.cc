@@ -550,7 +550,7 @@ void Autopilot::RecordFlown() {
   row.joint_rates = s.joint_rates;
   // A mission's record says when the gripper held something: the checks
   // of the flight change their scene and robot there.
-  if (!options_.gripper_loads.empty()) row.gripper = gripper_closed_ ? 1 : 0;
+  if (records_gripper()) row.gripper = gripper_closed_ ? 1 : 0;
   flown_.push_back(std::move(row));
 }
 

@@ -51,7 +51,7 @@ core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::
   Plan plan;
   plan.joint_names = joint_names;
   const int n = static_cast<int>(joint_names.size());
-  const bool has_gripper = table->values.cols() > 16 + 2 * n;
+  const bool has_gripper = table->columns.back() == "gripper";
   for (Eigen::Index i = 0; i < table->values.rows(); ++i) {
     const auto v = table->values.row(i);
     PlanRow r;

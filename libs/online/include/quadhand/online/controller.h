@@ -406,10 +406,11 @@ class OnlineController {
   Phase phase() const { return phase_; }
   int num_joints() const { return setup_.scene.robot.num_actuated(); }
   bool finished() const;  // arrived and held, or a phase that ends the flight
-  // The flight was aborted near the goal and retreated (abort_tracking_error).
+  // The flight was aborted: near the goal (a retreat along the plan), or
+  // for a stalled joint.
   bool aborted() const { return aborted_; }
-  // The abort was a joint that stopped following the plan (held where the
-  // vehicle was, no retreat).
+  // The abort was a joint that stopped following the plan (a brake along
+  // the plan, no retreat).
   bool joint_stalled() const { return joint_stalled_; }
   // After finished() in the arrived phase: whether the vehicle settled at the
   // goal (false: arrival_timeout passed first).
@@ -546,9 +547,10 @@ class OnlineController {
   bool left_offboard_in_outage_ = false;
   bool reengaging_ = false;             // that handshake is under way
   bool hold_until_resume_ = false;      // stream hold_ (not the braked plan) until the fresh plan flies
-  // The abort near the goal (OnlineOptions::abort_tracking_error): the
-  // retreat's start (controller time), its plan times from and to, its
-  // duration; aborted_ once it has begun, abort_done_ after the hold.
+  // An abort (OnlineOptions::abort_near_goal, CheckJointStall): the start
+  // (controller time) and duration of its motion (the retreat, or a stalled
+  // joint's brake), the retreat's plan times from and to; aborted_ once it
+  // has begun, abort_done_ after the hold that follows.
   bool retreating_ = false, aborted_ = false, abort_done_ = false, joint_stalled_ = false;
   double retreat_start_ = 0.0, retreat_from_ = 0.0, retreat_to_ = 0.0, retreat_duration_ = 1.0;
   double abort_checked_time_ = -1.0;  // the newest state CheckAbort measured

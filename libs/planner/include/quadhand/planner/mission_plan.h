@@ -81,13 +81,14 @@ class MissionReplay {
                                                             const MissionPlanOptions& options);
   ~MissionReplay();
 
-  // The gripper closed with the tool at `tool` (world): the next grasp
-  // step's object is held. InvalidArgument when the mission has no grasp
-  // left for it, or something is held already.
-  core::Status GripperClosed(const Pose& tool);
-  // The gripper opened with the tool at `tool`: the held object is left
-  // there and joins the scene. Opening with nothing held changes nothing.
-  core::Status GripperOpened(const Pose& tool);
+  // The gripper closed with the vehicle at this base pose and these joints:
+  // the next grasp step's object is held where it lies relative to the
+  // tool. InvalidArgument when the robot has no tool link, the mission has
+  // no grasp left, or something is held already.
+  core::Status GripperClosed(const Pose& base, const VecX& joints);
+  // The gripper opened there: the held object is left where the tool holds
+  // it and joins the scene. Opening with nothing held changes nothing.
+  core::Status GripperOpened(const Pose& base, const VecX& joints);
 
   struct Clearances {
     double robot = 0.0;  // the robot's links (without the held object), m
