@@ -23,7 +23,8 @@ using testing::WindowCup;
 // whether) each one arrives.
 class LinkedFlight {
  public:
-  LinkedFlight(OnlineController* controller, const link::LinkFaults& up, const link::LinkFaults& down, uint64_t seed)
+  LinkedFlight(OnlineController* controller, const link::LinkFaults& up, const link::LinkFaults& down, uint64_t seed,
+               const sim::FaultConfig& vehicle_faults = {})
       : controller_(controller), up_(up, 2 * seed + 1), down_(down, 2 * seed + 2) {
     const planner::Task& task = WindowCup().task;
     sim::StartPose start;
@@ -32,7 +33,7 @@ class LinkedFlight {
     start.joints = task.start.joints;
     sim::AutopilotOptions options;
     options.record_flown = true;
-    auto autopilot = sim::Autopilot::Create(sim::Simulator(testing::VehicleModel(), 5), start, options);
+    auto autopilot = sim::Autopilot::Create(sim::Simulator(testing::VehicleModel(vehicle_faults), 5), start, options);
     EXPECT_TRUE(autopilot.ok()) << autopilot.status().message();
     autopilot_.emplace(std::move(*autopilot));
   }
@@ -262,6 +263,55 @@ TEST(LatencyTest, AnEstimateJumpIsCaughtByTheInnovationGate) {
   EXPECT_NEAR(controller->stats().largest_estimate_jump, jump.norm() - explained, 1e-9);
   EXPECT_NEAR(controller->stats().estimate_jump_sum, controller->stats().largest_estimate_jump, 1e-12);
   EXPECT_NEAR(controller->stats().largest_estimate_jump_time, t - 0.02 + 0.012, 1e-12);
+  // The setpoints are shifted by the whole jump, and the states are kept
+  // less it: the second state after the jump is where the motion says.
+  EXPECT_NEAR((controller->stats().estimate_shift - jump).norm(), 0.0, 1e-9);
+  EXPECT_NEAR((controller->measured().position - state_at(t)).norm(), 0.0, 1e-9);
+}
+
+// Followed (shift_setpoints_on_jump off), a jump is only counted.
+TEST(LatencyTest, AFollowedEstimateJumpIsCountedAndNotShifted) {
+  OnlineOptions options;
+  options.shift_setpoints_on_jump = false;
+  auto controller = MakeController(options);
+  controller->OnPosition(1.0, Vec3(1, 2, 3), Vec3::Zero());
+  controller->OnPosition(1.02, Vec3(1, 2.03, 3), Vec3::Zero());
+  EXPECT_EQ(controller->stats().estimate_jumps, 1);
+  EXPECT_EQ(controller->stats().estimate_shift, Vec3::Zero());
+  EXPECT_NEAR((controller->measured().position - Vec3(1, 2.03, 3)).norm(), 0.0, 1e-12);
+}
+
+// A 5 cm jump of the estimate 4 s into the flight, past the 3 cm safety
+// distance: followed, the autopilot (which flies on its estimate) would
+// fly the vehicle 5 cm off the plan. The setpoints shifted by the jump keep
+// the simulator's true vehicle on the plan: its own record keeps the
+// clearance and the tool reaches the cup. Followed, the same flight ends
+// with the tool the jump away from the cup.
+TEST(LatencyTest, AnEstimateJumpIsNotFlownTheSetpointsAreShiftedByIt) {
+  sim::FaultConfig faults;
+  faults.estimate.jump_time = 4.0;
+  faults.estimate.jump = Vec3(0.0, 0.035, -0.035);
+  const double required = WindowCup().task.safety_distance - 0.002;
+  {
+    auto controller = MakeController();
+    LinkedFlight flight(controller.get(), link::LinkFaults{}, link::LinkFaults{}, 6, faults);
+    flight.Run(60.0);
+    ASSERT_TRUE(controller->finished()) << PhaseName(controller->phase());
+    EXPECT_EQ(controller->phase(), Phase::kArrived);
+    EXPECT_EQ(controller->stats().estimate_jumps, 1);
+    EXPECT_LT((controller->stats().estimate_shift - faults.estimate.jump).norm(), 0.002);
+    EXPECT_GE(FlownClearance(flight.autopilot().flown(), 0.0), required);
+    EXPECT_LT(ToolError(flight.autopilot().state()), 0.01);
+  }
+  {
+    OnlineOptions options;
+    options.shift_setpoints_on_jump = false;
+    auto controller = MakeController(options);
+    LinkedFlight flight(controller.get(), link::LinkFaults{}, link::LinkFaults{}, 6, faults);
+    flight.Run(60.0);
+    EXPECT_EQ(controller->stats().estimate_jumps, 1);
+    EXPECT_GT(ToolError(flight.autopilot().state()), 0.03);
+  }
 }
 
 TEST(LatencyTest, AStateIsNeverTakenAsYoungerThanItsArrival) {

@@ -491,9 +491,10 @@ void OnlineController::Fail(Phase phase, const std::string& why) {
   }
 }
 
-void OnlineController::OnPosition(double t, const Vec3& position, const Vec3& velocity, double vehicle_time) {
+void OnlineController::OnPosition(double t, const Vec3& estimate, const Vec3& velocity, double vehicle_time) {
   if (std::isnan(vehicle_time)) vehicle_time = t;
-  if (!position.allFinite() || !velocity.allFinite() || !std::isfinite(t)) return;
+  if (!estimate.allFinite() || !velocity.allFinite() || !std::isfinite(t)) return;
+  Vec3 position = estimate - stats_.estimate_shift;
   if (have_position_ && t <= position_time_) {
     ++stats_.stale_states_dropped;  // overtaken by a newer state, or a duplicate
     return;
@@ -511,10 +512,21 @@ void OnlineController::OnPosition(double t, const Vec3& position, const Vec3& ve
         stats_.largest_estimate_jump = jump;
         stats_.largest_estimate_jump_time = t;
       }
-      Event(Format("the position estimate jumped by %.4f m", jump) +
-            Format(" (innovation gate %.4f m over %.3f s): the path flown before or after it was that far from "
-                   "where its states say",
-                   options_.innovation_gate + explained, dt));
+      const std::string what = Format("the position estimate jumped by %.4f m", jump) +
+                               Format(" (innovation gate %.4f m over %.3f s)", options_.innovation_gate + explained, dt);
+      if (options_.shift_setpoints_on_jump) {
+        // The whole innovation, not only its part beyond the gate: what the
+        // motion explains is at most 0.5 a dt^2 (under a millimetre at 50 Hz).
+        stats_.estimate_shift += position - predicted;
+        position = estimate - stats_.estimate_shift;
+        Event(what + Format(": the setpoints are shifted by (%.4f, ", stats_.estimate_shift.x()) +
+              Format("%.4f, %.4f) m from now on, so that the vehicle does not fly the jump; its states are ",
+                     stats_.estimate_shift.y(), stats_.estimate_shift.z()) +
+              "judged less that shift (if the jump was a re-localisation that corrected the estimate, the "
+              "flight was that far off before it, and stays so)");
+      } else {
+        Event(what + ": the path flown before or after it was that far from where its states say");
+      }
     }
   }
   have_position_ = true;
@@ -1307,6 +1319,8 @@ ControllerOutput OnlineController::Tick(double t) {
     last_setpoint_time_ = t;
     last_setpoint_in_blend_ = in_blend;
     ++stats_.setpoints;
+    // Into the frame of the vehicle's estimate, where the autopilot flies.
+    setpoint->position += stats_.estimate_shift;
     out.setpoint = std::move(setpoint);
   }
   const bool streaming_phase = phase_ != Phase::kVehicleLost && phase_ != Phase::kHandshakeFailed && !arrival_done_;

@@ -185,13 +185,20 @@ struct OnlineOptions {
   // than innovation_gate (m) plus 0.5 innovation_acceleration dt^2 from
   // where the one before predicts it (its position moved by the mean of
   // the two velocities over the dt between their stamps) is an estimate
-  // jump (a re-localisation, a glitch). The vehicle flies on its estimate,
-  // so across a jump one side of it was wrong by the jump and the flown
-  // path was not where its states say: exit 0 then also needs the flown
-  // clearance less the jumps' sum to keep the safety distance less the
-  // tolerance (OnlineStats::estimate_jumps).
+  // jump (a re-localisation, a glitch). A vehicle cannot move that far
+  // that fast, so one side of the jump is wrong, and the autopilot, which
+  // flies on its estimate, would fly the jump at once.
+  // shift_setpoints_on_jump (the default): every setpoint streamed from
+  // then on is shifted by the jump, so that the vehicle stays where it
+  // physically was and the flight goes on in the frame it began in (as
+  // PX4's position control shifts its setpoints on an EKF2 reset); the
+  // states are judged in that frame, the estimate less the jumps
+  // (OnlineStats::estimate_shift). Off: the setpoints are not shifted, the
+  // vehicle flies the jump, and exit 0 also needs the flown clearance less
+  // the jumps' sum to keep the safety distance less the tolerance.
   double innovation_gate = 0.005;
   double innovation_acceleration = 4.0;  // m/s^2
+  bool shift_setpoints_on_jump = true;
   // The abort near the goal (a goal with an insertion, not a mission): on
   // the insertion, or holding at the goal, every new state's exact
   // clearance (link meshes against the scene, as the verdict measures it)
@@ -342,6 +349,10 @@ struct OnlineStats {
   double estimate_jump_sum = 0.0;
   double largest_estimate_jump = 0.0;
   double largest_estimate_jump_time = 0.0;
+  // The jumps summed as vectors (m): the estimate less this is the frame
+  // the flight is judged in, and the setpoints were streamed plus it
+  // (zero unless OnlineOptions::shift_setpoints_on_jump).
+  Vec3 estimate_shift = Vec3::Zero();
 };
 
 // Controller time -> plan time of a mission flown with the waits at its
@@ -379,7 +390,8 @@ class OnlineController {
   // `vehicle_time` (s, the vehicle's own stamp; NaN: t) times the
   // innovation gate's prediction: the mapping to controller time moves
   // when the clock estimate is refined, and a step of 10 ms in it would
-  // read as 7 mm of innovation at 0.7 m/s.
+  // read as 7 mm of innovation at 0.7 m/s. `position` is the vehicle's
+  // estimate; the controller keeps it less stats().estimate_shift.
   void OnPosition(double t, const Vec3& position, const Vec3& velocity,
                   double vehicle_time = std::numeric_limits<double>::quiet_NaN());
   void OnAttitude(double t, const Quat& attitude, const Vec3& body_rate);
