@@ -231,7 +231,7 @@ fly() {
   kill -TERM "$proxy" "$sim" "${loaders[@]}" 2>/dev/null || true
   wait "$proxy" "$sim" "${loaders[@]}" 2>/dev/null || true
   local said rate check check_code clearance tool rest verdict
-  said=$(grep -m1 -E '^(arrived|VEHICLE LOST|REFUSED|PLANNING FAILED|INTERRUPTED|CLEARANCE|ABORTED|KILLED)' "$base.online.txt" |
+  said=$(grep -m1 -E '^(arrived|VEHICLE LOST|REFUSED|PLANNING FAILED|HOLDING|INTERRUPTED|CLEARANCE|ABORTED|KILLED)' "$base.online.txt" |
     sed 's/ after .*//' || true)
   rate=$(grep -o -m1 'setpoints at [0-9.]* Hz' "$base.online.txt" | grep -o '[0-9.]*' || echo "-")
   if [[ ! -s "$base.sim.csv" ]]; then

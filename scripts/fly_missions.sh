@@ -28,7 +28,7 @@ for task in data/tasks/missions/*.yaml data/tasks/missions/*/*.yaml; do
   set -e
   kill -TERM "$sim" 2>/dev/null || true
   wait "$sim" 2>/dev/null || true
-  outcome="$(grep -oE '^(arrived|CLEARANCE LOST|CLEARANCE NOT VERIFIED|PLANNING FAILED \(holding\)|INTERRUPTED|VEHICLE LOST|REFUSED)' "$record" | head -1)"
+  outcome="$(grep -oE '^(arrived|CLEARANCE LOST|CLEARANCE NOT VERIFIED|PLANNING FAILED \(holding\)|HOLDING \([a-z ]*\)|INTERRUPTED|VEHICLE LOST|REFUSED)' "$record" | head -1)"
   robot="$(grep -oE 'flown path: min clearance -?[0-9.]+' "$record" | grep -oE -- '-?[0-9.]+$' || true)"
   held="$(grep -oE 'held object: min clearance -?[0-9.]+' "$record" | grep -oE -- '-?[0-9.]+$' || true)"
   tools="$(grep -oE 'the flown tool [0-9.]+' "$record" | grep -oE '[0-9.]+$' | paste -sd ' ' || true)"

@@ -498,7 +498,12 @@ int main(int argc, char** argv) {
                                          : "ABORTED (retreated along the plan)";
   } else if (phase == online::Phase::kHoldingAfterFailure) {
     code = kExitPlanFailed;
-    outcome = "PLANNING FAILED (holding)";
+    switch (controller.hold_cause()) {
+      case online::HoldCause::kLinkFailed: outcome = "HOLDING (the link failed during the mission)"; break;
+      case online::HoldCause::kToolNotSettled: outcome = "HOLDING (the tool did not settle)"; break;
+      case online::HoldCause::kGripperFailed: outcome = "HOLDING (the gripper did not act)"; break;
+      default: outcome = "PLANNING FAILED (holding)"; break;
+    }
   } else if (interrupted && !controller.finished()) {
     code = kExitInterrupted;
     outcome = "INTERRUPTED";
@@ -595,9 +600,15 @@ int main(int argc, char** argv) {
     const online::FlightMetrics& m = *metrics;
     std::printf("  tracking error (3-D, while flying, %ld samples): mean %.4f m, median %.4f m, p95 %.4f m, max %.4f m\n",
                 m.flying_samples, m.tracking_mean, m.tracking_median, m.tracking_p95, m.tracking_max);
-    std::printf("  flown path: min clearance %.4f m (exact, link %s, t = %.2f s); final tool error %.4f m, base %.4f m "
-                "from the plan's terminal state\n",
-                m.min_clearance, m.closest_link.c_str(), m.min_clearance_time, m.final_tool_error, m.final_base_error);
+    // No closest link: nothing came within the reach the clearance search
+    // covers, and the figure is that reach.
+    const std::string where = m.closest_link.empty()
+                                  ? std::string("exact; no link came nearer, the reach searched")
+                                  : core::Format("exact, link %s, ", m.closest_link.c_str()) +
+                                        core::Format("t = %.2f s", m.min_clearance_time);
+    std::printf("  flown path: min clearance %.4f m (%s); final tool error %.4f m, base %.4f m from the plan's terminal "
+                "state\n",
+                m.min_clearance, where.c_str(), m.final_tool_error, m.final_base_error);
     std::printf("  judged on %ld of the vehicle's time-stamped states; longest gap between two %.3f s\n",
                 m.judged_samples, m.max_state_gap);
     if (std::isfinite(m.held_object_margin)) {

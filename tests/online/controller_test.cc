@@ -384,6 +384,7 @@ TEST(OnlineControllerTest, AFailedReplanHoldsAtTheLastSafeSetpoint) {
   });
   ASSERT_TRUE(moved);
   EXPECT_EQ(controller->phase(), Phase::kHoldingAfterFailure);
+  EXPECT_EQ(controller->hold_cause(), HoldCause::kPlanFailed);
   EXPECT_FALSE(controller->finished());
   ASSERT_FALSE(controller->stats().plans.empty());
   const PlanRecord& last = controller->stats().plans.back();

@@ -218,6 +218,32 @@ TEST_F(OnlineCliTest, FliesTheCableUnpluggingMissionAndCommandsTheGripper) {
   EXPECT_LT(std::stod(m[1]), 0.01) << out;
 }
 
+// Half a second of outage mid-mission (the fault campaign's outage:0.5s
+// row): the vehicle brakes along the plan, and the autopilot's
+// offboard-loss failsafe takes it out of OFFBOARD meanwhile. A mission is
+// not resumed after a link hold: the program says it ends holding because
+// of the link (exit 1), not that the vehicle refused it.
+TEST_F(OnlineCliTest, AMissionsOutageEndsHoldingAndSaysWhy) {
+  const std::string task = (dir_ / "task.yaml").string();
+  std::ofstream(task) << MissionTaskText("cable_unplugging.yaml");
+  const int sim_port = FreeUdpPort(), proxy_port = FreeUdpPort();
+  const std::string vehicle = "udp://127.0.0.1:" + std::to_string(sim_port);
+  const std::string proxy = "udp://127.0.0.1:" + std::to_string(proxy_port);
+  sim_ = Spawn({kSim, "--udp", vehicle, "--realtime", "--start-task", task, "--duration", "120", "-q", "--config",
+                kRoot + "/data/sim/quadhand_sim.yaml"},
+               (dir_ / "sim").string());
+  Child link = Spawn({kProxy, "--listen", proxy, "--vehicle", vehicle, "--outage", "4,0.5", "--seed", "1"},
+                     (dir_ / "proxy").string());
+  Child online = Spawn({kOnline, task, "--vehicle", proxy, "--max-duration", "12"}, (dir_ / "online").string());
+  const int code = Wait(&online, 60.0);
+  const std::string out = ReadAll(online.out);
+  Stop(&link);
+  Stop(&sim_);
+  EXPECT_EQ(code, 1) << out << ReadAll(online.err);
+  EXPECT_NE(out.find("HOLDING (the link failed during the mission)"), std::string::npos) << out;
+  EXPECT_EQ(out.find("REFUSED"), std::string::npos) << out;
+}
+
 // The other bundled missions, flown the same way: each arrives (exit 0: the
 // online mode judged the robot and what it held on the vehicle's own
 // states, within the safety distance less 2 mm) with the tool within 1 cm

@@ -46,6 +46,17 @@ const char* AutopilotModeName(AutopilotMode mode) {
   return "an unknown mode";
 }
 
+const char* HoldCauseName(HoldCause cause) {
+  switch (cause) {
+    case HoldCause::kNone: return "none";
+    case HoldCause::kPlanFailed: return "the plan failed";
+    case HoldCause::kLinkFailed: return "the link failed during the mission";
+    case HoldCause::kToolNotSettled: return "the tool did not settle";
+    case HoldCause::kGripperFailed: return "the gripper did not act";
+  }
+  return "?";
+}
+
 const char* PhaseName(Phase phase) {
   switch (phase) {
     case Phase::kWaitingForVehicle: return "waiting_for_vehicle";
@@ -474,12 +485,13 @@ Setpoint OnlineController::RetreatReference(double t) const {
 
 void OnlineController::Event(std::string text) { events_.push_back(std::move(text)); }
 
-void OnlineController::Fail(Phase phase, const std::string& why) {
+void OnlineController::Fail(Phase phase, const std::string& why, HoldCause cause) {
   if (to_.plan && (phase_ == Phase::kFlying || phase_ == Phase::kArrived) && last_setpoint_) {
     failed_plan_time_ = last_setpoint_time_ - to_.start;
   }
   phase_ = phase;
   blending_ = false;
+  hold_cause_ = phase == Phase::kHoldingAfterFailure ? cause : HoldCause::kNone;
   if (phase == Phase::kHoldingAfterFailure) {
     // The last setpoint streamed came from a plan that passed the post-check
     // (or is the initial hold): stay there.
@@ -615,6 +627,17 @@ void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
     left_offboard_in_outage_ = true;
     return;
   }
+  if (confirmed_phase && armed && !offboard && link_hold_ && IsMission()) {
+    // The same failsafe during a mission's link hold: the autopilot holds
+    // the vehicle, and a mission is not resumed after a link hold.
+    if (phase_ == Phase::kFlying) {
+      Fail(Phase::kHoldingAfterFailure,
+           "the autopilot left OFFBOARD during the link hold (its offboard-loss failsafe) and holds the vehicle; a "
+           "mission is not resumed after a link hold",
+           HoldCause::kLinkFailed);
+    }
+    return;
+  }
   if (confirmed_phase && (!armed || !offboard) && t - confirmed_time_ > grace && !arrival_done_) {
     Fail(Phase::kHandshakeFailed, std::string("the vehicle left ") + (!offboard ? "OFFBOARD" : "the armed state"));
   }
@@ -641,7 +664,7 @@ void OnlineController::OnCommandAck(double t, Command command, AckResult result)
       gripper_pending_ = -1;
     } else if (result == AckResult::kRejected) {
       gripper_pending_ = -1;
-      Fail(Phase::kHoldingAfterFailure, "the vehicle refused the gripper command of " + step);
+      Fail(Phase::kHoldingAfterFailure, "the vehicle refused the gripper command of " + step, HoldCause::kGripperFailed);
     }
     return;
   }
@@ -756,8 +779,10 @@ void OnlineController::CollectPlan(double t) {
     pending_resume_ = false;
     if (phase_ != Phase::kFlying) return;
     if (!done->plan) {
-      Fail(Phase::kHoldingAfterFailure, std::string("the plan to resume after the link hold failed (") +
-                                            planner::PlanStatusName(record.status) + ": " + record.message + ")");
+      Fail(Phase::kHoldingAfterFailure,
+           std::string("the plan to resume after the link hold failed (") + planner::PlanStatusName(record.status) +
+               ": " + record.message + ")",
+           HoldCause::kPlanFailed);
       return;
     }
     to_ = {done->plan, t};
@@ -777,7 +802,8 @@ void OnlineController::CollectPlan(double t) {
   if (!record.replan) {
     if (!done->plan) {
       Fail(Phase::kHoldingAfterFailure,
-           std::string("the plan failed (") + planner::PlanStatusName(record.status) + ": " + record.message + ")");
+           std::string("the plan failed (") + planner::PlanStatusName(record.status) + ": " + record.message + ")",
+           HoldCause::kPlanFailed);
       return;
     }
     first_plan_ = done->plan;
@@ -814,7 +840,8 @@ void OnlineController::CollectPlan(double t) {
           record.message + "); flying on with the current plan");
   } else {
     Fail(Phase::kHoldingAfterFailure,
-         std::string("the replan failed (") + planner::PlanStatusName(record.status) + ": " + record.message + ")");
+         std::string("the replan failed (") + planner::PlanStatusName(record.status) + ": " + record.message + ")",
+         HoldCause::kPlanFailed);
   }
 }
 
@@ -881,8 +908,9 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
     // flying at speed overshoots it (a frozen estimate in the campaign sent
     // the vehicle into the gap's frame that way).
     if (t - link_hold_start_ < link_brake_duration_) return;
-    Fail(Phase::kHoldingAfterFailure, "the link failed in the middle of the mission; a mission is not resumed "
-                                      "after a link hold");
+    Fail(Phase::kHoldingAfterFailure,
+         "the link failed in the middle of the mission; a mission is not resumed after a link hold",
+         HoldCause::kLinkFailed);
     return;
   }
   if (pending_resume_ || replan_pending_ || worker_->busy()) return;
@@ -1109,7 +1137,8 @@ void OnlineController::WaitAtJunction(double t) {
     Fail(Phase::kHoldingAfterFailure,
          Format("the tool did not settle within %.4f m of its planned pose at ", options_.junction_tolerance) + where +
              Format(" in %.1f s", options_.junction_timeout) + Format(" (%.4f m off, ", error) +
-             Format("base %.3f m/s)", speed));
+             Format("base %.3f m/s)", speed),
+         HoldCause::kToolNotSettled);
     return;
   }
   // Hold the clock at the junction: the time since the plan reached it
@@ -1128,7 +1157,8 @@ void OnlineController::CommandGripper(double t, ControllerOutput* out) {
     if (gripper_attempts_ >= options_.max_command_attempts) {
       const std::string step = planner::StepName(mission, static_cast<size_t>(gripper_pending_));
       gripper_pending_ = -1;
-      Fail(Phase::kHoldingAfterFailure, "no acknowledgement of the gripper command of " + step);
+      Fail(Phase::kHoldingAfterFailure, "no acknowledgement of the gripper command of " + step,
+           HoldCause::kGripperFailed);
       return;
     }
     out->commands.push_back({Command::kGripper, gripper_attempts_++,
@@ -1152,7 +1182,8 @@ void OnlineController::CommandGripper(double t, ControllerOutput* out) {
       if (t - to_.start > 0.5 * (planned.start_s + planned.end_s)) {
         Fail(Phase::kHoldingAfterFailure,
              Format("the tool did not settle within %.4f m of its pose for ", options_.gripper_tolerance) +
-                 planner::StepName(mission, next_gripper_step_) + Format(" (%.4f m off)", error));
+                 planner::StepName(mission, next_gripper_step_) + Format(" (%.4f m off)", error),
+             HoldCause::kToolNotSettled);
       }
       return;
     }

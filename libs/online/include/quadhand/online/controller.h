@@ -240,6 +240,16 @@ enum class Phase {
 };
 const char* PhaseName(Phase phase);  // "streaming_hold", ...
 
+// Why the flight ended in Phase::kHoldingAfterFailure.
+enum class HoldCause {
+  kNone,
+  kPlanFailed,       // the first plan, a replan or a resume failed or failed its check
+  kLinkFailed,       // a mission's link hold (a mission is not resumed)
+  kToolNotSettled,   // a mission's tool did not settle at a junction or a gripper step
+  kGripperFailed,    // the gripper command was refused or not acknowledged
+};
+const char* HoldCauseName(HoldCause cause);  // "the plan failed", ...
+
 // kGripper: MAV_CMD_DO_GRIPPER at a mission's grasp or release.
 enum class Command { kSetOffboardMode, kArm, kGripper };
 struct CommandRequest {
@@ -424,6 +434,8 @@ class OnlineController {
   // The abort was a joint that stopped following the plan (a brake along
   // the plan, no retreat).
   bool joint_stalled() const { return joint_stalled_; }
+  // In Phase::kHoldingAfterFailure: why (kNone in any other phase).
+  HoldCause hold_cause() const { return hold_cause_; }
   // After finished() in the arrived phase: whether the vehicle settled at the
   // goal (false: arrival_timeout passed first).
   bool arrival_settled() const { return arrival_settled_; }
@@ -493,7 +505,7 @@ class OnlineController {
   // The setpoint while braking for the link: the plan's path, its clock
   // slowing to a stop over link_brake_duration_.
   std::optional<Setpoint> LinkHoldReference(double t) const;
-  void Fail(Phase phase, const std::string& why);
+  void Fail(Phase phase, const std::string& why, HoldCause cause = HoldCause::kNone);
   planner::BoundaryState MeasuredBoundaryState() const;
   void RunHandshake(double t, ControllerOutput* out);
   // Sends `command` (attempt attempts_) unless `confirmed`, retrying every
@@ -564,6 +576,7 @@ class OnlineController {
   // joint's brake), the retreat's plan times from and to; aborted_ once it
   // has begun, abort_done_ after the hold that follows.
   bool retreating_ = false, aborted_ = false, abort_done_ = false, joint_stalled_ = false;
+  HoldCause hold_cause_ = HoldCause::kNone;
   double retreat_start_ = 0.0, retreat_from_ = 0.0, retreat_to_ = 0.0, retreat_duration_ = 1.0;
   double abort_checked_time_ = -1.0;  // the newest state CheckAbort measured
   // CheckJointStall: the newest joint state looked at, and since when (its
