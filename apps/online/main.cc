@@ -203,8 +203,13 @@ int main(int argc, char** argv) {
                  "Seconds without LOCAL_POSITION_NED before streaming stops and the program exits with 3")
       ->capture_default_str();
   app.add_option("--outage-timeout", options.outage_timeout,
-                 "While flying a goal, seconds of silence waited for as an outage (holding; the vehicle re-engaged "
-                 "after its failsafe) before exit 3, in [--vehicle-timeout, 600]")
+                 "While flying a goal or holding a mission for the link, seconds of silence waited for as an outage "
+                 "(holding; the vehicle re-engaged after its failsafe) before exit 3, and the longest a mission's "
+                 "link hold waits to resume; in [--vehicle-timeout, 600]")
+      ->capture_default_str();
+  app.add_option("--resume-tolerance", options.resume_tolerance,
+                 "A mission's link hold resumes along its plan once the vehicle's base and tool are within this "
+                 "(m) of the plan's stop, at rest; in (0, 0.1]")
       ->capture_default_str();
   app.add_option("--replan-threshold", options.replan_threshold, "3-D tracking error (m) that triggers a warm-started replan")
       ->capture_default_str();
@@ -304,6 +309,10 @@ int main(int argc, char** argv) {
   if (!(std::isfinite(options.outage_timeout) && options.outage_timeout >= options.vehicle_timeout &&
         options.outage_timeout <= 600.0)) {
     return Fail("--outage-timeout must be in [--vehicle-timeout, 600] s");
+  }
+  if (!(std::isfinite(options.resume_tolerance) && options.resume_tolerance > 0.0 &&
+        options.resume_tolerance <= 0.1)) {
+    return Fail("--resume-tolerance must be in (0, 0.1] m");
   }
   if (!(std::isfinite(options.replan_threshold) && options.replan_threshold > 0.0)) return Fail("--replan-threshold must be positive");
   if (!(std::isfinite(options.replan_period) && options.replan_period >= 0.0)) return Fail("--replan-period must be >= 0 (0: off)");

@@ -297,7 +297,10 @@ double StateClearance(const Vec3& position, double yaw, const VecX& joints, doub
 // distance) as it approaches the window: the replan from there is attempted
 // under the recovery rule, gets out, and the flight still reaches the cup.
 TEST(OnlineControllerTest, AReplanFromInsideTheSafetyMarginGetsOutAndReachesTheCup) {
-  const OnlineOptions options;
+  // The vehicle is moved by resetting the simulator (a teleport no
+  // velocity explains): followed as it is, not taken for an estimate jump.
+  OnlineOptions options;
+  options.shift_setpoints_on_jump = false;
   auto controller = MakeController(options);
   DirectFlight flight(controller.get());
   bool moved = false;
@@ -357,7 +360,10 @@ TEST(OnlineControllerTest, AReplanFromInsideTheSafetyMarginGetsOutAndReachesTheC
 }
 
 TEST(OnlineControllerTest, AFailedReplanHoldsAtTheLastSafeSetpoint) {
-  const OnlineOptions options;
+  // The vehicle is moved by resetting the simulator (a teleport no
+  // velocity explains): followed as it is, not taken for an estimate jump.
+  OnlineOptions options;
+  options.shift_setpoints_on_jump = false;
   auto controller = MakeController(options);
   DirectFlight flight(controller.get());
   bool moved = false;
@@ -555,7 +561,13 @@ class HandshakeTest : public ::testing::Test {
     return sent;
   }
 
-  OnlineOptions options_;
+  // The positions these tests give jump (a vehicle placed, not flown):
+  // followed as they are, not taken for estimate jumps.
+  OnlineOptions options_ = [] {
+    OnlineOptions o;
+    o.shift_setpoints_on_jump = false;
+    return o;
+  }();
   std::unique_ptr<OnlineController> controller_;
 };
 

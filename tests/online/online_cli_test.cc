@@ -220,10 +220,12 @@ TEST_F(OnlineCliTest, FliesTheCableUnpluggingMissionAndCommandsTheGripper) {
 
 // Half a second of outage mid-mission (the fault campaign's outage:0.5s
 // row): the vehicle brakes along the plan, and the autopilot's
-// offboard-loss failsafe takes it out of OFFBOARD meanwhile. A mission is
-// not resumed after a link hold: the program says it ends holding because
-// of the link (exit 1), not that the vehicle refused it.
-TEST_F(OnlineCliTest, AMissionsOutageEndsHoldingAndSaysWhy) {
+// offboard-loss failsafe takes it out of OFFBOARD meanwhile. Once the link
+// is good, OFFBOARD is requested again and the mission resumes along its
+// own plan: the plug is grasped and pulled. Half a second without a state
+// is more than --max-judged-gap: the flight is not called safe (exit 6),
+// and the simulator's own record keeps the clearance.
+TEST_F(OnlineCliTest, AMissionsOutageIsHeldThroughAndTheMissionResumed) {
   const std::string task = (dir_ / "task.yaml").string();
   std::ofstream(task) << MissionTaskText("cable_unplugging.yaml");
   const int sim_port = FreeUdpPort(), proxy_port = FreeUdpPort();
@@ -234,14 +236,21 @@ TEST_F(OnlineCliTest, AMissionsOutageEndsHoldingAndSaysWhy) {
                (dir_ / "sim").string());
   Child link = Spawn({kProxy, "--listen", proxy, "--vehicle", vehicle, "--outage", "4,0.5", "--seed", "1"},
                      (dir_ / "proxy").string());
-  Child online = Spawn({kOnline, task, "--vehicle", proxy, "--max-duration", "12"}, (dir_ / "online").string());
-  const int code = Wait(&online, 60.0);
+  Child online = Spawn({kOnline, task, "--vehicle", proxy, "--max-duration", "60"}, (dir_ / "online").string());
+  const int code = Wait(&online, 90.0);
   const std::string out = ReadAll(online.out);
   Stop(&link);
   Stop(&sim_);
-  EXPECT_EQ(code, 1) << out << ReadAll(online.err);
-  EXPECT_NE(out.find("HOLDING (the link failed during the mission)"), std::string::npos) << out;
+  EXPECT_EQ(code, 6) << out << ReadAll(online.err);
+  EXPECT_NE(out.find("CLEARANCE NOT VERIFIED"), std::string::npos) << out;
+  EXPECT_NE(out.find("the autopilot left OFFBOARD during the link hold"), std::string::npos) << out;
+  EXPECT_NE(out.find("resuming the mission along its plan"), std::string::npos) << out;
+  EXPECT_NE(out.find("gripper command of mission[1] (grasp) accepted"), std::string::npos) << out;
   EXPECT_EQ(out.find("REFUSED"), std::string::npos) << out;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("gripper at mission\\[1\\] \\(grasp\\): the flown tool ([0-9.]+) m")))
+      << out;
+  EXPECT_LT(std::stod(m[1]), 0.01) << out;
 }
 
 // The other bundled missions, flown the same way: each arrives (exit 0: the

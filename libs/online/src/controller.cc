@@ -86,6 +86,7 @@ bool OnlineOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(outage_timeout) && outage_timeout >= vehicle_timeout)) {
     return fail("outage_timeout must be at least vehicle_timeout");
   }
+  if (!positive(resume_tolerance)) return fail("resume_tolerance must be positive");
   if (!positive(connect_timeout)) return fail("connect_timeout must be positive");
   if (!positive(replan_threshold)) return fail("replan_threshold must be positive");
   if (!(std::isfinite(min_replan_interval) && min_replan_interval >= 0.0)) return fail("min_replan_interval must be >= 0");
@@ -394,6 +395,11 @@ void OnlineController::CheckAbort(double t) {
 // How far (rad) a following joint may be from the plan beyond what the
 // plan moved it within the lag: the servo's steady error and noise.
 constexpr double kJointStallSlack = 0.03;
+// How far from a mission's plan the autopilot's failsafe may have held the
+// vehicle (base or tool, m) for OFFBOARD to fly it back there, and the
+// grid of base and arm progress the move is checked on (RejoinMargin).
+constexpr double kMissionRejoinDistance = 0.2;
+constexpr int kRejoinGrid = 9;
 
 void OnlineController::CheckJointStall(double t) {
   if (options_.joint_stall_rate <= 0.0 || phase_ != Phase::kFlying || aborted_ || link_hold_ || blending_ ||
@@ -617,7 +623,10 @@ void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
                                 phase_ == Phase::kArrived || phase_ == Phase::kHoldingAfterFailure);
   const double grace = options_.heartbeat_period + options_.ack_timeout + 0.5;
   if (reengaging_) return;  // the handshake in Tick watches the mode again
-  if (confirmed_phase && armed && !offboard && phase_ == Phase::kFlying && link_hold_ && !IsMission()) {
+  // After the failsafe took the vehicle, a flight that ended holding
+  // leaves it there: its mode is expected.
+  if (left_offboard_in_outage_ && phase_ == Phase::kHoldingAfterFailure) return;
+  if (confirmed_phase && armed && !offboard && phase_ == Phase::kFlying && link_hold_ && !aborted_) {
     // Its offboard-loss failsafe (PX4: COM_OF_LOSS_T, then hold): the
     // vehicle holds on its own; it is re-engaged once the link is good.
     if (!left_offboard_in_outage_) {
@@ -625,17 +634,6 @@ void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
             "is; OFFBOARD will be requested again once the link is good");
     }
     left_offboard_in_outage_ = true;
-    return;
-  }
-  if (confirmed_phase && armed && !offboard && link_hold_ && IsMission()) {
-    // The same failsafe during a mission's link hold: the autopilot holds
-    // the vehicle, and a mission is not resumed after a link hold.
-    if (phase_ == Phase::kFlying) {
-      Fail(Phase::kHoldingAfterFailure,
-           "the autopilot left OFFBOARD during the link hold (its offboard-loss failsafe) and holds the vehicle; a "
-           "mission is not resumed after a link hold",
-           HoldCause::kLinkFailed);
-    }
     return;
   }
   if (confirmed_phase && (!armed || !offboard) && t - confirmed_time_ > grace && !arrival_done_) {
@@ -893,6 +891,7 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
     const double speed = reference ? reference->velocity.norm() : 0.0;
     if (speed <= kLinkHoldSlack * allowed && blind <= options_.max_blind_time) return;
     BrakeAlongPlan(t, speed);
+    if (IsMission()) StartMissionHold(t);
     ++stats_.link_holds;
     Event(Format("link too slow for the speed: %.2f m/s planned, %.2f m/s allowed ", speed, allowed) +
           Format("(blind for %.0f ms: the newest state's age and the uplink): braking along the plan and holding "
@@ -902,15 +901,10 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   }
   // Holding: resume with a fresh plan from the measured state once the link
   // has stayed good enough for a useful speed over the whole window. A
-  // mission is not planned again from the middle of its steps: it holds.
+  // mission is not planned again from the middle of its steps: it resumes
+  // along its own plan.
   if (IsMission()) {
-    // The brake along the plan first: a hold at the last setpoint while
-    // flying at speed overshoots it (a frozen estimate in the campaign sent
-    // the vehicle into the gap's frame that way).
-    if (t - link_hold_start_ < link_brake_duration_) return;
-    Fail(Phase::kHoldingAfterFailure,
-         "the link failed in the middle of the mission; a mission is not resumed after a link hold",
-         HoldCause::kLinkFailed);
+    HoldMission(t, out);
     return;
   }
   if (pending_resume_ || replan_pending_ || worker_->busy()) return;
@@ -969,6 +963,230 @@ void OnlineController::BrakeAlongPlan(double t, double speed) {
   link_hold_ = true;
   link_hold_start_ = t;
   link_brake_duration_ = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
+}
+
+double OnlineController::RejoinMargin(double plan_time) const {
+  const planner::MissionLeg* leg = nullptr;
+  for (const planner::MissionLeg& l : to_.plan->mission_legs) {
+    if (plan_time >= l.start_s && plan_time <= l.end_s) {
+      leg = &l;
+      break;
+    }
+  }
+  if (leg == nullptr || leg->robot == nullptr || leg->robot_exact == nullptr) return -1.0;
+  const planner::WholeBodySample to = to_.plan->trajectory->Sample(plan_time);
+  const Quat to_attitude(to.BasePose().rotation());
+  const double accepted = planner::AcceptedClearance(*setup_.task, options_.clearance_tolerance);
+  const double reach = planner::ClearanceSearchReach(*setup_.task);
+  double margin = std::numeric_limits<double>::infinity();
+  robot::KinematicsState kinematics;
+  MeasuredState m = measured();
+  for (int i = 0; i < kRejoinGrid; ++i) {
+    const double base = static_cast<double>(i) / (kRejoinGrid - 1);
+    for (int k = 0; k < kRejoinGrid; ++k) {
+      const double arm = static_cast<double>(k) / (kRejoinGrid - 1);
+      m.position = position_ + base * (to.position - position_);
+      m.attitude = attitude_.slerp(base, to_attitude);
+      m.joints = joints_ + arm * (to.joints - joints_);
+      int link = -1;
+      margin = std::min(margin, MeasuredClearance(*leg->robot, *leg->robot_exact, m, reach, &kinematics, &link) - accepted);
+      if (leg->object_exact != nullptr && leg->object_link >= 0) {
+        margin = std::min(margin, leg->object_exact->LinkClearance(leg->object_link,
+                                                                   kinematics.link_poses[leg->object_link], reach, {}) -
+                                      (leg->object_clearance - options_.clearance_tolerance));
+      }
+    }
+  }
+  return margin;
+}
+
+double OnlineController::NextJunctionTime() const {
+  const double end = to_.plan->trajectory->duration();
+  const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
+  if (next_junction_ + 1 < legs.size()) return std::min(end, legs[next_junction_].end_s);
+  return end;
+}
+
+void OnlineController::StartMissionHold(double t) {
+  // The brake stops at or before the next junction: the legs meet at rest
+  // there, and the junction's wait and the gripper need the plan's clock
+  // to reach it as flown, not braked through.
+  const double now = t - to_.start;
+  const double stop_by = std::max(now, NextJunctionTime());
+  link_brake_duration_ = std::max(1e-3, std::min(link_brake_duration_, 2.0 * (stop_by - now)));
+  mission_hold_ = true;
+  mission_brake_from_ = now;
+  mission_stop_time_ = std::min(stop_by, now + 0.5 * link_brake_duration_);
+  mission_resume_start_ = -1.0;
+  mission_slow_link_noted_ = false;
+  rejoin_checked_ = false;
+  // The plan clock stands still (for the verdict) from the brake's start:
+  // one pause there, grown each tick by what the warped clock lags.
+  if (plan_clock_.pauses.empty() || std::abs(plan_clock_.pauses.back().first - now) > 1e-9) {
+    plan_clock_.pauses.emplace_back(now, 0.0);
+  }
+  // The plan is flown again at its own speed: the link must allow it.
+  const planner::WholeBodyTrajectory& trajectory = *to_.plan->trajectory;
+  mission_hold_speed_ = 0.0;
+  for (double tau = mission_stop_time_; tau <= trajectory.duration(); tau += 0.02) {
+    mission_hold_speed_ = std::max(mission_hold_speed_, trajectory.Sample(tau).velocity.norm());
+  }
+}
+
+void OnlineController::MissionHoldClock(double t, double* plan_time, double* rate, double* rate_change) const {
+  if (mission_resume_start_ < 0.0) {
+    // Braking: the rate falls linearly from 1 to 0 (as LinkHoldReference).
+    const double d = link_brake_duration_;
+    const double e = std::clamp(t - link_hold_start_, 0.0, d);
+    *plan_time = std::min(mission_stop_time_, mission_brake_from_ + e - e * e / (2.0 * d));
+    *rate = 1.0 - e / d;
+    *rate_change = e < d ? -1.0 / d : 0.0;
+    return;
+  }
+  // Speeding up again: the rate rises linearly from 0 to 1.
+  const double d = mission_ramp_duration_;
+  const double e = std::clamp(t - mission_resume_start_, 0.0, d);
+  *plan_time = mission_stop_time_ + e * e / (2.0 * d);
+  *rate = e / d;
+  *rate_change = e < d ? 1.0 / d : 0.0;
+}
+
+std::optional<Setpoint> OnlineController::MissionHoldReference(double t) const {
+  double plan_time = 0.0, rate = 0.0, rate_change = 0.0;
+  MissionHoldClock(t, &plan_time, &rate, &rate_change);
+  const planner::WholeBodySample s = to_.plan->trajectory->Sample(plan_time);
+  Setpoint sp = FromSample(s);
+  if (rate <= 0.0) return HoldAt(sp);
+  sp.velocity = rate * s.velocity;
+  sp.acceleration = rate * rate * s.acceleration + rate_change * s.velocity;
+  sp.yaw_rate *= rate;
+  sp.joint_rates *= rate;
+  return sp;
+}
+
+void OnlineController::HoldMission(double t, ControllerOutput* out) {
+  // Keep t - to_.start the warped plan time, so that everything reading the
+  // plan's clock (the gripper, the junctions, the end) reads it right; the
+  // plan clock's last pause takes the lag.
+  double plan_time = 0.0, rate = 0.0, rate_change = 0.0;
+  MissionHoldClock(t, &plan_time, &rate, &rate_change);
+  const double lag = (t - to_.start) - plan_time;
+  to_.start += lag;
+  plan_clock_.pauses.back().second += lag;
+  if (mission_resume_start_ >= 0.0) {
+    if (t - mission_resume_start_ < mission_ramp_duration_) return;
+    // Back on the plan's own clock.
+    link_hold_ = false;
+    mission_hold_ = false;
+    mission_resume_start_ = -1.0;
+    return;
+  }
+  const double stopped_at = link_hold_start_ + link_brake_duration_;
+  if (t < stopped_at) return;
+  if (t - stopped_at > options_.outage_timeout) {
+    Fail(Phase::kHoldingAfterFailure,
+         Format("the mission could not go on within %.1f s of its stop (", options_.outage_timeout) +
+             Format("base %.3f m and ", (position_ - to_.plan->trajectory->Sample(mission_stop_time_).position).norm()) +
+             Format("tool %.3f m from the plan there, ", ToolOffPlanAtRest(mission_stop_time_)) +
+             Format("moving at %.3f m/s; ", velocity_.norm()) +
+             Format("resumed at rest within %.3f m, with the link good for the plan's speed)",
+                    options_.resume_tolerance),
+         HoldCause::kLinkFailed);
+    return;
+  }
+  if (pending_resume_ || t - link_hold_start_ < link_brake_duration_ + options_.clock_sync.window) return;
+  for (const auto& [time, b] : blind_history_) {
+    if (time >= t - options_.clock_sync.window && b > options_.max_blind_time) return;
+  }
+  // The plan was made for a share of what the link allowed then; flown
+  // again as it is, it needs the link's whole allowance to cover its speed
+  // (still under the speed that brakes it, kLinkHoldSlack times that).
+  const double limit = PlanningSpeedLimit() / kLinkPlanningShare;
+  if (limit < mission_hold_speed_) {
+    if (!mission_slow_link_noted_) {
+      Event(Format("the link allows %.2f m/s, and the rest of the mission is planned at up to ", limit) +
+            Format("%.2f m/s: holding until it allows that", mission_hold_speed_));
+    }
+    mission_slow_link_noted_ = true;
+    return;
+  }
+  const planner::WholeBodySample stop = to_.plan->trajectory->Sample(mission_stop_time_);
+  const double base_off = (position_ - stop.position).norm();
+  const double tool_off = ToolOffPlanAtRest(mission_stop_time_);
+  if (left_offboard_in_outage_) {
+    // The autopilot's failsafe holds the vehicle where it caught it, which
+    // is short of the plan's stop when the brake did not reach it (an
+    // outage), with the arm where its last setpoint put it. The mission is
+    // rejoined at the point of its plan in the current leg (never across a
+    // junction) nearest in base and tool: the stream moves there at once
+    // (the autopilot, out of OFFBOARD, ignores it), and OFFBOARD again
+    // moves the base and the arm there, each at its own pace - so only if
+    // every mix of the two moves keeps the clearance (RejoinMargin).
+    if (!reengaging_ && !rejoin_checked_) {
+      rejoin_checked_ = true;
+      const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
+      const double leg_start = next_junction_ > 0 && next_junction_ <= legs.size() ? legs[next_junction_ - 1].end_s : 0.0;
+      double nearest = mission_stop_time_, least = std::max(base_off, tool_off);
+      for (double tau = leg_start; tau < mission_stop_time_; tau += 0.01) {
+        const double base = (position_ - to_.plan->trajectory->Sample(tau).position).norm();
+        if (base >= least) continue;
+        const double off = std::max(base, ToolOffPlanAtRest(tau));
+        if (off < least) least = off, nearest = tau;
+      }
+      const double margin = RejoinMargin(nearest);
+      // Between the grid's mixes no body point moves more than the move's
+      // largest displacement (base or tool) over the grid's spacing.
+      const double spacing = least / (kRejoinGrid - 1);
+      if (least > kMissionRejoinDistance || margin < spacing) {
+        Fail(Phase::kHoldingAfterFailure,
+             Format("the autopilot's failsafe held the vehicle %.3f m (base or tool) from the nearest point of ", least) +
+                 Format("the mission's plan; moving back there could come %.4f m under the safety distance ", -margin) +
+                 Format("less the tolerance (allowed: %.3f m away with a margin of the move's ", kMissionRejoinDistance) +
+                 "largest step): the mission is not rejoined",
+             HoldCause::kLinkFailed);
+        return;
+      }
+      if (nearest < mission_stop_time_) {
+        mission_stop_time_ = nearest;
+        plan_clock_.pauses.back().first = std::min(plan_clock_.pauses.back().first, nearest);
+      }
+      Event(Format("rejoining the mission's plan at t = %.2f s of it, %.3f m away ", nearest, least) +
+            Format("(the move keeps %.4f m over the safety distance less the tolerance)", margin));
+      return;  // the next tick puts the clock and the stream there
+    }
+    if (!reengaging_) {
+      reengaging_ = true;
+      ++stats_.reengagements;
+      hold_start_ = t;
+      offboard_confirmed_ = false;
+      attempts_ = 0;
+      Event(Format("link good again (%.2f m/s allowed): requesting OFFBOARD again, streaming the plan's stop ", limit) +
+            Format("(the vehicle is %.3f m from it)", base_off));
+    }
+    if (t - hold_start_ < options_.hold_time) return;
+    if (vehicle_offboard_ && seen_heartbeat_) offboard_confirmed_ = true;
+    if (!CommandUntilConfirmed(t, Command::kSetOffboardMode, offboard_confirmed_, "OFFBOARD after the outage", out)) {
+      return;
+    }
+    confirmed_time_ = t;
+    reengaging_ = false;
+    left_offboard_in_outage_ = false;
+    hold_start_ = t;
+    Event("offboard again");
+    return;
+  }
+  if (velocity_.norm() > kRestSpeed || std::max(base_off, tool_off) > options_.resume_tolerance) return;
+  const double speed = stop.velocity.norm();
+  mission_resume_start_ = t;
+  mission_ramp_duration_ = std::max(
+      1e-3, std::min(std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max)),
+                     2.0 * (std::max(mission_stop_time_, NextJunctionTime()) - mission_stop_time_)));
+  ++stats_.link_resumes;
+  outage_noted_ = false;
+  junction_wait_start_ = -1.0;  // a wait at a junction the hold began in starts again
+  Event(Format("link good again (%.2f m/s allowed): resuming the mission along its plan from ", limit) +
+        Format("t = %.2f s of it (base %.3f m, ", mission_stop_time_, base_off) +
+        Format("tool %.3f m off it), speeding up over %.2f s", tool_off, mission_ramp_duration_));
 }
 
 std::optional<Setpoint> OnlineController::LinkHoldReference(double t) const {
@@ -1107,6 +1325,16 @@ double OnlineController::ToolOffPlan(double plan_time) const {
   return (measured - planned).norm();
 }
 
+double OnlineController::ToolOffPlanAtRest(double plan_time) const {
+  if (tool_link_ < 0 || !HaveState() || !to_.plan) return 0.0;
+  const robot::RobotModel& robot = setup_.scene.robot;
+  const planner::WholeBodySample at = to_.plan->trajectory->Sample(plan_time);
+  const Mat3 attitude = attitude_.toRotationMatrix();
+  const Vec3 planned = robot::LinkPose(robot, MakePose(at.position, attitude), at.joints, tool_link_).translation();
+  const Vec3 measured = robot::LinkPose(robot, MakePose(position_, attitude), joints_, tool_link_).translation();
+  return (measured - planned).norm();
+}
+
 void OnlineController::WaitAtJunction(double t) {
   const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
   if (legs.empty() || next_junction_ + 1 >= legs.size()) return;
@@ -1129,7 +1357,10 @@ void OnlineController::WaitAtJunction(double t) {
   }
   if (junction_wait_start_ < 0.0) {
     junction_wait_start_ = t;
-    plan_clock_.pauses.emplace_back(junction, 0.0);
+    // One pause per plan time (a wait again after a link hold there adds to it).
+    if (plan_clock_.pauses.empty() || std::abs(plan_clock_.pauses.back().first - junction) > 1e-9) {
+      plan_clock_.pauses.emplace_back(junction, 0.0);
+    }
     Event("waiting at " + where + Format(" for the vehicle to settle (tool %.4f m off, ", error) +
           Format("base %.3f m/s)", speed));
   }
@@ -1149,7 +1380,9 @@ void OnlineController::WaitAtJunction(double t) {
 }
 
 void OnlineController::CommandGripper(double t, ControllerOutput* out) {
-  if (!IsMission() || !to_.plan || (phase_ != Phase::kFlying && phase_ != Phase::kArrived)) return;
+  // Not during a link hold: the command and its acknowledgement need the
+  // link, and the plan's clock stops short of the gripper's step.
+  if (!IsMission() || !to_.plan || (phase_ != Phase::kFlying && phase_ != Phase::kArrived) || link_hold_) return;
   const std::vector<planner::MissionStep>& mission = setup_.task->mission;
   if (gripper_pending_ >= 0) {
     // Not acknowledged: resend after the acknowledgement timeout, a few times.
@@ -1320,6 +1553,8 @@ ControllerOutput OnlineController::Tick(double t) {
     case Phase::kFlying:
       if (retreating_) {
         setpoint = RetreatReference(t);
+      } else if (link_hold_ && mission_hold_) {
+        setpoint = MissionHoldReference(t);
       } else if (link_hold_) {
         setpoint = hold_until_resume_ ? hold_ : LinkHoldReference(t);
       } else {

@@ -199,6 +199,13 @@ struct OnlineOptions {
   double innovation_gate = 0.005;
   double innovation_acceleration = 4.0;  // m/s^2
   bool shift_setpoints_on_jump = true;
+  // A mission's link hold is not replanned: its plan's clock slows to a
+  // stop along the path (never past the next junction), stands, and speeds
+  // up again along the same path once the link is good for the plan's own
+  // speed and the vehicle is at rest with its base and tool within
+  // resume_tolerance (m) of the plan's stop. Not resumed within
+  // outage_timeout of the stop: the mission ends holding (HoldCause::kLinkFailed).
+  double resume_tolerance = 0.02;
   // The abort near the goal (a goal with an insertion, not a mission): on
   // the insertion, or holding at the goal, every new state's exact
   // clearance (link meshes against the scene, as the verdict measures it)
@@ -366,9 +373,13 @@ struct OnlineStats {
 };
 
 // Controller time -> plan time of a mission flown with the waits at its
-// junctions (OnlineOptions::junction_tolerance): t - start, less the time
-// the plan's clock stood still before t. `pauses`: (plan time, seconds)
-// in order of plan time.
+// junctions (OnlineOptions::junction_tolerance) and its link holds
+// (OnlineOptions::resume_tolerance): t - start, less the time the plan's
+// clock stood still before t. `pauses`: (plan time, seconds) in order of
+// plan time. A link hold's pause is at the plan time its brake began: its
+// brake and its speed-up are mapped as a stand-still there, off by at most
+// half the brake's or the speed-up's length, within one leg (a hold stops
+// before the next junction).
 struct PlanClock {
   double start = 0.0;
   std::vector<std::pair<double, double>> pauses;
@@ -492,6 +503,10 @@ class OnlineController {
   // How far the measured tool is from where the current plan has it at
   // `plan_time` (0 without a tool link or a complete state).
   double ToolOffPlan(double plan_time) const;
+  // The same with the plan's base at the measured attitude: where the plan
+  // is not at rest its attitude tilts with its acceleration, and a vehicle
+  // holding there cannot tilt so (a mission's link hold).
+  double ToolOffPlanAtRest(double plan_time) const;
   // A replan from the measured state at t; `periodic`: started by
   // replan_period with the tracking error below the threshold.
   void MaybeReplan(double t, bool periodic, double error);
@@ -505,6 +520,22 @@ class OnlineController {
   // The setpoint while braking for the link: the plan's path, its clock
   // slowing to a stop over link_brake_duration_.
   std::optional<Setpoint> LinkHoldReference(double t) const;
+  // A mission's link hold (OnlineOptions::resume_tolerance): its start, the
+  // clock's plan time, rate and rate of change at t, the setpoint, and what
+  // each tick does (keeps to_.start and the plan clock on the warped clock,
+  // resumes when it can).
+  void StartMissionHold(double t);
+  void MissionHoldClock(double t, double* plan_time, double* rate, double* rate_change) const;
+  std::optional<Setpoint> MissionHoldReference(double t) const;
+  void HoldMission(double t, ControllerOutput* out);
+  // Plan time of the next junction of a mission's legs (its end after the last).
+  double NextJunctionTime() const;
+  // The least margin over the safety distance less the tolerance (the
+  // robot's, and the held object's bound) of the configurations between
+  // the measured one and the plan's at plan_time, with the base and the
+  // arm each anywhere along its straight move (a grid): the move OFFBOARD
+  // makes to rejoin a mission after the autopilot's failsafe.
+  double RejoinMargin(double plan_time) const;
   void Fail(Phase phase, const std::string& why, HoldCause cause = HoldCause::kNone);
   planner::BoundaryState MeasuredBoundaryState() const;
   void RunHandshake(double t, ControllerOutput* out);
@@ -538,6 +569,15 @@ class OnlineController {
   double planned_speed_limit_ = 0.0;  // v_max of the plan being flown (the task's, or the link's)
   int tool_link_ = -1;                 // the task's tool link in the robot (-1: none)
   bool link_hold_ = false;          // braking / holding for the link (phase flying)
+  // A mission's link hold (HoldMission): plan times of the brake's start
+  // and of the stop, the controller time the speed-up began (< 0: not
+  // yet) and its length, the plan's top speed from the stop on.
+  bool mission_hold_ = false;
+  double mission_brake_from_ = 0.0, mission_stop_time_ = 0.0;
+  double mission_resume_start_ = -1.0, mission_ramp_duration_ = 0.0;
+  double mission_hold_speed_ = 0.0;
+  bool mission_slow_link_noted_ = false;
+  bool rejoin_checked_ = false;
   double link_hold_start_ = 0.0;
   double link_brake_duration_ = 1.0;
   std::deque<std::pair<double, double>> blind_history_;  // (tick time, blind time)
