@@ -221,8 +221,9 @@ TEST_F(OnlineCliTest, FliesTheCableUnpluggingMissionAndCommandsTheGripper) {
 // Half a second of outage mid-mission (the fault campaign's outage:0.5s
 // row): the vehicle brakes along the plan, and the autopilot's
 // offboard-loss failsafe takes it out of OFFBOARD meanwhile. Once the link
-// is good, OFFBOARD is requested again and the mission resumes along its
-// own plan: the plug is grasped and pulled. Half a second without a state
+// is good, OFFBOARD is requested again, the vehicle goes back along its
+// plan to the start of the leg and flies it again: the plug is grasped and
+// pulled. Half a second without a state
 // is more than --max-judged-gap: the flight is not called safe (exit 6),
 // and the simulator's own record keeps the clearance.
 TEST_F(OnlineCliTest, AMissionsOutageIsHeldThroughAndTheMissionResumed) {
@@ -244,7 +245,7 @@ TEST_F(OnlineCliTest, AMissionsOutageIsHeldThroughAndTheMissionResumed) {
   EXPECT_EQ(code, 6) << out << ReadAll(online.err);
   EXPECT_NE(out.find("CLEARANCE NOT VERIFIED"), std::string::npos) << out;
   EXPECT_NE(out.find("the autopilot left OFFBOARD during the link hold"), std::string::npos) << out;
-  EXPECT_NE(out.find("resuming the mission along its plan"), std::string::npos) << out;
+  EXPECT_NE(out.find("resuming the mission: back along its plan"), std::string::npos) << out;
   EXPECT_NE(out.find("gripper command of mission[1] (grasp) accepted"), std::string::npos) << out;
   EXPECT_EQ(out.find("REFUSED"), std::string::npos) << out;
   std::smatch m;

@@ -1034,21 +1034,24 @@ void OnlineController::StartMissionHold(double t) {
 }
 
 void OnlineController::MissionHoldClock(double t, double* plan_time, double* rate, double* rate_change) const {
+  // The brake: the clock's rate falls on a smoothstep from 1 to 0, so that
+  // the acceleration streamed has no step at either end.
   if (mission_resume_start_ < 0.0) {
-    // Braking: the rate falls linearly from 1 to 0 (as LinkHoldReference).
     const double d = link_brake_duration_;
-    const double e = std::clamp(t - link_hold_start_, 0.0, d);
-    *plan_time = std::min(mission_stop_time_, mission_brake_from_ + e - e * e / (2.0 * d));
-    *rate = 1.0 - e / d;
-    *rate_change = e < d ? -1.0 / d : 0.0;
+    const double u = std::clamp((t - link_hold_start_) / d, 0.0, 1.0);
+    *plan_time = std::min(mission_stop_time_, mission_brake_from_ + d * (u - u * u * u + 0.5 * u * u * u * u));
+    *rate = 1.0 - (3.0 * u * u - 2.0 * u * u * u);
+    *rate_change = -(6.0 * u - 6.0 * u * u) / d;
     return;
   }
-  // Speeding up again: the rate rises linearly from 0 to 1.
+  // Back along the plan to the leg's start, on a smoothstep clock: at
+  // rest at both ends.
   const double d = mission_ramp_duration_;
-  const double e = std::clamp(t - mission_resume_start_, 0.0, d);
-  *plan_time = mission_stop_time_ + e * e / (2.0 * d);
-  *rate = e / d;
-  *rate_change = e < d ? 1.0 / d : 0.0;
+  const double span = mission_stop_time_ - mission_leg_start_;
+  const double u = std::clamp((t - mission_resume_start_) / d, 0.0, 1.0);
+  *plan_time = mission_stop_time_ - span * (3.0 * u * u - 2.0 * u * u * u);
+  *rate = -span * (6.0 * u - 6.0 * u * u) / d;
+  *rate_change = -span * (6.0 - 12.0 * u) / (d * d);
 }
 
 std::optional<Setpoint> OnlineController::MissionHoldReference(double t) const {
@@ -1075,7 +1078,7 @@ void OnlineController::HoldMission(double t, ControllerOutput* out) {
   plan_clock_.pauses.back().second += lag;
   if (mission_resume_start_ >= 0.0) {
     if (t - mission_resume_start_ < mission_ramp_duration_) return;
-    // Back on the plan's own clock.
+    // At the leg's start, at rest: the plan's own clock flies the leg again.
     link_hold_ = false;
     mission_hold_ = false;
     mission_resume_start_ = -1.0;
@@ -1176,17 +1179,25 @@ void OnlineController::HoldMission(double t, ControllerOutput* out) {
     return;
   }
   if (velocity_.norm() > kRestSpeed || std::max(base_off, tool_off) > options_.resume_tolerance) return;
-  const double speed = stop.velocity.norm();
+  // The leg is flown again from its start, where the plan is at rest: back
+  // along the plan (the same certified path) at no more than 3/4 of its
+  // speed, then the leg as planned. Speeding up from rest in the middle of
+  // a leg, into the plan's own acceleration, set the vehicle swinging 5 cm
+  // about the plan through the gap in the campaign; from the leg's start
+  // it meets the plan as it was made and checked.
+  const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
+  mission_leg_start_ = next_junction_ > 0 && next_junction_ <= legs.size() ? legs[next_junction_ - 1].end_s : 0.0;
+  mission_leg_start_ = std::min(mission_leg_start_, mission_stop_time_);
   mission_resume_start_ = t;
-  mission_ramp_duration_ = std::max(
-      1e-3, std::min(std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max)),
-                     2.0 * (std::max(mission_stop_time_, NextJunctionTime()) - mission_stop_time_)));
+  mission_ramp_duration_ = std::max(1e-3, 2.0 * (mission_stop_time_ - mission_leg_start_));
+  plan_clock_.pauses.back().first = std::min(plan_clock_.pauses.back().first, mission_leg_start_);
   ++stats_.link_resumes;
   outage_noted_ = false;
   junction_wait_start_ = -1.0;  // a wait at a junction the hold began in starts again
-  Event(Format("link good again (%.2f m/s allowed): resuming the mission along its plan from ", limit) +
+  Event(Format("link good again (%.2f m/s allowed): resuming the mission: back along its plan from ", limit) +
         Format("t = %.2f s of it (base %.3f m, ", mission_stop_time_, base_off) +
-        Format("tool %.3f m off it), speeding up over %.2f s", tool_off, mission_ramp_duration_));
+        Format("tool %.3f m off it) to its leg's start at t = %.2f s", tool_off, mission_leg_start_) +
+        Format(" over %.2f s, then the leg again", mission_ramp_duration_));
 }
 
 std::optional<Setpoint> OnlineController::LinkHoldReference(double t) const {

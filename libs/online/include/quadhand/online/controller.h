@@ -200,11 +200,12 @@ struct OnlineOptions {
   double innovation_acceleration = 4.0;  // m/s^2
   bool shift_setpoints_on_jump = true;
   // A mission's link hold is not replanned: its plan's clock slows to a
-  // stop along the path (never past the next junction), stands, and speeds
-  // up again along the same path once the link is good for the plan's own
-  // speed and the vehicle is at rest with its base and tool within
-  // resume_tolerance (m) of the plan's stop. Not resumed within
-  // outage_timeout of the stop: the mission ends holding (HoldCause::kLinkFailed).
+  // stop along the path (never past the next junction) and stands; once
+  // the link is good for the plan's own speed and the vehicle is at rest
+  // with its base and tool within resume_tolerance (m) of the plan's stop,
+  // it goes back along the plan to the start of its leg (at rest) and flies
+  // the leg again. Not resumed within outage_timeout of the stop: the
+  // mission ends holding (HoldCause::kLinkFailed).
   double resume_tolerance = 0.02;
   // The abort near the goal (a goal with an insertion, not a mission): on
   // the insertion, or holding at the goal, every new state's exact
@@ -376,10 +377,11 @@ struct OnlineStats {
 // junctions (OnlineOptions::junction_tolerance) and its link holds
 // (OnlineOptions::resume_tolerance): t - start, less the time the plan's
 // clock stood still before t. `pauses`: (plan time, seconds) in order of
-// plan time. A link hold's pause is at the plan time its brake began: its
-// brake and its speed-up are mapped as a stand-still there, off by at most
-// half the brake's or the speed-up's length, within one leg (a hold stops
-// before the next junction).
+// plan time. A link hold's pause is at the start of the leg it happened in:
+// the leg flown up to the hold, the brake, the stand-still and the way back
+// to the leg's start are mapped as a stand-still there, then the leg again
+// - within the same leg, so with the same geometry (a hold stops before
+// the next junction).
 struct PlanClock {
   double start = 0.0;
   std::vector<std::pair<double, double>> pauses;
@@ -570,11 +572,13 @@ class OnlineController {
   int tool_link_ = -1;                 // the task's tool link in the robot (-1: none)
   bool link_hold_ = false;          // braking / holding for the link (phase flying)
   // A mission's link hold (HoldMission): plan times of the brake's start
-  // and of the stop, the controller time the speed-up began (< 0: not
-  // yet) and its length, the plan's top speed from the stop on.
+  // and of the stop, the controller time the way back to the leg's start
+  // began (< 0: not yet) and its length, the plan's top speed from the
+  // stop on.
   bool mission_hold_ = false;
   double mission_brake_from_ = 0.0, mission_stop_time_ = 0.0;
   double mission_resume_start_ = -1.0, mission_ramp_duration_ = 0.0;
+  double mission_leg_start_ = 0.0;  // plan time the leg being resumed began (at rest)
   double mission_hold_speed_ = 0.0;
   bool mission_slow_link_noted_ = false;
   bool rejoin_checked_ = false;
