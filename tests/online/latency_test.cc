@@ -203,6 +203,37 @@ TEST(LatencyTest, AfterTheAutopilotsFailsafeTheVehicleIsReengagedAndFlownToTheGo
   EXPECT_LT(ToolError(flight.autopilot().state()), 0.01);
 }
 
+// The same outage on the uplink alone: the states keep coming, but no
+// setpoint reaches the vehicle, and its offboard-loss failsafe takes it out
+// of OFFBOARD. Our TIMESYNC requests went unanswered meanwhile, so the mode
+// change is read as that failsafe (not as a pilot taking over): the flight
+// is held, re-engaged once answers come again, and flown to the goal.
+TEST(LatencyTest, AnUplinkOutageIsReadAsTheFailsafeAndTheFlightResumed) {
+  auto controller = MakeController();
+  link::LinkFaults up;
+  up.outages.push_back({4.5, 1.5});
+  LinkedFlight flight(controller.get(), up, link::LinkFaults{}, 4);
+  flight.Run(60.0);
+  ASSERT_TRUE(controller->finished()) << PhaseName(controller->phase());
+  EXPECT_EQ(controller->phase(), Phase::kArrived);
+  EXPECT_EQ(controller->stats().link_holds, 1);
+  EXPECT_EQ(controller->stats().reengagements, 1);
+  EXPECT_EQ(controller->stats().link_resumes, 1);
+  const double required = WindowCup().task.safety_distance - 0.002;
+  EXPECT_GE(FlownClearance(flight.autopilot().flown(), 0.0), required);
+  EXPECT_LT(ToolError(flight.autopilot().state()), 0.01);
+}
+
+TEST(ClockSyncTest, TheLongestAnswerGapCountsTheSilenceSinceTheLastAnswer) {
+  ClockSync clock;
+  for (int k = 0; k < 10; ++k) {  // answered 10 ms after each request, the last at 0.91 s
+    const double t = 0.1 * k;
+    if (auto ts1 = clock.RequestDue(t)) clock.OnAnswer(t + 0.01, static_cast<int64_t>((t + 0.005) * 1e9), *ts1);
+  }
+  EXPECT_NEAR(clock.LongestAnswerGap(0.92, 0.0), 0.1, 1e-9);
+  EXPECT_NEAR(clock.LongestAnswerGap(2.0, 0.0), 2.0 - 0.91, 1e-9);  // silent since 0.91 s
+}
+
 // Without TIMESYNC answers the flight does not start (the age of the
 // states cannot be known), unless the caller chose to fly on arrival times.
 TEST(LatencyTest, AVehicleThatNeverAnswersTimesyncIsNotFlown) {

@@ -56,6 +56,15 @@ bool ClockSync::OnAnswer(double t, int64_t tc1, int64_t ts1) {
   return true;
 }
 
+double ClockSync::LongestAnswerGap(double now, double since) const {
+  if (window_.empty()) return requested_ ? std::max(0.0, now - first_request_) : 0.0;
+  double longest = std::max(0.0, now - window_.back().received);
+  for (size_t i = 1; i < window_.size(); ++i) {
+    if (window_[i].received > since) longest = std::max(longest, window_[i].received - window_[i - 1].received);
+  }
+  return longest;
+}
+
 void ClockSync::Estimate() {
   const Exchange* best = nullptr;
   for (const Exchange& e : window_) {

@@ -626,6 +626,22 @@ void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
   // After the failsafe took the vehicle, a flight that ended holding
   // leaves it there: its mode is expected.
   if (left_offboard_in_outage_ && phase_ == Phase::kHoldingAfterFailure) return;
+  if (confirmed_phase && armed && !offboard && phase_ == Phase::kFlying && !link_hold_ && !aborted_ &&
+      clock_.LongestAnswerGap(t, t - options_.heartbeat_period - 1.0) > options_.max_blind_time) {
+    // It left OFFBOARD while our TIMESYNC requests went unanswered, and the
+    // states kept coming: the uplink was down, no setpoint reached it, and
+    // its offboard-loss failsafe took over. Held as a link hold, and
+    // re-engaged once both directions work.
+    const std::optional<Setpoint> reference = Reference(t);
+    BrakeAlongPlan(t, reference ? reference->velocity.norm() : 0.0);
+    if (IsMission()) StartMissionHold(t);
+    ++stats_.link_holds;
+    left_offboard_in_outage_ = true;
+    Event(Format("the autopilot left OFFBOARD while no TIMESYNC answer came for %.2f s: the uplink is down and its ",
+                 clock_.LongestAnswerGap(t, t - options_.heartbeat_period - 1.0)) +
+          "offboard-loss failsafe holds the vehicle; OFFBOARD will be requested again once the link is good");
+    return;
+  }
   if (confirmed_phase && armed && !offboard && phase_ == Phase::kFlying && link_hold_ && !aborted_) {
     // Its offboard-loss failsafe (PX4: COM_OF_LOSS_T, then hold): the
     // vehicle holds on its own; it is re-engaged once the link is good.
@@ -909,9 +925,7 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   }
   if (pending_resume_ || replan_pending_ || worker_->busy()) return;
   if (t - link_hold_start_ < link_brake_duration_ + options_.clock_sync.window) return;
-  for (const auto& [time, b] : blind_history_) {
-    if (time >= t - options_.clock_sync.window && b > options_.max_blind_time) return;
-  }
+  if (!LinkGoodOverWindow(t)) return;
   const double limit = PlanningSpeedLimit();
   if (limit < options_.min_link_speed) return;
   // It plans from rest at the measured pose: the vehicle must be holding.
@@ -998,6 +1012,15 @@ double OnlineController::RejoinMargin(double plan_time) const {
     }
   }
   return margin;
+}
+
+bool OnlineController::LinkGoodOverWindow(double t) const {
+  const double since = t - options_.clock_sync.window;
+  for (const auto& [time, b] : blind_history_) {
+    if (time >= since && b > options_.max_blind_time) return false;
+  }
+  // The states say the downlink works; only answers say the uplink does.
+  return clock_.LongestAnswerGap(t, since) <= options_.max_blind_time;
 }
 
 double OnlineController::NextJunctionTime() const {
@@ -1098,9 +1121,7 @@ void OnlineController::HoldMission(double t, ControllerOutput* out) {
     return;
   }
   if (pending_resume_ || t - link_hold_start_ < link_brake_duration_ + options_.clock_sync.window) return;
-  for (const auto& [time, b] : blind_history_) {
-    if (time >= t - options_.clock_sync.window && b > options_.max_blind_time) return;
-  }
+  if (!LinkGoodOverWindow(t)) return;
   // The plan was made for a share of what the link allowed then; flown
   // again as it is, it needs the link's whole allowance to cover its speed
   // (still under the speed that brakes it, kLinkHoldSlack times that).

@@ -54,6 +54,11 @@ class ClockSync {
   LinkLatency latency() const;
   // Answers received in all (for the summary).
   long answers() const { return answers_; }
+  // The longest time without an answer (s) between `since` and `now`: the
+  // gaps between the answers' arrivals that end after `since`, and the time
+  // since the last one. An answer proves that both directions work, the
+  // uplink included, which the vehicle's states alone cannot.
+  double LongestAnswerGap(double now, double since) const;
 
  private:
   struct Exchange {

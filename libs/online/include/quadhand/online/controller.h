@@ -530,6 +530,10 @@ class OnlineController {
   void MissionHoldClock(double t, double* plan_time, double* rate, double* rate_change) const;
   std::optional<Setpoint> MissionHoldReference(double t) const;
   void HoldMission(double t, ControllerOutput* out);
+  // Whether the link was good for the whole clock window before t: no
+  // blind time over max_blind_time, and no gap between TIMESYNC answers
+  // longer than that (the uplink).
+  bool LinkGoodOverWindow(double t) const;
   // Plan time of the next junction of a mission's legs (its end after the last).
   double NextJunctionTime() const;
   // The least margin over the safety distance less the tolerance (the
