@@ -40,7 +40,10 @@ std::optional<int64_t> ClockSync::RequestDue(double t) {
 bool ClockSync::OnAnswer(double t, int64_t tc1, int64_t ts1) {
   if (!requested_ || tc1 == 0) return false;  // tc1 == 0 is a request, not an answer
   const double sent = static_cast<double>(ts1) * 1e-9;
-  const double round_trip = t - sent;
+  // ts1 is our time rounded to the nanosecond: an answer at once may seem
+  // to come back a fraction of a nanosecond before its request left.
+  double round_trip = t - sent;
+  if (round_trip < 0.0 && round_trip > -1e-6) round_trip = 0.0;
   // Not one of ours: sent before our first request, or in our future.
   if (sent < first_request_ - 1e-9 || round_trip < 0.0 || round_trip > options_.max_round_trip) return false;
   Exchange e;

@@ -642,6 +642,20 @@ void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
           "offboard-loss failsafe holds the vehicle; OFFBOARD will be requested again once the link is good");
     return;
   }
+  if (confirmed_phase && armed && !offboard && aborted_ &&
+      (left_offboard_in_outage_ ||
+       clock_.LongestAnswerGap(t, t - options_.heartbeat_period - 1.0) > options_.max_blind_time)) {
+    // An abort (a joint that stopped following: in an uplink outage every
+    // joint stands at its last setpoint, so the outage can read as a stall)
+    // during which the uplink went silent: the failsafe's hold, not a
+    // refusal. The abort's outcome stands.
+    if (!left_offboard_in_outage_) {
+      Event("the autopilot left OFFBOARD while no TIMESYNC answer came: the uplink is down and its offboard-loss "
+            "failsafe holds the vehicle");
+    }
+    left_offboard_in_outage_ = true;
+    return;
+  }
   if (confirmed_phase && armed && !offboard && phase_ == Phase::kFlying && link_hold_ && !aborted_) {
     // Its offboard-loss failsafe (PX4: COM_OF_LOSS_T, then hold): the
     // vehicle holds on its own; it is re-engaged once the link is good.
