@@ -960,17 +960,7 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
                  limit));
     return;
   }
-  if (reengaging_) {
-    if (t - hold_start_ < options_.hold_time) return;
-    if (vehicle_offboard_ && seen_heartbeat_) offboard_confirmed_ = true;
-    if (!CommandUntilConfirmed(t, Command::kSetOffboardMode, offboard_confirmed_, "OFFBOARD after the outage", out)) {
-      return;
-    }
-    confirmed_time_ = t;
-    reengaging_ = false;
-    left_offboard_in_outage_ = false;
-    Event("offboard again");
-  }
+  if (reengaging_ && !ReengageOffboard(t, out)) return;
   Worker::Job job;
   job.start = MeasuredBoundaryState();
   job.start.acceleration.setZero();
@@ -1026,6 +1016,20 @@ double OnlineController::RejoinMargin(double plan_time) const {
     }
   }
   return margin;
+}
+
+bool OnlineController::ReengageOffboard(double t, ControllerOutput* out) {
+  // The autopilot accepts OFFBOARD only after a stream of setpoints.
+  if (t - hold_start_ < options_.hold_time) return false;
+  if (vehicle_offboard_ && seen_heartbeat_) offboard_confirmed_ = true;
+  if (!CommandUntilConfirmed(t, Command::kSetOffboardMode, offboard_confirmed_, "OFFBOARD after the outage", out)) {
+    return false;
+  }
+  confirmed_time_ = t;
+  reengaging_ = false;
+  left_offboard_in_outage_ = false;
+  Event("offboard again");
+  return true;
 }
 
 bool OnlineController::LinkGoodOverWindow(double t) const {
@@ -1201,16 +1205,7 @@ void OnlineController::HoldMission(double t, ControllerOutput* out) {
       Event(Format("link good again (%.2f m/s allowed): requesting OFFBOARD again, streaming the plan's stop ", limit) +
             Format("(the vehicle is %.3f m from it)", base_off));
     }
-    if (t - hold_start_ < options_.hold_time) return;
-    if (vehicle_offboard_ && seen_heartbeat_) offboard_confirmed_ = true;
-    if (!CommandUntilConfirmed(t, Command::kSetOffboardMode, offboard_confirmed_, "OFFBOARD after the outage", out)) {
-      return;
-    }
-    confirmed_time_ = t;
-    reengaging_ = false;
-    left_offboard_in_outage_ = false;
-    hold_start_ = t;
-    Event("offboard again");
+    ReengageOffboard(t, out);
     return;
   }
   if (velocity_.norm() > kRestSpeed || std::max(base_off, tool_off) > options_.resume_tolerance) return;

@@ -534,6 +534,10 @@ class OnlineController {
   // blind time over max_blind_time, and no gap between TIMESYNC answers
   // longer than that (the uplink).
   bool LinkGoodOverWindow(double t) const;
+  // After the autopilot's failsafe: once the setpoints (a hold) have been
+  // streamed for hold_time, OFFBOARD is requested until confirmed (true
+  // then; the handshake's retries and failure as for the first).
+  bool ReengageOffboard(double t, ControllerOutput* out);
   // Plan time of the next junction of a mission's legs (its end after the last).
   double NextJunctionTime() const;
   // The least margin over the safety distance less the tolerance (the
