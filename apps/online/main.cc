@@ -495,6 +495,7 @@ int main(int argc, char** argv) {
   const online::Phase phase = controller.phase();
   int code = kExitSuccess;
   const char* outcome = "arrived";
+  std::string holding_outcome;  // outcome's storage for a flight that ended holding
   if (phase == online::Phase::kVehicleLost) {
     code = kExitVehicleLost;
     outcome = "VEHICLE LOST";
@@ -507,11 +508,12 @@ int main(int argc, char** argv) {
                                          : "ABORTED (retreated along the plan)";
   } else if (phase == online::Phase::kHoldingAfterFailure) {
     code = kExitPlanFailed;
-    switch (controller.hold_cause()) {
-      case online::HoldCause::kLinkFailed: outcome = "HOLDING (the link failed during the mission)"; break;
-      case online::HoldCause::kToolNotSettled: outcome = "HOLDING (the tool did not settle)"; break;
-      case online::HoldCause::kGripperFailed: outcome = "HOLDING (the gripper did not act)"; break;
-      default: outcome = "PLANNING FAILED (holding)"; break;
+    const online::HoldCause cause = controller.hold_cause();
+    if (cause == online::HoldCause::kPlanFailed || cause == online::HoldCause::kNone) {
+      outcome = "PLANNING FAILED (holding)";
+    } else {
+      holding_outcome = std::string("HOLDING (") + online::HoldCauseName(cause) + ")";
+      outcome = holding_outcome.c_str();
     }
   } else if (interrupted && !controller.finished()) {
     code = kExitInterrupted;

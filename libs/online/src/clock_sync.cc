@@ -43,7 +43,7 @@ bool ClockSync::OnAnswer(double t, int64_t tc1, int64_t ts1) {
   // ts1 is our time rounded to the nanosecond: an answer at once may seem
   // to come back a fraction of a nanosecond before its request left.
   double round_trip = t - sent;
-  if (round_trip < 0.0 && round_trip > -1e-6) round_trip = 0.0;
+  if (round_trip < 0.0 && round_trip > -1e-9) round_trip = 0.0;
   // Not one of ours: sent before our first request, or in our future.
   if (sent < first_request_ - 1e-9 || round_trip < 0.0 || round_trip > options_.max_round_trip) return false;
   Exchange e;

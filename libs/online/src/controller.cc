@@ -626,25 +626,23 @@ void OnlineController::OnHeartbeat(double t, bool armed, bool offboard) {
   // After the failsafe took the vehicle, a flight that ended holding
   // leaves it there: its mode is expected.
   if (left_offboard_in_outage_ && phase_ == Phase::kHoldingAfterFailure) return;
-  if (confirmed_phase && armed && !offboard && phase_ == Phase::kFlying && !link_hold_ && !aborted_ &&
-      clock_.LongestAnswerGap(t, t - options_.heartbeat_period - 1.0) > options_.max_blind_time) {
+  // The uplink's silence around this heartbeat (and the mode change in it).
+  const double answer_gap = clock_.LongestAnswerGap(t, t - options_.heartbeat_period - 1.0);
+  const bool uplink_silent = answer_gap > options_.max_blind_time;
+  if (confirmed_phase && armed && !offboard && phase_ == Phase::kFlying && !link_hold_ && !aborted_ && uplink_silent) {
     // It left OFFBOARD while our TIMESYNC requests went unanswered, and the
     // states kept coming: the uplink was down, no setpoint reached it, and
     // its offboard-loss failsafe took over. Held as a link hold, and
     // re-engaged once both directions work.
     const std::optional<Setpoint> reference = Reference(t);
-    BrakeAlongPlan(t, reference ? reference->velocity.norm() : 0.0);
-    if (IsMission()) StartMissionHold(t);
-    ++stats_.link_holds;
+    HoldForLink(t, reference ? reference->velocity.norm() : 0.0);
     left_offboard_in_outage_ = true;
     Event(Format("the autopilot left OFFBOARD while no TIMESYNC answer came for %.2f s: the uplink is down and its ",
-                 clock_.LongestAnswerGap(t, t - options_.heartbeat_period - 1.0)) +
+                 answer_gap) +
           "offboard-loss failsafe holds the vehicle; OFFBOARD will be requested again once the link is good");
     return;
   }
-  if (confirmed_phase && armed && !offboard && aborted_ &&
-      (left_offboard_in_outage_ ||
-       clock_.LongestAnswerGap(t, t - options_.heartbeat_period - 1.0) > options_.max_blind_time)) {
+  if (confirmed_phase && armed && !offboard && aborted_ && (left_offboard_in_outage_ || uplink_silent)) {
     // An abort (a joint that stopped following: in an uplink outage every
     // joint stands at its last setpoint, so the outage can read as a stall)
     // during which the uplink went silent: the failsafe's hold, not a
@@ -920,9 +918,7 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
     const std::optional<Setpoint> reference = Reference(t);
     const double speed = reference ? reference->velocity.norm() : 0.0;
     if (speed <= kLinkHoldSlack * allowed && blind <= options_.max_blind_time) return;
-    BrakeAlongPlan(t, speed);
-    if (IsMission()) StartMissionHold(t);
-    ++stats_.link_holds;
+    HoldForLink(t, speed);
     Event(Format("link too slow for the speed: %.2f m/s planned, %.2f m/s allowed ", speed, allowed) +
           Format("(blind for %.0f ms: the newest state's age and the uplink): braking along the plan and holding "
                  "until the link is good",
@@ -948,13 +944,9 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   if (left_offboard_in_outage_ && !reengaging_) {
     // OFFBOARD first, at the pose the autopilot holds: hold setpoints there
     // (nothing moves the vehicle), the request, then the fresh plan.
-    reengaging_ = true;
-    ++stats_.reengagements;
+    StartReengagement(t);
     hold_ = HoldAtMeasuredPose();
-    hold_start_ = t;
-    offboard_confirmed_ = false;
     hold_until_resume_ = true;
-    attempts_ = 0;
     Event(Format("link good again (%.2f m/s allowed): streaming a hold at the measured pose, then requesting "
                  "OFFBOARD again",
                  limit));
@@ -973,6 +965,12 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   worker_->Submit(std::move(job));
   pending_resume_ = true;
   Event(Format("link good again (%.2f m/s allowed): planning afresh from the measured state", limit));
+}
+
+void OnlineController::HoldForLink(double t, double speed) {
+  BrakeAlongPlan(t, speed);
+  if (IsMission()) StartMissionHold(t);
+  ++stats_.link_holds;
 }
 
 void OnlineController::BrakeAlongPlan(double t, double speed) {
@@ -1018,6 +1016,14 @@ double OnlineController::RejoinMargin(double plan_time) const {
   return margin;
 }
 
+void OnlineController::StartReengagement(double t) {
+  reengaging_ = true;
+  ++stats_.reengagements;
+  hold_start_ = t;
+  offboard_confirmed_ = false;
+  attempts_ = 0;
+}
+
 bool OnlineController::ReengageOffboard(double t, ControllerOutput* out) {
   // The autopilot accepts OFFBOARD only after a stream of setpoints.
   if (t - hold_start_ < options_.hold_time) return false;
@@ -1039,6 +1045,11 @@ bool OnlineController::LinkGoodOverWindow(double t) const {
   }
   // The states say the downlink works; only answers say the uplink does.
   return clock_.LongestAnswerGap(t, since) <= options_.max_blind_time;
+}
+
+double OnlineController::LegStartTime() const {
+  const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
+  return next_junction_ > 0 && next_junction_ <= legs.size() ? legs[next_junction_ - 1].end_s : 0.0;
 }
 
 double OnlineController::NextJunctionTime() const {
@@ -1063,9 +1074,7 @@ void OnlineController::StartMissionHold(double t) {
   rejoin_checked_ = false;
   // The plan clock stands still (for the verdict) from the brake's start:
   // one pause there, grown each tick by what the warped clock lags.
-  if (plan_clock_.pauses.empty() || std::abs(plan_clock_.pauses.back().first - now) > 1e-9) {
-    plan_clock_.pauses.emplace_back(now, 0.0);
-  }
+  plan_clock_.PauseAt(now);
   // The plan is flown again at its own speed: the link must allow it.
   const planner::WholeBodyTrajectory& trajectory = *to_.plan->trajectory;
   mission_hold_speed_ = 0.0;
@@ -1114,9 +1123,7 @@ void OnlineController::HoldMission(double t, ControllerOutput* out) {
   // plan clock's last pause takes the lag.
   double plan_time = 0.0, rate = 0.0, rate_change = 0.0;
   MissionHoldClock(t, &plan_time, &rate, &rate_change);
-  const double lag = (t - to_.start) - plan_time;
-  to_.start += lag;
-  plan_clock_.pauses.back().second += lag;
+  SetPlanTime(t, plan_time);
   if (mission_resume_start_ >= 0.0) {
     if (t - mission_resume_start_ < mission_ramp_duration_) return;
     // At the leg's start, at rest: the plan's own clock flies the leg again.
@@ -1166,8 +1173,7 @@ void OnlineController::HoldMission(double t, ControllerOutput* out) {
     // every mix of the two moves keeps the clearance (RejoinMargin).
     if (!reengaging_ && !rejoin_checked_) {
       rejoin_checked_ = true;
-      const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
-      const double leg_start = next_junction_ > 0 && next_junction_ <= legs.size() ? legs[next_junction_ - 1].end_s : 0.0;
+      const double leg_start = LegStartTime();
       double nearest = mission_stop_time_, least = std::max(base_off, tool_off);
       for (double tau = leg_start; tau < mission_stop_time_; tau += 0.01) {
         const double base = (position_ - to_.plan->trajectory->Sample(tau).position).norm();
@@ -1197,11 +1203,7 @@ void OnlineController::HoldMission(double t, ControllerOutput* out) {
       return;  // the next tick puts the clock and the stream there
     }
     if (!reengaging_) {
-      reengaging_ = true;
-      ++stats_.reengagements;
-      hold_start_ = t;
-      offboard_confirmed_ = false;
-      attempts_ = 0;
+      StartReengagement(t);
       Event(Format("link good again (%.2f m/s allowed): requesting OFFBOARD again, streaming the plan's stop ", limit) +
             Format("(the vehicle is %.3f m from it)", base_off));
     }
@@ -1215,9 +1217,7 @@ void OnlineController::HoldMission(double t, ControllerOutput* out) {
   // a leg, into the plan's own acceleration, set the vehicle swinging 5 cm
   // about the plan through the gap in the campaign; from the leg's start
   // it meets the plan as it was made and checked.
-  const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
-  mission_leg_start_ = next_junction_ > 0 && next_junction_ <= legs.size() ? legs[next_junction_ - 1].end_s : 0.0;
-  mission_leg_start_ = std::min(mission_leg_start_, mission_stop_time_);
+  mission_leg_start_ = std::min(LegStartTime(), mission_stop_time_);
   mission_resume_start_ = t;
   mission_ramp_duration_ = std::max(1e-3, 2.0 * (mission_stop_time_ - mission_leg_start_));
   plan_clock_.pauses.back().first = std::min(plan_clock_.pauses.back().first, mission_leg_start_);
@@ -1347,6 +1347,12 @@ double PlanClock::PlanTime(double t) const {
   return plan_time;
 }
 
+void PlanClock::PauseAt(double plan_time) {
+  // A wait again where one ended (a junction's after a link hold there)
+  // adds to it.
+  if (pauses.empty() || std::abs(pauses.back().first - plan_time) > 1e-9) pauses.emplace_back(plan_time, 0.0);
+}
+
 double PlanClock::TimeLeaving(double plan_time) const {
   double t = start + plan_time;
   for (const auto& [at, seconds] : pauses) {
@@ -1376,6 +1382,12 @@ double OnlineController::ToolOffPlanAtRest(double plan_time) const {
   return (measured - planned).norm();
 }
 
+void OnlineController::SetPlanTime(double t, double plan_time) {
+  const double stood = (t - to_.start) - plan_time;
+  to_.start += stood;
+  plan_clock_.pauses.back().second += stood;
+}
+
 void OnlineController::WaitAtJunction(double t) {
   const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
   if (legs.empty() || next_junction_ + 1 >= legs.size()) return;
@@ -1398,10 +1410,7 @@ void OnlineController::WaitAtJunction(double t) {
   }
   if (junction_wait_start_ < 0.0) {
     junction_wait_start_ = t;
-    // One pause per plan time (a wait again after a link hold there adds to it).
-    if (plan_clock_.pauses.empty() || std::abs(plan_clock_.pauses.back().first - junction) > 1e-9) {
-      plan_clock_.pauses.emplace_back(junction, 0.0);
-    }
+    plan_clock_.PauseAt(junction);
     Event("waiting at " + where + Format(" for the vehicle to settle (tool %.4f m off, ", error) +
           Format("base %.3f m/s)", speed));
   }
@@ -1415,9 +1424,7 @@ void OnlineController::WaitAtJunction(double t) {
   }
   // Hold the clock at the junction: the time since the plan reached it
   // (first tick) or since the last tick is the pause's.
-  const double overshoot = (t - to_.start) - junction;
-  to_.start += overshoot;
-  plan_clock_.pauses.back().second += overshoot;
+  SetPlanTime(t, junction);
 }
 
 void OnlineController::CommandGripper(double t, ControllerOutput* out) {

@@ -388,6 +388,9 @@ struct PlanClock {
   double PlanTime(double t) const;
   // The controller time the plan left plan time `plan_time` (after a pause there).
   double TimeLeaving(double plan_time) const;
+  // A pause at `plan_time` (the last one, when it is already there), for
+  // the caller to grow.
+  void PauseAt(double plan_time);
 };
 
 struct ControllerOutput {
@@ -538,8 +541,17 @@ class OnlineController {
   // streamed for hold_time, OFFBOARD is requested until confirmed (true
   // then; the handshake's retries and failure as for the first).
   bool ReengageOffboard(double t, ControllerOutput* out);
-  // Plan time of the next junction of a mission's legs (its end after the last).
+  // Begins that re-engagement (the handshake's state, counted).
+  void StartReengagement(double t);
+  // Plan time of the next junction of a mission's legs (its end after the
+  // last), and of the start of the leg being flown.
   double NextJunctionTime() const;
+  double LegStartTime() const;
+  // Makes t - to_.start read `plan_time`: the difference goes to the plan
+  // clock's last pause (a junction's wait, a mission's link hold).
+  void SetPlanTime(double t, double plan_time);
+  // A link hold: the brake along the plan (a mission's warped clock too), counted.
+  void HoldForLink(double t, double speed);
   // The least margin over the safety distance less the tolerance (the
   // robot's, and the held object's bound) of the configurations between
   // the measured one and the plan's at plan_time, with the base and the
