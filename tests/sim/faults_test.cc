@@ -167,6 +167,30 @@ TEST(ServoFaultTest, ASlowServoLagsAndAStalledOneHolds) {
   EXPECT_GT(joint_after(Config(), 1.0), 0.79);
 }
 
+// A jammed joint is part of a rigid arm: the base hovering under it holds
+// its position as well as under an arm commanded to stay where it is, while
+// the plan commands the joint elsewhere.
+TEST(ServoFaultTest, AStalledJointPushesNothingOntoTheBase) {
+  const VecX from = Joints(0.2, 0.4, 0.0), to = Joints(1.2, 0.4, 0.0);
+  auto base_offset = [&](const SimConfig& config, const VecX& commanded) {
+    const VehicleModel model = Model(config);
+    Simulator sim(model, 1);
+    sim.Reset(VehicleState::AtRest(model, Vec3(0, 0, 1), from));
+    double worst = 0.0;
+    const int steps = static_cast<int>(std::lround(2.0 / sim.step()));
+    for (int k = 0; k < steps; ++k) {
+      sim.Step(HoverAt(Vec3(0, 0, 1), commanded));
+      worst = std::max(worst, (sim.state().position - Vec3(0, 0, 1)).norm());
+    }
+    return worst;
+  };
+  SimConfig stalled = Config();
+  stalled.faults.servo.stall_joint = 0;
+  stalled.faults.servo.stall_time = 0.0;
+  const double still = base_offset(Config(), from);
+  EXPECT_LT(base_offset(stalled, to), still + 1e-3);
+}
+
 TEST(PayloadFaultTest, TheObjectIsHeavierThanTheControllerIsTold) {
   SimConfig config = Config();
   config.faults.payload_mass_factor = 1.5;

@@ -395,6 +395,10 @@ void OnlineController::CheckAbort(double t) {
 // How far (rad) a following joint may be from the plan beyond what the
 // plan moved it within the lag: the servo's steady error and noise.
 constexpr double kJointStallSlack = 0.03;
+// A joint this far from the plan (rad) and slower than kStuckRate (rad/s)
+// stands still off it: servo noise and a following joint's lag stay under.
+constexpr double kStuckOffset = 0.01;
+constexpr double kStuckRate = 0.01;
 // How far from a mission's plan the autopilot's failsafe may have held the
 // vehicle (base or tool, m) for OFFBOARD to fly it back there, and the
 // grid of base and arm progress the move is checked on (RejoinMargin).
@@ -402,24 +406,39 @@ constexpr double kMissionRejoinDistance = 0.2;
 constexpr int kRejoinGrid = 9;
 
 void OnlineController::CheckJointStall(double t) {
-  if (options_.joint_stall_rate <= 0.0 || phase_ != Phase::kFlying || aborted_ || link_hold_ || blending_ ||
-      !to_.plan || !have_joints_ || joints_time_ <= stall_checked_time_) {
+  if (options_.joint_stall_rate <= 0.0 || phase_ != Phase::kFlying || aborted_ || link_hold_ || !to_.plan ||
+      !have_joints_ || joints_time_ <= stall_checked_time_) {
     return;
   }
   stall_checked_time_ = joints_time_;
   // The plan at the state's own time and before it. A servo follows its
   // command late by its lag, and the command reaches the vehicle late by
   // the uplink: within kLag plus the uplink, a joint that follows is no
-  // farther from the plan than the plan moved it in that time.
+  // farther from the plan than the plan moved it in that time. While a
+  // replan is blended in, the window reaches back into the old plan, and
+  // the reference lies between the two: a joint is off the plan only when
+  // it is off both (replans come every second or so, and their blends
+  // would otherwise hide a stall for half of the flight).
   const double at = joints_time_ - to_.start;
   constexpr double kLag = 0.3;
   const double lag = kLag + (clock_.synced() ? clock_.latency().uplink_max : 0.0);
-  if (at - lag < 0.0 || at > to_.plan->trajectory->duration()) {
+  const bool old_plan = blending_ && from_.plan;
+  if ((!old_plan && at - lag < 0.0) || at < 0.0 || at > to_.plan->trajectory->duration()) {
     stall_since_ = -1.0;
     return;
   }
+  const auto flown = [&](double time) {
+    const ActivePlan& plan = time >= to_.start || !old_plan ? to_ : from_;
+    return plan.plan->trajectory->Sample(std::clamp(time - plan.start, 0.0, plan.plan->trajectory->duration()));
+  };
   std::vector<planner::WholeBodySample> window;
-  for (int i = 0; i <= 4; ++i) window.push_back(to_.plan->trajectory->Sample(at - lag * i / 4.0));
+  for (int i = 0; i <= 4; ++i) window.push_back(flown(joints_time_ - lag * i / 4.0));
+  std::optional<planner::WholeBodySample> old_now;
+  if (old_plan) old_now = from_.plan->trajectory->Sample(std::clamp(joints_time_ - from_.start, 0.0, from_.plan->trajectory->duration()));
+  const auto off = [&](int k) {
+    const double from_new = std::abs(joints_[k] - window.front().joints[k]);
+    return old_now ? std::min(from_new, std::abs(joints_[k] - old_now->joints[k])) : from_new;
+  };
   int stalled = -1;
   double planned_rate = 0.0, error = 0.0;
   for (int k = 0; k < joint_rates_.size() && stalled < 0; ++k) {
@@ -437,11 +456,44 @@ void OnlineController::CheckJointStall(double t) {
         one_way && least >= options_.joint_stall_rate && std::abs(joint_rates_[k]) < 0.1 * least;
     // Left behind: farther from the plan than the lag explains (a joint
     // stuck while the plan moves it slowly).
-    const double behind = std::abs(joints_[k] - window.front().joints[k]);
+    const double behind = off(k);
     if (stopped || behind > kJointStallSlack + lag * most) {
       stalled = k;
       planned_rate = most;
       error = behind;
+    }
+  }
+  // Standing still off the plan, whatever the plan's rate (a joint stuck
+  // where the plan moves it slowly is left behind only slowly): a stall as
+  // soon as the plan ahead, with the joint where it stands, comes too
+  // close to the scene within the brake's path and the detection's delay.
+  std::string ahead;
+  if (stalled < 0) {
+    std::vector<int> stuck;
+    for (int k = 0; k < joint_rates_.size(); ++k) {
+      const double still = std::max(kStuckRate, 0.2 * std::abs(window.front().joint_rates[k]));
+      if (off(k) > kStuckOffset && std::abs(joint_rates_[k]) < still) stuck.push_back(k);
+    }
+    if (!stuck.empty()) {
+      const std::optional<Setpoint> reference = Reference(t);
+      const double speed = reference ? reference->velocity.norm() : 0.0;
+      const double brake = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
+      const double horizon = 0.5 * brake + lag + 2.0 * options_.joint_stall_time;
+      double where = at;
+      int link = -1;
+      const double margin = StuckPathMargin(at, at + horizon, stuck, &where, &link);
+      if (margin < 0.0) {
+        stalled = stuck.front();
+        for (int k : stuck) {
+          if (off(k) > off(stalled)) stalled = k;
+        }
+        error = off(stalled);
+        planned_rate = std::abs(window.front().joint_rates[stalled]);
+        ahead = Format("; with it there, the plan %.2f s ahead comes %.4f m under the safety distance less the "
+                       "tolerance (link %s)",
+                       where - at, -margin,
+                       link >= 0 && link < setup_.scene.robot.num_links() ? setup_.scene.robot.link(link).name.c_str() : "?");
+      }
     }
   }
   if (stalled < 0) {
@@ -466,9 +518,11 @@ void OnlineController::CheckJointStall(double t) {
   retreat_start_ = t;
   retreat_duration_ = link_brake_duration_;
   Event(Format("joint %s does not follow the plan: %.3f rad from it, moving at %.3f rad/s where the plan moves it "
-               "at up to %.2f rad/s (for %.2f s); the plan's clearance assumed it follows: aborting, braking along "
-               "the plan over %.2f s and holding there for %.1f s",
-               name.c_str(), error, std::abs(joint_rates_[stalled]), planned_rate, joints_time_ - stall_since_,
+               "at up to %.2f rad/s (for %.2f s)",
+               name.c_str(), error, std::abs(joint_rates_[stalled]), planned_rate, joints_time_ - stall_since_) +
+        ahead +
+        Format("; the plan's clearance assumed it follows: aborting, braking along the plan over %.2f s and "
+               "holding there for %.1f s",
                link_brake_duration_, options_.abort_hold));
 }
 
@@ -992,10 +1046,7 @@ double OnlineController::RejoinMargin(double plan_time) const {
   if (leg == nullptr || leg->robot == nullptr || leg->robot_exact == nullptr) return -1.0;
   const planner::WholeBodySample to = to_.plan->trajectory->Sample(plan_time);
   const Quat to_attitude(to.BasePose().rotation());
-  const double accepted = planner::AcceptedClearance(*setup_.task, options_.clearance_tolerance);
-  const double reach = planner::ClearanceSearchReach(*setup_.task);
   double margin = std::numeric_limits<double>::infinity();
-  robot::KinematicsState kinematics;
   MeasuredState m = measured();
   for (int i = 0; i < kRejoinGrid; ++i) {
     const double base = static_cast<double>(i) / (kRejoinGrid - 1);
@@ -1005,13 +1056,59 @@ double OnlineController::RejoinMargin(double plan_time) const {
       m.attitude = attitude_.slerp(base, to_attitude);
       m.joints = joints_ + arm * (to.joints - joints_);
       int link = -1;
-      margin = std::min(margin, MeasuredClearance(*leg->robot, *leg->robot_exact, m, reach, &kinematics, &link) - accepted);
-      if (leg->object_exact != nullptr && leg->object_link >= 0) {
-        margin = std::min(margin, leg->object_exact->LinkClearance(leg->object_link,
-                                                                   kinematics.link_poses[leg->object_link], reach, {}) -
-                                      (leg->object_clearance - options_.clearance_tolerance));
-      }
+      margin = std::min(margin, ConfigurationMargin(plan_time, m, &link));
     }
+  }
+  return margin;
+}
+
+double OnlineController::ConfigurationMargin(double plan_time, const MeasuredState& state, int* link) const {
+  const double accepted = planner::AcceptedClearance(*setup_.task, options_.clearance_tolerance);
+  const double reach = planner::ClearanceSearchReach(*setup_.task);
+  robot::KinematicsState kinematics;
+  const planner::MissionLeg* leg = nullptr;
+  for (const planner::MissionLeg& l : to_.plan->mission_legs) {
+    if (plan_time >= l.start_s && plan_time <= l.end_s) {
+      leg = &l;
+      break;
+    }
+  }
+  if (leg == nullptr || leg->robot == nullptr || leg->robot_exact == nullptr) {
+    return MeasuredClearance(setup_.scene.robot, setup_.scene.exact, state, reach, &kinematics, link) - accepted;
+  }
+  double margin = MeasuredClearance(*leg->robot, *leg->robot_exact, state, reach, &kinematics, link) - accepted;
+  if (leg->object_exact != nullptr && leg->object_link >= 0) {
+    margin = std::min(margin, leg->object_exact->LinkClearance(leg->object_link,
+                                                               kinematics.link_poses[leg->object_link], reach, {}) -
+                                  (leg->object_clearance - options_.clearance_tolerance));
+  }
+  return margin;
+}
+
+double OnlineController::StuckPathMargin(double from, double to, const std::vector<int>& stuck, double* at,
+                                         int* link) const {
+  // Samples 2 cm of the base's path apart at most (and 0.05 s): far finer
+  // than the margins a stall eats into within a brake.
+  const planner::WholeBodyTrajectory& plan = *to_.plan->trajectory;
+  to = std::min(to, plan.duration());
+  double margin = std::numeric_limits<double>::infinity();
+  MeasuredState m = measured();
+  double tau = from;
+  while (true) {
+    const planner::WholeBodySample s = plan.Sample(tau);
+    m.position = s.position;
+    m.attitude = Quat(s.BasePose().rotation());
+    m.joints = s.joints;
+    for (int k : stuck) m.joints[k] = joints_[k];
+    int nearest = -1;
+    const double here = ConfigurationMargin(tau, m, &nearest);
+    if (here < margin) {
+      margin = here;
+      *at = tau;
+      *link = nearest;
+    }
+    if (tau >= to) break;
+    tau = std::min(to, tau + std::clamp(0.02 / std::max(s.velocity.norm(), 1e-3), 0.005, 0.05));
   }
   return margin;
 }

@@ -133,6 +133,15 @@ void Simulator::Step(const Setpoint& setpoint, double h) {
       MixRotors(model_.allocation(), output_.thrust, output_.torque, rotors.min_thrust, rotors.max_thrust);
   input_.joint_setpoints = setpoint.joints;
   input_.joint_rate_setpoints = setpoint.joint_rates;
+  if (stalled_) {
+    // A jammed joint is rigid: its motor's torque meets the jam's inside the
+    // arm, and the base feels the arm as one body. Commanded to stay, the
+    // servo model accelerates nothing, so no reaction reaches the base (a
+    // servo still driving it would push the base with the reaction of an
+    // acceleration the joint never makes).
+    input_.joint_setpoints[model_.config().faults.servo.stall_joint] = stalled_position_;
+    input_.joint_rate_setpoints[model_.config().faults.servo.stall_joint] = 0.0;
+  }
   const WindFault& wind = model_.config().faults.wind;
   if (wind.active()) {
     const double airspeed = (wind.steady + gusts_.current() - state_.velocity).norm();

@@ -227,7 +227,13 @@ struct OnlineOptions {
   // joint is farther from the plan than the plan moved it in that time
   // (plus 0.03 rad), the vehicle brakes along the plan, holds and the
   // flight ends aborted.
-  // A slow servo (a lag) still moves and is not a stall. 0: no check.
+  // A slow servo (a lag) still moves and is not a stall. And whatever the
+  // plan's rate: a joint more than 0.01 rad from the plan that stands
+  // still (under 0.01 rad/s and a fifth of the plan's rate) for
+  // joint_stall_time is a stall when the plan ahead, with that joint where
+  // it stands, comes closer to the scene than the safety distance less the
+  // tolerance within the brake's path plus the detection's delay.
+  // 0: no check.
   double joint_stall_rate = 0.3;
   double joint_stall_time = 0.1;
 
@@ -558,6 +564,16 @@ class OnlineController {
   // arm each anywhere along its straight move (a grid): the move OFFBOARD
   // makes to rejoin a mission after the autopilot's failsafe.
   double RejoinMargin(double plan_time) const;
+  // The margin over the safety distance less the tolerance of one
+  // whole-body configuration flown at plan_time: the robot of that time's
+  // mission leg with its held object's bound, or the task's robot; `link`
+  // gets the robot's nearest link.
+  double ConfigurationMargin(double plan_time, const MeasuredState& state, int* link) const;
+  // The least ConfigurationMargin along the plan from plan time `from` to
+  // `to` with the joints in `stuck` held at their measured angles (the
+  // base and the other joints as planned), and the plan time and link of
+  // it: the path a stuck joint leaves ahead.
+  double StuckPathMargin(double from, double to, const std::vector<int>& stuck, double* at, int* link) const;
   void Fail(Phase phase, const std::string& why, HoldCause cause = HoldCause::kNone);
   planner::BoundaryState MeasuredBoundaryState() const;
   void RunHandshake(double t, ControllerOutput* out);
