@@ -240,6 +240,11 @@ int main(int argc, char** argv) {
   app.add_option("--junction-timeout", options.junction_timeout,
                  "Most seconds of waiting at one junction; not settled by then: the mission ends holding there")
       ->capture_default_str();
+  app.add_option("--tool-trim", options.tool_trim,
+                 "Waiting at a mission's junction, shift the base's setpoints by up to this much (m) to bring a tool\n"
+                 "that a steady force (wind, a payload) holds off its pose there, where the next leg so shifted\n"
+                 "keeps the clearance; kept over that leg (0: no shift)")
+      ->capture_default_str();
   app.add_option("--arrival-settle-speed", options.arrival_settle_speed,
                  "Base speed (m/s) below which the vehicle counts as settled at the goal")
       ->capture_default_str();
@@ -333,6 +338,9 @@ int main(int argc, char** argv) {
   if (!(std::isfinite(options.junction_tolerance) && options.junction_tolerance > 0.0 &&
         options.junction_tolerance <= 0.1)) {
     return Fail("--junction-tolerance must be in (0, 0.1] m");
+  }
+  if (!(std::isfinite(options.tool_trim) && options.tool_trim >= 0.0 && options.tool_trim <= 0.1)) {
+    return Fail("--tool-trim must be in [0, 0.1] m");
   }
   if (!(std::isfinite(options.junction_timeout) && options.junction_timeout >= 0.0 &&
         options.junction_timeout <= 600.0)) {

@@ -113,6 +113,7 @@ bool OnlineOptions::IsValid(std::string* why) const {
   if (!positive(max_judged_gap)) return fail("max_judged_gap must be positive");
   if (!(std::isfinite(abort_hold) && abort_hold >= 0.0)) return fail("abort_hold must be >= 0");
   if (!(std::isfinite(joint_stall_rate) && joint_stall_rate >= 0.0)) return fail("joint_stall_rate must be >= 0");
+  if (!(std::isfinite(tool_trim) && tool_trim >= 0.0 && tool_trim <= 0.1)) return fail("tool_trim must be in [0, 0.1] m");
   if (!positive(joint_stall_time)) return fail("joint_stall_time must be positive");
   if (!positive(innovation_gate) || !positive(innovation_acceleration)) {
     return fail("innovation_gate and innovation_acceleration must be positive");
@@ -1052,7 +1053,7 @@ double OnlineController::RejoinMargin(double plan_time) const {
     const double base = static_cast<double>(i) / (kRejoinGrid - 1);
     for (int k = 0; k < kRejoinGrid; ++k) {
       const double arm = static_cast<double>(k) / (kRejoinGrid - 1);
-      m.position = position_ + base * (to.position - position_);
+      m.position = position_ + base * (to.position + tool_trim_ - position_);
       m.attitude = attitude_.slerp(base, to_attitude);
       m.joints = joints_ + arm * (to.joints - joints_);
       int link = -1;
@@ -1063,9 +1064,6 @@ double OnlineController::RejoinMargin(double plan_time) const {
 }
 
 double OnlineController::ConfigurationMargin(double plan_time, const MeasuredState& state, int* link) const {
-  const double accepted = planner::AcceptedClearance(*setup_.task, options_.clearance_tolerance);
-  const double reach = planner::ClearanceSearchReach(*setup_.task);
-  robot::KinematicsState kinematics;
   const planner::MissionLeg* leg = nullptr;
   for (const planner::MissionLeg& l : to_.plan->mission_legs) {
     if (plan_time >= l.start_s && plan_time <= l.end_s) {
@@ -1073,6 +1071,14 @@ double OnlineController::ConfigurationMargin(double plan_time, const MeasuredSta
       break;
     }
   }
+  return ConfigurationMargin(leg, state, link);
+}
+
+double OnlineController::ConfigurationMargin(const planner::MissionLeg* leg, const MeasuredState& state,
+                                             int* link) const {
+  const double accepted = planner::AcceptedClearance(*setup_.task, options_.clearance_tolerance);
+  const double reach = planner::ClearanceSearchReach(*setup_.task);
+  robot::KinematicsState kinematics;
   if (leg == nullptr || leg->robot == nullptr || leg->robot_exact == nullptr) {
     return MeasuredClearance(setup_.scene.robot, setup_.scene.exact, state, reach, &kinematics, link) - accepted;
   }
@@ -1432,6 +1438,9 @@ std::optional<double> ToolGoalError(const robot::RobotModel& robot, const planne
 double OnlineController::ArrivalOffset() const {
   if (const auto tool_error = ToolGoalError(setup_.scene.robot, *setup_.task, measured())) return *tool_error;
   const planner::WholeBodyTrajectory& plan = *to_.plan->trajectory;
+  // A mission ends where its last step leaves the tool; the base may stand
+  // off its plan by TrimTool's shift.
+  if (IsMission() && tool_link_ >= 0) return ToolOffPlan(plan.duration());
   return (position_ - plan.Sample(plan.duration()).position).norm();
 }
 
@@ -1459,14 +1468,58 @@ double PlanClock::TimeLeaving(double plan_time) const {
   return t;
 }
 
-double OnlineController::ToolOffPlan(double plan_time) const {
-  if (tool_link_ < 0 || !HaveState() || !to_.plan) return 0.0;
+Vec3 OnlineController::ToolOffsetFromPlan(double plan_time) const {
+  if (tool_link_ < 0 || !HaveState() || !to_.plan) return Vec3::Zero();
   const robot::RobotModel& robot = setup_.scene.robot;
   const planner::WholeBodySample at = to_.plan->trajectory->Sample(plan_time);
   const Vec3 planned = robot::LinkPose(robot, at.BasePose(), at.joints, tool_link_).translation();
   const Vec3 measured =
       robot::LinkPose(robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool_link_).translation();
-  return (measured - planned).norm();
+  return measured - planned;
+}
+
+// TrimTool: how often the shift is updated, and the share of the tool's
+// offset each update takes (about a second to converge, slower than the
+// autopilot's position loop, so the vehicle follows each step).
+constexpr double kTrimPeriod = 0.2;
+constexpr double kTrimGain = 0.3;
+
+void OnlineController::TrimTool(double t, double junction) {
+  if (options_.tool_trim <= 0.0 || tool_link_ < 0 || velocity_.norm() > options_.arrival_settle_speed ||
+      (trim_updated_ >= 0.0 && t - trim_updated_ < kTrimPeriod)) {
+    return;
+  }
+  trim_updated_ = t;
+  Vec3 trim = tool_trim_ - kTrimGain * ToolOffsetFromPlan(junction);
+  if (trim.norm() > options_.tool_trim) trim *= options_.tool_trim / trim.norm();
+  // The step from the old shift to the new one is short (a fraction of a
+  // centimetre): the new shift's configurations stand for it.
+  if (TrimmedMargin(trim, junction) >= 0.0) tool_trim_ = trim;
+}
+
+double OnlineController::TrimmedMargin(const Vec3& trim, double junction) const {
+  const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
+  const planner::WholeBodyTrajectory& plan = *to_.plan->trajectory;
+  MeasuredState m = measured();
+  auto shifted = [&](double tau) {
+    const planner::WholeBodySample s = plan.Sample(tau);
+    m.position = s.position + trim;
+    m.attitude = Quat(s.BasePose().rotation());
+    m.joints = s.joints;
+    return s.velocity.norm();
+  };
+  int link = -1;
+  shifted(junction);
+  double margin = ConfigurationMargin(next_junction_ < legs.size() ? &legs[next_junction_] : nullptr, m, &link);
+  if (next_junction_ + 1 >= legs.size()) return margin;
+  const planner::MissionLeg& next = legs[next_junction_ + 1];
+  for (double tau = next.start_s; margin >= 0.0;) {
+    const double speed = shifted(std::min(tau, next.end_s));
+    margin = std::min(margin, ConfigurationMargin(&next, m, &link));
+    if (tau >= next.end_s) break;
+    tau += std::clamp(0.02 / std::max(speed, 1e-3), 0.005, 0.05);
+  }
+  return margin;
 }
 
 double OnlineController::ToolOffPlanAtRest(double plan_time) const {
@@ -1499,7 +1552,10 @@ void OnlineController::WaitAtJunction(double t) {
   if (error <= options_.junction_tolerance && speed <= options_.arrival_settle_speed) {
     if (junction_wait_start_ >= 0.0) {
       Event("settled at " + where +
-            Format(" after waiting %.2f s", t - junction_wait_start_) + Format(" (tool %.4f m off)", error));
+            Format(" after waiting %.2f s", t - junction_wait_start_) + Format(" (tool %.4f m off)", error) +
+            (tool_trim_.norm() > 0.0 ? Format("; the base's setpoints shifted by %.4f m to bring the tool there",
+                                              tool_trim_.norm())
+                                     : std::string()));
     }
     junction_wait_start_ = -1.0;
     ++next_junction_;
@@ -1519,6 +1575,7 @@ void OnlineController::WaitAtJunction(double t) {
          HoldCause::kToolNotSettled);
     return;
   }
+  TrimTool(t, junction);
   // Hold the clock at the junction: the time since the plan reached it
   // (first tick) or since the last tick is the pause's.
   SetPlanTime(t, junction);
@@ -1670,6 +1727,7 @@ ControllerOutput OnlineController::Tick(double t) {
   }
   CheckAbort(t);
   CheckJointStall(t);
+  if (phase_ == Phase::kArrived && !arrival_done_ && !aborted_) TrimTool(t, to_.plan->trajectory->duration());
   if (phase_ == Phase::kArrived && !arrival_done_ && !aborted_ && gripper_pending_ < 0 &&
       t - arrival_time_ >= options_.arrival_hold) {
     const double offset = ArrivalOffset();
@@ -1679,7 +1737,10 @@ ControllerOutput OnlineController::Tick(double t) {
       arrival_done_ = true;
       Event(Format(arrival_settled_ ? "settled at the goal after %.2f s of holding" : "not settled after %.2f s of holding",
                    t - arrival_time_) +
-            Format(" (%.4f m off, ", offset) + Format("%.4f m/s): done", speed));
+            Format(" (%.4f m off, ", offset) + Format("%.4f m/s): done", speed) +
+            (tool_trim_.norm() > 0.0 ? Format(" (the base's setpoints shifted by %.4f m to bring the tool there)",
+                                              tool_trim_.norm())
+                                     : std::string()));
     }
   }
 
@@ -1730,8 +1791,9 @@ ControllerOutput OnlineController::Tick(double t) {
     last_setpoint_time_ = t;
     last_setpoint_in_blend_ = in_blend;
     ++stats_.setpoints;
-    // Into the frame of the vehicle's estimate, where the autopilot flies.
-    setpoint->position += stats_.estimate_shift;
+    // Into the frame of the vehicle's estimate, where the autopilot flies,
+    // and shifted to bring the tool to its pose (TrimTool).
+    setpoint->position += stats_.estimate_shift + tool_trim_;
     out.setpoint = std::move(setpoint);
   }
   const bool streaming_phase = phase_ != Phase::kVehicleLost && phase_ != Phase::kHandshakeFailed && !arrival_done_;

@@ -133,6 +133,16 @@ struct OnlineOptions {
   // settled after junction_timeout s ends the mission holding there.
   double junction_tolerance = 0.005;
   double junction_timeout = 5.0;
+  // A steady force (wind, a payload) tilts the hovering vehicle, and the
+  // tilt moves the arm: the base holds its setpoint and the tool stays off
+  // its planned pose. While the plan waits at a junction with the vehicle
+  // settled, the base's setpoints are shifted (a slow integral of the
+  // tool's offset, at most tool_trim m) to bring the tool to its pose, as
+  // long as the configuration there and the whole next leg, shifted so,
+  // keep the clearance; the shift is kept over that leg (the force keeps
+  // acting) and updated at the next junction; the same while holding at
+  // the goal, where only the goal's configuration is checked. 0: no shift.
+  double tool_trim = 0.03;
   // The planner's collision margin (PlannerOptions::collision_margin, the
   // distance above the safety distance the optimiser aims for) is raised by
   // this much for plans flown: the flown path strays from the plan by several
@@ -498,8 +508,9 @@ class OnlineController {
 
   OnlineController(const PlanningSetup& setup, const OnlineOptions& options);
   bool HaveState() const;
-  // Distance of the measured tool frame from the task's tool goal (no tool
-  // goal: of the base from the plan's last setpoint).
+  // Distance of the measured tool frame from the task's tool goal (a
+  // mission: from the plan's last tool pose; neither: of the base from the
+  // plan's last setpoint).
   double ArrivalOffset() const;
   void Event(std::string text);
   void CollectPlan(double t);
@@ -513,7 +524,9 @@ class OnlineController {
   void WaitAtJunction(double t);
   // How far the measured tool is from where the current plan has it at
   // `plan_time` (0 without a tool link or a complete state).
-  double ToolOffPlan(double plan_time) const;
+  double ToolOffPlan(double plan_time) const { return ToolOffsetFromPlan(plan_time).norm(); }
+  // The measured tool less the planned one at `plan_time` (zero as above).
+  Vec3 ToolOffsetFromPlan(double plan_time) const;
   // The same with the plan's base at the measured attitude: where the plan
   // is not at rest its attitude tilts with its acceleration, and a vehicle
   // holding there cannot tilt so (a mission's link hold).
@@ -569,6 +582,14 @@ class OnlineController {
   // mission leg with its held object's bound, or the task's robot; `link`
   // gets the robot's nearest link.
   double ConfigurationMargin(double plan_time, const MeasuredState& state, int* link) const;
+  double ConfigurationMargin(const planner::MissionLeg* leg, const MeasuredState& state, int* link) const;
+  // While waiting at the junction at plan time `junction` (or holding at
+  // the goal, the plan's end): updates
+  // tool_trim_ towards the tool's planned pose (OnlineOptions::tool_trim).
+  void TrimTool(double t, double junction);
+  // The least ConfigurationMargin of the plan's configuration at the
+  // junction and of the whole next leg with the base shifted by `trim`.
+  double TrimmedMargin(const Vec3& trim, double junction) const;
   // The least ConfigurationMargin along the plan from plan time `from` to
   // `to` with the joints in `stuck` held at their measured angles (the
   // base and the other joints as planned), and the plan time and link of
@@ -688,6 +709,9 @@ class OnlineController {
   // there began (negative: not waiting), and where its clock stood still.
   size_t next_junction_ = 0;
   double junction_wait_start_ = -1.0;
+  // TrimTool's shift of the base's setpoints (world frame) and its last update.
+  Vec3 tool_trim_ = Vec3::Zero();
+  double trim_updated_ = -1.0;
   PlanClock plan_clock_;
   std::optional<Setpoint> last_setpoint_;
   double last_setpoint_time_ = 0.0;
