@@ -177,6 +177,15 @@ TEST(BridgeTest, TelemetryReachesTheControllerInEnu) {
   EXPECT_NEAR(m.body_rate.z(), -0.5, 1e-6);
   EXPECT_NEAR(m.joints[0], 0.3, 1e-6);
   EXPECT_NEAR(m.joint_rates[0], 0.1, 1e-6);
+  // The servos' goals (optional): one angle per actuated joint.
+  EXPECT_EQ(controller->joint_goals().size(), 0);
+  link::DebugFloatArray goals;
+  goals.name = "JOINT_GOAL";
+  goals.data = {0.4f, -0.1f, 0.2f};
+  EXPECT_TRUE(DeliverToController(goals, 1, 0.5, targets, controller.get()));
+  ASSERT_EQ(controller->joint_goals().size(), 3);
+  EXPECT_NEAR(controller->joint_goals()[0], 0.4, 1e-6);
+  EXPECT_NEAR(controller->joint_goals()[2], 0.2, 1e-6);
 
   // A PX4 heartbeat in OFFBOARD, armed, and acknowledgements.
   link::Heartbeat heartbeat;

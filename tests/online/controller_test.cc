@@ -358,6 +358,50 @@ TEST(OnlineControllerTest, AJointStuckWhereThePlanMovesItSlowlyIsFoundByThePathA
               faults.servo.stall_time, found - faults.servo.stall_time, flown);
 }
 
+// A quarter second of uplink lost while the plan moves a joint fast: the
+// joints stand at their last setpoints, as a stalled joint would. The
+// vehicle reports each servo's goal (JOINT_GOAL): standing at its goal, a
+// joint has not stalled, and the flight goes on. A vehicle that does not
+// report them leaves the stall check to the plan alone, and it aborts.
+TEST(OnlineControllerTest, AJointStandingAtItsServosGoalDuringAnUplinkLossIsNotAStall) {
+  OnlineOptions options;
+  options.replanning = false;
+  std::shared_ptr<const planner::PlanResult> plan;
+  double plan_start = 0.0;
+  {
+    auto controller = MakeController(options);
+    DirectFlight flight(controller.get());
+    flight.Run(4.0);
+    ASSERT_EQ(controller->phase(), Phase::kFlying) << flight.Events();
+    plan = controller->current_plan();
+    plan_start = controller->current_plan_start();
+  }
+  // Lost from 0.3 s into a stretch of 0.7 s where the plan moves a joint
+  // at 0.4 rad/s or more, one way (the rate check's window is 0.3 s).
+  double lost_at = -1.0;
+  for (double tau = 0.5; tau < plan->trajectory->duration() - 1.0 && lost_at < 0.0; tau += 0.02) {
+    for (int k = 0; k < plan->trajectory->Sample(tau).joints.size() && lost_at < 0.0; ++k) {
+      const double sign = plan->trajectory->Sample(tau).joint_rates[k] >= 0.0 ? 1.0 : -1.0;
+      bool fast = true;
+      for (double s = tau; s <= tau + 0.7; s += 0.02) fast = fast && sign * plan->trajectory->Sample(s).joint_rates[k] >= 0.4;
+      if (fast) lost_at = plan_start + tau + 0.3;
+    }
+  }
+  ASSERT_GT(lost_at, 0.0) << "no fast joint on this plan";
+  auto fly = [&](bool report_goals) {
+    auto controller = MakeController(options);
+    DirectFlight flight(controller.get());
+    flight.set_report_goals(report_goals);
+    flight.Run(40.0, [&](double t, sim::Simulator*) { flight.set_uplink_lost(t >= lost_at && t < lost_at + 0.25); });
+    return std::make_pair(controller->joint_stalled(), flight.Events());
+  };
+  const auto [stalled, events] = fly(true);
+  EXPECT_FALSE(stalled) << events;
+  EXPECT_EQ(events.find("does not follow the plan"), std::string::npos) << events;
+  const auto [stalled_blind, events_blind] = fly(false);
+  EXPECT_TRUE(stalled_blind) << events_blind;
+}
+
 // Exact clearance of the robot at a planning start state (as Replan measures it).
 double StateClearance(const Vec3& position, double yaw, const VecX& joints, double reach) {
   robot::KinematicsState kinematics;

@@ -111,18 +111,19 @@ class DirectFlight {
         controller_->OnPosition(t_, s.position, s.velocity);
         controller_->OnAttitude(t_, s.attitude, s.body_rate);
         controller_->OnJoints(t_, s.joints, s.joint_rates);
+        if (report_goals_) controller_->OnJointGoals(t_, current_.joints);  // the servos' goals: the setpoint flown
         if (period_ % 50 == 0) controller_->OnHeartbeat(t_, armed_, offboard_);
       }
       const ControllerOutput out = controller_->Tick(t_);
       for (const std::string& e : out.events) events_.push_back(core::Format("[%6.2f s] ", t_) + e);
       controller_->WaitUntilIdle();
-      if (!silent_) AnswerTimesync(controller_, out, t_);
+      if (!silent_ && !uplink_lost_) AnswerTimesync(controller_, out, t_);
       for (const CommandRequest& c : out.commands) {
         if (c.command == Command::kSetOffboardMode) offboard_ = true;
         else armed_ = true;
         controller_->OnCommandAck(t_, c.command, AckResult::kAccepted);
       }
-      if (out.setpoint) {
+      if (out.setpoint && !uplink_lost_) {
         if (!first_setpoint_time_) first_setpoint_time_ = t_;
         if (offboard_ && armed_) current_ = ToSim(*out.setpoint);
         last_stream_time_ = t_;
@@ -145,6 +146,11 @@ class DirectFlight {
     return all;
   }
   void set_silent(bool silent) { silent_ = silent; }
+  // Nothing the controller sends reaches the vehicle (setpoints, TIMESYNC
+  // requests); its states still come.
+  void set_uplink_lost(bool lost) { uplink_lost_ = lost; }
+  // Whether the vehicle reports its servos' goals (JOINT_GOAL).
+  void set_report_goals(bool report) { report_goals_ = report; }
   const sim::Simulator& simulator() const { return sim_; }
   const FlightLog& log() const { return log_; }
   std::optional<double> first_setpoint_time() const { return first_setpoint_time_; }
@@ -154,7 +160,7 @@ class DirectFlight {
   sim::Simulator sim_;
   std::vector<std::string> events_;
   sim::Setpoint hold_, current_;
-  bool armed_ = false, offboard_ = false, silent_ = false;
+  bool armed_ = false, offboard_ = false, silent_ = false, uplink_lost_ = false, report_goals_ = true;
   double t_ = 0.0, last_stream_time_ = -1e9;
   long period_ = 0;
   std::optional<double> first_setpoint_time_;

@@ -120,10 +120,16 @@ TEST_F(AutopilotTest, HoversInPositionModeAndStreamsTelemetry) {
   EXPECT_EQ(heartbeats[0].system_status, link::mav::kStateStandby);
   const auto positions = All<link::LocalPositionNed>(sent_);
   const auto attitudes = All<link::AttitudeQuaternion>(sent_);
-  const auto joints = All<link::DebugFloatArray>(sent_);
+  std::vector<link::DebugFloatArray> joints, goals;
+  for (const link::DebugFloatArray& array : All<link::DebugFloatArray>(sent_)) {
+    (array.name == kJointGoalsArrayName ? goals : joints).push_back(array);
+  }
   EXPECT_EQ(positions.size(), 51u);  // 50 Hz over [0, 1]
   EXPECT_EQ(attitudes.size(), 51u);
   ASSERT_EQ(joints.size(), 51u);
+  ASSERT_EQ(goals.size(), 51u);
+  EXPECT_EQ(goals.back().array_id, kJointGoalsArrayId);
+  EXPECT_EQ(goals.back().time_usec, joints.back().time_usec);
   EXPECT_EQ(positions[50].time_boot_ms, 1000u);
   // NED: north = ENU y, east = ENU x, down = -ENU z (within the few
   // centimetres the arm's CoG offset pushes the base before the integrators settle).
@@ -324,9 +330,15 @@ TEST_F(AutopilotTest, JointSetpointsMoveTheJoints) {
   GoOffboard(hold);
   Stream(hold, autopilot_->time() + 2.0, &joint_sp);
   EXPECT_LT((autopilot_->state().joints - target).norm(), 0.01);
-  const auto telemetry = All<link::DebugFloatArray>(sent_);
+  std::vector<link::DebugFloatArray> telemetry, goals;
+  for (const link::DebugFloatArray& a : All<link::DebugFloatArray>(sent_)) {
+    (a.name == kJointGoalsArrayName ? goals : telemetry).push_back(a);
+  }
   ASSERT_FALSE(telemetry.empty());
+  ASSERT_FALSE(goals.empty());
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(telemetry.back().data[static_cast<size_t>(k)], target[k], 0.01);
+  // Each servo's goal is the JOINT_SP it was sent.
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(goals.back().data[static_cast<size_t>(k)], target[k], 1e-6);
   // The base still holds its position while the arm moves (the controller
   // knows nothing about the arm: centimetres, not decimetres).
   EXPECT_LT((autopilot_->state().position - Vec3(0, 0, 1)).norm(), 0.05);

@@ -400,6 +400,12 @@ constexpr double kJointStallSlack = 0.03;
 // stands still off it: servo noise and a following joint's lag stay under.
 constexpr double kStuckOffset = 0.01;
 constexpr double kStuckRate = 0.01;
+// How much older than the joint states (s) the servos' goals may be and
+// still count: they come in the same telemetry, a frame apart.
+constexpr double kGoalAge = 0.05;
+// A servo's goal unchanged for this long (s, a few setpoint periods) while
+// the plan moves the joint: no setpoint has reached the vehicle.
+constexpr double kGoalStill = 0.06;
 // How far from a mission's plan the autopilot's failsafe may have held the
 // vehicle (base or tool, m) for OFFBOARD to fly it back there, and the
 // grid of base and arm progress the move is checked on (RejoinMargin).
@@ -440,6 +446,15 @@ void OnlineController::CheckJointStall(double t) {
     const double from_new = std::abs(joints_[k] - window.front().joints[k]);
     return old_now ? std::min(from_new, std::abs(joints_[k] - old_now->joints[k])) : from_new;
   };
+  // A servo whose goal stands still while the plan moves it has not been
+  // told to move: the setpoints stopped reaching the vehicle (a burst of
+  // losses on the uplink reads as a stall of every moving joint otherwise).
+  // Goals as old as the joint states, or none known: the plan alone.
+  const bool goals_known = joint_goals_time_ >= joints_time_ - kGoalAge;
+  const auto commanded_away = [&](int k) {
+    return !goals_known || std::abs(window.front().joint_rates[k]) < kStuckRate ||
+           joint_goals_time_ - goal_moved_time_[k] <= kGoalStill;
+  };
   int stalled = -1;
   double planned_rate = 0.0, error = 0.0;
   for (int k = 0; k < joint_rates_.size() && stalled < 0; ++k) {
@@ -458,7 +473,7 @@ void OnlineController::CheckJointStall(double t) {
     // Left behind: farther from the plan than the lag explains (a joint
     // stuck while the plan moves it slowly).
     const double behind = off(k);
-    if (stopped || behind > kJointStallSlack + lag * most) {
+    if ((stopped || behind > kJointStallSlack + lag * most) && commanded_away(k)) {
       stalled = k;
       planned_rate = most;
       error = behind;
@@ -473,7 +488,7 @@ void OnlineController::CheckJointStall(double t) {
     std::vector<int> stuck;
     for (int k = 0; k < joint_rates_.size(); ++k) {
       const double still = std::max(kStuckRate, 0.2 * std::abs(window.front().joint_rates[k]));
-      if (off(k) > kStuckOffset && std::abs(joint_rates_[k]) < still) stuck.push_back(k);
+      if (off(k) > kStuckOffset && std::abs(joint_rates_[k]) < still && commanded_away(k)) stuck.push_back(k);
     }
     if (!stuck.empty()) {
       const std::optional<Setpoint> reference = Reference(t);
@@ -641,6 +656,22 @@ void OnlineController::OnJoints(double t, const VecX& joints, const VecX& joint_
   have_joints_ = true;
   joints_ = joints;
   joint_rates_ = joint_rates;
+}
+
+void OnlineController::OnJointGoals(double t, const VecX& goals) {
+  if (goals.size() != setup_.scene.robot.num_actuated() || !goals.allFinite() || !std::isfinite(t) ||
+      t <= joint_goals_time_) {
+    return;
+  }
+  if (joint_goals_.size() != goals.size()) {
+    joint_goals_ = goals;
+    goal_moved_time_ = VecX::Constant(goals.size(), t);
+  }
+  for (int k = 0; k < goals.size(); ++k) {
+    if (goals[k] != joint_goals_[k]) goal_moved_time_[k] = t;
+  }
+  joint_goals_time_ = t;
+  joint_goals_ = goals;
 }
 
 void OnlineController::OnTimesync(double t, int64_t tc1, int64_t ts1) {

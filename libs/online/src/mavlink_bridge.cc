@@ -55,6 +55,12 @@ bool DeliverToController(const link::Message& message, uint8_t from_system, doub
     // The wire always carries 58 values (zero-padded, and the padding may be
     // truncated away): the robot's joint count says where the rates start.
     const int n = controller->num_joints();
+    if (array->name == kJointGoalsArrayName && n >= 1 && n <= link::DebugFloatArray::kMaxData) {
+      VecX goals = VecX::Zero(n);
+      for (int k = 0; k < n && static_cast<size_t>(k) < array->data.size(); ++k) goals[k] = array->data[static_cast<size_t>(k)];
+      controller->OnJointGoals(controller->MeasurementTime(t, static_cast<double>(array->time_usec) * 1e-6), goals);
+      return true;
+    }
     if (array->name != kJointsArrayName || n < 1 || 2 * n > link::DebugFloatArray::kMaxData) return false;
     VecX q = VecX::Zero(n), qd = VecX::Zero(n);
     for (int k = 0; k < n; ++k) {

@@ -530,6 +530,15 @@ void Autopilot::EmitDue(std::vector<link::Message>* out) {
     for (int k = 0; k < s.joint_rates.size(); ++k) joints.data.push_back(static_cast<float>(s.joint_rates[k]));
     out->push_back(joints);
 
+    // Each servo's goal (its goal-position register): what it was last told.
+    link::DebugFloatArray goals;
+    goals.time_usec = joints.time_usec;
+    goals.array_id = kJointGoalsArrayId;
+    goals.name = kJointGoalsArrayName;
+    const VecX goal = CurrentSetpoint().joints;
+    for (int k = 0; k < goal.size(); ++k) goals.data.push_back(static_cast<float>(goal[k]));
+    out->push_back(goals);
+
     if (options_.record_flown) RecordFlown();
     next_telemetry_ += options_.telemetry_period;
     if (next_telemetry_ <= now) next_telemetry_ = now + options_.telemetry_period;

@@ -237,7 +237,10 @@ struct OnlineOptions {
   // joint is farther from the plan than the plan moved it in that time
   // (plus 0.03 rad), the vehicle brakes along the plan, holds and the
   // flight ends aborted.
-  // A slow servo (a lag) still moves and is not a stall. And whatever the
+  // A slow servo (a lag) still moves and is not a stall, nor is a joint
+  // whose servo's goal, as the vehicle reports it (OnJointGoals), has stood
+  // still while the plan moves it (the setpoints stopped coming, not the
+  // joint). And whatever the
   // plan's rate: a joint more than 0.01 rad from the plan that stands
   // still (under 0.01 rad/s and a fifth of the plan's rate) for
   // joint_stall_time is a stall when the plan ahead, with that joint where
@@ -438,6 +441,12 @@ class OnlineController {
                   double vehicle_time = std::numeric_limits<double>::quiet_NaN());
   void OnAttitude(double t, const Quat& attitude, const Vec3& body_rate);
   void OnJoints(double t, const VecX& joints, const VecX& joint_rates);
+  // Where each servo is commanded to (its goal register), when the vehicle
+  // reports it: a servo whose goal stands still while the plan moves it was
+  // not told to move (the uplink's setpoints are late or lost), and its
+  // joint standing still is not a stall.
+  void OnJointGoals(double t, const VecX& goals);
+  const VecX& joint_goals() const { return joint_goals_; }  // empty until reported
   // The vehicle's heartbeat: armed flag and whether it is in OFFBOARD.
   void OnHeartbeat(double t, bool armed, bool offboard);
   // The mode the same heartbeat gives: each change is an event, so that
@@ -684,6 +693,9 @@ class OnlineController {
   // time) some joint has not followed the plan; -1: none.
   double stall_checked_time_ = -1.0;
   double stall_since_ = -1.0;
+  // OnJointGoals: the servos' goals and their time (negative: none yet).
+  VecX joint_goals_, goal_moved_time_;  // and when each last changed
+  double joint_goals_time_ = -1.0;
   // A joint that stopped while the plan moved it: brakes along the plan,
   // holds and ends the flight aborted.
   void CheckJointStall(double t);

@@ -10,6 +10,8 @@
 //   DEBUG_FLOAT_ARRAY (350)   name "JOINTS": n joint angles (rad) then n joint
 //                             rates (rad/s), URDF order of the actuated joints
 //                             (n from the robot: the wire pads data to 58 values)
+//   DEBUG_FLOAT_ARRAY (350)   name "JOINT_GOAL" (optional): the angle each
+//                             servo is commanded to (its goal register), URDF order
 //   COMMAND_ACK (77)          for MAV_CMD_DO_SET_MODE and MAV_CMD_COMPONENT_ARM_DISARM
 // Sent to it:
 //   SET_POSITION_TARGET_LOCAL_NED (84)  position, velocity, acceleration, yaw
@@ -36,6 +38,7 @@
 namespace quadhand::online {
 
 constexpr const char* kJointsArrayName = "JOINTS";
+constexpr const char* kJointGoalsArrayName = "JOINT_GOAL";
 constexpr const char* kJointSetpointArrayName = "JOINT_SP";
 constexpr uint16_t kJointSetpointArrayId = 2;
 

@@ -25,8 +25,9 @@
 // - TIMESYNC: a request (tc1 = 0) is answered with tc1 = the simulated time
 //   in ns (the clock of every time stamp it sends) and the request's ts1.
 // - Sends HEARTBEAT every `heartbeat_period` and LOCAL_POSITION_NED,
-//   ATTITUDE_QUATERNION and DEBUG_FLOAT_ARRAY "JOINTS" every
-//   `telemetry_period` of simulated time.
+//   ATTITUDE_QUATERNION and DEBUG_FLOAT_ARRAY "JOINTS" and "JOINT_GOAL"
+//   (the angle each servo is commanded to, as a servo's goal-position
+//   register reads) every `telemetry_period` of simulated time.
 //
 // Frames: MAVLink's local NED frame is the simulator's ENU world with axes
 // swapped (same origin); attitudes are FRD -> NED (link/frames.h).
@@ -50,6 +51,8 @@ constexpr const char* kJointsArrayName = "JOINTS";      // sent: measured angles
 constexpr const char* kJointSetpointArrayName = "JOINT_SP";  // received: setpoint angles then rates
 constexpr uint16_t kJointsArrayId = 1;
 constexpr uint16_t kJointSetpointArrayId = 2;  // what quadhand-online sends; any id is accepted
+constexpr const char* kJointGoalsArrayName = "JOINT_GOAL";  // sent: each servo's goal angle (what it was last told)
+constexpr uint16_t kJointGoalsArrayId = 3;
 
 // SET_POSITION_TARGET_LOCAL_NED type_mask bits (POSITION_TARGET_TYPEMASK).
 namespace typemask {
