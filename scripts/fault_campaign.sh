@@ -275,6 +275,8 @@ fly() {
     verdict="killed; failsafe"
   elif [[ $code -eq 7 ]]; then
     verdict="aborted, stopped safely"
+  elif [[ $code -eq 6 ]] && grep -q "aborting, " "$base.online.txt"; then
+    verdict="aborted, clearance lost, reported"
   elif [[ $code -eq 6 && "$said" == "CLEARANCE NOT VERIFIED"* ]]; then
     verdict="not verified, reported"
   elif [[ $code -eq 6 ]]; then
@@ -328,9 +330,15 @@ for path in paths:
         errors.append(f"{path}: {line[6:]}")
         continue
     f = line.split("\t")
+    # Aborted: the online mode's own reaction began (a retreat along the
+    # plan on the insertion, a stalled joint's brake), whatever the exit.
+    try:
+        aborted = "aborting, " in open(path[:-len(".result")] + ".online.txt", errors="replace").read()
+    except OSError:
+        aborted = False
     rows.append(dict(kind=f[0], severity=f[1], cls=f[2], seed=int(f[3]), code=int(f[4]), said=f[5],
                      clearance=float(f[6]), tool=float(f[7]), rate=None if f[8] == "-" else float(f[8]),
-                     rest=float(f[9]), check=int(f[10]), verdict=f[11]))
+                     rest=float(f[9]), check=int(f[10]), verdict=f[11], aborted=aborted or int(f[4]) == 7))
 def tool_text(tool):
     return "-" if tool < 0 else f"{tool:.4f}m"  # a mission has no single goal
 print(f"{'fault':<15}{'severity':<14}{'seed':>4}{'exit':>5}  {'quadhand-online said':<26}{'flown min':>10}"
@@ -363,7 +371,10 @@ collisions = [r for r in rows if r["clearance"] < 0]
 dishonest = [r for r in rows if r["code"] == 0 and r["check"] != 0]
 mild = [r for r in rows if r["cls"] == "mild"]
 severe = [r for r in rows if r["cls"] == "severe"]
-low = [r for r in rows if r["check"] != 0 and r["code"] not in (7,) and r["clearance"] >= 0]
+# The target: >= the safety distance less 2 mm for every flight
+# that is not aborted (an aborted one: >= 0, the collisions above).
+low = [r for r in rows if r["check"] != 0 and not r["aborted"] and r["clearance"] >= 0]
+low_aborted = [r for r in rows if r["check"] != 0 and r["aborted"] and r["clearance"] >= 0]
 loaded = [r["rate"] for r in rows if r["kind"] == "cpu_load" and r["rate"] is not None]
 kinds = {r["kind"] for r in rows if r["kind"] != "calm"}
 print()
@@ -372,8 +383,11 @@ print(f"{len(rows)} flights, {len(kinds)} fault kinds, {len(groups)} rows, "
          if elapsed >= 0 else "from the records of earlier runs"))
 print(f"collisions (flown clearance < 0): {len(collisions)}")
 print(f"exit 0 not borne out by the record: {len(dishonest)}")
-print(f"below the safety distance less 2 mm without a retreat (reported, exit 6): {len(low)}"
+print(f"below the safety distance less 2 mm, not aborted (reported, exit 6): {len(low)}"
       + ("" if not low else " (" + ", ".join(sorted({r['kind'] + ':' + r['severity'] for r in low})) + ")"))
+print(f"below the safety distance less 2 mm after an abort began (out of the scene): {len(low_aborted)}"
+      + ("" if not low_aborted else
+         " (" + ", ".join(sorted({r['kind'] + ':' + r['severity'] for r in low_aborted})) + ")"))
 if mild:
     done = sum(map(completed, mild))
     print(f"mild faults completed with the tool within 1 cm: {done}/{len(mild)} ({100.0 * done / len(mild):.1f} %)"

@@ -202,6 +202,14 @@ int main(int argc, char** argv) {
   app.add_option("--vehicle-timeout", options.vehicle_timeout,
                  "Seconds without LOCAL_POSITION_NED before streaming stops and the program exits with 3")
       ->capture_default_str();
+  app.add_option("--ack-timeout", options.ack_timeout,
+                 "Seconds to wait for each COMMAND_ACK (OFFBOARD, arming, the gripper) before sending the command "
+                 "again; in (0, 10]")
+      ->capture_default_str();
+  app.add_option("--command-attempts", options.max_command_attempts,
+                 "Sends of each command before giving up (the handshake: REFUSED, exit 4; a mission's gripper: holding); "
+                 "a lossy uplink may need more; in [1, 100]")
+      ->capture_default_str();
   app.add_option("--outage-timeout", options.outage_timeout,
                  "While flying a goal or holding a mission for the link, seconds of silence waited for as an outage "
                  "(holding; the vehicle re-engaged after its failsafe) before exit 3, and the longest a mission's "
@@ -310,6 +318,12 @@ int main(int argc, char** argv) {
   // holding at the goal is already far beyond any use; more is a typo.
   if (!(std::isfinite(options.vehicle_timeout) && options.vehicle_timeout > 0.0 && options.vehicle_timeout <= 60.0)) {
     return Fail("--vehicle-timeout must be in (0, 60] s");
+  }
+  if (!(std::isfinite(options.ack_timeout) && options.ack_timeout > 0.0 && options.ack_timeout <= 10.0)) {
+    return Fail("--ack-timeout must be in (0, 10] s");
+  }
+  if (options.max_command_attempts < 1 || options.max_command_attempts > 100) {
+    return Fail("--command-attempts must be in [1, 100]");
   }
   if (!(std::isfinite(options.outage_timeout) && options.outage_timeout >= options.vehicle_timeout &&
         options.outage_timeout <= 600.0)) {

@@ -285,22 +285,27 @@ TEST(OnlineControllerTest, AStalledJointAbortsTheFlightWhereItIsAndASlowOneDoesN
   }
 }
 
+// The plan a fault-free flight with `options` flies, and its start (the
+// flights are deterministic: a later flight with a fault flies the same
+// plan up to the fault); null when it was not flying 4 s in.
+std::pair<std::shared_ptr<const planner::PlanResult>, double> PlanFlown(const OnlineOptions& options) {
+  auto controller = MakeController(options);
+  DirectFlight flight(controller.get());
+  flight.Run(4.0);
+  if (controller->phase() != Phase::kFlying) return {nullptr, 0.0};
+  return {controller->current_plan(), controller->current_plan_start()};
+}
+
 // A joint stuck where the plan moves it too slowly for the rate check, and
 // where being left behind takes long to show: the plan ahead with the joint
 // where it stands comes too close to the scene, and that is found at once.
 TEST(OnlineControllerTest, AJointStuckWhereThePlanMovesItSlowlyIsFoundByThePathAheadOfIt) {
   OnlineOptions options;
   options.replanning = false;
-  std::shared_ptr<const planner::PlanResult> plan;
-  double plan_start = 0.0;
-  {
-    auto controller = MakeController(options);
-    DirectFlight flight(controller.get());
-    flight.Run(4.0);
-    ASSERT_EQ(controller->phase(), Phase::kFlying) << flight.Events();
-    plan = controller->current_plan();
-    plan_start = controller->current_plan_start();
-  }
+  const auto flown_plan = PlanFlown(options);
+  const std::shared_ptr<const planner::PlanResult> plan = flown_plan.first;
+  const double plan_start = flown_plan.second;
+  ASSERT_TRUE(plan);
   const planner::Task& task = WindowCup().task;
   const double accepted = planner::AcceptedClearance(task, options.clearance_tolerance);
   const double reach = planner::ClearanceSearchReach(task);
@@ -366,16 +371,10 @@ TEST(OnlineControllerTest, AJointStuckWhereThePlanMovesItSlowlyIsFoundByThePathA
 TEST(OnlineControllerTest, AJointStandingAtItsServosGoalDuringAnUplinkLossIsNotAStall) {
   OnlineOptions options;
   options.replanning = false;
-  std::shared_ptr<const planner::PlanResult> plan;
-  double plan_start = 0.0;
-  {
-    auto controller = MakeController(options);
-    DirectFlight flight(controller.get());
-    flight.Run(4.0);
-    ASSERT_EQ(controller->phase(), Phase::kFlying) << flight.Events();
-    plan = controller->current_plan();
-    plan_start = controller->current_plan_start();
-  }
+  const auto flown_plan = PlanFlown(options);
+  const std::shared_ptr<const planner::PlanResult> plan = flown_plan.first;
+  const double plan_start = flown_plan.second;
+  ASSERT_TRUE(plan);
   // Lost from 0.3 s into a stretch of 0.7 s where the plan moves a joint
   // at 0.4 rad/s or more, one way (the rate check's window is 0.3 s).
   double lost_at = -1.0;

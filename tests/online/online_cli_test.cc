@@ -669,6 +669,11 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {task + vehicle + " --threads -1", "--threads"},
       {task + vehicle + " --package-path /nonexistent-quadhand-packages", "nonexistent-quadhand-packages"},
       {task + vehicle + " --threads 1000", "--threads"},
+      {task + vehicle + " --tool-trim 0.5", "--tool-trim must be in [0, 0.1] m"},
+      {task + vehicle + " --tool-trim nan", "--tool-trim"},
+      {task + vehicle + " --ack-timeout 0", "--ack-timeout must be in (0, 10] s"},
+      {task + vehicle + " --command-attempts 0", "--command-attempts must be in [1, 100]"},
+      {task + vehicle + " --command-attempts 1000", "--command-attempts must be in [1, 100]"},
   };
   for (const auto& [args, fragment] : cases) {
     const auto r = RunCommand(kOnline + " " + args);
@@ -688,7 +693,8 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
                              "--dry-run", "--vehicle-timeout", "--replan-threshold", "--hold-time", "--quiet",
                              "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-settle-speed", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "--threads", "--package-path",
                              "--no-timesync", "--max-state-age", "--link-budget", "--max-blind-time", "--min-link-speed",
-                             "--clearance-tolerance", "--max-judged-gap", "Exit codes"}) {
+                             "--clearance-tolerance", "--max-judged-gap", "--tool-trim", "--ack-timeout",
+                             "--command-attempts", "Exit codes"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }

@@ -412,6 +412,30 @@ constexpr double kGoalStill = 0.06;
 constexpr double kMissionRejoinDistance = 0.2;
 constexpr int kRejoinGrid = 9;
 
+int OnlineController::StuckJointAhead(double t, double at, double lag, const std::vector<std::pair<int, double>>& stuck,
+                                      std::string* words) const {
+  if (stuck.empty()) return -1;
+  // Over the brake's path (half its duration at the plan's pace) and the
+  // detection's delay (the servo window, the uplink, the debounce twice).
+  const std::optional<Setpoint> reference = Reference(t);
+  const double speed = reference ? reference->velocity.norm() : 0.0;
+  const double brake = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
+  const double horizon = 0.5 * brake + lag + 2.0 * options_.joint_stall_time;
+  std::vector<int> joints;
+  for (const auto& [k, off] : stuck) joints.push_back(k);
+  double where = at;
+  int link = -1;
+  const double margin = StuckPathMargin(at, at + horizon, joints, &where, &link);
+  if (margin >= 0.0) return -1;
+  const auto farthest =
+      std::max_element(stuck.begin(), stuck.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+  *words = Format("; with it there, the plan %.2f s ahead comes %.4f m under the safety distance less the tolerance "
+                  "(link %s)",
+                  where - at, -margin,
+                  link >= 0 && link < setup_.scene.robot.num_links() ? setup_.scene.robot.link(link).name.c_str() : "?");
+  return farthest->first;
+}
+
 void OnlineController::CheckJointStall(double t) {
   if (options_.joint_stall_rate <= 0.0 || phase_ != Phase::kFlying || aborted_ || link_hold_ || !to_.plan ||
       !have_joints_ || joints_time_ <= stall_checked_time_) {
@@ -480,36 +504,18 @@ void OnlineController::CheckJointStall(double t) {
     }
   }
   // Standing still off the plan, whatever the plan's rate (a joint stuck
-  // where the plan moves it slowly is left behind only slowly): a stall as
-  // soon as the plan ahead, with the joint where it stands, comes too
-  // close to the scene within the brake's path and the detection's delay.
+  // where the plan moves it slowly is left behind only slowly).
   std::string ahead;
   if (stalled < 0) {
-    std::vector<int> stuck;
+    std::vector<std::pair<int, double>> stuck;  // joint, how far off the plan
     for (int k = 0; k < joint_rates_.size(); ++k) {
       const double still = std::max(kStuckRate, 0.2 * std::abs(window.front().joint_rates[k]));
-      if (off(k) > kStuckOffset && std::abs(joint_rates_[k]) < still && commanded_away(k)) stuck.push_back(k);
+      if (off(k) > kStuckOffset && std::abs(joint_rates_[k]) < still && commanded_away(k)) stuck.push_back({k, off(k)});
     }
-    if (!stuck.empty()) {
-      const std::optional<Setpoint> reference = Reference(t);
-      const double speed = reference ? reference->velocity.norm() : 0.0;
-      const double brake = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
-      const double horizon = 0.5 * brake + lag + 2.0 * options_.joint_stall_time;
-      double where = at;
-      int link = -1;
-      const double margin = StuckPathMargin(at, at + horizon, stuck, &where, &link);
-      if (margin < 0.0) {
-        stalled = stuck.front();
-        for (int k : stuck) {
-          if (off(k) > off(stalled)) stalled = k;
-        }
-        error = off(stalled);
-        planned_rate = std::abs(window.front().joint_rates[stalled]);
-        ahead = Format("; with it there, the plan %.2f s ahead comes %.4f m under the safety distance less the "
-                       "tolerance (link %s)",
-                       where - at, -margin,
-                       link >= 0 && link < setup_.scene.robot.num_links() ? setup_.scene.robot.link(link).name.c_str() : "?");
-      }
+    stalled = StuckJointAhead(t, at, lag, stuck, &ahead);
+    if (stalled >= 0) {
+      error = off(stalled);
+      planned_rate = std::abs(window.front().joint_rates[stalled]);
     }
   }
   if (stalled < 0) {
@@ -1521,7 +1527,12 @@ void OnlineController::TrimTool(double t, double junction) {
     return;
   }
   trim_updated_ = t;
-  Vec3 trim = tool_trim_ - kTrimGain * ToolOffsetFromPlan(junction);
+  // The tool's offset less the base's own from its setpoint: what the tilt
+  // and the arm put there. The autopilot removes the base's part itself
+  // (an overshoot at arrival, at rest for a moment at its turn, must not
+  // wind the shift up).
+  const Vec3 base_offset = position_ - (to_.plan->trajectory->Sample(junction).position + tool_trim_);
+  Vec3 trim = tool_trim_ - kTrimGain * (ToolOffsetFromPlan(junction) - base_offset);
   if (trim.norm() > options_.tool_trim) trim *= options_.tool_trim / trim.norm();
   // The step from the old shift to the new one is short (a fraction of a
   // centimetre): the new shift's configurations stand for it.

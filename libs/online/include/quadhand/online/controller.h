@@ -604,6 +604,13 @@ class OnlineController {
   // base and the other joints as planned), and the plan time and link of
   // it: the path a stuck joint leaves ahead.
   double StuckPathMargin(double from, double to, const std::vector<int>& stuck, double* at, int* link) const;
+  // Of the joints standing still off the plan at plan time `at` (each with
+  // how far off), the one farthest off when the plan ahead with them where
+  // they stand comes too close within the brake's path and the detection's
+  // delay (`lag`: the servo window plus the uplink), `words` saying where;
+  // -1 when none does.
+  int StuckJointAhead(double t, double at, double lag, const std::vector<std::pair<int, double>>& stuck,
+                      std::string* words) const;
   void Fail(Phase phase, const std::string& why, HoldCause cause = HoldCause::kNone);
   planner::BoundaryState MeasuredBoundaryState() const;
   void RunHandshake(double t, ControllerOutput* out);
