@@ -639,9 +639,12 @@ int main(int argc, char** argv) {
                                   ? std::string("exact; no link came nearer, the reach searched")
                                   : core::Format("exact, link %s, ", m.closest_link.c_str()) +
                                         core::Format("t = %.2f s", m.min_clearance_time);
-    std::printf("  flown path: min clearance %.4f m (%s); final tool error %.4f m, base %.4f m from the plan's terminal "
-                "state\n",
-                m.min_clearance, where.c_str(), m.final_tool_error, m.final_base_error);
+    // A mission has no single tool goal (each gripper step's tool is below).
+    const std::string tool = std::isfinite(m.final_tool_error)
+                                 ? core::Format("final tool error %.4f m, ", m.final_tool_error)
+                                 : std::string("no single tool goal; ");
+    std::printf("  flown path: min clearance %.4f m (%s); %sbase %.4f m from the plan's terminal state\n",
+                m.min_clearance, where.c_str(), tool.c_str(), m.final_base_error);
     std::printf("  judged on %ld of the vehicle's time-stamped states; longest gap between two %.3f s\n",
                 m.judged_samples, m.max_state_gap);
     if (std::isfinite(m.held_object_margin)) {
