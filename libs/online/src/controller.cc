@@ -419,13 +419,13 @@ int OnlineController::StuckJointAhead(double t, double at, double lag, const std
   // detection's delay (the servo window, the uplink, the debounce twice).
   const std::optional<Setpoint> reference = Reference(t);
   const double speed = reference ? reference->velocity.norm() : 0.0;
-  const double brake = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
+  const double brake = BrakeDuration(speed);
   const double horizon = 0.5 * brake + lag + 2.0 * options_.joint_stall_time;
   std::vector<int> joints;
   for (const auto& [k, off] : stuck) joints.push_back(k);
   double where = at;
   int link = -1;
-  const double margin = StuckPathMargin(at, at + horizon, joints, &where, &link);
+  const double margin = PathMargin(at, at + horizon, Vec3::Zero(), joints, nullptr, &where, &link);
   if (margin >= 0.0) return -1;
   const auto farthest =
       std::max_element(stuck.begin(), stuck.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
@@ -1065,12 +1065,16 @@ void OnlineController::HoldForLink(double t, double speed) {
   ++stats_.link_holds;
 }
 
+double OnlineController::BrakeDuration(double speed) const {
+  return std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
+}
+
 void OnlineController::BrakeAlongPlan(double t, double speed) {
   // The current plan's clock slows to a stop (LinkHoldReference): the same
   // path, at half the task's acceleration limit on average.
   link_hold_ = true;
   link_hold_start_ = t;
-  link_brake_duration_ = std::max(0.2, 2.0 * speed / (0.5 * setup_.task->limits.a_max));
+  link_brake_duration_ = BrakeDuration(speed);
 }
 
 double OnlineController::RejoinMargin(double plan_time) const {
@@ -1128,27 +1132,26 @@ double OnlineController::ConfigurationMargin(const planner::MissionLeg* leg, con
   return margin;
 }
 
-double OnlineController::StuckPathMargin(double from, double to, const std::vector<int>& stuck, double* at,
-                                         int* link) const {
+double OnlineController::PathMargin(double from, double to, const Vec3& shift, const std::vector<int>& held,
+                                    const planner::MissionLeg* leg, double* at, int* link) const {
   // Samples 2 cm of the base's path apart at most (and 0.05 s): far finer
-  // than the margins a stall eats into within a brake.
+  // than the margins a stall or a trim eats into.
   const planner::WholeBodyTrajectory& plan = *to_.plan->trajectory;
   to = std::min(to, plan.duration());
   double margin = std::numeric_limits<double>::infinity();
   MeasuredState m = measured();
-  double tau = from;
-  while (true) {
+  for (double tau = from;;) {
     const planner::WholeBodySample s = plan.Sample(tau);
-    m.position = s.position;
+    m.position = s.position + shift;
     m.attitude = Quat(s.BasePose().rotation());
     m.joints = s.joints;
-    for (int k : stuck) m.joints[k] = joints_[k];
+    for (int k : held) m.joints[k] = joints_[k];
     int nearest = -1;
-    const double here = ConfigurationMargin(tau, m, &nearest);
+    const double here = leg != nullptr ? ConfigurationMargin(leg, m, &nearest) : ConfigurationMargin(tau, m, &nearest);
     if (here < margin) {
       margin = here;
-      *at = tau;
-      *link = nearest;
+      if (at != nullptr) *at = tau;
+      if (link != nullptr) *link = nearest;
     }
     if (tau >= to) break;
     tau = std::min(to, tau + std::clamp(0.02 / std::max(s.velocity.norm(), 1e-3), 0.005, 0.05));
@@ -1539,29 +1542,19 @@ void OnlineController::TrimTool(double t, double junction) {
   if (TrimmedMargin(trim, junction) >= 0.0) tool_trim_ = trim;
 }
 
+std::string OnlineController::TrimWords() const {
+  return Format("the base's setpoints shifted by %.4f m to bring the tool there", tool_trim_.norm());
+}
+
 double OnlineController::TrimmedMargin(const Vec3& trim, double junction) const {
+  // The junction with the leg that ends there, and the next leg with its own
+  // robot from its start (the time alone would name the leg before it).
   const std::vector<planner::MissionLeg>& legs = to_.plan->mission_legs;
-  const planner::WholeBodyTrajectory& plan = *to_.plan->trajectory;
-  MeasuredState m = measured();
-  auto shifted = [&](double tau) {
-    const planner::WholeBodySample s = plan.Sample(tau);
-    m.position = s.position + trim;
-    m.attitude = Quat(s.BasePose().rotation());
-    m.joints = s.joints;
-    return s.velocity.norm();
-  };
-  int link = -1;
-  shifted(junction);
-  double margin = ConfigurationMargin(next_junction_ < legs.size() ? &legs[next_junction_] : nullptr, m, &link);
-  if (next_junction_ + 1 >= legs.size()) return margin;
+  const planner::MissionLeg* ending = next_junction_ < legs.size() ? &legs[next_junction_] : nullptr;
+  double margin = PathMargin(junction, junction, trim, {}, ending, nullptr, nullptr);
+  if (margin < 0.0 || next_junction_ + 1 >= legs.size()) return margin;
   const planner::MissionLeg& next = legs[next_junction_ + 1];
-  for (double tau = next.start_s; margin >= 0.0;) {
-    const double speed = shifted(std::min(tau, next.end_s));
-    margin = std::min(margin, ConfigurationMargin(&next, m, &link));
-    if (tau >= next.end_s) break;
-    tau += std::clamp(0.02 / std::max(speed, 1e-3), 0.005, 0.05);
-  }
-  return margin;
+  return std::min(margin, PathMargin(next.start_s, next.end_s, trim, {}, &next, nullptr, nullptr));
 }
 
 double OnlineController::ToolOffPlanAtRest(double plan_time) const {
@@ -1595,9 +1588,7 @@ void OnlineController::WaitAtJunction(double t) {
     if (junction_wait_start_ >= 0.0) {
       Event("settled at " + where +
             Format(" after waiting %.2f s", t - junction_wait_start_) + Format(" (tool %.4f m off)", error) +
-            (tool_trim_.norm() > 0.0 ? Format("; the base's setpoints shifted by %.4f m to bring the tool there",
-                                              tool_trim_.norm())
-                                     : std::string()));
+            (tool_trim_.norm() > 0.0 ? "; " + TrimWords() : std::string()));
     }
     junction_wait_start_ = -1.0;
     ++next_junction_;
@@ -1780,9 +1771,7 @@ ControllerOutput OnlineController::Tick(double t) {
       Event(Format(arrival_settled_ ? "settled at the goal after %.2f s of holding" : "not settled after %.2f s of holding",
                    t - arrival_time_) +
             Format(" (%.4f m off, ", offset) + Format("%.4f m/s): done", speed) +
-            (tool_trim_.norm() > 0.0 ? Format(" (the base's setpoints shifted by %.4f m to bring the tool there)",
-                                              tool_trim_.norm())
-                                     : std::string()));
+            (tool_trim_.norm() > 0.0 ? " (" + TrimWords() + ")" : std::string()));
     }
   }
 

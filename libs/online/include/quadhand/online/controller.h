@@ -599,11 +599,15 @@ class OnlineController {
   // The least ConfigurationMargin of the plan's configuration at the
   // junction and of the whole next leg with the base shifted by `trim`.
   double TrimmedMargin(const Vec3& trim, double junction) const;
+  // "the base's setpoints shifted by X m ...", for the settled events.
+  std::string TrimWords() const;
   // The least ConfigurationMargin along the plan from plan time `from` to
-  // `to` with the joints in `stuck` held at their measured angles (the
-  // base and the other joints as planned), and the plan time and link of
-  // it: the path a stuck joint leaves ahead.
-  double StuckPathMargin(double from, double to, const std::vector<int>& stuck, double* at, int* link) const;
+  // `to`, the base shifted by `shift` and the joints in `held` at their
+  // measured angles (the rest as planned), judged with `leg` (null: each
+  // time's own leg), and the plan time and link of it (either may be
+  // null): the path a stuck joint leaves ahead, a trimmed leg.
+  double PathMargin(double from, double to, const Vec3& shift, const std::vector<int>& held,
+                    const planner::MissionLeg* leg, double* at, int* link) const;
   // Of the joints standing still off the plan at plan time `at` (each with
   // how far off), the one farthest off when the plan ahead with them where
   // they stand comes too close within the brake's path and the detection's
@@ -709,6 +713,9 @@ class OnlineController {
   // Starts braking along the current plan from `speed` (m/s) at t: a slow
   // link's hold, a stalled joint's abort.
   void BrakeAlongPlan(double t, double speed);
+  // How long that brake takes from `speed`: half the task's acceleration
+  // limit on average, at least 0.2 s.
+  double BrakeDuration(double speed) const;
   void CheckAbort(double t);
   // A hold (every rate zero) at the newest measured position, yaw and joints.
   Setpoint HoldAtMeasuredPose() const;
