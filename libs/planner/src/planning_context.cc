@@ -97,6 +97,11 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
     std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, bool mission_phase) {
   QUADHAND_RETURN_IF_ERROR(CheckRepresentationNames(options));
+  if (task.tool && task.tool->moving) {
+    return core::Status::InvalidArgument(task.file +
+                                         ": goal.tool.motion: a moving target is read and checked, but not planned "
+                                         "yet (docs/moving_targets.md)");
+  }
   if (checked_points == nullptr) checked_points = points;
   for (const auto* cloud : {&points, &checked_points}) {
     if (!*cloud || (*cloud)->empty()) return core::Status::InvalidArgument("the scene has no points");

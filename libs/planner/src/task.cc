@@ -151,8 +151,61 @@ core::Status ReadScene(const Reader& r, const YAML::Node& node, Task* task) {
   return core::Status::Ok();
 }
 
+// goal.tool.motion and goal.tool.max_relative_speed (contracts.md 0.3):
+// a constant motion or a path file, and the box of scene points moving with
+// the target.
+core::Status ReadMotion(const Reader& r, const YAML::Node& tool_node, const std::string& where, ToolGoal* tool) {
+  const YAML::Node node = tool_node["motion"];
+  const std::string key = where + ".motion";
+  QUADHAND_RETURN_IF_ERROR(
+      r.CheckKeys(node, key, {"velocity", "acceleration", "yaw_rate", "file", "moving_points"}));
+  MovingTarget moving;
+  if (node["file"]) {
+    for (const char* constant : {"velocity", "acceleration", "yaw_rate"}) {
+      if (node[constant]) {
+        return r.Error(key + "." + constant, "give a constant motion (velocity, acceleration, yaw_rate) or a file, not both");
+      }
+    }
+    QUADHAND_RETURN_IF_ERROR(r.Path(node["file"], key + ".file", &moving.path_file));
+    auto text = core::ReadFileToString(moving.path_file);
+    if (!text.ok()) return r.Error(key + ".file", text.status().message());
+    auto path = ParseTargetPath(*text, moving.path_file);
+    if (!path.ok()) return r.Error(key + ".file", path.status().message());
+    moving.motion = TargetMotion::Sampled(std::move(*path));
+  } else {
+    if (!node["velocity"]) return r.Error(key + ".velocity", "missing (m/s, world frame; or give a path file)");
+    Vec3 velocity = Vec3::Zero(), acceleration = Vec3::Zero();
+    double yaw_rate = 0.0;
+    QUADHAND_RETURN_IF_ERROR(r.Vector3(node["velocity"], key + ".velocity", &velocity));
+    if (node["acceleration"]) {
+      QUADHAND_RETURN_IF_ERROR(r.Vector3(node["acceleration"], key + ".acceleration", &acceleration));
+    }
+    if (node["yaw_rate"]) QUADHAND_RETURN_IF_ERROR(r.Number(node["yaw_rate"], key + ".yaw_rate", &yaw_rate));
+    moving.motion = TargetMotion::Constant(tool->position, velocity, acceleration, yaw_rate);
+  }
+  if (const YAML::Node box = node["moving_points"]) {
+    QUADHAND_RETURN_IF_ERROR(r.CheckKeys(box, key + ".moving_points", {"min", "max"}));
+    TargetBox moving_box;
+    QUADHAND_RETURN_IF_ERROR(r.Vector3(box["min"], key + ".moving_points.min", &moving_box.min));
+    QUADHAND_RETURN_IF_ERROR(r.Vector3(box["max"], key + ".moving_points.max", &moving_box.max));
+    if (!(moving_box.min.array() <= moving_box.max.array()).all()) {
+      return r.Error(key + ".moving_points", "not a box: min must not exceed max on any axis");
+    }
+    moving.moving_box = moving_box;
+  }
+  if (const YAML::Node speed = tool_node["max_relative_speed"]) {
+    double value = 0.0;
+    QUADHAND_RETURN_IF_ERROR(r.Number(speed, where + ".max_relative_speed", &value));
+    if (!(value > 0.0)) return r.Error(where + ".max_relative_speed", "must be a positive speed in m/s");
+    moving.max_relative_speed = value;
+  }
+  tool->moving = std::move(moving);
+  return core::Status::Ok();
+}
+
 core::Status ReadTool(const Reader& r, const YAML::Node& node, const std::string& where, ToolGoal* tool) {
-  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(node, where, {"position", "orientation", "insertion"}));
+  QUADHAND_RETURN_IF_ERROR(
+      r.CheckKeys(node, where, {"position", "orientation", "insertion", "motion", "max_relative_speed"}));
   QUADHAND_RETURN_IF_ERROR(r.Vector3(node["position"], where + ".position", &tool->position));
   QUADHAND_RETURN_IF_ERROR(ReadUnitQuaternion(r, node["orientation"], where + ".orientation", &tool->orientation));
   if (const YAML::Node insertion = node["insertion"]) {
@@ -165,6 +218,11 @@ core::Status ReadTool(const Reader& r, const YAML::Node& node, const std::string
     }
     tool->insertion_direction.normalize();
     tool->has_insertion = true;
+  }
+  if (node["motion"]) {
+    QUADHAND_RETURN_IF_ERROR(ReadMotion(r, node, where, tool));
+  } else if (node["max_relative_speed"]) {
+    return r.Error(where + ".max_relative_speed", "given for a target that does not move (no motion)");
   }
   return core::Status::Ok();
 }
@@ -184,6 +242,10 @@ core::Status ReadGoal(const Reader& r, const YAML::Node& node, const std::string
     *tool = goal;
   }
   if (!*terminal && !*tool) return r.Error(where, "needs a terminal state (position, yaw, joints) or a tool pose");
+  if (*terminal && *tool && (*tool)->moving) {
+    return r.Error(where, "a moving target's terminal state follows the target and is found by the planner: give "
+                          "only the tool pose (no position, yaw or joints)");
+  }
   return core::Status::Ok();
 }
 
@@ -446,6 +508,15 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
     if (task.mission.size() == 1 && task.mission[0].kind == StepKind::kReach) {
       task.terminal = task.mission[0].reach_state;
       task.tool = task.mission[0].reach_tool;
+    } else {
+      for (size_t i = 0; i < task.mission.size(); ++i) {
+        const MissionStep& step = task.mission[i];
+        if (step.reach_tool && step.reach_tool->moving) {
+          return r.Error(StepName(task.mission, i) + ".tool.motion",
+                         "a moving target is planned for a goal (or a mission of one reach) only; a longer "
+                         "mission's steps do not move yet (docs/moving_targets.md)");
+        }
+      }
     }
   }
 
@@ -471,6 +542,18 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
       if (!(*field.value >= field.low && *field.value <= field.high)) {
         return r.Error(key, std::string("must be ") + field.range);
       }
+    }
+  }
+  // A target faster than the robot may fly can only be caught by luck; the
+  // terminal state follows the target, so it would break the limit.
+  if (task.tool && task.tool->moving) {
+    const MovingTarget& moving = *task.tool->moving;
+    const double horizon = moving.motion.sampled() ? 1e9 : 0.0;  // a path: every row; constant: at t = 0
+    const double speed = moving.motion.MaxSpeed(0.0, horizon);
+    if (speed > task.limits.v_max) {
+      return r.Error(moving.path_file.empty() ? "goal.tool.motion.velocity" : "goal.tool.motion.file",
+                     core::Format("the target moves at %.3f m/s, above limits.v_max (%.3f m/s)", speed,
+                                  task.limits.v_max));
     }
   }
   if (const YAML::Node tool_link = root["tool_link"]) {

@@ -12,17 +12,21 @@
 #include <vector>
 
 #include "quadhand/core/types.h"
+#include "quadhand/planner/target_motion.h"
 #include "quadhand/planner/whole_body_problem.h"
 
 namespace quadhand::planner {
 
-// The tool goal of a `goal:` or a `reach` step.
+// The tool goal of a `goal:` or a `reach` step. With `moving`, the pose
+// and the insertion are the target's at t = 0 (the plan's start), and move
+// with it (target_motion.h).
 struct ToolGoal {
   Vec3 position = Vec3::Zero();
   Quat orientation = Quat::Identity();
   bool has_insertion = false;
   Vec3 insertion_direction = -Vec3::UnitZ();  // unit
   double insertion_length = 0.0;              // metres
+  std::optional<MovingTarget> moving;         // goal.tool.motion
 };
 
 enum class StepKind { kReach, kMove, kVia, kGrasp, kRelease, kHold };
