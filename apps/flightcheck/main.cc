@@ -148,6 +148,16 @@ int main(int argc, char** argv) {
     } else {
       robot::ComputeKinematics(robot, base, row.joints, &kinematics);
       d = env::WholeBodyClearance(kinematics, ctx.exact(), 1.0, {}, &link);
+      // A moving target's points, where they are at the row's time.
+      if (const planner::MovingScene* moving = ctx.moving_scene(); moving != nullptr && moving->has_points()) {
+        int moving_link = -1;
+        const double m = env::WholeBodyClearance(planner::InTargetFrameAtZero(kinematics, *moving->motion, row.t),
+                                                 *moving->exact, 1.0, {}, &moving_link);
+        if (m < d) {
+          d = m;
+          link = moving_link;
+        }
+      }
     }
     if (d < least) {
       least = d;
@@ -162,7 +172,11 @@ int main(int argc, char** argv) {
                            &kinematics);
   const int tool = robot.LinkIndex(ctx.task().tool_link);
   if (ctx.task().tool && tool >= 0) {
-    tool_error = (kinematics.link_poses[tool].translation() - ctx.task().tool->position).norm();
+    // A moving target is judged where it is at the last row's time.
+    const Vec3 goal = ctx.task().tool->moving ? ctx.task().tool->moving->motion.Displacement(last->t) *
+                                                    ctx.task().tool->position
+                                              : ctx.task().tool->position;
+    tool_error = (kinematics.link_poses[tool].translation() - goal).norm();
   }
   if (ctx.task().terminal) base_error = (last->position - ctx.task().terminal->position).norm();
 

@@ -417,6 +417,11 @@ int main(int argc, char** argv) {
   auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;
+  // Its replans, flight judges and holds know only a still scene.
+  if (ctx.moving_scene() != nullptr) {
+    return Fail(task_path + ": goal.tool.motion: quadhand-online does not track a moving target yet (quadhand-plan "
+                "plans it; docs/moving_targets.md)");
+  }
   // A replan in flight must not wait for an exact-mesh tree to be built.
   ctx.exact().BuildAllQueries();
   for (const std::string& repair : robot::TakeMeshRepairReports()) {

@@ -263,10 +263,18 @@ int main(int argc, char** argv) {
   if (result->trajectory && (result->success || keep_failed_plan)) {
     io::PlanTable table = planner::SamplePlanTable(*result->trajectory, robot, dt);
     planner::AppendMissionColumns((*context)->task().mission, info.step_end_times, &table);
+    planner::AppendTargetColumns((*context)->task(), &table);
     if (core::Status s = outputs.Stage(out_path, io::PlanTableCsv(table)); !s.ok()) return Fail(s.message());
   }
   if (!html_path.empty() && result->trajectory) {
-    auto page = HtmlPage(*result, robot, (*context)->points(), task_path, (*context)->task());
+    // A moving target's points are drawn where they are at the arrival
+    // (the page does not animate them yet).
+    std::vector<Vec3> drawn = (*context)->points();
+    if (const planner::MovingScene* moving = (*context)->moving_scene()) {
+      const Pose at_arrival = moving->motion->Displacement(result->trajectory->duration());
+      for (const Vec3& p : (*context)->moving_points()) drawn.push_back(at_arrival * p);
+    }
+    auto page = HtmlPage(*result, robot, drawn, task_path, (*context)->task());
     if (!page.ok()) return Fail(html_path + ": " + page.status().message());
     if (core::Status s = outputs.Stage(html_path, *page); !s.ok()) return Fail(s.message());
   }

@@ -217,6 +217,7 @@ PlanOutput RunPlan(const PlanArguments& args) {
   if (result.trajectory && (result.success || args.keep_failed_plan)) {
     io::PlanTable table = planner::SamplePlanTable(*result.trajectory, context->robot(), args.dt);
     planner::AppendMissionColumns(context->task().mission, info.step_end_times, &table);
+    planner::AppendTargetColumns(context->task(), &table);
     output.csv = io::PlanTableCsv(table);
     output.columns = std::move(table.columns);
     output.table = std::move(table.values);

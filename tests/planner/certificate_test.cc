@@ -8,6 +8,7 @@
 #include <algorithm>
 
 #include "quadhand/planner/motion_bound.h"
+#include "quadhand/planner/moving_scene.h"
 #include "quadhand/planner/post_check.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/link_meshes.h"
@@ -237,6 +238,89 @@ TEST(CertificateTest, RejectsAPlanThatGrazesAPointBetweenSamples) {
     }
   }
   EXPECT_TRUE(found) << "no place for a graze between samples on this plan: the test proves nothing";
+}
+
+// The same with a point that moves (a moving target's point: moving_scene.h):
+// it crosses the robot's side fast, vertically, between two clearance
+// samples, and the samples see it far away at both. The certificate adds
+// its speed to the robot's and must find it; a brute-force check at 1 ms
+// against the point where it is then says it came too close.
+TEST(CertificateTest, RejectsAPlanThatAMovingPointGrazesBetweenSamples) {
+  const WholeBodyTrajectory& trajectory = *DefaultPlan().trajectory;
+  const double dt = 0.2, graze = 0.01, speed = 1.5;
+  const double bound = WindowCup().task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance;
+  const int n = static_cast<int>(std::ceil(trajectory.duration() / dt));
+  const double step = trajectory.duration() / n;
+  PostCheckOptions options = DefaultPlannerOptions().post_check;
+  options.dt = dt;
+  options.clearance_dt = dt;
+  const InsertionGoal no_insertion;  // the line would be judged in the point's frame
+  bool found = false;
+  for (int i = 1; i < n && !found; ++i) {
+    const double mid = (i + 0.5) * step;
+    const WholeBodySample s = trajectory.Sample(mid);
+    Vec3 across = Vec3::UnitZ().cross(s.velocity);
+    if (across.norm() < 0.1) continue;
+    across.normalize();
+    for (double side : {1.0, -1.0}) {
+      for (double up : {1.0, -1.0}) {
+        if (found) break;
+        const Vec3 direction = side * across;
+        Vec3 outermost = Vec3::Zero();
+        double extent = -1e9;
+        for (const auto& [link, v] : WorldVertices(KinematicsAt(trajectory, mid))) {
+          if (v.dot(direction) > extent) {
+            extent = v.dot(direction);
+            outermost = v;
+          }
+        }
+        // At `mid` the point is `graze` beside the robot; at t = 0 it was
+        // speed * mid below (or above) that.
+        const Vec3 velocity = up * speed * Vec3::UnitZ();
+        const Vec3 at_zero = outermost + graze * direction - velocity * mid;
+        const TargetMotion motion = TargetMotion::Constant(at_zero, velocity, Vec3::Zero(), 0.0);
+        const auto lone = env::ExactMeshModel::Create(WindowCup().robot(), std::vector<Vec3>{at_zero});
+        ASSERT_TRUE(lone.ok());
+        auto clearance_at = [&](double t) {
+          return env::WholeBodyClearance(InTargetFrameAtZero(KinematicsAt(trajectory, t), motion, t), **lone, 0.5, {});
+        };
+        double truth = 1e9, at = 0.0, sampled = 1e9;
+        for (double t = 0.0; t <= trajectory.duration(); t += 0.001) {
+          const double d = clearance_at(t);
+          if (d < truth) {
+            truth = d;
+            at = t;
+          }
+        }
+        for (int k = 0; k <= n; ++k) sampled = std::min(sampled, clearance_at(std::min(k * step, trajectory.duration())));
+        if (!(truth < bound) || sampled < bound + 0.005) continue;  // no graze, or a sample sees it
+        found = true;
+        MovingScene moving;
+        moving.motion = &motion;
+        moving.exact = lone->get();
+        const PostCheckReport report = PostCheck(trajectory, WindowCup().robot(), WindowCup().task,
+                                                 DefaultPlan().terminal, no_insertion, *WindowCup().model,
+                                                 *WindowCup().exact, nullptr, options, &moving);
+        EXPECT_FALSE(report.passed);
+        EXPECT_FALSE(report.certified);
+        EXPECT_LE(report.certified_clearance, truth);
+        ASSERT_FALSE(report.checks.empty());
+        EXPECT_EQ(report.checks[0].kind, CheckKind::kClearance);
+        EXPECT_FALSE(report.checks[0].passed) << report.checks[0].detail;
+        EXPECT_LT(report.min_clearance_exact, bound);  // the refinement found it
+        EXPECT_NEAR(report.checks[0].time, at, step / 2);
+        // The same point standing still where it is at t = 0 is far from
+        // the plan: the moving check, not another point, failed it.
+        const TargetMotion still = TargetMotion::Constant(at_zero, Vec3::Zero(), Vec3::Zero(), 0.0);
+        moving.motion = &still;
+        const PostCheckReport calm = PostCheck(trajectory, WindowCup().robot(), WindowCup().task,
+                                               DefaultPlan().terminal, no_insertion, *WindowCup().model,
+                                               *WindowCup().exact, nullptr, options, &moving);
+        EXPECT_TRUE(calm.certified) << calm.FirstFailure();
+      }
+    }
+  }
+  EXPECT_TRUE(found) << "no place for a moving graze between samples on this plan: the test proves nothing";
 }
 
 // PostCheckOptions::stop_at_first_failure: on a plan that passes, the same

@@ -12,6 +12,7 @@
 #include "quadhand/env/mrc_sdf_model.h"
 #include "quadhand/env/self_collision.h"
 #include "quadhand/planner/cost_term.h"
+#include "quadhand/planner/moving_scene.h"
 #include "quadhand/robot/kinematics.h"
 #include "support/quadhand_fixture.h"
 
@@ -67,13 +68,24 @@ const env::SelfCollisionModel& SelfCollision() {
   return *model;
 }
 
+// A target that moves and turns slowly about a point near the goal, and a
+// copy of the wall that moves with it, nearer the start: the robot passes
+// its gap while it moves.
+struct MovingParts {
+  TargetMotion motion = TargetMotion::Constant(Vec3(1.7, 0.3, 1.0), Vec3(0.1, 0.05, 0.02), Vec3(0.02, 0.0, 0.0), 0.02);
+  std::unique_ptr<env::MrcSdfModel> model;
+  MovingScene scene;
+};
+
 struct ProblemSetup {
   std::unique_ptr<env::MrcSdfModel> model;
+  std::unique_ptr<MovingParts> moving;
   std::unique_ptr<WholeBodyProblem> problem;
   VecX x0;
 };
 
-ProblemSetup MakeSetup(const WholeBodyCostOptions& options, bool insertion, const std::vector<Vec3>& extra_points = {}) {
+ProblemSetup MakeSetup(const WholeBodyCostOptions& options, bool insertion, const std::vector<Vec3>& extra_points = {},
+                       bool moving = false) {
   const auto& fx = CoarseQuadHand();
   ProblemSetup setup;
   std::vector<Vec3> points = Wall();
@@ -103,6 +115,15 @@ ProblemSetup MakeSetup(const WholeBodyCostOptions& options, bool insertion, cons
                                           &SelfCollision());
   EXPECT_TRUE(problem.ok()) << problem.status().message();
   setup.problem = std::move(*problem);
+  if (moving) {
+    setup.moving = std::make_unique<MovingParts>();
+    std::vector<Vec3> moving_points;
+    for (const Vec3& p : Wall()) moving_points.push_back(p - Vec3(0.25, 0.0, 0.0));
+    setup.moving->model = std::move(*env::MrcSdfModel::Create(fx.links, fx.grids, moving_points));
+    setup.moving->scene.motion = &setup.moving->motion;
+    setup.moving->scene.collision = setup.moving->model.get();
+    EXPECT_TRUE(setup.problem->SetMovingScene(&setup.moving->scene).ok());
+  }
   // Straight-line waypoints, perturbed so nothing is symmetric.
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-1, 1);
@@ -122,7 +143,8 @@ ProblemSetup MakeSetup(const WholeBodyCostOptions& options, bool insertion, cons
 // Checks every coordinate of the gradient at x against central differences;
 // coordinates whose one-sided slopes disagree (a trilinear cell face crossed
 // inside the step) are skipped and counted.
-void ExpectGradientMatches(const WholeBodyProblem& problem, const VecX& x, double tolerance, int* skipped) {
+void ExpectGradientMatches(const WholeBodyProblem& problem, const VecX& x, double tolerance, int* skipped,
+                           double step = 1e-7) {
   double cost = 0;
   VecX grad;
   ASSERT_TRUE(problem.Evaluate(x, &cost, &grad));
@@ -135,7 +157,7 @@ void ExpectGradientMatches(const WholeBodyProblem& problem, const VecX& x, doubl
       return c;
     };
     double numeric = 0;
-    if (!SmoothCentralDifference(f, 1e-7, &numeric)) {
+    if (!SmoothCentralDifference(f, step, &numeric)) {
       ++*skipped;
       continue;
     }
@@ -151,12 +173,14 @@ WholeBodyCostOptions OnlyTerm(const std::string& term) {
   o.time_weight = term == "time" ? 20.0 : 0.0;
   o.energy_weight_position = term == "energy" ? 1.0 : 0.0;
   o.energy_weight_aux = term == "energy" ? 1.0 : 0.0;
+  // Terms may share a weight (the still and the moving scene's collision):
+  // all are cleared first, then the named one's set.
+  for (const CostTermDescriptor& descriptor : CostTermDescriptors()) o.*(descriptor.weight) = 0.0;
   for (const CostTermDescriptor& descriptor : CostTermDescriptors()) {
     // Geometric terms are steeper per unit of weight than the rate terms.
-    const double weight = std::string(descriptor.name) == "collision" || std::string(descriptor.name) == "insertion"
-                              ? 1e3
-                              : 1e2;
-    o.*(descriptor.weight) = term == descriptor.name ? weight : 0.0;
+    const std::string name = descriptor.name;
+    const double weight = name == "collision" || name == "moving_collision" || name == "insertion" ? 1e3 : 1e2;
+    if (term == name) o.*(descriptor.weight) = weight;
   }
   // The arm's links pass within 15 cm of the battery and the airframe (a
   // lower weight: the term sums many samples, and a larger value leaves
@@ -179,7 +203,9 @@ std::vector<std::string> EveryTermName() {
 class TermGradientTest : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(TermGradientTest, MatchesFiniteDifferences) {
-  ProblemSetup setup = MakeSetup(OnlyTerm(GetParam()), /*insertion=*/true);
+  // The moving scene's collision term needs a moving scene.
+  ProblemSetup setup =
+      MakeSetup(OnlyTerm(GetParam()), /*insertion=*/true, {}, /*moving=*/GetParam() == "moving_collision");
   auto breakdown = setup.problem->Breakdown(setup.x0);
   ASSERT_TRUE(breakdown.ok());
   // The term under test must be active at x0, or the check proves nothing.
@@ -192,6 +218,30 @@ TEST_P(TermGradientTest, MatchesFiniteDifferences) {
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryTerm, TermGradientTest, ::testing::ValuesIn(EveryTermName()));
+
+// With a goal that follows a moving target (WholeBodyProblem::SetMovingScene)
+// every term's gradient also reaches the durations through the target's
+// clock: the tail (time, energy and every term near the end), the moving
+// insertion line and the moving points.
+class MovingGoalTermGradientTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(MovingGoalTermGradientTest, MatchesFiniteDifferences) {
+  ProblemSetup setup = MakeSetup(OnlyTerm(GetParam()), /*insertion=*/true, {}, /*moving=*/true);
+  auto breakdown = setup.problem->Breakdown(setup.x0);
+  ASSERT_TRUE(breakdown.ok());
+  const std::string& term = GetParam();
+  const double value = term == "time" ? breakdown->time : term == "energy" ? breakdown->energy : breakdown->Term(term);
+  EXPECT_GT(value, 0.0) << term << " is not active at the test point";
+  int skipped = 0;
+  // With the tail moving, the body rate (through the jerk) has rounding of
+  // 2e-5 at a step of 1e-7 and agrees to 1e-7 at 1e-5 and 1e-6; the
+  // geometric terms keep 1e-7, which steps over fewer trilinear cell faces.
+  ExpectGradientMatches(*setup.problem, setup.x0, 1e-5, &skipped, term == "body_rate" ? 1e-6 : 1e-7);
+  EXPECT_LE(skipped, 3);
+}
+
+INSTANTIATE_TEST_SUITE_P(EveryTerm, MovingGoalTermGradientTest, ::testing::ValuesIn(EveryTermName()));
+
 
 // Weights fixed here (not the defaults, which get tuned): large enough that
 // every term matters, moderate enough that a trilinear cell face crossed
@@ -216,6 +266,21 @@ TEST(WholeBodyProblemTest, WholeObjectiveGradientAtRandomPoints) {
     ExpectGradientMatches(*setup.problem, x, 1e-5, &skipped);
   }
   EXPECT_LE(skipped, 6);
+}
+
+TEST(WholeBodyProblemTest, AMovingGoalEndsTheTrajectoryWhereTheTargetTakesTheGoalState) {
+  ProblemSetup setup = MakeSetup(AllTerms(), /*insertion=*/true, {}, /*moving=*/true);
+  auto trajectory = setup.problem->Trajectory(setup.x0);
+  ASSERT_TRUE(trajectory.ok());
+  const double T = trajectory->duration();
+  const BoundaryState moved = MovedState(Goal(), setup.moving->motion, T);
+  const WholeBodySample end = trajectory->Sample(T);
+  EXPECT_LT((end.position - moved.position).norm(), 1e-9);
+  EXPECT_LT((end.velocity - moved.velocity).norm(), 1e-9);
+  EXPECT_LT((end.acceleration - moved.acceleration).norm(), 1e-9);
+  EXPECT_NEAR(end.yaw, Goal().yaw + setup.moving->motion.Yaw(T), 1e-9);
+  EXPECT_NEAR(end.yaw_rate, 0.02, 1e-9);
+  EXPECT_GT((moved.position - Goal().position).norm(), 0.3);  // it did move
 }
 
 // The samples are evaluated piece by piece on `threads` workers; the cost,

@@ -38,12 +38,13 @@ inline const std::string& CoarseSdfDir() {
   return folder.path;
 }
 
-// The default task's text with absolute robot, scene and SDF (CoarseSdfDir())
-// paths; a line starting with a key of `replace` becomes its value ("" drops
-// the line). Blank lines are dropped.
-inline std::string WindowCupTaskText(const std::vector<std::pair<std::string, std::string>>& replace = {}) {
+// A bundled task's text (data/tasks/<name>) with absolute robot, scene and
+// SDF (CoarseSdfDir()) paths; a line starting with a key of `replace`
+// becomes its value ("" drops the line). Blank lines are dropped.
+inline std::string BundledTaskText(const std::string& name,
+                                   const std::vector<std::pair<std::string, std::string>>& replace = {}) {
   const std::string root = QUADHAND_SOURCE_DIR;
-  std::ifstream in(root + "/data/tasks/window_cup.yaml");
+  std::ifstream in(root + "/data/tasks/" + name);
   std::string text, line;
   while (std::getline(in, line)) {
     if (line.rfind("robot:", 0) == 0) line = "robot: " + root + "/meshes/quadhand/quadhand.urdf";
@@ -55,6 +56,11 @@ inline std::string WindowCupTaskText(const std::vector<std::pair<std::string, st
     if (!line.empty()) text += line + "\n";
   }
   return text;
+}
+
+// The default task's text (data/tasks/window_cup.yaml), as BundledTaskText.
+inline std::string WindowCupTaskText(const std::vector<std::pair<std::string, std::string>>& replace = {}) {
+  return BundledTaskText("window_cup.yaml", replace);
 }
 
 // The default task with its goal written as a mission: one reach with the

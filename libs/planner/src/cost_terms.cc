@@ -7,7 +7,7 @@ const std::vector<CostTermDescriptor>& CostTermDescriptors() {
   // Evaluation order: the sums of a sample are accumulated in this order.
   static const std::vector<CostTermDescriptor> terms = {
       VelocityTerm(),   AccelerationTerm(), YawRateTerm(),   JointRateTerm(),
-      JointLimitTerm(), BodyRateTerm(),     CollisionTerm(), InsertionTerm(), SelfCollisionTerm(),
+      JointLimitTerm(), BodyRateTerm(),     CollisionTerm(), MovingCollisionTerm(), InsertionTerm(), SelfCollisionTerm(),
   };
   return terms;
 }

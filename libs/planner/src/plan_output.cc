@@ -61,6 +61,23 @@ void AppendMissionColumns(const std::vector<MissionStep>& mission, const std::ve
   }
 }
 
+void AppendTargetColumns(const Task& task, io::PlanTable* table) {
+  if (!task.tool || !task.tool->moving) return;
+  const TargetMotion& motion = task.tool->moving->motion;
+  const Eigen::Index rows = table->values.rows(), columns = table->values.cols();
+  table->values.conservativeResize(rows, columns + 7);
+  for (const char* name : {"target_x", "target_y", "target_z", "target_qw", "target_qx", "target_qy", "target_qz"}) {
+    table->columns.push_back(name);
+  }
+  const Mat3 orientation = task.tool->orientation.toRotationMatrix();
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const Pose displacement = motion.Displacement(table->values(r, 0));
+    const Vec3 position = displacement * task.tool->position;
+    const Quat q(displacement.linear() * orientation);
+    table->values.block<1, 7>(r, columns) << position.x(), position.y(), position.z(), q.w(), q.x(), q.y(), q.z();
+  }
+}
+
 std::vector<double> MissionStepEndTimes(const Task& task, const PlanResult& result) {
   if (task.mission.empty() || result.steps.size() != task.mission.size()) return {};
   std::vector<double> ends;
@@ -109,6 +126,26 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
                                           {"clearance_m", result.terminal_search.clearance},
                                           {"restarts", result.terminal_search.restarts_used},
                                           {"seconds", result.terminal_search.seconds}};
+  }
+  if (result.moving_target) {
+    // Where the plan meets the target (docs/moving_targets.md): the arrival
+    // the initial guess aimed at, how many searches it took, and where the
+    // target and the tool are at the plan's end.
+    nlohmann::json moving = {{"arrival_guess_s", result.arrival_guess_s},
+                             {"arrival_rounds", result.arrival_rounds}};
+    if (result.trajectory && result.insertion.tool_link >= 0) {
+      const double end = result.trajectory->duration();
+      const WholeBodySample last = result.trajectory->Sample(end);
+      const Vec3 tool = robot::LinkPose(robot, last.BasePose(), last.joints, result.insertion.tool_link).translation();
+      moving["arrival_s"] = end;
+      moving["target_position"] = {result.insertion.tool_position.x(), result.insertion.tool_position.y(),
+                                   result.insertion.tool_position.z()};
+      moving["tool_to_target_m"] = (tool - result.insertion.tool_position).norm();
+    }
+    for (const CheckResult& check : result.post_check.checks) {
+      if (check.kind == CheckKind::kRelativeSpeed) moving["relative_speed_mps"] = check.value;
+    }
+    report["moving_target"] = moving;
   }
   if (result.trajectory) {
     const VecX& durations = result.trajectory->position().durations();

@@ -34,6 +34,7 @@ const char* CheckKindName(CheckKind kind) {
     case CheckKind::kSampling: return "sampling";
     case CheckKind::kHeldObjectClearance: return "held_object_clearance";
     case CheckKind::kVia: return "via";
+    case CheckKind::kRelativeSpeed: return "relative_speed";
   }
   return "unknown";
 }

@@ -151,8 +151,16 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
     // clearance (PostCheckOptions::stop_at_first_failure).
     PostCheckOptions check = options.post_check;
     check.stop_at_first_failure = check.stop_at_first_failure || attempt + 1 < schedule.max_attempts;
-    result->post_check = PostCheck(*trajectory, scene.robot, task, result->terminal, result->insertion, collision,
-                                   scene.exact, scene.self_collision, check);
+    // A moving target's goal is where the target is at this trajectory's
+    // own end; the insertion line is checked in the target's frame.
+    const bool moving = result->moving_target && scene.moving != nullptr;
+    if (moving) {
+      result->terminal = MovedState(result->terminal_at_zero, *scene.moving->motion, trajectory->duration());
+      result->insertion = MovedInsertion(result->insertion_at_zero, *scene.moving->motion, trajectory->duration());
+    }
+    result->post_check = PostCheck(*trajectory, scene.robot, task, result->terminal,
+                                   moving ? result->insertion_at_zero : result->insertion, collision, scene.exact,
+                                   scene.self_collision, check, moving ? scene.moving : nullptr);
     record.post_check_ms = MillisecondsSince(check_start);
     result->post_check_ms += record.post_check_ms;
     result->trajectory = std::move(*trajectory);
@@ -236,10 +244,14 @@ core::Status Optimise(const PlanningScene& scene, const PlanCollision& collision
                       const InitialGuess& guess, const PlannerOptions& options, const SolveSchedule& schedule,
                       PlanResult* result) {
   result->num_pieces = static_cast<int>(guess.durations.size());
-  auto problem = WholeBodyProblem::Create(scene.robot, *collision.model, task.start, result->terminal, task.limits,
-                                          result->insertion, CostForTask(options, task), result->num_pieces,
-                                          scene.self_collision);
+  // A moving target: the optimiser gets the goal at t = 0 and moves it.
+  const bool moving = result->moving_target && scene.moving != nullptr;
+  auto problem = WholeBodyProblem::Create(scene.robot, *collision.model, task.start,
+                                          moving ? result->terminal_at_zero : result->terminal, task.limits,
+                                          moving ? result->insertion_at_zero : result->insertion,
+                                          CostForTask(options, task), result->num_pieces, scene.self_collision);
   if (!problem.ok()) return problem.status().WithPrefix(task.file);
+  if (moving) QUADHAND_RETURN_IF_ERROR((*problem)->SetMovingScene(scene.moving));
   if (!task.vias.empty()) {
     auto balls = ViaBalls(task.vias, guess.position_waypoints);
     if (!balls.ok()) return balls.status().WithPrefix(task.file);
@@ -479,6 +491,9 @@ core::Status TryAlternativeGuesses(const PlanningScene& scene, const Task& task,
     PlanResult trial;
     trial.terminal = result->terminal;
     trial.insertion = result->insertion;
+    trial.moving_target = result->moving_target;
+    trial.terminal_at_zero = result->terminal_at_zero;
+    trial.insertion_at_zero = result->insertion_at_zero;
     trial.path = result->path;
     auto solved = SolveFromPath(scene, task, changed, schedule, corners, &trial);
     if (!solved.ok()) return solved.status();
@@ -495,12 +510,103 @@ core::Status TryAlternativeGuesses(const PlanningScene& scene, const Task& task,
     result->status = trial.status;
     result->message = trial.message;
     result->trajectory = std::move(trial.trajectory);
+    result->terminal = trial.terminal;
+    result->insertion = trial.insertion;
     result->post_check = std::move(trial.post_check);
     result->final_cost = std::move(trial.final_cost);
     result->num_pieces = trial.num_pieces;
     result->initial_guess = alternatives[i].name;
   }
   return core::Status::Ok();
+}
+
+// Stage "resolve a moving goal" (docs/moving_targets.md): the arrival time
+// and the terminal state are found together. From a first guess of the
+// arrival (the straight line to the target at cruise speed), each round
+// searches the terminal state against the scene as it stands then (the
+// still points and the moving ones moved there), finds the front-end path
+// to it and the initial guess's duration; the next round aims at that
+// duration, until the two agree within 5 % (at most kArrivalRounds). The
+// optimiser then moves the arrival itself. Sets the terminal state and
+// insertion at the arrival, the same at t = 0, and the path. False, with
+// the status set, when no terminal state or path is found.
+core::Result<bool> ResolveMovingGoal(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                                     const opt::Solver& solver, PlanResult* result) {
+  constexpr int kArrivalRounds = 4;
+  const MovingScene& moving = *scene.moving;
+  const TargetMotion& motion = *moving.motion;
+  const robot::RobotModel& robot = scene.robot;
+  const int tool_link = robot.LinkIndex(task.tool_link);
+  if (tool_link < 0) {
+    return core::Status::InvalidArgument(task.file + ": tool_link: the robot has no link named '" + task.tool_link + "'");
+  }
+  if (!moving.scene_at) return core::Status::InvalidArgument(task.file + ": goal.tool.motion: no scene to search in");
+  // The start must clear the moving points where they start.
+  if (moving.has_points()) {
+    robot::KinematicsState kinematics;
+    robot::ComputeKinematics(robot, HoverPose(task.start.position, task.start.yaw), task.start.joints, &kinematics);
+    int link = -1;
+    const double clearance = env::WholeBodyClearance(kinematics, *moving.exact, ClearanceSearchReach(task), {}, &link);
+    if (clearance < AcceptedClearance(task, options.post_check.clearance_tolerance)) {
+      return core::Status::InvalidArgument(task.file + ": start state is in collision: link " + robot.link(link).name +
+                                           " is " + std::to_string(clearance) +
+                                           " m from the moving points (safety distance " +
+                                           std::to_string(task.safety_distance) + " m)");
+    }
+  }
+  result->moving_target = true;
+  const ToolGoal& tool_at_zero = *task.tool;
+  InsertionGoal insertion_at_zero;
+  if (tool_at_zero.has_insertion) {
+    insertion_at_zero.enabled = true;
+    insertion_at_zero.tool_link = tool_link;
+    insertion_at_zero.tool_position = tool_at_zero.position;
+    insertion_at_zero.tool_orientation = tool_at_zero.orientation;
+    insertion_at_zero.direction = tool_at_zero.insertion_direction;
+    insertion_at_zero.length = tool_at_zero.insertion_length;
+  }
+  TerminalStateOptions search = options.terminal_state;
+  search.clearance_tolerance = options.post_check.clearance_tolerance;
+  const double cruise = std::min(options.cruise_speed, task.limits.v_max);
+  double arrival = (motion.Center(0.0) - task.start.position).norm() / cruise;
+  for (int round = 0; round < kArrivalRounds; ++round) {
+    result->arrival_rounds = round + 1;
+    auto at = moving.scene_at(arrival);
+    if (!at.ok()) return at.status().WithPrefix(task.file);
+    const Pose displacement = motion.Displacement(arrival);
+    ToolGoal tool = tool_at_zero;
+    tool.moving.reset();
+    tool.position = displacement * tool_at_zero.position;
+    tool.orientation = Quat(displacement.linear() * tool_at_zero.orientation.toRotationMatrix());
+    tool.insertion_direction = displacement.linear() * tool_at_zero.insertion_direction;
+    auto found = FindTerminalState(robot, *at->collision, *at->exact, task, tool, tool_link, search, solver);
+    if (!found.ok()) {
+      if (found.status().code() != core::StatusCode::kInfeasible) return found.status();
+      result->status = PlanStatus::kTerminalStateFailed;
+      result->message = core::Format("the target as it is at %.2f s: ", arrival) + found.status().message();
+      return false;
+    }
+    result->terminal_searched = true;
+    result->terminal_search = *found;
+    result->terminal = found->state;
+    result->terminal.yaw = task.start.yaw + std::remainder(result->terminal.yaw - task.start.yaw, 2.0 * M_PI);
+    result->insertion = MovedInsertion(insertion_at_zero, motion, arrival);
+    QUADHAND_RETURN_IF_ERROR(CheckEndPoints(scene, task, result->terminal, options));
+    auto path = FindFrontEndPath(scene, task, result);
+    if (!path.ok()) return path.status();
+    if (!*path) return false;
+    std::vector<Vec3> corners = result->path.shortcut;
+    if (result->insertion.enabled) corners.push_back(result->terminal.position);
+    auto guess = GuessFromPath(robot, task, options, corners, *result);
+    if (!guess.ok()) return guess.status();
+    const double guessed = guess->durations.sum();
+    result->arrival_guess_s = arrival;
+    if (std::abs(guessed - arrival) <= 0.05 * guessed) break;
+    arrival = guessed;
+  }
+  result->terminal_at_zero = StateAtZero(result->terminal, motion, result->arrival_guess_s);
+  result->insertion_at_zero = insertion_at_zero;
+  return true;
 }
 
 }  // namespace
@@ -514,14 +620,25 @@ core::Result<PlanResult> Plan(const PlanningScene& scene, const Task& task, cons
                                          "plans missions)");
   }
   if (!task.terminal && !task.tool) return core::Status::InvalidArgument(task.file + ": goal: no terminal state or tool pose");
+  // A moving target planned as a still one would grasp where it was.
+  if (task.tool && task.tool->moving && scene.moving == nullptr) {
+    return core::Status::InvalidArgument(task.file + ": goal.tool.motion: this scene was built without the target's "
+                                         "motion (PlanningContext builds it)");
+  }
   PlanResult result;
-  auto resolved = ResolveGoal(scene, task, options, solver, &result);
-  if (!resolved.ok()) return resolved.status();
-  if (!*resolved) return result;
-  QUADHAND_RETURN_IF_ERROR(CheckEndPoints(scene, task, result.terminal, options));
-  auto found = FindFrontEndPath(scene, task, &result);
-  if (!found.ok()) return found.status();
-  if (!*found) return result;
+  if (scene.moving != nullptr && task.tool && task.tool->moving) {
+    auto resolved = ResolveMovingGoal(scene, task, options, solver, &result);
+    if (!resolved.ok()) return resolved.status();
+    if (!*resolved) return result;
+  } else {
+    auto resolved = ResolveGoal(scene, task, options, solver, &result);
+    if (!resolved.ok()) return resolved.status();
+    if (!*resolved) return result;
+    QUADHAND_RETURN_IF_ERROR(CheckEndPoints(scene, task, result.terminal, options));
+    auto found = FindFrontEndPath(scene, task, &result);
+    if (!found.ok()) return found.status();
+    if (!*found) return result;
+  }
   std::vector<Vec3> corners = result.path.shortcut;
   if (result.insertion.enabled) corners.push_back(result.terminal.position);
   const SolveSchedule schedule{solver, options.solver, options.solver, options.max_attempts};

@@ -97,11 +97,6 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
     std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, bool mission_phase) {
   QUADHAND_RETURN_IF_ERROR(CheckRepresentationNames(options));
-  if (task.tool && task.tool->moving) {
-    return core::Status::InvalidArgument(task.file +
-                                         ": goal.tool.motion: a moving target is read and checked, but not planned "
-                                         "yet (docs/moving_targets.md)");
-  }
   if (checked_points == nullptr) checked_points = points;
   for (const auto* cloud : {&points, &checked_points}) {
     if (!*cloud || (*cloud)->empty()) return core::Status::InvalidArgument("the scene has no points");
@@ -124,6 +119,10 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
   context->checked_points_ = std::move(checked_points);
   context->dropped_non_finite_ = dropped_non_finite;
   const Task& t = context->task_;
+  const MovingTarget* moving = t.tool && t.tool->moving ? &*t.tool->moving : nullptr;
+  if (moving != nullptr) {
+    QUADHAND_RETURN_IF_ERROR(context->SplitMovingPoints());
+  }
 
   // The cloud is indexed once here and shared by the post-check and the
   // representations whose index has the same cell (when both see the same
@@ -156,7 +155,10 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
   const bool mrc_sdf = std::find(options.representations.begin(), options.representations.end(), "mrc_sdf") !=
                        options.representations.end();
   double sdf_load_ms = 0.0;
-  if (mrc_sdf || !context->self_collision_->pairs().empty()) {
+  // The moving points get an MRC-SDF model for the optimiser (none when no
+  // representation is asked for: quadhand-flightcheck's exact checks).
+  const bool moving_points = !context->moving_points_.empty() && !options.representations.empty();
+  if (mrc_sdf || moving_points || !context->self_collision_->pairs().empty()) {
     const auto load_start = std::chrono::steady_clock::now();
     std::vector<int> links;
     std::vector<geometry::SdfGrid> grids;
@@ -164,7 +166,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     // MRC-SDF cannot plan without them; the other representations can, and
     // then the optimiser has no self-collision term (the post-check still
     // keeps the pairs apart, with the exact meshes).
-    if (!loaded.ok() && mrc_sdf) return loaded;
+    if (!loaded.ok() && (mrc_sdf || moving_points)) return loaded;
     if (loaded.ok()) {
       for (size_t g = 0; g < grids.size(); ++g) {
         const core::Status tolerance_fits = geometry::CheckRepairTolerance(options.mesh_repair_tolerance, grids[g].info().resolution);
@@ -228,13 +230,84 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     if (name == "mrc_sdf") model->build_ms += sdf_load_ms;
     context->representations_.push_back(std::move(*model));
   }
+  if (moving != nullptr) QUADHAND_RETURN_IF_ERROR(context->BuildMovingScene());
   return context;
+}
+
+core::Status PlanningContext::SplitMovingPoints() {
+  const MovingTarget& moving = *task_.tool->moving;
+  if (!moving.moving_box) return core::Status::Ok();
+  const TargetBox& box = *moving.moving_box;
+  auto split = [&box](const std::vector<Vec3>& cloud, std::vector<Vec3>* still, std::vector<Vec3>* moving_part) {
+    for (const Vec3& p : cloud) (box.Contains(p) ? moving_part : still)->push_back(p);
+  };
+  const bool same_points = checked_points_ == points_;
+  auto still = std::make_shared<std::vector<Vec3>>();
+  split(*points_, still.get(), &moving_points_);
+  if (same_points) {
+    moving_checked_points_ = moving_points_;
+    points_ = checked_points_ = still;
+  } else {
+    auto checked_still = std::make_shared<std::vector<Vec3>>();
+    split(*checked_points_, checked_still.get(), &moving_checked_points_);
+    points_ = still;
+    checked_points_ = checked_still;
+  }
+  if (points_->empty() || checked_points_->empty()) {
+    return core::Status::InvalidArgument(task_.file + ": goal.tool.motion.moving_points: the box holds every point of "
+                                         "the scene; something must stand still");
+  }
+  return core::Status::Ok();
+}
+
+core::Status PlanningContext::BuildMovingScene() {
+  const MovingTarget& moving = *task_.tool->moving;
+  moving_scene_.motion = &moving.motion;
+  if (!moving_points_.empty()) {
+    if (!options_.representations.empty()) {
+      auto model = MakeRepresentation("mrc_sdf", robot_, task_.sdf_dir, moving_points_,
+                                      options_.representation_options, nullptr, sdf_grids_);
+      if (!model.ok()) return model.status();
+      moving_collision_ = std::move(model->scene_model);
+    }
+    auto exact = env::ExactMeshModel::Create(robot_, moving_checked_points_);
+    if (!exact.ok()) return exact.status().WithPrefix(task_.robot_path);
+    moving_exact_ = std::move(*exact);
+    moving_scene_.collision = moving_collision_.get();
+    moving_scene_.exact = moving_exact_.get();
+    const Vec3 center = moving.motion.Center(0.0);
+    for (const Vec3& p : moving_checked_points_) {
+      moving_scene_.radius = std::max(moving_scene_.radius, (p - center).head<2>().norm());
+    }
+  }
+  // The scene at an arrival time: the still points and the moving ones
+  // moved there, indexed afresh (for the terminal-state search).
+  if (options_.representations.empty()) return core::Status::Ok();
+  moving_scene_.scene_at = [this](double t) -> core::Result<SceneAtTime> {
+    const Pose displacement = moving_scene_.motion->Displacement(t);
+    auto joined = [&displacement](const std::vector<Vec3>& still, const std::vector<Vec3>& moving_part) {
+      std::vector<Vec3> cloud = still;
+      cloud.reserve(still.size() + moving_part.size());
+      for (const Vec3& p : moving_part) cloud.push_back(displacement * p);
+      return cloud;
+    };
+    SceneAtTime scene;
+    auto model = MakeRepresentation("mrc_sdf", robot_, task_.sdf_dir, joined(*points_, moving_points_),
+                                    options_.representation_options, nullptr, sdf_grids_);
+    if (!model.ok()) return model.status();
+    scene.collision = std::move(model->scene_model);
+    auto exact = env::ExactMeshModel::Create(robot_, joined(*checked_points_, moving_checked_points_));
+    if (!exact.ok()) return exact.status().WithPrefix(task_.robot_path);
+    scene.exact = std::move(*exact);
+    return scene;
+  };
+  return core::Status::Ok();
 }
 
 PlanningScene PlanningContext::Scene(size_t index) const {
   const Representation& model = representations_.at(index);
   return PlanningScene{robot_, *model.scene_model, *exact_, *front_end_, model.per_plan,
-                       self_collision_.get()};
+                       self_collision_.get(), moving_scene()};
 }
 
 }  // namespace quadhand::planner

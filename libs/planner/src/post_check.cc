@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 
 #include "quadhand/core/text.h"
 #include "quadhand/core/worker_pool.h"
@@ -78,8 +79,10 @@ std::string PostCheckReport::FirstFailure() const {
 PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, const Task& task,
                           const BoundaryState& terminal, const InsertionGoal& insertion,
                           const env::CollisionModel& model, const env::ExactMeshModel& exact,
-                          const env::SelfCollisionModel* self_collision, const PostCheckOptions& options) {
+                          const env::SelfCollisionModel* self_collision, const PostCheckOptions& options,
+                          const MovingScene* moving) {
   PostCheckReport report;
+  if (moving != nullptr && !moving->moves()) moving = nullptr;
   const Limits& limits = task.limits;
   const double duration = trajectory.duration();
   const double wanted_steps = std::ceil(duration / options.dt - 1e-9);
@@ -100,6 +103,9 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   const double clearance_bound = AcceptedClearance(task, options.clearance_tolerance);
   const double self_bound = AcceptedSelfClearance(task, options.clearance_tolerance);
   const RobotMotionBound motion(robot, exact);
+  // Moving points close on the robot at up to their own speed too: the
+  // certificate's bound S is the robot's plus theirs.
+  const double moving_speed = moving != nullptr ? moving->PointSpeed(duration) : 0.0;
 
   // What one sample measures. The samples are measured on `threads` workers,
   // each writing only its own entries; the reduction below visits them in
@@ -141,7 +147,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     for (const auto& [t0, t1] : {std::pair{t - h_before, t}, std::pair{t, t + h_after}}) {
       if (!(t1 > t0)) continue;
       const PointSpeedBound speed = motion.Over(trajectory, t0, t1);
-      world = std::max(world, speed.world * (t1 - t0));
+      world = std::max(world, (speed.world + moving_speed) * (t1 - t0));
       relative = std::max(relative, speed.relative * (t1 - t0));
     }
     return std::pair{
@@ -156,9 +162,22 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     m->has_clearance = what != Measure::kLimits;
     if (what == Measure::kLimits && !insertion.enabled) return;
     robot::ComputeKinematics(robot, m->sample.BasePose(), m->sample.joints, kinematics);
-    if (insertion.enabled) m->tool = kinematics->link_poses[insertion.tool_link].translation();
+    if (insertion.enabled) {
+      m->tool = kinematics->link_poses[insertion.tool_link].translation();
+      if (moving != nullptr) m->tool = moving->motion->Displacement(t).inverse() * m->tool;
+    }
     if (what == Measure::kLimits) return;
     m->d_exact = env::WholeBodyClearance(*kinematics, exact, radii.first, {}, &m->link);
+    std::optional<robot::KinematicsState> in_target_frame;
+    if (moving != nullptr && moving->has_points()) {
+      in_target_frame = InTargetFrameAtZero(*kinematics, *moving->motion, t);
+      int link = -1;
+      const double d = env::WholeBodyClearance(*in_target_frame, *moving->exact, radii.first, {}, &link);
+      if (d < m->d_exact) {
+        m->d_exact = d;
+        m->link = link;
+      }
+    }
     m->d_self = radii.second;
     if (check_self) m->d_self = self_collision->MinDistanceLowerBound(*kinematics, radii.second, &m->pair);
     if (what == Measure::kRegular) {
@@ -166,6 +185,10 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       double local = 0;
       trajectory.position().LocatePiece(t, &piece, &local);
       m->d_model = env::WholeBodyClearance(*kinematics, model, reach, env::QueryContext{piece, local});
+      if (in_target_frame && moving->collision != nullptr) {
+        m->d_model = std::min(m->d_model, env::WholeBodyClearance(*in_target_frame, *moving->collision, reach,
+                                                                  env::QueryContext{piece, local}));
+      }
     }
   };
   // Whether the clearance between two samples is judged by the recovery
@@ -217,7 +240,8 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
       };
       double at = p.t0, self_at = p.t0;
       const bool finite = std::isfinite(speed.world) && std::isfinite(speed.relative);
-      const double lower = finite ? lower_of(p.d0, p.d1, speed.world, p.t0, &at) : std::min(p.d0, p.d1);
+      const double lower =
+          finite ? lower_of(p.d0, p.d1, speed.world + moving_speed, p.t0, &at) : std::min(p.d0, p.d1);
       const double self_lower =
           !check_self ? 1e300 : finite ? lower_of(p.s0, p.s1, speed.relative, p.t0, &self_at) : std::min(p.s0, p.s1);
       const bool holds = finite && lower >= bound && self_lower >= self_bound;
@@ -470,6 +494,26 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   report.certified = true;
   for (const CheckResult& check : report.checks) report.certified = report.certified && check.passed;
   for (const auto& check : sampled_checks) check->Finish(&report);
+  if (moving != nullptr && insertion.enabled && task.tool && task.tool->moving &&
+      task.tool->moving->max_relative_speed) {
+    // The tool's velocity at the end (a one-sided difference over 1 ms of
+    // the trajectory) against the target point's where the tool is.
+    constexpr double kStep = 1e-3;
+    auto tool_at = [&](double t) {
+      const WholeBodySample sample = trajectory.Sample(t);
+      return robot::LinkPose(robot, sample.BasePose(), sample.joints, insertion.tool_link).translation();
+    };
+    const double end = duration;
+    const double step = std::min(kStep, 0.5 * end);
+    const Vec3 tool = tool_at(end);
+    const Vec3 tool_velocity = (tool - tool_at(end - step)) / step;
+    const double relative = (tool_velocity - moving->motion->PointVelocity(tool, end)).norm();
+    const double bound = *task.tool->moving->max_relative_speed;
+    report.checks.push_back({CheckKind::kRelativeSpeed, -1, CheckKindName(CheckKind::kRelativeSpeed),
+                             relative <= bound * (1.0 + options.limit_tolerance), relative, bound, end,
+                             Format("the tool moves at %.4f m/s relative to the target at the arrival (at most %.4f)",
+                                    relative, bound)});
+  }
   report.passed = true;
   for (const CheckResult& check : report.checks) report.passed = report.passed && check.passed;
   return report;

@@ -5,6 +5,7 @@
 
 #include "quadhand/core/worker_pool.h"
 #include "quadhand/planner/cost_term.h"
+#include "quadhand/planner/moving_scene.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/traj/time_map.h"
 
@@ -109,6 +110,12 @@ struct WholeBodyProblem::Workspace {
   // in piece order, so the result is the same for any number of workers.
   std::vector<SampleScratch> scratch;  // one per worker
   VecX piece_totals;                   // per piece: its samples' share of the objective
+  // A moving goal: each piece's start time; per piece, the gradient w.r.t.
+  // the time of its samples (every earlier duration moves them); the
+  // tail's derivative w.r.t. the total duration, per curve; and the
+  // adjoint's gradient w.r.t. the tail.
+  VecX piece_start, piece_time_gradient;
+  MatX tail_position_rate, tail_aux_rate, grad_tail_position, grad_tail_aux;
   MatX piece_term_values;              // terms x pieces (CostBreakdown)
   std::vector<double> term_values;     // each term's value (CostBreakdown)
   std::unique_ptr<core::WorkerPool> pool;
@@ -196,7 +203,18 @@ core::Result<std::unique_ptr<WholeBodyProblem>> WholeBodyProblem::Create(
     scratch.gradient.scratch.SetZero(n);
   }
   w.piece_totals.resize(num_pieces);
+  w.piece_start.setZero(num_pieces);
+  w.piece_time_gradient.setZero(num_pieces);
   return problem;
+}
+
+core::Status WholeBodyProblem::SetMovingScene(const MovingScene* moving) {
+  if (moving != nullptr && !moving->moves()) moving = nullptr;
+  moving_ = moving;
+  Workspace& w = *work_;
+  w.tail_position_rate.setZero(kPositionOrder, 3);
+  w.tail_aux_rate.setZero(kAuxOrder, 1 + num_joints_);
+  return SetOptions(options_);  // the terms see the moving scene
 }
 
 core::Status WholeBodyProblem::SetOptions(const WholeBodyCostOptions& options) {
@@ -204,7 +222,7 @@ core::Status WholeBodyProblem::SetOptions(const WholeBodyCostOptions& options) {
   options_ = options;
   terms_.clear();
   needs_kinematics_ = false;
-  const CostTermInputs inputs{robot_, collision_, limits_, insertion_, options_, self_collision_};
+  const CostTermInputs inputs{robot_, collision_, limits_, insertion_, options_, self_collision_, moving_};
   for (const CostTermDescriptor& term : CostTermDescriptors()) {
     terms_.push_back(term.make(inputs, options_.*(term.weight)));
     if (terms_.back() != nullptr) needs_kinematics_ = needs_kinematics_ || terms_.back()->NeedsKinematics();
@@ -293,6 +311,34 @@ bool WholeBodyProblem::Generate(const VecX& x) const {
   Unpack(x, &w.position_waypoints, &w.aux_waypoints, &w.durations);
   w.taus = x.head(num_pieces_);
   if (!(w.durations.array() > 0.0).all()) return false;
+  double start = 0.0;
+  for (int i = 0; i < num_pieces_; ++i) {
+    w.piece_start[i] = start;
+    start += w.durations[i];
+  }
+  if (moving_ != nullptr) {
+    // The tail follows the target to the trajectory's own end; its rate of
+    // change with the total duration is its next derivative.
+    const TargetMotion& motion = *moving_->motion;
+    const double total = w.durations.sum();
+    Vec3 d[5];
+    motion.PointDerivatives(goal_.position, total, d);
+    MatX position_tail(kPositionOrder, 3), aux_tail(kAuxOrder, 1 + num_joints_);
+    for (int r = 0; r < kPositionOrder; ++r) {
+      position_tail.row(r) = d[r].transpose();
+      w.tail_position_rate.row(r) = d[r + 1].transpose();
+    }
+    aux_tail.setZero();
+    aux_tail(0, 0) = goal_.yaw + motion.Yaw(total);
+    aux_tail(1, 0) = motion.YawRate(total);
+    aux_tail.block(0, 1, 1, num_joints_) = goal_.joints.transpose();
+    w.tail_aux_rate.setZero();
+    w.tail_aux_rate(0, 0) = motion.YawRate(total);
+    if (!w.position.SetBoundary(w.position.head(), position_tail).ok() ||
+        !w.aux.SetBoundary(w.aux.head(), aux_tail).ok()) {
+      return false;
+    }
+  }
   return w.position.Generate(w.position_waypoints, w.durations).ok() &&
          w.aux.Generate(w.aux_waypoints, w.durations).ok();
 }
@@ -307,6 +353,7 @@ void WholeBodyProblem::AccumulatePiece(int piece, bool with_gradient, SampleScra
   s.aux_rate = &scratch->aux_rate;
   double& total = w.piece_totals[piece];
   total = 0.0;
+  w.piece_time_gradient[piece] = 0.0;
   for (size_t i = 0; i < terms_.size(); ++i) w.piece_term_values(i, piece) = 0.0;
   {
     const double duration = w.durations[piece];
@@ -321,6 +368,7 @@ void WholeBodyProblem::AccumulatePiece(int piece, bool with_gradient, SampleScra
       const double weight = end_weight * duration / K;  // trapezoidal quadrature
       s.k = k;
       s.t = t;
+      s.time = w.piece_start[piece] + t;
       s.weight = weight;
       w.position.Evaluate(piece, t, 0, s.position);
       w.position.Evaluate(piece, t, 1, s.velocity);
@@ -350,6 +398,8 @@ void WholeBodyProblem::AccumulatePiece(int piece, bool with_gradient, SampleScra
         g.flat = traj::FlatStateGrad{};
         g.point.SetZero(n);
         g.point_active = false;
+        g.time = 0.0;
+        g.point_time = 0.0;
       }
       double sample = 0.0;  // lambda-weighted integrand at this sample
       for (size_t i = 0; i < terms_.size(); ++i) {
@@ -365,6 +415,11 @@ void WholeBodyProblem::AccumulatePiece(int piece, bool with_gradient, SampleScra
 
       // Backward: the quadrature step moves with the duration...
       w.grad_durations_position[piece] += sample * end_weight / K;
+      // ...a moving target's clock moves with every duration up to the
+      // sample (all earlier pieces are added in Accumulate)...
+      const double time_gradient = weight * g.time + g.point_time;
+      w.grad_durations_position[piece] += fraction * time_gradient;
+      w.piece_time_gradient[piece] += time_gradient;
       // ...and so does the sample time (dt/dT = fraction), through AddSampleGradient.
       traj::FlatStateGrad flat_grad = g.flat;
       flat_grad.quat = RotationVectorPerQuaternion(flat.quat).transpose() * (weight * g.rotation + g.point.rotation);
@@ -416,6 +471,13 @@ double WholeBodyProblem::Accumulate(CostBreakdown* breakdown, bool with_gradient
   });
   double total = energy + o.time_weight * time;
   for (int piece = 0; piece < num_pieces_; ++piece) total += w.piece_totals[piece];
+  if (with_gradient && moving_ != nullptr) {
+    double later = 0.0;  // the time gradients of the samples after each piece
+    for (int piece = num_pieces_ - 1; piece >= 0; --piece) {
+      w.grad_durations_position[piece] += later;
+      later += w.piece_time_gradient[piece];
+    }
+  }
   for (size_t i = 0; i < terms_.size(); ++i) {
     w.term_values[i] = 0.0;
     for (int piece = 0; piece < num_pieces_; ++piece) w.term_values[i] += w.piece_term_values(i, piece);
@@ -436,11 +498,19 @@ bool WholeBodyProblem::DoEvaluate(const VecX& x, double* cost, VecX* grad) const
   Workspace& w = *work_;
   *cost = Accumulate(nullptr, grad != nullptr);
   if (grad == nullptr) return std::isfinite(*cost);
+  const bool moving = moving_ != nullptr;
   if (!w.position.PropagateGradient(w.grad_position_coeffs, w.grad_durations_position, &w.total_position_waypoints,
-                                    &w.total_durations_position).ok() ||
+                                    &w.total_durations_position, nullptr,
+                                    moving ? &w.grad_tail_position : nullptr).ok() ||
       !w.aux.PropagateGradient(w.grad_aux_coeffs, w.grad_durations_aux, &w.total_aux_waypoints,
-                               &w.total_durations_aux).ok()) {
+                               &w.total_durations_aux, nullptr, moving ? &w.grad_tail_aux : nullptr).ok()) {
     return false;
+  }
+  if (moving) {
+    // The tail moves with the total duration, so with every duration alike.
+    const double through_tail = w.grad_tail_position.cwiseProduct(w.tail_position_rate).sum() +
+                                w.grad_tail_aux.cwiseProduct(w.tail_aux_rate).sum();
+    w.total_durations_position.array() += through_tail;
   }
   traj::DurationGradientToTau(w.taus, w.total_durations_position + w.total_durations_aux, &w.grad_taus);
   const int m = num_pieces_ - 1;

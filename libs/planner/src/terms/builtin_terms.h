@@ -27,6 +27,19 @@ void AddWholeBodyPenalty(int num_joints, double weight, const SampleState& s, Sa
   }
 }
 
+// The rate at which a cost changes as time passes with the robot held, when
+// what it measures against moves with `motion`: moving the scene by the
+// target's motion is moving the link by its inverse, so with `wrench` the
+// cost's gradient w.r.t. a rigid motion of link pose `link`,
+//   dc/dt = -(force . v(p) + torque . w),
+// v(p) the velocity of the target-fixed point at the link's origin and w
+// the target's turn rate about world z.
+inline double RateAsTheTargetMoves(const TargetMotion& motion, const Pose& link, const env::LinkWrench& wrench,
+                                   double time) {
+  return -(wrench.force.dot(motion.PointVelocity(link.translation(), time)) +
+           wrench.torque.z() * motion.YawRate(time));
+}
+
 CostTermDescriptor VelocityTerm();      // rate_limit_terms.cc
 CostTermDescriptor AccelerationTerm();  // rate_limit_terms.cc
 CostTermDescriptor YawRateTerm();       // rate_limit_terms.cc
@@ -34,6 +47,7 @@ CostTermDescriptor JointRateTerm();     // rate_limit_terms.cc
 CostTermDescriptor BodyRateTerm();      // rate_limit_terms.cc
 CostTermDescriptor JointLimitTerm();    // joint_limit_term.cc
 CostTermDescriptor CollisionTerm();     // collision_term.cc
+CostTermDescriptor MovingCollisionTerm();  // moving_collision_term.cc
 CostTermDescriptor InsertionTerm();     // insertion_term.cc
 CostTermDescriptor SelfCollisionTerm(); // self_collision_term.cc
 

@@ -14,6 +14,7 @@
 #include "quadhand/core/types.h"
 #include "quadhand/env/collision_model.h"
 #include "quadhand/env/self_collision.h"
+#include "quadhand/planner/moving_scene.h"
 #include "quadhand/planner/plan_status.h"
 #include "quadhand/planner/whole_body_problem.h"
 #include "quadhand/robot/kinematics.h"
@@ -27,6 +28,7 @@ struct SampleState {
   int piece = 0;
   int k = 0, K = 0;
   double t = 0;
+  double time = 0;               // the sample's time from the trajectory's start (a moving target's clock)
   double weight = 0;             // trapezoidal quadrature weight of the sample (s)
   bool insertion_piece = false;  // the last piece of a plan with an insertion
   Vec3 position, velocity, acceleration, jerk;
@@ -54,6 +56,10 @@ struct SampleGradient {
   traj::FlatStateGrad flat;
   env::StateGradient point;
   bool point_active = false;     // a point cost added to `point`
+  // Gradients w.r.t. the sample's time itself, with the state held (a term
+  // that measures against something moving: docs/moving_targets.md), of
+  // the integrated costs and of the point costs.
+  double time = 0.0, point_time = 0.0;
   env::StateGradient scratch;    // workspace for link wrenches
 };
 
@@ -65,6 +71,9 @@ struct CostTermInputs {
   const InsertionGoal& insertion;  // direction normalised
   const WholeBodyCostOptions& options;
   const env::SelfCollisionModel* self_collision = nullptr;  // null: no self-collision pairs
+  // A moving target and the points that move with it; the insertion is
+  // then the target's at t = 0. Null: nothing moves.
+  const MovingScene* moving = nullptr;
 };
 
 class CostTerm {

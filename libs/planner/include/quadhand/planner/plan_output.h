@@ -26,6 +26,12 @@ io::PlanTable SamplePlanTable(const WholeBodyTrajectory& trajectory, const robot
 void AppendMissionColumns(const std::vector<MissionStep>& mission, const std::vector<double>& step_end_times,
                           io::PlanTable* table);
 
+// For a task whose target moves (contracts.md 0.3): appends the columns
+// target_x, target_y, target_z, target_qw, target_qx, target_qy, target_qz,
+// the target's pose at each row's time (the tool goal's pose moved by the
+// target's displacement). Nothing for a target that stands still.
+void AppendTargetColumns(const Task& task, io::PlanTable* table);
+
 // Each step's end time in a plan of `task` (PlanResult::steps; a step that
 // was not planned ends where the plan does). Empty for a task without a
 // mission.

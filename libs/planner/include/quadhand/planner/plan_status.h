@@ -46,6 +46,9 @@ enum class CheckKind {
   // The base passes within each via's tolerance of its point, in order
   // (Task::vias): the worst via, by its distance over its tolerance.
   kVia,
+  // A moving target's tool speed relative to the target at the arrival,
+  // against goal.tool.max_relative_speed (docs/moving_targets.md).
+  kRelativeSpeed,
 };
 
 // "clearance", "velocity", ..., "joint_rate".

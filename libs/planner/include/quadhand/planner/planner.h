@@ -15,6 +15,7 @@
 #include "quadhand/env/collision_model.h"
 #include "quadhand/opt/solver.h"
 #include "quadhand/planner/front_end.h"
+#include "quadhand/planner/moving_scene.h"
 #include "quadhand/planner/plan_status.h"
 #include "quadhand/planner/post_check.h"
 #include "quadhand/planner/task.h"
@@ -161,6 +162,16 @@ struct PlanResult {
   bool terminal_searched = false;  // found by FindTerminalState (goal was a tool pose only)
   TerminalStateResult terminal_search;
   InsertionGoal insertion;  // the insertion enforced (enabled or not)
+  // A moving target (docs/moving_targets.md): `terminal` and `insertion`
+  // are then where the plan meets the target at its own duration; here they
+  // are at t = 0 (the optimiser moves them with the target), with the
+  // arrival time the initial guess aimed at and how many times the goal was
+  // searched for on the way to it.
+  bool moving_target = false;
+  BoundaryState terminal_at_zero;
+  InsertionGoal insertion_at_zero;
+  double arrival_guess_s = 0.0;
+  int arrival_rounds = 0;
   FrontEndPath path;
   CostBreakdown final_cost;
   std::vector<PlanAttempt> attempts;
@@ -207,6 +218,9 @@ struct PlanningScene {
   PerPlanCollisionBuilder per_plan_collision = nullptr;
   // The robot's link pairs the post-check keeps apart; null: none.
   const env::SelfCollisionModel* self_collision = nullptr;
+  // A moving target and the points that move with it (moving_scene.h); the
+  // models above then hold only the still points. Null: nothing moves.
+  const MovingScene* moving = nullptr;
 };
 
 // The cost options a plan for `task` is optimised with: options.cost with the

@@ -13,6 +13,7 @@
 #include "quadhand/core/types.h"
 #include "quadhand/geometry/sdf_grid.h"
 #include "quadhand/planner/front_end.h"
+#include "quadhand/planner/moving_scene.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/post_check.h"
 #include "quadhand/planner/representation.h"
@@ -75,6 +76,12 @@ class PlanningContext {
   const PlanningContextOptions& options() const { return options_; }
   const Task& task() const { return task_; }
   const robot::RobotModel& robot() const { return robot_; }
+  // A task whose target moves (goal.tool.motion): the scene points inside
+  // its moving_points box at t = 0 are taken out of points() and
+  // checked_points() and kept here, with their own models (moving_scene.h).
+  // Null when the target does not move.
+  const MovingScene* moving_scene() const { return moving_scene_.moves() ? &moving_scene_ : nullptr; }
+  const std::vector<Vec3>& moving_points() const { return moving_points_; }
   const std::vector<Vec3>& points() const { return *points_; }  // planned against
   const std::vector<Vec3>& checked_points() const { return *checked_points_; }  // post-checked against
   double scene_load_seconds() const { return scene_load_seconds_; }  // Load(): reading and filtering the scans
@@ -100,6 +107,9 @@ class PlanningContext {
 
  private:
   PlanningContext(Task task, robot::RobotModel robot) : task_(std::move(task)), robot_(std::move(robot)) {}
+  // A moving target's points out of the cloud, and their models.
+  core::Status SplitMovingPoints();
+  core::Status BuildMovingScene();
   static core::Result<std::unique_ptr<PlanningContext>> Build(
       Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
       const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
@@ -120,6 +130,11 @@ class PlanningContext {
   std::unique_ptr<FrontEndMap> front_end_;
   double front_end_inflation_ = 0.0;
   std::vector<Representation> representations_;
+  // The moving target's part of the scene (moving_scene()).
+  MovingScene moving_scene_;
+  std::vector<Vec3> moving_points_, moving_checked_points_;
+  std::unique_ptr<env::CollisionModel> moving_collision_;
+  std::unique_ptr<env::ExactMeshModel> moving_exact_;
   // The link SDFs loaded (null: none), and their robot links, for the
   // phases of a mission (ForMissionPhase).
   std::shared_ptr<const std::vector<geometry::SdfGrid>> sdf_grids_;

@@ -14,6 +14,7 @@
 #include "quadhand/env/collision_model.h"
 #include "quadhand/env/exact_mesh_model.h"
 #include "quadhand/env/self_collision.h"
+#include "quadhand/planner/moving_scene.h"
 #include "quadhand/planner/plan_status.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/planner/whole_body_problem.h"
@@ -142,10 +143,18 @@ struct PostCheckReport {
 // Checks `trajectory` for `task` (whose joint limits ApplyRobot filled).
 // `insertion` is the straight approach the plan had to make (enabled or not).
 // `self_collision` (null: none) holds the link pairs that must keep the
-// task's self_safety_distance.
+// task's self_safety_distance. With `moving` (a moving target:
+// docs/moving_targets.md), `exact` and `model` hold the still points, the
+// moving points are measured where they are at each sample's time and the
+// certificate adds their speed to the robot's; `insertion` is the target's
+// at t = 0, and the tool is measured against it in the target's frame;
+// `terminal` is the goal state at the trajectory's end; and with
+// goal.tool.max_relative_speed the tool's speed relative to the target at
+// the end is checked (relative_speed).
 PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::RobotModel& robot, const Task& task,
                           const BoundaryState& terminal, const InsertionGoal& insertion,
                           const env::CollisionModel& model, const env::ExactMeshModel& exact,
-                          const env::SelfCollisionModel* self_collision, const PostCheckOptions& options);
+                          const env::SelfCollisionModel* self_collision, const PostCheckOptions& options,
+                          const MovingScene* moving = nullptr);
 
 }  // namespace quadhand::planner

@@ -39,6 +39,7 @@ class SelfCollisionModel;  // env/self_collision.h
 namespace quadhand::planner {
 
 class CostTerm;
+struct MovingScene;  // moving_scene.h
 
 // A whole-body boundary state: flat outputs and their derivatives.
 struct BoundaryState {
@@ -231,6 +232,16 @@ class WholeBodyProblem final : public opt::Objective {
   core::Status SetWaypointBalls(std::vector<WaypointBall> balls);
   const std::vector<WaypointBall>& waypoint_balls() const { return balls_; }
 
+  // A goal that moves with a target (moving_scene.h, docs/moving_targets.md):
+  // the goal given to Create is then the state that grasps the target at
+  // t = 0, the trajectory ends at MovedState(goal, T) for its own duration
+  // T (whose gradient reaches T through the target's motion), the insertion
+  // is the target's at t = 0 and moves with it, and the moving points are
+  // avoided where they are at each sample's time. Null: nothing moves. The
+  // scene must outlive the problem.
+  core::Status SetMovingScene(const MovingScene* moving);
+  const MovingScene* moving_scene() const { return moving_; }
+
   const WholeBodyCostOptions& options() const { return options_; }
   // Replaces the weights (e.g. raised after a failed post-check); sizes stay.
   core::Status SetOptions(const WholeBodyCostOptions& options);
@@ -253,6 +264,7 @@ class WholeBodyProblem final : public opt::Objective {
   InsertionGoal insertion_;
   WholeBodyCostOptions options_;
   std::vector<WaypointBall> balls_;
+  const MovingScene* moving_ = nullptr;
   std::vector<std::unique_ptr<CostTerm>> terms_;  // built from options_ (cost_term.h)
   bool needs_kinematics_ = false;
   int num_pieces_ = 0;

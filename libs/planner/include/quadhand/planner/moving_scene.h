@@ -1,0 +1,65 @@
+// What of a plan moves with a moving target (target_motion.h,
+// docs/moving_targets.md): the target's motion, and the scene points inside
+// the task's moving_points box, kept apart from the still scene as their
+// own collision model and exact model at t = 0. The optimiser and the
+// post-check query them with the robot moved back by the target's
+// displacement at each sample's time.
+#pragma once
+
+#include <functional>
+#include <memory>
+
+#include "quadhand/core/status.h"
+#include "quadhand/core/types.h"
+#include "quadhand/env/collision_model.h"
+#include "quadhand/env/exact_mesh_model.h"
+#include "quadhand/planner/target_motion.h"
+#include "quadhand/planner/whole_body_problem.h"
+
+namespace quadhand::planner {
+
+// The whole scene as it stands at one time: the still points and the
+// moving points moved there (for the terminal-state search at an arrival
+// time).
+struct SceneAtTime {
+  std::unique_ptr<env::CollisionModel> collision;
+  std::unique_ptr<env::ExactMeshModel> exact;
+};
+
+struct MovingScene {
+  const TargetMotion* motion = nullptr;            // null: nothing moves
+  const env::CollisionModel* collision = nullptr;  // the moving points at t = 0; null: none
+  const env::ExactMeshModel* exact = nullptr;      // the same, exact, for the post-check; null: none
+  // The farthest moving point from the target's position at t = 0, metres:
+  // with the turn rate it bounds how fast a moving point goes.
+  double radius = 0.0;
+  // Builds the scene at time t (PlanningContext fills it).
+  std::function<core::Result<SceneAtTime>(double t)> scene_at;
+
+  bool moves() const { return motion != nullptr; }
+  bool has_points() const { return exact != nullptr; }
+  // The most speed of a moving point over [0, horizon] (0 without points).
+  double PointSpeed(double horizon) const {
+    return has_points() ? motion->MaxSpeed(radius, horizon) : 0.0;
+  }
+};
+
+// A state that grasps the target at t = 0, moved to grasp it at time t:
+// the base at Displacement(t) of its position, with the velocity and its
+// derivatives of that target-fixed point, the yaw turned with the target at
+// its rate, the joints as they were, at rest.
+BoundaryState MovedState(const BoundaryState& at_zero, const TargetMotion& motion, double t);
+
+// The inverse: a state at time t taken back to t = 0 (position and yaw only;
+// the rates are zero, as a reference state's).
+BoundaryState StateAtZero(const BoundaryState& at_t, const TargetMotion& motion, double t);
+
+// An insertion (its tool pose and line) moved by Displacement(t).
+InsertionGoal MovedInsertion(const InsertionGoal& at_zero, const TargetMotion& motion, double t);
+
+// The same for link poses: `kinematics` with every link pose moved by the
+// inverse of Displacement(t), as the moving points' models see the robot.
+robot::KinematicsState InTargetFrameAtZero(const robot::KinematicsState& kinematics, const TargetMotion& motion,
+                                           double t);
+
+}  // namespace quadhand::planner
