@@ -3,7 +3,8 @@
 into a Markdown table like the paper's Fig. 4G and PNG plots.
 
 Usage: scripts/bench_report.py results*.jsonl [--out report.md] [--plots DIR]
-Rows are (representation, solver); a trial counts once per row even if it
+Rows are (representation, solver), and with a moving target (the
+moving-cup benchmark) also its speed; a trial counts once per row even if it
 appears in several files (duplicates are an error: shards must not overlap).
 """
 import os
@@ -57,13 +58,19 @@ def load(paths):
 def summarise(rows):
     groups = {}
     for (representation, solver, _), r in sorted(rows.items(), key=lambda kv: kv[0]):
-        groups.setdefault((representation, solver), []).append(r)
+        speed = r.get("target", {}).get("speed_mps")
+        groups.setdefault((representation, solver, speed), []).append(r)
     table = []
-    for (representation, solver), rs in groups.items():
+    for (representation, solver, speed), rs in sorted(groups.items(), key=lambda kv: (kv[0][0], kv[0][1], kv[0][2] or 0)):
         ok = [r for r in rs if r["success"]]
         solve = [r["solve_ms"] for r in ok]
+        errors = [1e3 * r["tool_to_target_m"] for r in ok if "tool_to_target_m" in r]
         table.append({
-            "representation": representation, "solver": solver, "trials": len(rs), "successes": len(ok),
+            "representation": representation,
+            "solver": solver if speed is None else f"{solver} @ target {speed:.2f} m/s",
+            "trials": len(rs), "successes": len(ok),
+            "certified": sum(1 for r in ok if r.get("certified")),
+            "tool_error": (f"{percentile(errors, 0.5):.2f} / {max(errors):.2f}" if errors else "-"),
             "solve": solve,
             "solve_mean": statistics.mean(solve) if solve else float("nan"),
             "solve_median": percentile(solve, 0.5), "solve_p95": percentile(solve, 0.95),
@@ -78,15 +85,16 @@ def summarise(rows):
 
 
 def markdown(table, paths):
-    out = ["| representation | solver | success | optimisation ms (mean / median / p95, successes) | "
+    out = ["| representation | solver | success | certified | optimisation ms (mean / median / p95, successes) | "
            "representation build ms (mean) | front end ms (median) | iterations / evaluations (median) | "
-           "exact clearance m (min / median) |",
-           "|---|---|---|---|---|---|---|---|"]
+           "exact clearance m (min / median) | tool to target mm (median / max) |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for t in table:
         out.append(f"| {t['representation']} | {t['solver']} | {t['successes']}/{t['trials']} "
-                   f"({100.0 * t['successes'] / t['trials']:.0f} %) | {t['solve_mean']:.1f} / {t['solve_median']:.1f} / "
+                   f"({100.0 * t['successes'] / t['trials']:.0f} %) | {t['certified']}/{t['trials']} | "
+                   f"{t['solve_mean']:.1f} / {t['solve_median']:.1f} / "
                    f"{t['solve_p95']:.1f} | {t['build']:.1f} | {t['front']:.2f} | {t['iterations']:.0f} / "
-                   f"{t['evaluations']:.0f} | {t['clear_min']:.4f} / {t['clear_median']:.4f} |")
+                   f"{t['evaluations']:.0f} | {t['clear_min']:.4f} / {t['clear_median']:.4f} | {t['tool_error']} |")
     out.append("")
     out.append("From: " + ", ".join(os.path.basename(p) for p in paths))
     return "\n".join(out) + "\n"

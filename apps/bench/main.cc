@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -21,6 +22,7 @@
 #include "quadhand/robot/link_meshes.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
+#include "quadhand/core/text.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/planner/bench_config.h"
 #include "quadhand/planner/planner.h"
@@ -74,11 +76,31 @@ double Percentile(std::vector<double> values, double p) {
 
 }  // namespace
 
-// Per (representation, solver) tallies for the summary lines.
+// Per (representation, solver) tallies for the summary lines, and per
+// target speed when the target moves.
 struct Tally {
-  int trials = 0, successes = 0;
-  std::vector<double> solve_ms, front_ms, clearances;
+  int trials = 0, successes = 0, certified = 0;
+  std::vector<double> solve_ms, front_ms, clearances, tool_errors;
 };
+
+// Trial k's motion of a moving target (BenchTarget): its speed bin, a
+// heading drawn with seed k, and the sign of the motion.
+struct TrialTarget {
+  double speed = 0.0, heading = 0.0;
+  Vec3 velocity = Vec3::Zero();
+};
+
+TrialTarget DrawTarget(unsigned seed, const planner::BenchTarget& target) {
+  // Its own generator (the start keeps the draws it had without a target).
+  std::mt19937_64 rng(0x9e3779b97f4a7c15ull ^ seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  TrialTarget trial;
+  trial.speed = target.speeds[seed % target.speeds.size()];
+  trial.heading = target.heading_min + unit(rng) * (target.heading_max - target.heading_min);
+  if (unit(rng) < 0.5) trial.heading += M_PI;
+  trial.velocity = trial.speed * Vec3(std::cos(trial.heading), std::sin(trial.heading), 0.0);
+  return trial;
+}
 
 // "K/N" -> shard K of N (0 <= K < N).
 bool ParseShard(const std::string& text, int* index, int* count) {
@@ -158,16 +180,32 @@ int main(int argc, char** argv) {
   if (!planner_config.ok()) return Fail(planner_config.status().message());
   planner::PlanningContextOptions context_options = planner::ContextOptions(*planner_config, representations);
   context_options.front_end_also_contain = {config->box_min, config->box_max};
+  if (config->target) {
+    // A trial's target is within pass_time x its speed of its place in the
+    // task at any arrival up to twice pass_time: the front end's map covers
+    // that, in every heading drawn.
+    auto task = planner::LoadTask(config->task_path);
+    if (!task.ok()) return Fail(task.status().message());
+    if (task->tool) {
+      const double reach = config->target->pass_time *
+                           *std::max_element(config->target->speeds.begin(), config->target->speeds.end());
+      for (int corner = 0; corner < 4; ++corner) {
+        const double heading = corner % 2 == 0 ? config->target->heading_min : config->target->heading_max;
+        const double sign = corner < 2 ? 1.0 : -1.0;
+        context_options.front_end_also_contain.push_back(task->tool->position +
+                                                         sign * reach * Vec3(std::cos(heading), std::sin(heading), 0.0));
+      }
+    }
+  }
   if (core::SameFile(out_path, config->task_path)) {
     return Fail("--out " + out_path + ": is an input of this run; refusing to overwrite it");
   }
   robot::PrependRosPackagePath(package_path);
   auto context = planner::PlanningContext::Load(config->task_path, context_options);
   if (!context.ok()) return Fail(context.status().message());
-  // Its starts, checks and records know only a still scene.
-  if ((*context)->moving_scene() != nullptr) {
-    return Fail(config->task_path + ": goal.tool.motion: quadhand-bench does not draw moving targets yet "
-                "(docs/moving_targets.md)");
+  if (config->target && (*context)->moving_scene() == nullptr) {
+    return Fail(config_path + ": target: the task's goal.tool has no motion (" + config->task_path +
+                "): a trial moves the target the task says moves, with its moving_points");
   }
   const planner::Task* task = &(*context)->task();
   const robot::RobotModel* robot = &(*context)->robot();
@@ -205,11 +243,32 @@ int main(int argc, char** argv) {
   for (const auto& [k, start] : starts) {
     planner::Task trial = *task;
     trial.start = start;
+    // A moving target: this trial's motion, passing the task's place for it
+    // at pass_time, with the moving points placed alike.
+    std::optional<TrialTarget> target;
+    std::unique_ptr<planner::MovingSceneModels> moving;
+    if (config->target) {
+      target = DrawTarget(static_cast<unsigned>(k), *config->target);
+      const Pose placement = MakePose(-target->velocity * config->target->pass_time, Mat3::Identity());
+      trial.tool->position = placement * task->tool->position;
+      trial.tool->moving->motion =
+          planner::TargetMotion::Constant(trial.tool->position, target->velocity, Vec3::Zero(), 0.0);
+      auto built = (*context)->MovingSceneFor(trial.tool->moving->motion, placement);
+      if (!built.ok()) return Fail(built.status().message());
+      moving = std::move(*built);
+    }
     for (size_t ri = 0; ri < (*context)->representations().size(); ++ri) {
       const planner::Representation& model = (*context)->representations()[ri];
       for (size_t si = 0; si < solver_list.size(); ++si) {
         const auto plan_start = std::chrono::steady_clock::now();
-        auto result = planner::PlanTask(**context, trial, ri, options, *solver_list[si], &phases[ri]);
+        core::Result<planner::PlanResult> result = core::Status::Internal("not planned");
+        if (moving) {
+          planner::PlanningScene scene = (*context)->Scene(ri);
+          scene.moving = &moving->scene;
+          result = planner::Plan(scene, trial, options, *solver_list[si]);
+        } else {
+          result = planner::PlanTask(**context, trial, ri, options, *solver_list[si], &phases[ri]);
+        }
         const double plan_ms =
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - plan_start).count();
         nlohmann::json line;
@@ -221,7 +280,14 @@ int main(int argc, char** argv) {
                          {"yaw", trial.start.yaw},
                          {"joints", std::vector<double>(trial.start.joints.data(),
                                                         trial.start.joints.data() + trial.start.joints.size())}};
-        Tally& tally = tallies[model.name + " + " + solver_names[si]];
+        std::string tally_name = model.name + " + " + solver_names[si];
+        if (target) {
+          line["target"] = {{"speed_mps", target->speed},
+                            {"heading_rad", target->heading},
+                            {"velocity", {target->velocity.x(), target->velocity.y(), target->velocity.z()}}};
+          tally_name += core::Format(" @ target %.2f m/s", target->speed);
+        }
+        Tally& tally = tallies[tally_name];
         ++tally.trials;
         if (!result.ok()) {
           line["success"] = false;
@@ -262,7 +328,18 @@ int main(int argc, char** argv) {
             }
             line["steps"] = steps;
           }
+          if (result->moving_target && result->trajectory && result->insertion.tool_link >= 0) {
+            // How far the tool is from the target where it is at the grasp.
+            const planner::WholeBodySample last = result->trajectory->Sample(result->trajectory->duration());
+            const Vec3 tool = robot::LinkPose(*robot, last.BasePose(), last.joints, result->insertion.tool_link)
+                                  .translation();
+            const double error = (tool - result->insertion.tool_position).norm();
+            line["tool_to_target_m"] = error;
+            line["arrival_s"] = result->trajectory->duration();
+            if (result->success) tally.tool_errors.push_back(error);
+          }
           tally.front_ms.push_back(result->front_end_ms);
+          if (result->success && result->post_check.certified) ++tally.certified;
           if (result->success) {
             ++tally.successes;
             tally.solve_ms.push_back(result->solve_ms);
@@ -285,6 +362,13 @@ int main(int argc, char** argv) {
                 Percentile(t.solve_ms, 0.5), Percentile(t.solve_ms, 0.95), Percentile(t.front_ms, 0.5),
                 t.clearances.empty() ? NAN : *std::min_element(t.clearances.begin(), t.clearances.end()),
                 Percentile(t.clearances, 0.5));
+    if (!t.tool_errors.empty() || config->target) {
+      std::printf("  certified %d/%d (%.1f %%); tool to target at the grasp over successes: median %.2f mm, max "
+                  "%.2f mm\n",
+                  t.certified, t.trials, 100.0 * t.certified / std::max(1, t.trials),
+                  1e3 * Percentile(t.tool_errors, 0.5),
+                  t.tool_errors.empty() ? NAN : 1e3 * *std::max_element(t.tool_errors.begin(), t.tool_errors.end()));
+    }
   }
   return 0;
 }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -218,6 +219,48 @@ TEST_F(BenchCliTest, AMissionOfOneReachGivesTheGoalsRecordsAndLongerMissionsReco
     for (const auto& step : record["steps"]) EXPECT_TRUE(step["certified"].get<bool>()) << record;
   }
   EXPECT_GE(successes, 2);
+}
+
+// The moving-cup benchmark (data/bench/moving_cup.yaml): trial k moves the
+// cup at speeds[k % 4] in a heading drawn with seed k, passing its place in
+// the task at pass_time; each record says how, the summary has a line per
+// speed with the certified rate and the tool's distance to the cup.
+TEST_F(BenchCliTest, TheMovingCupBenchmarkMovesEachTrialsCupAndSummarisesEachSpeed) {
+  std::ofstream(Path("moving_cup.yaml")) << testing::BundledTaskText("moving_cup.yaml");
+  std::string line, text;
+  std::ifstream bench_in(kRoot + "/data/bench/moving_cup.yaml");
+  while (std::getline(bench_in, line)) text += (line.rfind("task:", 0) == 0 ? "task: moving_cup.yaml" : line) + "\n";
+  std::ofstream(Path("moving_bench.yaml")) << text;
+  const auto r = RunCommand(kBench + " --config " + Path("moving_bench.yaml") + " --trials 4 --out " +
+                            Path("moving.jsonl"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const double speeds[] = {0.0, 0.25, 0.5, 1.0};
+  for (const auto& [key, record] : Records({Path("moving.jsonl")})) {
+    const int k = record["trial"].get<int>();
+    ASSERT_TRUE(record.contains("target")) << record;
+    EXPECT_DOUBLE_EQ(record["target"]["speed_mps"].get<double>(), speeds[k % 4]);
+    const double heading = record["target"]["heading_rad"].get<double>();
+    // Along y within 0.1 rad, either way.
+    EXPECT_LT(std::abs(std::cos(heading)), std::sin(0.1) + 1e-9) << heading;
+    EXPECT_TRUE(record["success"].get<bool>()) << record;
+    EXPECT_TRUE(record["certified"].get<bool>()) << record;
+    EXPECT_LT(record["tool_to_target_m"].get<double>(), 0.002);
+  }
+  for (const char* speed : {"@ target 0.00 m/s", "@ target 0.25 m/s", "@ target 0.50 m/s", "@ target 1.00 m/s"}) {
+    EXPECT_NE(r.out.find(speed), std::string::npos) << r.out;
+  }
+  EXPECT_NE(r.out.find("certified 1/1 (100.0 %); tool to target at the grasp"), std::string::npos) << r.out;
+
+  // Bad target sections, and a target for a task whose cup does not move.
+  std::ofstream(Path("negative.yaml")) << "task: moving_cup.yaml\nstart_box: {min: [0, 0, 1], max: [1, 1, 1.5]}\n"
+                                          "target: {speeds: [0.5, -1]}\n";
+  ExpectBadInput("--config " + Path("negative.yaml"), "negative.yaml: target.speeds[1]: expected a speed in [0, 100]");
+  std::ofstream(Path("typo_target.yaml")) << "task: moving_cup.yaml\nstart_box: {min: [0, 0, 1], max: [1, 1, 1.5]}\n"
+                                             "target: {speeds: [0.5], pass: 3}\n";
+  ExpectBadInput("--config " + Path("typo_target.yaml"), "typo_target.yaml: target.pass: unknown key");
+  std::ofstream(Path("still.yaml")) << "task: task.yaml\nstart_box: {min: [0, 0, 1], max: [1, 1, 1.5]}\n"
+                                       "target: {speeds: [0.5]}\n";
+  ExpectBadInput("--config " + Path("still.yaml"), "still.yaml: target: the task's goal.tool has no motion");
 }
 
 }  // namespace

@@ -23,8 +23,8 @@ core::Result<BenchConfig> ParseBenchConfig(const std::string& text, const std::s
     for (auto it = root.begin(); it != root.end(); ++it) {
       if (!it->first.IsScalar()) return fail("keys must be plain words (task, start_box, yaw)");
       const std::string key = it->first.as<std::string>();
-      if (key != "task" && key != "start_box" && key != "yaw") {
-        return fail(key + ": unknown key (expected task, start_box, yaw)");
+      if (key != "task" && key != "start_box" && key != "yaw" && key != "target") {
+        return fail(key + ": unknown key (expected task, start_box, yaw, target)");
       }
     }
     if (!root["task"] || !root["task"].IsScalar() || root["task"].as<std::string>().empty()) {
@@ -54,6 +54,39 @@ core::Result<BenchConfig> ParseBenchConfig(const std::string& text, const std::s
           !number(yaw[1], &config.yaw_max)) {
         return fail("yaw: expected [min, max] in radians");
       }
+    }
+    if (const YAML::Node target = root["target"]) {
+      if (!target.IsMap()) return fail("target: expected {speeds: [...], heading: [min, max], pass_time: s}");
+      BenchTarget moving;
+      for (auto it = target.begin(); it != target.end(); ++it) {
+        const std::string key = it->first.IsScalar() ? it->first.as<std::string>() : "";
+        if (key != "speeds" && key != "heading" && key != "pass_time") {
+          return fail("target." + key + ": unknown key (expected speeds, heading, pass_time)");
+        }
+      }
+      const YAML::Node speeds = target["speeds"];
+      if (!speeds || !speeds.IsSequence() || speeds.size() == 0) return fail("target.speeds: expected a list of speeds (m/s)");
+      for (size_t i = 0; i < speeds.size(); ++i) {
+        double value = 0.0;
+        if (!number(speeds[i], &value) || !std::isfinite(value) || value < 0.0 || value > 100.0) {
+          return fail("target.speeds[" + std::to_string(i) + "]: expected a speed in [0, 100] m/s");
+        }
+        moving.speeds.push_back(value);
+      }
+      if (const YAML::Node heading = target["heading"]) {
+        if (!heading.IsSequence() || heading.size() != 2 || !number(heading[0], &moving.heading_min) ||
+            !number(heading[1], &moving.heading_max) || !std::isfinite(moving.heading_min) ||
+            !std::isfinite(moving.heading_max) || moving.heading_min > moving.heading_max) {
+          return fail("target.heading: expected [min, max] in radians, min <= max");
+        }
+      }
+      if (const YAML::Node pass = target["pass_time"]) {
+        if (!number(pass, &moving.pass_time) || !std::isfinite(moving.pass_time) || moving.pass_time < 0.0 ||
+            moving.pass_time > 1000.0) {
+          return fail("target.pass_time: expected a time in [0, 1000] s");
+        }
+      }
+      config.target = moving;
     }
   } catch (const YAML::Exception& e) {
     return fail("malformed benchmark config: " + e.msg);

@@ -1,6 +1,54 @@
 #include "quadhand/planner/moving_scene.h"
 
+#include <algorithm>
+
 namespace quadhand::planner {
+
+SceneAtTimeModel::SceneAtTimeModel(const env::CollisionModel& still, const env::CollisionModel& moving,
+                                   const TargetMotion& motion, double t)
+    : still_(still),
+      moving_(moving),
+      displacement_(motion.Displacement(t)),
+      back_(displacement_.inverse()),
+      still_slots_(env::SlotsOfLinks(still.links())),
+      moving_slots_(env::SlotsOfLinks(moving.links())) {
+  links_ = still.links();
+  links_.insert(links_.end(), moving.links().begin(), moving.links().end());
+  std::sort(links_.begin(), links_.end());
+  links_.erase(std::unique(links_.begin(), links_.end()), links_.end());
+}
+
+env::DistanceQuality SceneAtTimeModel::distance_quality() const {
+  // The weaker of the two (the enum runs from exact to a lower bound).
+  return std::max(still_.distance_quality(), moving_.distance_quality());
+}
+
+double SceneAtTimeModel::LinkPenalty(int link, const Pose& X_WL, const env::PenaltyParameters& parameters,
+                                     const env::QueryContext& context, env::LinkWrench* wrench) const {
+  double penalty = 0.0;
+  if (Has(still_slots_, link)) penalty += still_.LinkPenalty(link, X_WL, parameters, context, wrench);
+  if (Has(moving_slots_, link)) {
+    env::LinkWrench at_zero;
+    const double moving = moving_.LinkPenalty(link, back_ * X_WL, parameters, context,
+                                              wrench != nullptr ? &at_zero : nullptr);
+    penalty += moving;
+    if (wrench != nullptr && moving > 0.0) {
+      wrench->force += displacement_.linear() * at_zero.force;
+      wrench->torque += displacement_.linear() * at_zero.torque;
+    }
+  }
+  return penalty;
+}
+
+double SceneAtTimeModel::LinkClearance(int link, const Pose& X_WL, double search_radius,
+                                       const env::QueryContext& context) const {
+  double clearance = search_radius;
+  if (Has(still_slots_, link)) clearance = std::min(clearance, still_.LinkClearance(link, X_WL, search_radius, context));
+  if (Has(moving_slots_, link)) {
+    clearance = std::min(clearance, moving_.LinkClearance(link, back_ * X_WL, search_radius, context));
+  }
+  return clearance;
+}
 
 BoundaryState MovedState(const BoundaryState& at_zero, const TargetMotion& motion, double t) {
   BoundaryState moved = at_zero;

@@ -540,7 +540,6 @@ core::Result<bool> ResolveMovingGoal(const PlanningScene& scene, const Task& tas
   if (tool_link < 0) {
     return core::Status::InvalidArgument(task.file + ": tool_link: the robot has no link named '" + task.tool_link + "'");
   }
-  if (!moving.scene_at) return core::Status::InvalidArgument(task.file + ": goal.tool.motion: no scene to search in");
   // The start must clear the moving points where they start.
   if (moving.has_points()) {
     robot::KinematicsState kinematics;
@@ -571,15 +570,22 @@ core::Result<bool> ResolveMovingGoal(const PlanningScene& scene, const Task& tas
   double arrival = (motion.Center(0.0) - task.start.position).norm() / cruise;
   for (int round = 0; round < kArrivalRounds; ++round) {
     result->arrival_rounds = round + 1;
-    auto at = moving.scene_at(arrival);
-    if (!at.ok()) return at.status().WithPrefix(task.file);
+    // The scene as it stands at the arrival: the still models and the
+    // moving points' models where the points are then.
+    std::optional<SceneAtTimeModel> collision_at, exact_at;
+    if (moving.collision != nullptr) collision_at.emplace(scene.collision, *moving.collision, motion, arrival);
+    if (moving.exact != nullptr) exact_at.emplace(scene.exact, *moving.exact, motion, arrival);
+    const env::CollisionModel& search_collision =
+        collision_at ? static_cast<const env::CollisionModel&>(*collision_at) : scene.collision;
+    const env::CollisionModel& search_exact =
+        exact_at ? static_cast<const env::CollisionModel&>(*exact_at) : scene.exact;
     const Pose displacement = motion.Displacement(arrival);
     ToolGoal tool = tool_at_zero;
     tool.moving.reset();
     tool.position = displacement * tool_at_zero.position;
     tool.orientation = Quat(displacement.linear() * tool_at_zero.orientation.toRotationMatrix());
     tool.insertion_direction = displacement.linear() * tool_at_zero.insertion_direction;
-    auto found = FindTerminalState(robot, *at->collision, *at->exact, task, tool, tool_link, search, solver);
+    auto found = FindTerminalState(robot, search_collision, search_exact, task, tool, tool_link, search, solver);
     if (!found.ok()) {
       if (found.status().code() != core::StatusCode::kInfeasible) return found.status();
       result->status = PlanStatus::kTerminalStateFailed;

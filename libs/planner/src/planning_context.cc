@@ -261,47 +261,39 @@ core::Status PlanningContext::SplitMovingPoints() {
 }
 
 core::Status PlanningContext::BuildMovingScene() {
-  const MovingTarget& moving = *task_.tool->moving;
-  moving_scene_.motion = &moving.motion;
-  if (!moving_points_.empty()) {
-    if (!options_.representations.empty()) {
-      auto model = MakeRepresentation("mrc_sdf", robot_, task_.sdf_dir, moving_points_,
-                                      options_.representation_options, nullptr, sdf_grids_);
-      if (!model.ok()) return model.status();
-      moving_collision_ = std::move(model->scene_model);
-    }
-    auto exact = env::ExactMeshModel::Create(robot_, moving_checked_points_);
-    if (!exact.ok()) return exact.status().WithPrefix(task_.robot_path);
-    moving_exact_ = std::move(*exact);
-    moving_scene_.collision = moving_collision_.get();
-    moving_scene_.exact = moving_exact_.get();
-    const Vec3 center = moving.motion.Center(0.0);
-    for (const Vec3& p : moving_checked_points_) {
-      moving_scene_.radius = std::max(moving_scene_.radius, (p - center).head<2>().norm());
-    }
-  }
-  // The scene at an arrival time: the still points and the moving ones
-  // moved there, indexed afresh (for the terminal-state search).
-  if (options_.representations.empty()) return core::Status::Ok();
-  moving_scene_.scene_at = [this](double t) -> core::Result<SceneAtTime> {
-    const Pose displacement = moving_scene_.motion->Displacement(t);
-    auto joined = [&displacement](const std::vector<Vec3>& still, const std::vector<Vec3>& moving_part) {
-      std::vector<Vec3> cloud = still;
-      cloud.reserve(still.size() + moving_part.size());
-      for (const Vec3& p : moving_part) cloud.push_back(displacement * p);
-      return cloud;
-    };
-    SceneAtTime scene;
-    auto model = MakeRepresentation("mrc_sdf", robot_, task_.sdf_dir, joined(*points_, moving_points_),
-                                    options_.representation_options, nullptr, sdf_grids_);
-    if (!model.ok()) return model.status();
-    scene.collision = std::move(model->scene_model);
-    auto exact = env::ExactMeshModel::Create(robot_, joined(*checked_points_, moving_checked_points_));
-    if (!exact.ok()) return exact.status().WithPrefix(task_.robot_path);
-    scene.exact = std::move(*exact);
-    return scene;
-  };
+  auto moving = MovingSceneFor(task_.tool->moving->motion, Pose::Identity());
+  if (!moving.ok()) return moving.status();
+  moving_ = std::move(*moving);
   return core::Status::Ok();
+}
+
+core::Result<std::unique_ptr<MovingSceneModels>> PlanningContext::MovingSceneFor(const TargetMotion& motion,
+                                                                                 const Pose& placement) const {
+  if (!task_.tool || !task_.tool->moving) {
+    return core::Status::InvalidArgument(task_.file + ": the task's target does not move");
+  }
+  auto owned = std::make_unique<MovingSceneModels>();
+  owned->motion = motion;
+  for (const Vec3& p : moving_points_) owned->points.push_back(placement * p);
+  for (const Vec3& p : moving_checked_points_) owned->checked_points.push_back(placement * p);
+  MovingScene& scene = owned->scene;
+  scene.motion = &owned->motion;
+  if (!owned->checked_points.empty()) {
+    if (!options_.representations.empty()) {
+      auto model = MakeRepresentation("mrc_sdf", robot_, task_.sdf_dir, owned->points, options_.representation_options,
+                                      nullptr, sdf_grids_);
+      if (!model.ok()) return model.status();
+      owned->collision = std::move(model->scene_model);
+      scene.collision = owned->collision.get();
+    }
+    auto exact = env::ExactMeshModel::Create(robot_, owned->checked_points);
+    if (!exact.ok()) return exact.status().WithPrefix(task_.robot_path);
+    owned->exact = std::move(*exact);
+    scene.exact = owned->exact.get();
+    const Vec3 center = motion.Center(0.0);
+    for (const Vec3& p : owned->checked_points) scene.radius = std::max(scene.radius, (p - center).head<2>().norm());
+  }
+  return owned;
 }
 
 PlanningScene PlanningContext::Scene(size_t index) const {

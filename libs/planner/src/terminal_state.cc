@@ -159,7 +159,7 @@ bool TerminalStateOptions::IsValid(std::string* why) const {
 
 core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& robot,
                                                     const env::CollisionModel& collision,
-                                                    const env::ExactMeshModel& exact, const Task& task,
+                                                    const env::CollisionModel& exact, const Task& task,
                                                     const ToolGoal& tool, int tool_link,
                                                     const TerminalStateOptions& options,
                                                     const opt::Solver& solver) {

@@ -6,8 +6,9 @@
 // displacement at each sample's time.
 #pragma once
 
-#include <functional>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "quadhand/core/status.h"
 #include "quadhand/core/types.h"
@@ -18,14 +19,6 @@
 
 namespace quadhand::planner {
 
-// The whole scene as it stands at one time: the still points and the
-// moving points moved there (for the terminal-state search at an arrival
-// time).
-struct SceneAtTime {
-  std::unique_ptr<env::CollisionModel> collision;
-  std::unique_ptr<env::ExactMeshModel> exact;
-};
-
 struct MovingScene {
   const TargetMotion* motion = nullptr;            // null: nothing moves
   const env::CollisionModel* collision = nullptr;  // the moving points at t = 0; null: none
@@ -33,8 +26,6 @@ struct MovingScene {
   // The farthest moving point from the target's position at t = 0, metres:
   // with the turn rate it bounds how fast a moving point goes.
   double radius = 0.0;
-  // Builds the scene at time t (PlanningContext fills it).
-  std::function<core::Result<SceneAtTime>(double t)> scene_at;
 
   bool moves() const { return motion != nullptr; }
   bool has_points() const { return exact != nullptr; }
@@ -42,6 +33,35 @@ struct MovingScene {
   double PointSpeed(double horizon) const {
     return has_points() ? motion->MaxSpeed(radius, horizon) : 0.0;
   }
+};
+
+// The whole scene as it stands at time t, as one collision model: the
+// still scene's model and the moving points' model, the latter queried with
+// each link moved back by the target's displacement at t (for the
+// terminal-state search at an arrival time). Penalties add, clearances take
+// the least; its links are both models' links. Both models must outlive it.
+class SceneAtTimeModel final : public env::CollisionModel {
+ public:
+  SceneAtTimeModel(const env::CollisionModel& still, const env::CollisionModel& moving, const TargetMotion& motion,
+                   double t);
+
+  std::string name() const override { return still_.name(); }
+  env::DistanceQuality distance_quality() const override;
+  const std::vector<int>& links() const override { return links_; }
+  double LinkPenalty(int link, const Pose& X_WL, const env::PenaltyParameters& parameters,
+                     const env::QueryContext& context, env::LinkWrench* wrench) const override;
+  double LinkClearance(int link, const Pose& X_WL, double search_radius,
+                       const env::QueryContext& context) const override;
+
+ private:
+  bool Has(const std::vector<int>& slots, int link) const {
+    return link >= 0 && link < static_cast<int>(slots.size()) && slots[link] >= 0;
+  }
+
+  const env::CollisionModel& still_;
+  const env::CollisionModel& moving_;
+  Pose displacement_, back_;
+  std::vector<int> links_, still_slots_, moving_slots_;
 };
 
 // A state that grasps the target at t = 0, moved to grasp it at time t:

@@ -42,6 +42,16 @@ struct PlanningContextOptions {
   double payload_limit = 0.3;
 };
 
+// The moving part of a scene for one motion of the target (moving_scene.h),
+// owning its models; `scene` points into them.
+struct MovingSceneModels {
+  TargetMotion motion;
+  std::vector<Vec3> points, checked_points;  // at t = 0
+  std::unique_ptr<env::CollisionModel> collision;
+  std::unique_ptr<env::ExactMeshModel> exact;
+  MovingScene scene;
+};
+
 class PlanningContext {
  public:
   // Loads the task, its robot and scene and builds the representations.
@@ -80,8 +90,16 @@ class PlanningContext {
   // its moving_points box at t = 0 are taken out of points() and
   // checked_points() and kept here, with their own models (moving_scene.h).
   // Null when the target does not move.
-  const MovingScene* moving_scene() const { return moving_scene_.moves() ? &moving_scene_ : nullptr; }
+  const MovingScene* moving_scene() const { return moving_ ? &moving_->scene : nullptr; }
   const std::vector<Vec3>& moving_points() const { return moving_points_; }
+  // The moving part for another motion of the same target, its points first
+  // placed by `placement` (a benchmark's trial; a target measured elsewhere
+  // than the task said), with this context's still scene: to plan with it,
+  // set PlanningScene::moving to its `scene` and give the task the same
+  // motion and the tool goal placed alike. InvalidArgument when the task's
+  // target does not move.
+  core::Result<std::unique_ptr<MovingSceneModels>> MovingSceneFor(const TargetMotion& motion,
+                                                                  const Pose& placement) const;
   const std::vector<Vec3>& points() const { return *points_; }  // planned against
   const std::vector<Vec3>& checked_points() const { return *checked_points_; }  // post-checked against
   double scene_load_seconds() const { return scene_load_seconds_; }  // Load(): reading and filtering the scans
@@ -130,11 +148,10 @@ class PlanningContext {
   std::unique_ptr<FrontEndMap> front_end_;
   double front_end_inflation_ = 0.0;
   std::vector<Representation> representations_;
-  // The moving target's part of the scene (moving_scene()).
-  MovingScene moving_scene_;
+  // The moving target's points at t = 0 as the task places them, and their
+  // part of the scene for the task's motion (moving_scene()).
   std::vector<Vec3> moving_points_, moving_checked_points_;
-  std::unique_ptr<env::CollisionModel> moving_collision_;
-  std::unique_ptr<env::ExactMeshModel> moving_exact_;
+  std::unique_ptr<MovingSceneModels> moving_;
   // The link SDFs loaded (null: none), and their robot links, for the
   // phases of a mission (ForMissionPhase).
   std::shared_ptr<const std::vector<geometry::SdfGrid>> sdf_grids_;

@@ -48,11 +48,14 @@ struct TerminalStateResult {
   double seconds = 0.0;
 };
 
-// `tool_link` is the robot link of the tool frame. Infeasible (with the best
-// errors found) when no restart passes; InvalidArgument for bad options.
+// `tool_link` is the robot link of the tool frame; `collision` is the model
+// optimised against, `exact` the one that judges the clearance (the exact
+// link meshes: env::ExactMeshModel, or a scene at one time made of them,
+// moving_scene.h). Infeasible (with the best errors found) when no restart
+// passes; InvalidArgument for bad options.
 core::Result<TerminalStateResult> FindTerminalState(const robot::RobotModel& robot,
                                                     const env::CollisionModel& collision,
-                                                    const env::ExactMeshModel& exact, const Task& task,
+                                                    const env::CollisionModel& exact, const Task& task,
                                                     const ToolGoal& tool, int tool_link,
                                                     const TerminalStateOptions& options,
                                                     const opt::Solver& solver);
