@@ -46,7 +46,8 @@ double Ms(Clock::time_point since) { return std::chrono::duration<double, std::m
 // The 3-D page: the cloud, the base and tool paths, the link meshes along the plan.
 core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robot::RobotModel& robot,
                                    const std::vector<Vec3>& points, const std::string& task_path,
-                                   const planner::Task& task) {
+                                   const planner::Task& task, const planner::MovingScene* moving,
+                                   const std::vector<Vec3>& moving_points) {
   const std::string& tool_link = task.tool_link;
   viz::HtmlViewData data;
   data.title = "QuadHand plan: " + task_path;
@@ -97,9 +98,11 @@ core::Result<std::string> HtmlPage(const planner::PlanResult& result, const robo
       poses.push_back(object.pose);
     }
     data.link_poses.push_back(std::move(poses));
+    if (moving != nullptr) data.moving_displacements.push_back(moving->motion->Displacement(t));
     data.base_path.push_back(s.position);
     if (tool >= 0) data.tool_path.push_back(kinematics.link_poses[tool].translation());
   }
+  if (moving != nullptr) data.moving_points = moving_points;
   if (result.insertion.enabled) {
     data.has_insertion = true;
     data.insertion_end = result.insertion.tool_position;
@@ -267,14 +270,8 @@ int main(int argc, char** argv) {
     if (core::Status s = outputs.Stage(out_path, io::PlanTableCsv(table)); !s.ok()) return Fail(s.message());
   }
   if (!html_path.empty() && result->trajectory) {
-    // A moving target's points are drawn where they are at the arrival
-    // (the page does not animate them yet).
-    std::vector<Vec3> drawn = (*context)->points();
-    if (const planner::MovingScene* moving = (*context)->moving_scene()) {
-      const Pose at_arrival = moving->motion->Displacement(result->trajectory->duration());
-      for (const Vec3& p : (*context)->moving_points()) drawn.push_back(at_arrival * p);
-    }
-    auto page = HtmlPage(*result, robot, drawn, task_path, (*context)->task());
+    auto page = HtmlPage(*result, robot, (*context)->points(), task_path, (*context)->task(),
+                         (*context)->moving_scene(), (*context)->moving_points());
     if (!page.ok()) return Fail(html_path + ": " + page.status().message());
     if (core::Status s = outputs.Stage(html_path, *page); !s.ok()) return Fail(s.message());
   }

@@ -105,8 +105,14 @@ HtmlViewData SyntheticScene(int num_points) {
     const Pose tool = link2 * PoseOf(Vec3(0, 0, -0.25), Eigen::AngleAxisd(q3, Vec3::UnitZ()).toRotationMatrix());
     data.times.push_back(t);
     data.link_poses.push_back({base, link1, link2, tool});
+    // A box beside the table slides along y and turns, as a moving target's points.
+    data.moving_displacements.push_back(
+        MakePose(Vec3(0.0, 0.1 * t, 0.0), Eigen::AngleAxisd(0.2 * t, Vec3::UnitZ()).toRotationMatrix()));
     data.base_path.push_back(p);
     data.tool_path.push_back(tool * Vec3(0, 0, -0.10));
+  }
+  for (double x = -3.0; x <= -2.9; x += 0.01) {
+    for (double y = 0.5; y <= 0.6; y += 0.01) data.moving_points.emplace_back(x, y, 0.8);
   }
   data.has_insertion = true;
   data.insertion_end = data.tool_path.back();
@@ -194,6 +200,12 @@ TEST(HtmlViewTest, RejectsInconsistentData) {
   d = good;
   d.tool_path[1].z() = NAN;
   expect_invalid(d, "non-finite tool path");
+  d = good;
+  d.moving_displacements.pop_back();
+  expect_invalid(d, "fewer moving-point displacements than times");
+  d = good;
+  d.moving_displacements[7].translation().y() = NAN;
+  expect_invalid(d, "non-finite moving-point displacement");
   HtmlViewOptions options;
   options.max_path_points = 1;
   EXPECT_FALSE(RenderHtmlView(good, options).ok());
@@ -301,7 +313,7 @@ TEST(HtmlViewTest, RendersInHeadlessChromiumWithoutErrors) {
   EXPECT_GT(std::atoi(Attribute(run.dom, "data-canvas-colours").c_str()), 50);
   // The legend lists every layer.
   for (const char* layer : {"obstacle cloud", "base path", "tool path", "insertion line", "robot at slider time",
-                            "robot at 6 sampled times"}) {
+                            "robot at 6 sampled times", "moving target's points"}) {
     EXPECT_NE(run.dom.find(layer), std::string::npos) << layer;
   }
   EXPECT_NE(run.dom.find("t = 0.00 s / 4.00 s"), std::string::npos);

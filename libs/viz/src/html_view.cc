@@ -187,6 +187,18 @@ core::Status Validate(const HtmlViewData& data) {
   if (data.has_insertion && (!Finite(data.insertion_start) || !Finite(data.insertion_end))) {
     return core::Status::InvalidArgument("html view: the insertion line is not finite");
   }
+  if (!data.moving_points.empty()) {
+    if (data.moving_displacements.size() != data.times.size()) {
+      return core::Status::InvalidArgument("html view: " + std::to_string(data.moving_displacements.size()) +
+                                           " moving-point displacements for " + std::to_string(data.times.size()) +
+                                           " times");
+    }
+    for (const Pose& pose : data.moving_displacements) {
+      if (!pose.matrix().allFinite()) {
+        return core::Status::InvalidArgument("html view: a moving-point displacement is not finite");
+      }
+    }
+  }
   return core::Status::Ok();
 }
 
@@ -295,6 +307,28 @@ std::string DataJson(const HtmlViewData& data, const HtmlViewOptions& options) {
     }
     json += ",\"num_times\":" + std::to_string(data.times.size());
     json += ",\"times\":\"" + times.Base64() + "\",\"poses\":\"" + poses.Base64() + "\"";
+  }
+
+  // Moving points relative to the storage origin o: a displacement x ->
+  // R x + p is, on x - o, (x - o) -> R (x - o) + (R o + p - o).
+  const std::vector<std::size_t> moving = SelectPoints(data.moving_points, options.max_points);
+  if (!moving.empty()) {
+    LittleEndianWriter positions, poses;
+    for (const std::size_t i : moving) positions.Vec(data.moving_points[i] - origin);
+    Eigen::Vector4d previous = Eigen::Vector4d::Zero();
+    for (const Pose& pose : data.moving_displacements) {
+      Quat q(Mat3(pose.linear()));
+      q.normalize();
+      Eigen::Vector4d xyzw(q.x(), q.y(), q.z(), q.w());
+      if (xyzw.dot(previous) < 0.0) xyzw = -xyzw;
+      previous = xyzw;
+      poses.Vec(pose.linear() * origin + pose.translation() - origin);
+      for (int k = 0; k < 4; ++k) poses.F32(xyzw[k]);
+    }
+    json += ",\"moving\":{\"count\":" + std::to_string(moving.size()) + ",\"positions\":\"" +
+            positions.Base64() + "\",\"poses\":\"" + poses.Base64() + "\"}";
+  } else {
+    json += ",\"moving\":null";
   }
 
   json += ",\"base_path\":\"" + PathArray(data.base_path, options.max_path_points, origin) + "\"";

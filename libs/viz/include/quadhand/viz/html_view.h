@@ -40,6 +40,13 @@ struct HtmlViewData {
   Vec3 insertion_start = Vec3::Zero();
   Vec3 insertion_end = Vec3::Zero();
 
+  // Points that move rigidly (a moving target's, docs/moving_targets.md):
+  // where they are at t = 0, and their displacement at each of `times` (one
+  // per time when there are points). Drawn in a colour of their own and
+  // moved with the slider. May be empty.
+  std::vector<Vec3> moving_points;
+  std::vector<Pose> moving_displacements;
+
   std::string summary;            // free text shown in a corner (several lines allowed)
 };
 
