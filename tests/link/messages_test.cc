@@ -114,6 +114,12 @@ std::vector<XmlMessage> XmlDefinitions() {
       {"DEBUG_FLOAT_ARRAY",
        350,
        {{"uint64_t", "time_usec"}, {"char", "name", 10}, {"uint16_t", "array_id"}, {"float", "data", 58, true}}},
+      {"LANDING_TARGET",
+       149,
+       {{"uint64_t", "time_usec"}, {"uint8_t", "target_num"}, {"uint8_t", "frame"}, {"float", "angle_x"},
+        {"float", "angle_y"}, {"float", "distance"}, {"float", "size_x"}, {"float", "size_y"},
+        {"float", "x", 0, true}, {"float", "y", 0, true}, {"float", "z", 0, true}, {"float", "q", 4, true},
+        {"uint8_t", "type", 0, true}, {"uint8_t", "position_valid", 0, true}}},
   };
 }
 
@@ -176,6 +182,7 @@ TEST(MessagesTest, CrcExtraAndLengthsMatchTheXmlDefinitions) {
       {Timesync::kId, Timesync::kCrcExtra},
       {StatusText::kId, StatusText::kCrcExtra},
       {DebugFloatArray::kId, DebugFloatArray::kCrcExtra},
+      {LandingTarget::kId, LandingTarget::kCrcExtra},
   };
   for (const XmlMessage& m : XmlDefinitions()) {
     SCOPED_TRACE(m.name);
@@ -276,6 +283,14 @@ std::map<std::string, FieldProbe> Probes(uint32_t id) {
     case DebugFloatArray::kId:
       return {PROBE(DebugFloatArray, time_usec, kV64, kU64), PROBE(DebugFloatArray, name, "Ab", (std::vector<uint8_t>{'A', 'b'})),
               PROBE(DebugFloatArray, array_id, kV16, kU16), PROBE(DebugFloatArray, data, std::vector<float>{kF}, f)};
+    case LandingTarget::kId:
+      return {PROBE(LandingTarget, time_usec, kV64, kU64), PROBE(LandingTarget, target_num, 0xA5, kU8),
+              PROBE(LandingTarget, frame, 0xA5, kU8), PROBE(LandingTarget, angle_x, kF, f),
+              PROBE(LandingTarget, angle_y, kF, f), PROBE(LandingTarget, distance, kF, f),
+              PROBE(LandingTarget, size_x, kF, f), PROBE(LandingTarget, size_y, kF, f),
+              PROBE(LandingTarget, x, kF, f), PROBE(LandingTarget, y, kF, f), PROBE(LandingTarget, z, kF, f),
+              PROBE(LandingTarget, q[0], kF, f), PROBE(LandingTarget, type, 0xA5, kU8),
+              PROBE(LandingTarget, position_valid, 0xA5, kU8)};
     default:
       return {};
   }
@@ -292,6 +307,7 @@ Message DefaultMessage(uint32_t id) {
     case SetPositionTargetLocalNed::kId: return SetPositionTargetLocalNed{};
     case Timesync::kId: return Timesync{};
     case StatusText::kId: return StatusText{};
+    case LandingTarget::kId: return LandingTarget{};
     default: return DebugFloatArray{};
   }
 }
@@ -310,7 +326,7 @@ TEST(MessagesTest, EveryFieldSitsAtItsWireOffset) {
     int offset = 0;
     for (const XmlField& f : WireOrder(m.fields)) {
       SCOPED_TRACE(f.name);
-      const std::string key = f.name == "repr_offset_q" ? "repr_offset_q[0]" : f.name;
+      const std::string key = f.name == "repr_offset_q" ? "repr_offset_q[0]" : f.name == "q" ? "q[0]" : f.name;
       ASSERT_TRUE(probes.count(key));
       Message probe = base;
       probes.at(key).set(probe);

@@ -20,6 +20,7 @@ constexpr uint8_t kSetPositionTargetLength = 53;    // 4 + 11 * 4 + 2 + 3 * 1
 constexpr uint8_t kTimesyncLength = 18;            // 2 * 8 + ext 2 * 1
 constexpr uint8_t kStatusTextLength = 54;           // 1 + 50 + ext (2 + 1)
 constexpr uint8_t kDebugFloatArrayLength = 252;     // 8 + 2 + 10 + ext 58 * 4
+constexpr uint8_t kLandingTargetLength = 60;        // 8 + 5 * 4 + 2 * 1 + ext (3 * 4 + 4 * 4 + 2 * 1)
 constexpr size_t kStatusTextChars = 50;
 constexpr size_t kDebugNameChars = 10;
 
@@ -34,6 +35,7 @@ constexpr MessageInfo kInfos[] = {
     {Timesync::kId, Timesync::kCrcExtra, kTimesyncLength, "TIMESYNC"},
     {StatusText::kId, StatusText::kCrcExtra, kStatusTextLength, "STATUSTEXT"},
     {DebugFloatArray::kId, DebugFloatArray::kCrcExtra, kDebugFloatArrayLength, "DEBUG_FLOAT_ARRAY"},
+    {LandingTarget::kId, LandingTarget::kCrcExtra, kLandingTargetLength, "LANDING_TARGET"},
 };
 
 // Little-endian writer into a payload of fixed full length. MAVLink is
@@ -308,6 +310,37 @@ DebugFloatArray ReadDebugFloatArray(Reader& r) {
   return m;
 }
 
+std::vector<uint8_t> Write(const LandingTarget& m) {
+  Writer w(kLandingTargetLength);
+  w.U64(m.time_usec);
+  for (float v : {m.angle_x, m.angle_y, m.distance, m.size_x, m.size_y}) w.F32(v);
+  w.U8(m.target_num);
+  w.U8(m.frame);
+  for (float v : {m.x, m.y, m.z}) w.F32(v);
+  for (float v : m.q) w.F32(v);
+  w.U8(m.type);
+  w.U8(m.position_valid);
+  return w.Take();
+}
+LandingTarget ReadLandingTarget(Reader& r) {
+  LandingTarget m;
+  m.time_usec = r.U64();
+  m.angle_x = r.F32();
+  m.angle_y = r.F32();
+  m.distance = r.F32();
+  m.size_x = r.F32();
+  m.size_y = r.F32();
+  m.target_num = r.U8();
+  m.frame = r.U8();
+  m.x = r.F32();
+  m.y = r.F32();
+  m.z = r.F32();
+  for (float& v : m.q) v = r.F32();
+  m.type = r.U8();
+  m.position_valid = r.U8();
+  return m;
+}
+
 }  // namespace
 
 std::optional<MessageInfo> FindMessageInfo(uint32_t id) {
@@ -339,6 +372,7 @@ std::optional<Message> DeserializePayload(uint32_t id, const uint8_t* payload, s
     case Timesync::kId: return Message(ReadTimesync(r));
     case StatusText::kId: return Message(ReadStatusText(r));
     case DebugFloatArray::kId: return Message(ReadDebugFloatArray(r));
+    case LandingTarget::kId: return Message(ReadLandingTarget(r));
     default: return std::nullopt;
   }
 }

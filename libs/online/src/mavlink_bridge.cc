@@ -25,6 +25,22 @@ uint32_t TimeBootMs(double t) { return static_cast<uint32_t>(std::llround(std::m
 
 }  // namespace
 
+std::optional<TargetMeasurement> TargetFromLandingTarget(const link::LandingTarget& message) {
+  if (message.position_valid != 1 || message.frame != link::mav::kFrameLocalNed) return std::nullopt;
+  const Quat q_ned(message.q[0], message.q[1], message.q[2], message.q[3]);
+  const Vec3 position_ned(message.x, message.y, message.z);
+  if (!position_ned.allFinite() || !q_ned.coeffs().allFinite() || std::abs(q_ned.norm() - 1.0) > 1e-3) {
+    return std::nullopt;
+  }
+  TargetMeasurement measurement;
+  measurement.vehicle_time = static_cast<double>(message.time_usec) * 1e-6;
+  measurement.position = link::NedToEnu(position_ned);
+  const Mat3 r = link::AttitudeNedFrdToEnuFlu(q_ned.normalized()).toRotationMatrix();
+  measurement.yaw = std::atan2(r(1, 0), r(0, 0));
+  measurement.target_num = message.target_num;
+  return measurement;
+}
+
 bool DeliverToController(const link::Message& message, uint8_t from_system, double t, const LinkTargets& targets,
                          OnlineController* controller) {
   if (targets.vehicle_system != 0 && from_system != targets.vehicle_system) return false;

@@ -145,8 +145,25 @@ struct DebugFloatArray {  // DEBUG_FLOAT_ARRAY (350)
   std::vector<float> data;
 };
 
+// The pose of a target the vehicle sees (a moving grasp target,
+// docs/moving_targets.md); QuadHand uses the local-frame position and
+// orientation of its MAVLink 2 extension (frame MAV_FRAME_LOCAL_NED,
+// position_valid 1), not the camera angles.
+struct LandingTarget {  // LANDING_TARGET (149)
+  static constexpr uint32_t kId = 149;
+  static constexpr uint8_t kCrcExtra = 200;
+  uint64_t time_usec = 0;
+  float angle_x = 0, angle_y = 0, distance = 0, size_x = 0, size_y = 0;
+  uint8_t target_num = 0;
+  uint8_t frame = mav::kFrameLocalNed;
+  float x = 0, y = 0, z = 0;               // extension: m, in `frame`
+  std::array<float, 4> q{1, 0, 0, 0};      // extension: w, x, y, z
+  uint8_t type = 0;                        // extension: LANDING_TARGET_TYPE
+  uint8_t position_valid = 0;              // extension: 1 when x, y, z, q hold the target's pose
+};
+
 using Message = std::variant<Heartbeat, AttitudeQuaternion, LocalPositionNed, CommandLong, CommandAck,
-                             SetPositionTargetLocalNed, Timesync, StatusText, DebugFloatArray>;
+                             SetPositionTargetLocalNed, Timesync, StatusText, DebugFloatArray, LandingTarget>;
 
 // Id, CRC_EXTRA and full payload length (with extensions) of a known message
 // id; nullopt for ids this link does not know.

@@ -13,6 +13,9 @@
 //   DEBUG_FLOAT_ARRAY (350)   name "JOINT_GOAL" (optional): the angle each
 //                             servo is commanded to (its goal register), URDF order
 //   COMMAND_ACK (77)          for MAV_CMD_DO_SET_MODE and MAV_CMD_COMPONENT_ARM_DISARM
+//   LANDING_TARGET (149)      a moving target's pose (TargetFromLandingTarget;
+//                             docs/link.md): the extension's x, y, z and q in
+//                             MAV_FRAME_LOCAL_NED with position_valid 1
 // Sent to it:
 //   SET_POSITION_TARGET_LOCAL_NED (84)  position, velocity, acceleration, yaw
 //                             (NED: from north, clockwise) and yaw rate (about
@@ -30,6 +33,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "quadhand/link/messages.h"
@@ -46,6 +50,22 @@ struct LinkTargets {
   uint8_t vehicle_system = 1;     // target_system of what we send; 0 accepts messages from any system
   uint8_t vehicle_component = 1;  // target_component of what we send
 };
+
+// A moving target's measurement (docs/moving_targets.md): its position
+// (ENU, m) and heading (about world z, rad, from east) at the vehicle's
+// time (s, from time_usec), and which target it is.
+struct TargetMeasurement {
+  double vehicle_time = 0.0;
+  Vec3 position = Vec3::Zero();
+  double yaw = 0.0;
+  uint8_t target_num = 0;
+};
+
+// LANDING_TARGET -> TargetMeasurement: none when position_valid is not 1,
+// the frame is not MAV_FRAME_LOCAL_NED, the quaternion is not of unit
+// length (1e-3) or a value is not finite. The heading is the yaw of the
+// target's orientation (its body x axis projected on the ground).
+std::optional<TargetMeasurement> TargetFromLandingTarget(const link::LandingTarget& message);
 
 // Hands one received message to the controller at time t (s). Messages from
 // another system than targets.vehicle_system (when not 0), unknown names and
