@@ -48,7 +48,8 @@ int main(int argc, char** argv) {
       "  quadhand-sim --track plan.csv --out flown.csv [--pcgc on|off] [--payload KG] [--seed N]\n"
       "  quadhand-sim --figure8 --out plan.csv [--loops N] [--period S]\n"
       "  quadhand-sim --udp udp://127.0.0.1:14540 [--realtime] [--duration S] [--start X,Y,Z[,YAW] | --start-task\n"
-      "               TASK] [--log flown.csv] [--signing-key FILE [--require-signing]] [--system-id N]\n"
+      "               TASK [--target-rate HZ [--target-noise M] [--target-walk M/S]]] [--log flown.csv]\n"
+      "               [--signing-key FILE [--require-signing]] [--system-id N]\n"
       "Exit codes: 0 success, 1 the simulation diverged, 2 bad input."};
   std::string track_path, out_path, config_path = core::FindBundledFile("data/sim/quadhand_sim.yaml", QUADHAND_SOURCE_DIR), pcgc, noise;
   bool figure8 = false, quiet = false;
@@ -99,6 +100,19 @@ int main(int argc, char** argv) {
   app.add_option("--system-id", system_id, "--udp: MAVLink system id of the vehicle")
       ->check(CLI::Range(1, 255))
       ->capture_default_str();
+  // A moving target (docs/sim.md, "A moving target").
+  sim::SimTargetOptions target_options;
+  double target_rate = 0.0;
+  app.add_option("--target-rate", target_rate,
+                 "--udp with --start-task: move the task's target (goal.tool.motion) and send its measured pose as "
+                 "LANDING_TARGET this many times a second of simulated time, in (0, 1000] (default: no target)");
+  app.add_option("--target-noise", target_options.noise, "--target-rate: measured position noise, m (one sigma per axis)")
+      ->capture_default_str();
+  app.add_option("--target-yaw-noise", target_options.yaw_noise, "--target-rate: measured heading noise, rad")
+      ->capture_default_str();
+  app.add_option("--target-walk", target_options.random_walk,
+                 "--target-rate: random walk of the target's velocity on top of its motion, m/s per sqrt(s)")
+      ->capture_default_str();
   std::vector<std::string> package_path;
   quadhand::apps::AddPackagePathOption(&app, &package_path);
   try {
@@ -121,7 +135,7 @@ int main(int argc, char** argv) {
         {app.count("--duration") > 0, "--duration"}, {!start_text.empty(), "--start"},
         {!start_task.empty(), "--start-task"}, {!log_path.empty(), "--log"},
         {!key_path.empty(), "--signing-key"},  {require_signing, "--require-signing"},
-        {app.count("--system-id") > 0, "--system-id"}};
+        {app.count("--system-id") > 0, "--system-id"}, {app.count("--target-rate") > 0, "--target-rate"}};
     for (const auto& [given, name] : udp_only) {
       if (given) return Fail(std::string(name) + " is only used with --udp");
     }
@@ -211,6 +225,17 @@ int main(int argc, char** argv) {
     options.quiet = quiet;
     sim::AutopilotOptions autopilot_options;
     autopilot_options.system_id = options.system_id;
+    if (app.count("--target-rate") > 0) {
+      if (start_task.empty()) return Fail("--target-rate needs --start-task TASK (the task's goal.tool.motion moves the target)");
+      target_options.rate = target_rate;
+      target_options.seed = seed ^ 0x7a6e7467ull;  // its own stream, from --seed
+      if (std::string why; !target_options.IsValid(&why)) return Fail("--target-*: " + why);
+      auto target = sim::LoadTaskTarget(start_task);
+      if (!target.ok()) return Fail(target.status().message());
+      autopilot_options.target.emplace(target->position, target->motion, target_options);
+    } else if (app.count("--target-noise") + app.count("--target-yaw-noise") + app.count("--target-walk") > 0) {
+      return Fail("--target-noise, --target-yaw-noise and --target-walk need --target-rate");
+    }
     autopilot_options.record_flown = !log_path.empty();
     autopilot_options.gripper_loads = std::move(gripper_loads);
     auto autopilot = sim::Autopilot::Create(sim::Simulator(std::move(*model), seed), start, autopilot_options);

@@ -469,5 +469,65 @@ TEST(StartPoseTest, ReadsTheStartOfATask) {
   EXPECT_FALSE(Autopilot::Create(Simulator(Model(true, 0.0), 1), wrong, {}).ok());
 }
 
+// The moving target (sim/target.h): its measurements come at its rate,
+// scattered by its noise about where its motion (and random walk) puts it,
+// as LANDING_TARGET in the local NED frame; a task's target is read with
+// its motion.
+TEST(SimTargetTest, MeasuresTheMovingTargetAtItsRateWithItsNoise) {
+  SimTargetOptions options;
+  options.rate = 50.0;
+  options.noise = 0.01;
+  options.seed = 5;
+  const Vec3 start(1.0, 2.0, 0.8), velocity(0.2, -0.1, 0.0);
+  SimTarget target(start, traj::TargetMotion::Constant(start, velocity, Vec3::Zero(), 0.0), options);
+  int count = 0;
+  Vec3 mean = Vec3::Zero();
+  double squares = 0.0;
+  for (int k = 0; k <= 2000; ++k) {  // 20 s in 10 ms steps
+    TargetSample sample;
+    if (!target.MeasurementDue(0.01 * k, &sample)) continue;
+    ++count;
+    EXPECT_TRUE(sample.true_position.isApprox(start + velocity * sample.time, 1e-12));
+    const Vec3 error = sample.measured_position - sample.true_position;
+    mean += error;
+    squares += error.squaredNorm();
+  }
+  EXPECT_EQ(count, 1001);  // 50 Hz for 20 s, the first at t = 0
+  mean /= count;
+  EXPECT_LT(mean.norm(), 0.002);
+  EXPECT_NEAR(std::sqrt(squares / (3.0 * count)), 0.01, 0.001);
+
+  // A random walk takes it off its motion, by about walk * t^1.5 / sqrt(3).
+  options.random_walk = 0.05;
+  SimTarget walking(start, traj::TargetMotion::Constant(start, velocity, Vec3::Zero(), 0.0), options);
+  const double off = (walking.Position(20.0) - (start + velocity * 20.0)).norm();
+  EXPECT_GT(off, 0.05);
+  EXPECT_LT(off, 5.0);
+}
+
+TEST(SimTargetTest, ReadsATasksMovingTarget) {
+  auto constant = LoadTaskTarget(std::string(QUADHAND_SOURCE_DIR) + "/data/tasks/moving_cup.yaml");
+  ASSERT_TRUE(constant.ok()) << constant.status().message();
+  EXPECT_TRUE(constant->position.isApprox(Vec3(-3.2, 0.0, 0.86)));
+  EXPECT_TRUE((constant->motion.Displacement(2.0) * constant->position).isApprox(Vec3(-3.2, 0.3, 0.86)));
+
+  const std::string dir = ::testing::TempDir();
+  std::ofstream(dir + "/belt.csv") << "t,x,y,z,qw,qx,qy,qz\n0,0,0,1,1,0,0,0\n2,1,0,1,1,0,0,0\n";
+  std::ofstream(dir + "/path_task.yaml") << "goal:\n  tool:\n    position: [0, 0, 1]\n    motion: {file: belt.csv}\n";
+  auto sampled = LoadTaskTarget(dir + "/path_task.yaml");
+  ASSERT_TRUE(sampled.ok()) << sampled.status().message();
+  EXPECT_TRUE((sampled->motion.Displacement(1.0) * sampled->position).isApprox(Vec3(0.5, 0, 1)));
+
+  std::ofstream(dir + "/still_task.yaml") << "goal:\n  tool:\n    position: [0, 0, 1]\n";
+  auto still = LoadTaskTarget(dir + "/still_task.yaml");
+  ASSERT_FALSE(still.ok());
+  EXPECT_NE(still.status().message().find("still_task.yaml: goal.tool.motion: missing"), std::string::npos);
+  std::ofstream(dir + "/bad_task.yaml") << "goal:\n  tool:\n    position: [0, 0, 1]\n    motion: {velocity: [1, 2]}\n";
+  auto bad = LoadTaskTarget(dir + "/bad_task.yaml");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("bad_task.yaml: goal.tool.motion.velocity: expected a list of 3 numbers"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace quadhand::sim

@@ -287,6 +287,8 @@ TEST_F(SimUdpTest, RequiresSignedFramesWhenAsked) {
   EXPECT_EQ(log.find(" 0 unsigned"), std::string::npos) << log;  // the unsigned frames were counted
 }
 
+const std::string kMovingCup = std::string(QUADHAND_SOURCE_DIR) + "/data/tasks/moving_cup.yaml";
+
 TEST_F(SimUdpTest, RejectsBadUdpOptions) {
   const std::string base = kSim + " --config " + kConfig + " ";
   const std::string key = (dir_ / "short.key").string();
@@ -311,6 +313,13 @@ TEST_F(SimUdpTest, RejectsBadUdpOptions) {
       {"--udp " + ok_url + " --log /nonexistent/dir/flown.csv", "/nonexistent/dir"},
       {"--udp " + ok_url + " --settle 1", "--settle"},
       {"--figure8 --out " + (dir_ / "e.csv").string() + " --realtime", "--realtime"},
+      {"--udp " + ok_url + " --target-rate 30", "--target-rate needs --start-task"},
+      {"--udp " + ok_url + " --target-noise 0.01", "need --target-rate"},
+      {"--udp " + ok_url + " --target-rate 0 --start-task " + kMovingCup, "--target-*: target rate must be in (0, 1000]"},
+      {"--udp " + ok_url + " --target-rate 30 --target-noise -1 --start-task " + kMovingCup, "target noise"},
+      {"--udp " + ok_url + " --target-rate 30 --start-task " + std::string(QUADHAND_SOURCE_DIR) +
+           "/data/tasks/window_cup.yaml", "window_cup.yaml: goal.tool.motion: missing"},
+      {"--figure8 --out " + (dir_ / "e.csv").string() + " --target-rate 30", "--target-rate is only used with --udp"},
   };
   for (const auto& [args, fragment] : cases) {
     const auto r = RunCommand(base + args);
@@ -321,7 +330,8 @@ TEST_F(SimUdpTest, RejectsBadUdpOptions) {
   EXPECT_FALSE(fs::exists(dir_ / "e.csv"));
   const auto help = RunCommand(kSim + " --help");
   for (const char* option : {"--udp", "--remote", "--realtime", "--duration", "--start", "--start-task", "--log",
-                             "--signing-key", "--require-signing", "--system-id"}) {
+                             "--signing-key", "--require-signing", "--system-id", "--target-rate", "--target-noise",
+                             "--target-yaw-noise", "--target-walk"}) {
     EXPECT_NE(help.out.find(option), std::string::npos) << option;
   }
 }

@@ -63,6 +63,7 @@ bool AutopilotOptions::IsValid(std::string* why) const {
   if (!(offboard_min_stream >= 0.0 && std::isfinite(offboard_min_stream))) {
     return fail("offboard_min_stream must be >= 0");
   }
+  if (target && !target->options().IsValid(why)) return false;
   for (size_t i = 0; i < gripper_loads.size(); ++i) {
     const GripperLoad& load = gripper_loads[i];
     if (!(load.mass >= 0.0 && load.mass <= 100.0) || !load.position.allFinite()) {
@@ -542,6 +543,22 @@ void Autopilot::EmitDue(std::vector<link::Message>* out) {
     if (options_.record_flown) RecordFlown();
     next_telemetry_ += options_.telemetry_period;
     if (next_telemetry_ <= now) next_telemetry_ = now + options_.telemetry_period;
+  }
+  TargetSample sample;
+  if (options_.target && options_.target->MeasurementDue(now, &sample)) {
+    link::LandingTarget target;
+    target.time_usec = static_cast<uint64_t>(std::llround(now * 1e6));
+    target.target_num = options_.target->options().target_num;
+    target.frame = link::mav::kFrameLocalNed;
+    const Vec3 ned = link::EnuToNed(sample.measured_position);
+    target.x = static_cast<float>(ned.x());
+    target.y = static_cast<float>(ned.y());
+    target.z = static_cast<float>(ned.z());
+    const Quat q = link::AttitudeEnuFluToNedFrd(Quat(Eigen::AngleAxisd(sample.measured_yaw, Vec3::UnitZ())));
+    target.q = {static_cast<float>(q.w()), static_cast<float>(q.x()), static_cast<float>(q.y()),
+                static_cast<float>(q.z())};
+    target.position_valid = 1;
+    out->push_back(target);
   }
 }
 

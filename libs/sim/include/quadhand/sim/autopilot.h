@@ -27,7 +27,8 @@
 // - Sends HEARTBEAT every `heartbeat_period` and LOCAL_POSITION_NED,
 //   ATTITUDE_QUATERNION and DEBUG_FLOAT_ARRAY "JOINTS" and "JOINT_GOAL"
 //   (the angle each servo is commanded to, as a servo's goal-position
-//   register reads) every `telemetry_period` of simulated time.
+//   register reads) every `telemetry_period` of simulated time; with a
+//   moving target (AutopilotOptions::target), LANDING_TARGET at its rate.
 //
 // Frames: MAVLink's local NED frame is the simulator's ENU world with axes
 // swapped (same origin); attitudes are FRD -> NED (link/frames.h).
@@ -36,6 +37,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,6 +45,7 @@
 #include "quadhand/link/messages.h"
 #include "quadhand/sim/plan_io.h"
 #include "quadhand/sim/simulator.h"
+#include "quadhand/sim/target.h"
 
 namespace quadhand::sim {
 
@@ -84,6 +87,10 @@ struct AutopilotOptions {
   // LoadTaskGripperLoads); a grab beyond them closes on nothing. A first load
   // held at the start is attached from the start.
   std::vector<GripperLoad> gripper_loads;
+  // A moving target the vehicle sees: its measurements are sent as
+  // LANDING_TARGET (frame MAV_FRAME_LOCAL_NED, position_valid 1, q its
+  // turn about the vertical since t = 0) every 1/rate s of simulated time.
+  std::optional<SimTarget> target;
 
   bool IsValid(std::string* why) const;
 };

@@ -1,4 +1,4 @@
-#include "quadhand/planner/target_motion.h"
+#include "quadhand/traj/target_motion.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -8,7 +8,7 @@
 
 #include "quadhand/core/text.h"
 
-namespace quadhand::planner {
+namespace quadhand::traj {
 namespace {
 
 // J r: the cross product of world z with r.
@@ -208,4 +208,4 @@ core::Result<std::vector<TargetPathSample>> ParseTargetPath(const std::string& t
   return path;
 }
 
-}  // namespace quadhand::planner
+}  // namespace quadhand::traj
