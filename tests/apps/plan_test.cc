@@ -972,6 +972,10 @@ TEST_F(PlanCliTest, RefusesABadMovingTargetAndSaysWhereOneIsNotFollowedYet) {
   std::ofstream(task, std::ios::trunc) << testing::BundledTaskText(
       "moving_cup.yaml", {{"      moving_points:", "      moving_points: {min: [0, 0, 0], max: [-1, 1, 1]}"}});
   ExpectBadInput(task, "moving.yaml: goal.tool.motion.moving_points: not a box");
+  // A target that rises out of the scene before the robot can get there.
+  std::ofstream(task, std::ios::trunc) << testing::BundledTaskText(
+      "moving_cup.yaml", {{"      velocity:", "      velocity: [0, 0, 0.5]"}});
+  ExpectBadInput(task, "moving.yaml: goal.tool.motion: the target as it is at ");
 
   std::ofstream(task, std::ios::trunc) << testing::BundledTaskText("moving_cup.yaml");
   const auto online = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-online " + task + " --dry-run");

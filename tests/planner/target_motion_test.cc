@@ -152,6 +152,8 @@ TEST(MovingTargetTaskTest, EachBadMotionIsNamedByItsKey) {
       {MovingTask("{velocity: [0.3, 0, 0], spin: 1}"), "task.yaml: goal.tool.motion.spin: unknown key"},
       {MovingTask("{velocity: [0.3, 0, 0]}", "    max_relative_speed: -1\n"),
        "task.yaml: goal.tool.max_relative_speed: must be a positive speed"},
+      {MovingTask("{velocity: [0.3, 0, 0], yaw_rate: -3}"),
+       "task.yaml: goal.tool.motion.yaw_rate: the target turns at 3.000 rad/s, above limits.yaw_rate_max (1.500 rad/s)"},
   };
   for (const Case& c : cases) {
     auto task = ParseTaskText(c.text, "task.yaml", dir, TaskSources{});

@@ -597,10 +597,22 @@ core::Result<bool> ResolveMovingGoal(const PlanningScene& scene, const Task& tas
     result->terminal = found->state;
     result->terminal.yaw = task.start.yaw + std::remainder(result->terminal.yaw - task.start.yaw, 2.0 * M_PI);
     result->insertion = MovedInsertion(insertion_at_zero, motion, arrival);
-    QUADHAND_RETURN_IF_ERROR(CheckEndPoints(scene, task, result->terminal, options));
+    // Errors about the end state or the path there are about the target
+    // where it is at the arrival: they say so, naming the file once.
+    const std::string at_arrival =
+        core::Format("goal.tool.motion: the target as it is at %.2f s (the arrival aimed at): ", arrival);
+    auto about_arrival = [&](const core::Status& status) {
+      std::string message = status.message();
+      if (message.rfind(task.file + ": ", 0) == 0) message.erase(0, task.file.size() + 2);
+      return core::Status::InvalidArgument(task.file + ": " + at_arrival + message);
+    };
+    if (core::Status s = CheckEndPoints(scene, task, result->terminal, options); !s.ok()) return about_arrival(s);
     auto path = FindFrontEndPath(scene, task, result);
-    if (!path.ok()) return path.status();
-    if (!*path) return false;
+    if (!path.ok()) return about_arrival(path.status());
+    if (!*path) {
+      result->message = at_arrival + result->message;
+      return false;
+    }
     std::vector<Vec3> corners = result->path.shortcut;
     if (result->insertion.enabled) corners.push_back(result->terminal.position);
     auto guess = GuessFromPath(robot, task, options, corners, *result);

@@ -555,6 +555,13 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
                      core::Format("the target moves at %.3f m/s, above limits.v_max (%.3f m/s)", speed,
                                   task.limits.v_max));
     }
+    // The terminal state turns with the target.
+    const double turn = moving.motion.MaxYawRate(horizon);
+    if (turn > task.limits.yaw_rate_max) {
+      return r.Error(moving.path_file.empty() ? "goal.tool.motion.yaw_rate" : "goal.tool.motion.file",
+                     core::Format("the target turns at %.3f rad/s, above limits.yaw_rate_max (%.3f rad/s)", turn,
+                                  task.limits.yaw_rate_max));
+    }
   }
   if (const YAML::Node tool_link = root["tool_link"]) {
     if (!tool_link.IsScalar() || tool_link.Scalar().empty()) return r.Error("tool_link", "expected a link name");

@@ -129,6 +129,16 @@ double TargetMotion::MaxSpeed(double radius, double horizon) const {
   return fastest;
 }
 
+double TargetMotion::MaxYawRate(double horizon) const {
+  if (!sampled()) return std::abs(yaw_rate_);
+  double fastest = 0.0;
+  for (size_t k = 0; k + 1 < path_.size(); ++k) {
+    if (path_[k].t > std::max(0.0, horizon) || path_[k + 1].t < 0.0) continue;
+    fastest = std::max(fastest, std::abs(path_[k + 1].yaw - path_[k].yaw) / (path_[k + 1].t - path_[k].t));
+  }
+  return fastest;
+}
+
 core::Result<std::vector<TargetPathSample>> ParseTargetPath(const std::string& text, const std::string& source) {
   auto error = [&source](int line, const std::string& problem) {
     return core::Status::InvalidArgument(source + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " +

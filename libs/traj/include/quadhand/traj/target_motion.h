@@ -54,6 +54,8 @@ class TargetMotion {
   // reaches over [0, horizon] (m/s): what the certificate adds for the
   // moving points.
   double MaxSpeed(double radius, double horizon) const;
+  // The fastest turn over [0, horizon] (rad/s, absolute).
+  double MaxYawRate(double horizon) const;
 
   bool sampled() const { return !path_.empty(); }
 
