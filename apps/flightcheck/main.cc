@@ -111,6 +111,16 @@ int main(int argc, char** argv) {
     }
     gripper = replay->held_step() >= 0 ? 1 : 0;
   }
+  // A moving target is judged where the record has it (its target_*
+  // columns: the simulator's true pose, a plan's prediction), else where
+  // the task's motion puts it at the row's time.
+  const planner::MovingScene* moving = ctx.moving_scene();
+  const bool record_has_target = !flown->rows.empty() && flown->rows.front().target.has_value();
+  Pose task_target = Pose::Identity();
+  if (ctx.task().tool) task_target = MakePose(ctx.task().tool->position, ctx.task().tool->orientation.toRotationMatrix());
+  auto displacement_at = [&](const sim::PlanRow& row) {
+    return row.target ? Pose(*row.target * task_target.inverse()) : moving->motion->Displacement(row.t);
+  };
   robot::KinematicsState kinematics;
   double least = 1e300, least_time = std::nan(""), gap = 0.0, gap_time = std::nan(""), last_time = 0.0;
   double least_object = std::numeric_limits<double>::infinity(), least_object_time = std::nan("");
@@ -149,9 +159,9 @@ int main(int argc, char** argv) {
       robot::ComputeKinematics(robot, base, row.joints, &kinematics);
       d = env::WholeBodyClearance(kinematics, ctx.exact(), 1.0, {}, &link);
       // A moving target's points, where they are at the row's time.
-      if (const planner::MovingScene* moving = ctx.moving_scene(); moving != nullptr && moving->has_points()) {
+      if (moving != nullptr && moving->has_points()) {
         int moving_link = -1;
-        const double m = env::WholeBodyClearance(planner::InTargetFrameAtZero(kinematics, *moving->motion, row.t),
+        const double m = env::WholeBodyClearance(planner::InTargetFrameAtZero(kinematics, displacement_at(row)),
                                                  *moving->exact, 1.0, {}, &moving_link);
         if (m < d) {
           d = m;
@@ -173,9 +183,7 @@ int main(int argc, char** argv) {
   const int tool = robot.LinkIndex(ctx.task().tool_link);
   if (ctx.task().tool && tool >= 0) {
     // A moving target is judged where it is at the last row's time.
-    const Vec3 goal = ctx.task().tool->moving ? ctx.task().tool->moving->motion.Displacement(last->t) *
-                                                    ctx.task().tool->position
-                                              : ctx.task().tool->position;
+    const Vec3 goal = moving != nullptr ? displacement_at(*last) * ctx.task().tool->position : ctx.task().tool->position;
     tool_error = (kinematics.link_poses[tool].translation() - goal).norm();
   }
   if (ctx.task().terminal) base_error = (last->position - ctx.task().terminal->position).norm();
@@ -192,12 +200,13 @@ int main(int argc, char** argv) {
     std::printf("{\"kept\": %s, \"seen\": %s, \"min_clearance\": %.6f, \"link\": \"%s\", \"t\": %.4f, "
                 "\"required\": %.6f, \"rows\": %ld, \"max_gap\": %.4f, \"max_gap_t\": %.4f, \"tool_error\": %.6f, "
                 "\"base_error\": %.6f, \"gripper_events\": %d, \"held_object_min_clearance\": %s, "
-                "\"held_object_t\": %.4f}\n",
+                "\"held_object_t\": %.4f, \"moving_target\": %s}\n",
                 kept ? "true" : "false", seen ? "true" : "false", least, closest.c_str(), least_time, required, judged,
                 gap, std::isnan(gap_time) ? 0.0 : gap_time, std::isnan(tool_error) ? -1.0 : tool_error,
                 std::isnan(base_error) ? -1.0 : base_error, gripper_events,
                 held ? core::Format("%.6f", least_object).c_str() : "null",
-                std::isnan(least_object_time) ? 0.0 : least_object_time);
+                std::isnan(least_object_time) ? 0.0 : least_object_time,
+                moving == nullptr ? "null" : record_has_target ? "\"record\"" : "\"task\"");
   } else {
     std::printf("%s: min exact clearance %.4f m (link %s, t = %.2f s); required %.4f m (safety distance %.4f m "
                 "less %.4f m)\n",
@@ -205,6 +214,11 @@ int main(int argc, char** argv) {
                 least_time, required, ctx.task().safety_distance, tolerance);
     std::printf("  %ld rows judged, longest gap %.3f s%s; final tool error %.4f m, base %.4f m from the goal\n", judged,
                 gap, seen ? "" : " (over --max-gap)", tool_error, base_error);
+    if (moving != nullptr) {
+      std::printf("  moving target: judged where %s\n",
+                  record_has_target ? "the record has it (its target_* columns)"
+                                    : "the task's motion puts it (the record has no target_* columns)");
+    }
     if (replay) {
       std::printf("  mission: %d gripper events; held object: %s\n", gripper_events,
                   held ? core::Format("min exact clearance %.4f m (t = %.2f s; it must stay out of the scene, "

@@ -232,7 +232,7 @@ int main(int argc, char** argv) {
       if (std::string why; !target_options.IsValid(&why)) return Fail("--target-*: " + why);
       auto target = sim::LoadTaskTarget(start_task);
       if (!target.ok()) return Fail(target.status().message());
-      autopilot_options.target.emplace(target->position, target->motion, target_options);
+      autopilot_options.target.emplace(target->pose, target->motion, target_options);
     } else if (app.count("--target-noise") + app.count("--target-yaw-noise") + app.count("--target-walk") > 0) {
       return Fail("--target-noise, --target-yaw-noise and --target-walk need --target-rate");
     }

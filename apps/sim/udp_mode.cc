@@ -85,7 +85,7 @@ int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const st
   auto flush_log = [&]() {
     if (!flown_log) return;
     std::string text =
-        flown_written == 0 ? sim::PlanCsvHeader(joint_names, autopilot.records_gripper()) + "\n" : std::string();
+        flown_written == 0 ? sim::PlanCsvHeader(joint_names, autopilot.records_gripper(), autopilot.records_target()) + "\n" : std::string();
     const std::vector<sim::PlanRow>& rows = autopilot.flown();
     for (; flown_written < rows.size(); ++flown_written) text += sim::PlanCsvRow(rows[flown_written]) + "\n";
     flown_log->Append(text);

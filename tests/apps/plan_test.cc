@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "quadhand/core/text.h"
 #include "quadhand/scene/point_cloud.h"
 #include "support/run_command.h"
 #include "support/window_cup_task.h"
@@ -959,6 +960,31 @@ TEST_F(PlanCliTest, FlightcheckMeasuresMovingPointsWhereTheyAreAtEachRow) {
     EXPECT_EQ(r.exit_code, still ? 0 : 6) << velocity << "\n" << r.out << r.err;
     EXPECT_NE(r.out.find(still ? "kept its clearance" : "CLEARANCE LOST"), std::string::npos) << r.out;
   }
+  // A record's own target_* columns win over the task's motion: the moving
+  // cup's plan, with its cup written 15 cm higher in every row, comes into
+  // the gripper.
+  const std::string task = (dir_ / "moving_cup.yaml").string(), moving_out = (dir_ / "moving.csv").string();
+  std::ofstream(task) << testing::BundledTaskText("moving_cup.yaml");
+  ASSERT_EQ(RunCommand(kPlan + " " + task + " --out " + moving_out + " --report " + (dir_ / "m.json").string())
+                .exit_code, 0);
+  EXPECT_EQ(RunCommand(check + task + " " + moving_out).exit_code, 0);
+  const PlanColumnsAndRows plan = ReadPlanFile(moving_out);
+  const size_t tz = plan.Column("target_z");
+  ASSERT_LT(tz, plan.names.size());
+  std::string raised;
+  for (size_t c = 0; c < plan.names.size(); ++c) raised += (c > 0 ? "," : "") + plan.names[c];
+  raised += "\n";
+  for (const std::vector<double>& row : plan.rows) {
+    for (size_t c = 0; c < row.size(); ++c) {
+      raised += (c > 0 ? "," : "") + core::Format("%.10g", c == tz ? row[c] + 0.15 : row[c]);
+    }
+    raised += "\n";
+  }
+  const std::string raised_path = (dir_ / "raised.csv").string();
+  std::ofstream(raised_path) << raised;
+  const auto lost = RunCommand(check + task + " " + raised_path);
+  EXPECT_EQ(lost.exit_code, 6) << lost.out << lost.err;
+  EXPECT_NE(lost.out.find("judged where the record has it"), std::string::npos) << lost.out;
 }
 
 // Bad moving targets are refused before anything is planned, and the

@@ -154,7 +154,8 @@ TEST(TargetTrackerTest, FollowsTheSimulatorsTargetThroughItsLandingTargetMessage
   target_options.seed = 11;
   const Vec3 cup(-3.2, 0.0, 0.86), velocity(0.0, 0.3, 0.0);
   sim::AutopilotOptions options;
-  options.target.emplace(cup, traj::TargetMotion::Constant(cup, velocity, Vec3::Zero(), 0.1), target_options);
+  options.target.emplace(MakePose(cup, Mat3::Identity()), traj::TargetMotion::Constant(cup, velocity, Vec3::Zero(), 0.1),
+                         target_options);
   auto autopilot = sim::Autopilot::Create(sim::Simulator(testing::VehicleModel(), 3), sim::StartPose{}, options);
   ASSERT_TRUE(autopilot.ok()) << autopilot.status().message();
   TargetTracker tracker;

@@ -479,7 +479,8 @@ TEST(SimTargetTest, MeasuresTheMovingTargetAtItsRateWithItsNoise) {
   options.noise = 0.01;
   options.seed = 5;
   const Vec3 start(1.0, 2.0, 0.8), velocity(0.2, -0.1, 0.0);
-  SimTarget target(start, traj::TargetMotion::Constant(start, velocity, Vec3::Zero(), 0.0), options);
+  SimTarget target(MakePose(start, Mat3::Identity()), traj::TargetMotion::Constant(start, velocity, Vec3::Zero(), 0.0),
+                   options);
   int count = 0;
   Vec3 mean = Vec3::Zero();
   double squares = 0.0;
@@ -499,7 +500,8 @@ TEST(SimTargetTest, MeasuresTheMovingTargetAtItsRateWithItsNoise) {
 
   // A random walk takes it off its motion, by about walk * t^1.5 / sqrt(3).
   options.random_walk = 0.05;
-  SimTarget walking(start, traj::TargetMotion::Constant(start, velocity, Vec3::Zero(), 0.0), options);
+  SimTarget walking(MakePose(start, Mat3::Identity()), traj::TargetMotion::Constant(start, velocity, Vec3::Zero(), 0.0),
+                    options);
   const double off = (walking.Position(20.0) - (start + velocity * 20.0)).norm();
   EXPECT_GT(off, 0.05);
   EXPECT_LT(off, 5.0);
@@ -508,21 +510,23 @@ TEST(SimTargetTest, MeasuresTheMovingTargetAtItsRateWithItsNoise) {
 TEST(SimTargetTest, ReadsATasksMovingTarget) {
   auto constant = LoadTaskTarget(std::string(QUADHAND_SOURCE_DIR) + "/data/tasks/moving_cup.yaml");
   ASSERT_TRUE(constant.ok()) << constant.status().message();
-  EXPECT_TRUE(constant->position.isApprox(Vec3(-3.2, 0.0, 0.86)));
-  EXPECT_TRUE((constant->motion.Displacement(2.0) * constant->position).isApprox(Vec3(-3.2, 0.3, 0.86)));
+  EXPECT_TRUE(constant->pose.translation().isApprox(Vec3(-3.2, 0.0, 0.86)));
+  EXPECT_TRUE((constant->motion.Displacement(2.0) * constant->pose.translation()).isApprox(Vec3(-3.2, 0.3, 0.86)));
 
   const std::string dir = ::testing::TempDir();
   std::ofstream(dir + "/belt.csv") << "t,x,y,z,qw,qx,qy,qz\n0,0,0,1,1,0,0,0\n2,1,0,1,1,0,0,0\n";
-  std::ofstream(dir + "/path_task.yaml") << "goal:\n  tool:\n    position: [0, 0, 1]\n    motion: {file: belt.csv}\n";
+  std::ofstream(dir + "/path_task.yaml")
+      << "goal:\n  tool:\n    position: [0, 0, 1]\n    orientation: [1, 0, 0, 0]\n    motion: {file: belt.csv}\n";
   auto sampled = LoadTaskTarget(dir + "/path_task.yaml");
   ASSERT_TRUE(sampled.ok()) << sampled.status().message();
-  EXPECT_TRUE((sampled->motion.Displacement(1.0) * sampled->position).isApprox(Vec3(0.5, 0, 1)));
+  EXPECT_TRUE((sampled->motion.Displacement(1.0) * sampled->pose.translation()).isApprox(Vec3(0.5, 0, 1)));
 
   std::ofstream(dir + "/still_task.yaml") << "goal:\n  tool:\n    position: [0, 0, 1]\n";
   auto still = LoadTaskTarget(dir + "/still_task.yaml");
   ASSERT_FALSE(still.ok());
   EXPECT_NE(still.status().message().find("still_task.yaml: goal.tool.motion: missing"), std::string::npos);
-  std::ofstream(dir + "/bad_task.yaml") << "goal:\n  tool:\n    position: [0, 0, 1]\n    motion: {velocity: [1, 2]}\n";
+  std::ofstream(dir + "/bad_task.yaml")
+      << "goal:\n  tool:\n    position: [0, 0, 1]\n    orientation: [1, 0, 0, 0]\n    motion: {velocity: [1, 2]}\n";
   auto bad = LoadTaskTarget(dir + "/bad_task.yaml");
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.status().message().find("bad_task.yaml: goal.tool.motion.velocity: expected a list of 3 numbers"),

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -334,6 +335,37 @@ TEST_F(SimUdpTest, RejectsBadUdpOptions) {
                              "--target-yaw-noise", "--target-walk"}) {
     EXPECT_NE(help.out.find(option), std::string::npos) << option;
   }
+}
+
+// With a moving target (--target-rate), the log carries the target's true
+// pose in the target_* columns: the task's tool goal moved with it.
+TEST_F(SimUdpTest, TheLogRecordsTheMovingTargetsTruePose) {
+  const uint16_t port = FreePort();
+  const auto r = RunCommand(kSim + " --config " + kConfig + " --udp udp://127.0.0.1:" + std::to_string(port) +
+                            " --duration 0.5 -q --start-task " + kMovingCup + " --target-rate 30 --log " +
+                            (dir_ / "target.csv").string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::istringstream lines(ReadAll((dir_ / "target.csv").string()));
+  std::string header;
+  std::getline(lines, header);
+  const size_t at = header.find(",target_x,target_y,target_z,target_qw,target_qx,target_qy,target_qz");
+  ASSERT_NE(at, std::string::npos) << header;
+  EXPECT_EQ(at + std::string(",target_x,target_y,target_z,target_qw,target_qx,target_qy,target_qz").size(),
+            header.size());
+  int rows = 0;
+  for (std::string line; std::getline(lines, line);) {
+    std::vector<double> values;
+    std::istringstream cells(line);
+    for (std::string cell; std::getline(cells, cell, ',');) values.push_back(std::stod(cell));
+    const size_t n = values.size();
+    // The cup at 0.15 m/s along y from (-3.2, 0, 0.86), the tool goal's orientation.
+    EXPECT_NEAR(values[n - 7], -3.2, 1e-9);
+    EXPECT_NEAR(values[n - 6], 0.15 * values[0], 1e-9);
+    EXPECT_NEAR(values[n - 5], 0.86, 1e-9);
+    EXPECT_NEAR(std::abs(values[n - 3]), 0.7071068, 1e-6);
+    ++rows;
+  }
+  EXPECT_EQ(rows, 26);
 }
 
 TEST_F(SimUdpTest, RealTimeRunEndsAfterItsDuration) {

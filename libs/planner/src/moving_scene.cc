@@ -87,8 +87,12 @@ InsertionGoal MovedInsertion(const InsertionGoal& at_zero, const TargetMotion& m
 
 robot::KinematicsState InTargetFrameAtZero(const robot::KinematicsState& kinematics, const TargetMotion& motion,
                                            double t) {
+  return InTargetFrameAtZero(kinematics, motion.Displacement(t));
+}
+
+robot::KinematicsState InTargetFrameAtZero(const robot::KinematicsState& kinematics, const Pose& displacement) {
   robot::KinematicsState back = kinematics;
-  const Pose inverse = motion.Displacement(t).inverse();
+  const Pose inverse = displacement.inverse();
   for (Pose& pose : back.link_poses) pose = inverse * pose;
   for (Vec3& axis : back.joint_axes) axis = inverse.linear() * axis;
   for (Vec3& origin : back.joint_origins) origin = inverse * origin;

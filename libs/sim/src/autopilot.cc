@@ -577,6 +577,8 @@ void Autopilot::RecordFlown() {
   // A mission's record says when the gripper held something: the checks
   // of the flight change their scene and robot there.
   if (records_gripper()) row.gripper = gripper_closed_ ? 1 : 0;
+  // The target where it truly is: what the flight is judged against.
+  if (options_.target) row.target = options_.target->PoseAt(row.t);
   flown_.push_back(std::move(row));
 }
 

@@ -13,10 +13,17 @@ double WrapAngle(double a) { return std::remainder(a, 2.0 * M_PI); }
 
 }  // namespace
 
-std::string PlanCsvHeader(const std::vector<std::string>& joint_names, bool gripper_column) {
+const char* const kTargetColumns[] = {"target_x",  "target_y",  "target_z", "target_qw",
+                                      "target_qx", "target_qy", "target_qz"};
+
+std::string PlanCsvHeader(const std::vector<std::string>& joint_names, bool gripper_column, bool target_columns) {
   std::string header;
   for (const std::string& column : io::PlanColumns(joint_names)) header += (header.empty() ? "" : ",") + column;
-  return gripper_column ? header + ",gripper" : header;
+  if (gripper_column) header += ",gripper";
+  if (target_columns) {
+    for (const char* column : kTargetColumns) header += std::string(",") + column;
+  }
+  return header;
 }
 
 std::string PlanCsvRow(const PlanRow& r) {
@@ -34,24 +41,41 @@ std::string PlanCsvRow(const PlanRow& r) {
   for (int i = 0; i < r.joints.size(); ++i) io::AppendCsvNumber(&out, r.joints[i]);
   for (int i = 0; i < r.joint_rates.size(); ++i) io::AppendCsvNumber(&out, r.joint_rates[i]);
   if (r.gripper >= 0) io::AppendCsvNumber(&out, r.gripper);
+  if (r.target) {
+    const Quat q(r.target->linear());
+    for (int i = 0; i < 3; ++i) io::AppendCsvNumber(&out, r.target->translation()[i]);
+    for (double v : {q.w(), q.x(), q.y(), q.z()}) io::AppendCsvNumber(&out, v);
+  }
   return out;
 }
 
 std::string WritePlanCsv(const Plan& plan) {
   const bool gripper = !plan.rows.empty() && plan.rows.front().gripper >= 0;
-  std::string out = PlanCsvHeader(plan.joint_names, gripper) + "\n";
+  const bool target = !plan.rows.empty() && plan.rows.front().target.has_value();
+  std::string out = PlanCsvHeader(plan.joint_names, gripper, target) + "\n";
   for (const PlanRow& row : plan.rows) out += PlanCsvRow(row) + "\n";
   return out;
 }
 
 core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::string>& joint_names,
                                 const std::string& source) {
-  auto table = io::ParsePlanFile(text, joint_names, source, {"gripper"});
+  std::vector<std::string> optional = {"gripper"};
+  optional.insert(optional.end(), std::begin(kTargetColumns), std::end(kTargetColumns));
+  auto table = io::ParsePlanFile(text, joint_names, source, optional);
   if (!table.ok()) return table.status();
   Plan plan;
   plan.joint_names = joint_names;
   const int n = static_cast<int>(joint_names.size());
-  const bool has_gripper = table->columns.back() == "gripper";
+  auto column = [&table](const std::string& name) {
+    const auto found = std::find(table->columns.begin(), table->columns.end(), name);
+    return found == table->columns.end() ? -1 : static_cast<int>(found - table->columns.begin());
+  };
+  const int gripper_column = column("gripper");
+  const bool has_gripper = gripper_column >= 0;
+  int target_column = column(kTargetColumns[0]);
+  for (int k = 1; k < 7 && target_column >= 0; ++k) {
+    if (column(kTargetColumns[k]) != target_column + k) target_column = -1;  // all seven, in order, or none
+  }
   for (Eigen::Index i = 0; i < table->values.rows(); ++i) {
     const auto v = table->values.row(i);
     PlanRow r;
@@ -64,8 +88,17 @@ core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::
     r.yaw_rate = v[15];
     r.joints = v.segment(16, n).transpose();
     r.joint_rates = v.segment(16 + n, n).transpose();
+    if (target_column >= 0) {
+      const Quat q(v[target_column + 3], v[target_column + 4], v[target_column + 5], v[target_column + 6]);
+      if (std::abs(q.norm() - 1.0) > 1e-3) {
+        return core::Status::InvalidArgument(source + ": row " + std::to_string(i + 1) +
+                                             ": target_qw..target_qz: not a unit quaternion");
+      }
+      r.target = MakePose(Vec3(v[target_column], v[target_column + 1], v[target_column + 2]),
+                          q.normalized().toRotationMatrix());
+    }
     if (has_gripper) {
-      const double g = v[16 + 2 * n];
+      const double g = v[gripper_column];
       if (g != 0.0 && g != 1.0) {
         return core::Status::InvalidArgument(source + ": row " + std::to_string(i + 1) +
                                              ": column 'gripper': must be 0 (open) or 1 (closed)");

@@ -41,8 +41,8 @@ bool SimTargetOptions::IsValid(std::string* why) const {
   return true;
 }
 
-SimTarget::SimTarget(const Vec3& position, traj::TargetMotion motion, const SimTargetOptions& options)
-    : position_(position), motion_(std::move(motion)), options_(options), rng_(options.seed) {}
+SimTarget::SimTarget(const Pose& pose, traj::TargetMotion motion, const SimTargetOptions& options)
+    : pose_(pose), motion_(std::move(motion)), options_(options), rng_(options.seed) {}
 
 void SimTarget::AdvanceWalk(double t) {
   if (options_.random_walk <= 0.0) return;
@@ -57,7 +57,11 @@ void SimTarget::AdvanceWalk(double t) {
 
 Vec3 SimTarget::Position(double t) {
   AdvanceWalk(t);
-  return motion_.Displacement(t) * position_ + walk_offset_;
+  return motion_.Displacement(t) * pose_.translation() + walk_offset_;
+}
+
+Pose SimTarget::PoseAt(double t) {
+  return MakePose(Position(t), Eigen::AngleAxisd(Yaw(t), Vec3::UnitZ()).toRotationMatrix() * pose_.linear());
 }
 
 bool SimTarget::MeasurementDue(double t, TargetSample* sample) {
@@ -94,7 +98,14 @@ core::Result<TaskTarget> LoadTaskTarget(const std::string& task_path) {
   TaskTarget target;
   const auto position = Numbers(tool["position"]);
   if (!position || position->size() != 3) return fail("goal.tool.position", "expected a list of 3 numbers");
-  target.position = Vec3((*position)[0], (*position)[1], (*position)[2]);
+  const auto q = Numbers(tool["orientation"]);
+  if (!q || q->size() != 4 ||
+      std::abs(std::sqrt((*q)[0] * (*q)[0] + (*q)[1] * (*q)[1] + (*q)[2] * (*q)[2] + (*q)[3] * (*q)[3]) - 1.0) > 1e-3) {
+    return fail("goal.tool.orientation", "expected a unit quaternion [w, x, y, z]");
+  }
+  target.pose = MakePose(Vec3((*position)[0], (*position)[1], (*position)[2]),
+                         Quat((*q)[0], (*q)[1], (*q)[2], (*q)[3]).normalized().toRotationMatrix());
+  const Vec3 origin = target.pose.translation();
   if (const YAML::Node file = motion["file"]) {
     if (!file.IsScalar()) return fail("goal.tool.motion.file", "expected a path");
     const std::string path = core::ResolvePath(core::DirectoryOf(task_path), file.as<std::string>());
@@ -118,7 +129,7 @@ core::Result<TaskTarget> LoadTaskTarget(const std::string& task_path) {
                              !YAML::convert<double>::decode(motion["yaw_rate"], yaw_rate) || !std::isfinite(yaw_rate))) {
     return fail("goal.tool.motion.yaw_rate", "expected a number");
   }
-  target.motion = traj::TargetMotion::Constant(target.position, Vec3((*velocity)[0], (*velocity)[1], (*velocity)[2]),
+  target.motion = traj::TargetMotion::Constant(origin, Vec3((*velocity)[0], (*velocity)[1], (*velocity)[2]),
                                                acceleration, yaw_rate);
   return target;
 }

@@ -81,5 +81,7 @@ InsertionGoal MovedInsertion(const InsertionGoal& at_zero, const TargetMotion& m
 // inverse of Displacement(t), as the moving points' models see the robot.
 robot::KinematicsState InTargetFrameAtZero(const robot::KinematicsState& kinematics, const TargetMotion& motion,
                                            double t);
+// The same for a displacement given (one a record measured).
+robot::KinematicsState InTargetFrameAtZero(const robot::KinematicsState& kinematics, const Pose& displacement);
 
 }  // namespace quadhand::planner

@@ -147,9 +147,12 @@ class Autopilot {
   Setpoint CurrentSetpoint() const;
   // Flown states at the telemetry times (record_flown), in the plan columns,
   // with the gripper (0 open, 1 closed) when records_gripper(): a mission's
-  // grasps were given (gripper_loads).
+  // grasps were given (gripper_loads), and the moving target's true pose
+  // when records_target().
   const std::vector<PlanRow>& flown() const { return flown_; }
   bool records_gripper() const { return !options_.gripper_loads.empty(); }
+  // With a moving target, flown() rows carry its true pose (PlanRow::target).
+  bool records_target() const { return options_.target.has_value(); }
   uint64_t setpoints_received() const { return setpoints_received_; }
   uint64_t setpoints_rejected() const { return setpoints_rejected_; }
   // The gripper: closed (holding its load, if any) and the grabs so far.

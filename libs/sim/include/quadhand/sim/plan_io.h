@@ -4,6 +4,7 @@
 // are found by name; extra columns are ignored.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,10 @@ struct PlanRow {
   // The `gripper` column of a mission's plan or flown record (0 open, 1
   // closed); -1 where the file has none.
   int gripper = -1;
+  // The `target_*` columns of a moving target's plan or flown record
+  // (contracts.md 0.3): the target's pose then - the tool goal's pose moved
+  // with the target (docs/moving_targets.md); none where the file has none.
+  std::optional<Pose> target;
 };
 
 struct Plan {
@@ -39,7 +44,9 @@ struct Plan {
 // Parses a plan; `source` (the file name) starts every error message.
 // Errors: missing columns, rows of the wrong width, non-numbers or non-finite
 // values (with their line), time not strictly increasing, fewer than 2 rows,
-// a `gripper` column (read when there is one) holding other than 0 or 1.
+// a `gripper` column (read when there is one) holding other than 0 or 1,
+// target_* columns (read when all seven are there) whose quaternion is not
+// of unit length (1e-3).
 core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::string>& joint_names,
                                 const std::string& source);
 core::Result<Plan> LoadPlanCsv(const std::string& path, const std::vector<std::string>& joint_names);
@@ -50,10 +57,12 @@ core::Result<Plan> LoadPlanCsv(const std::string& path, const std::vector<std::s
 Setpoint SamplePlan(const Plan& plan, double t);
 
 // The header line (without newline) of a plan file for these joints, with
-// the `gripper` column after the joint rates when asked.
-std::string PlanCsvHeader(const std::vector<std::string>& joint_names, bool gripper_column = false);
+// the `gripper` column after the joint rates and then the target's columns
+// when asked.
+std::string PlanCsvHeader(const std::vector<std::string>& joint_names, bool gripper_column = false,
+                          bool target_columns = false);
 // One row of numbers in the plan columns' order (no newline, >= 10
-// significant digits), then the gripper when the row has one.
+// significant digits), then the gripper and the target when the row has them.
 std::string PlanCsvRow(const PlanRow& row);
 // A whole plan file.
 std::string WritePlanCsv(const Plan& plan);

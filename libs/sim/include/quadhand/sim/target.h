@@ -41,14 +41,17 @@ struct TargetSample {
 
 class SimTarget {
  public:
-  // The target's position at t = 0 and how it moves from there.
-  SimTarget(const Vec3& position, traj::TargetMotion motion, const SimTargetOptions& options);
+  // The target's pose at t = 0 (the task's tool goal) and how it moves from
+  // there.
+  SimTarget(const Pose& pose, traj::TargetMotion motion, const SimTargetOptions& options);
 
   // The true pose at simulated time t (advancing the random walk up to t:
   // times must not decrease between calls). The heading is the target's
   // turn about world z since t = 0 (its pose in the task is heading 0).
   Vec3 Position(double t);
   double Yaw(double t) const { return motion_.Yaw(t); }
+  // The true pose: the pose at t = 0 turned by Yaw(t), at Position(t).
+  Pose PoseAt(double t);
   // The measurement due at or before t, if one is (then the next is due
   // 1/rate later).
   bool MeasurementDue(double t, TargetSample* sample);
@@ -58,7 +61,7 @@ class SimTarget {
  private:
   void AdvanceWalk(double t);
 
-  Vec3 position_;
+  Pose pose_;
   traj::TargetMotion motion_;
   SimTargetOptions options_;
   std::mt19937_64 rng_;
@@ -69,12 +72,12 @@ class SimTarget {
 };
 
 // A task file's moving target (contracts.md 0.3): goal.tool.position and
-// goal.tool.motion (a constant motion, or a path file resolved against the
-// task's folder).
+// orientation (its pose at t = 0) and goal.tool.motion (a constant motion,
+// or a path file resolved against the task's folder).
 // Read with yaml-cpp, as LoadTaskStartPose reads the start. Errors name the
 // file and the key; a task whose goal has no motion is an error too.
 struct TaskTarget {
-  Vec3 position = Vec3::Zero();
+  Pose pose = Pose::Identity();
   traj::TargetMotion motion;
 };
 core::Result<TaskTarget> LoadTaskTarget(const std::string& task_path);
