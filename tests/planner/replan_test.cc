@@ -3,8 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <limits>
 
+#include "quadhand/env/mrc_sdf_model.h"
+#include "quadhand/planner/moving_scene.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/solvers/lbfgs_solver.h"
 #include "support/window_cup_plan.h"
@@ -569,6 +573,128 @@ TEST(ReplanTest, ReplansTheWholeRemainderWhereTheKeptPartIsNotCertified) {
   EXPECT_TRUE(whole->success) << whole->message;
   EXPECT_LT(whole->rejoined_at, 0.0);
   EXPECT_EQ(whole->trajectory->duration() > 0.0, true);
+}
+
+// The default scene split as a moving target's task splits it: the cup and
+// its pedestal (data/tasks/moving_cup.yaml's box) move, the rest stands.
+struct MovingCupScene {
+  std::vector<Vec3> still, cup;
+  std::unique_ptr<env::MrcSdfModel> still_model;
+  std::unique_ptr<env::ExactMeshModel> still_exact;
+  std::unique_ptr<FrontEndMap> front_end;
+  Task task;
+
+  // The moving part for a motion, its points placed by `placement` (as
+  // PlanningContext::MovingSceneFor makes it).
+  struct Part {
+    TargetMotion motion;
+    std::unique_ptr<env::MrcSdfModel> model;
+    std::unique_ptr<env::ExactMeshModel> exact;
+    MovingScene scene;
+  };
+  std::unique_ptr<Part> MakePart(const TargetMotion& motion, const Pose& placement) const {
+    const auto& fx = quadhand::testing::CoarseQuadHand();
+    auto part = std::make_unique<Part>();
+    part->motion = motion;
+    std::vector<Vec3> placed;
+    for (const Vec3& p : cup) placed.push_back(placement * p);
+    part->model = std::move(*env::MrcSdfModel::Create(fx.links, fx.grids, placed));
+    part->exact = std::move(*env::ExactMeshModel::Create(fx.robot, placed));
+    part->scene.motion = &part->motion;
+    part->scene.collision = part->model.get();
+    part->scene.exact = part->exact.get();
+    const Vec3 center = motion.Center(0.0);
+    for (const Vec3& p : placed) part->scene.radius = std::max(part->scene.radius, (p - center).head<2>().norm());
+    part->scene.target_at_zero = placement * MakePose(task.tool->position, task.tool->orientation.toRotationMatrix());
+    return part;
+  }
+  PlanningScene Scene(const Part& part) const {
+    PlanningScene scene{WindowCup().robot(), *still_model, *still_exact, *front_end};
+    scene.moving = &part.scene;
+    return scene;
+  }
+};
+
+const MovingCupScene& MovingCup() {
+  static const MovingCupScene scene = [] {
+    const auto& fx = quadhand::testing::CoarseQuadHand();
+    MovingCupScene s;
+    const TargetBox box{Vec3(-3.36, -0.16, 0.49), Vec3(-3.04, 0.16, 0.91)};
+    for (const Vec3& p : WindowCup().points) (box.Contains(p) ? s.cup : s.still).push_back(p);
+    s.still_model = std::move(*env::MrcSdfModel::Create(fx.links, fx.grids, s.still));
+    s.still_exact = std::move(*env::ExactMeshModel::Create(fx.robot, s.still));
+    s.task = WindowCup().task;
+    s.task.terminal.reset();  // the terminal state is the planner's to find
+    MovingTarget moving;
+    moving.motion = TargetMotion::Constant(s.task.tool->position, Vec3(0.0, 0.15, 0.0), Vec3::Zero(), 0.0);
+    moving.moving_box = box;
+    s.task.tool->moving = moving;
+    // The front end's map covers where the cup goes.
+    std::vector<Vec3> contain = {s.task.start.position, s.task.tool->position + Vec3(0.0, 1.5, 0.5),
+                                 s.task.tool->position - Vec3(0.5, 0.5, 0.0)};
+    s.front_end = std::make_unique<FrontEndMap>(std::move(*FrontEndMap::Build(s.still, FrontEndOptions{}, contain)));
+    return s;
+  }();
+  return scene;
+}
+
+// The tool's distance at the plan's end from the target's pose there.
+double ToolToTarget(const PlanResult& plan, const MovingScene& moving, const Pose& target_at_zero) {
+  const WholeBodySample end = plan.trajectory->Sample(plan.trajectory->duration());
+  const Vec3 tool = robot::LinkPose(WindowCup().robot(), end.BasePose(), end.joints,
+                                    WindowCup().robot().LinkIndex("tool"))
+                        .translation();
+  return (tool - moving.motion->Displacement(plan.trajectory->duration()) * target_at_zero.translation()).norm();
+}
+
+// The cup is measured moving faster than first predicted: a replan from the
+// flown state against the new prediction, warm-started from the current
+// plan, meets the cup where the new prediction has it, certified.
+TEST(ReplanTest, AMovingTargetIsMetWhereItsNewPredictionHasIt) {
+  const MovingCupScene& world = MovingCup();
+  solvers::LbfgsSolver solver;
+  const auto first = world.MakePart(world.task.tool->moving->motion, Pose::Identity());
+  auto plan = Plan(world.Scene(*first), world.task, DefaultPlannerOptions(), solver);
+  ASSERT_TRUE(plan.ok()) << plan.status().message();
+  ASSERT_TRUE(plan->success) << plan->message;
+  ASSERT_TRUE(plan->moving_target);
+  EXPECT_LT(ToolToTarget(*plan, first->scene, first->scene.target_at_zero), 0.002);
+
+  std::vector<double> replan_ms;
+  for (double t_from : {1.0, 2.0, 3.0, 4.0}) {
+    SCOPED_TRACE(t_from);
+    // The new prediction at t_from: the cup where the old one had it then,
+    // now at 0.25 m/s, its clock starting at t_from.
+    const Pose moved = first->motion.Displacement(t_from);
+    const TargetMotion faster =
+        TargetMotion::Constant(moved * world.task.tool->position, Vec3(0.0, 0.25, 0.0), Vec3::Zero(), 0.0);
+    const auto next = world.MakePart(faster, moved);
+    const BoundaryState start = StateOnPlan(*plan->trajectory, t_from);
+    const auto begin = std::chrono::steady_clock::now();
+    auto replanned = Replan(world.Scene(*next), world.task, DefaultPlannerOptions(), DefaultReplanOptions(), solver,
+                            *plan, t_from, start);
+    replan_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
+    ASSERT_TRUE(replanned.ok()) << replanned.status().message();
+    ASSERT_TRUE(replanned->success) << replanned->message;
+    EXPECT_TRUE(replanned->post_check.certified);
+    EXPECT_LT(replanned->rejoined_at, 0.0);  // nothing kept: the goal moved
+    EXPECT_LT(ToolToTarget(*replanned, next->scene, next->scene.target_at_zero), 0.002);
+    // It starts where the vehicle is.
+    EXPECT_LT((replanned->trajectory->Sample(0.0).position - start.position).norm(), 1e-6);
+    // The cup is farther along than the old prediction had it at the new arrival.
+    const double arrival = replanned->trajectory->duration();
+    EXPECT_GT((faster.Displacement(arrival) * moved * world.task.tool->position).y(),
+              (first->motion.Displacement(t_from + arrival) * world.task.tool->position).y() + 0.05);
+  }
+  std::sort(replan_ms.begin(), replan_ms.end());
+  std::printf("moving-target replans: %.1f, %.1f, %.1f, %.1f ms\n", replan_ms[0], replan_ms[1], replan_ms[2],
+              replan_ms[3]);
+
+  // Without a prediction to plan against it is refused, not planned to a still goal.
+  PlanningScene still{WindowCup().robot(), *world.still_model, *world.still_exact, *world.front_end};
+  EXPECT_FALSE(Replan(still, world.task, DefaultPlannerOptions(), DefaultReplanOptions(), solver, *plan, 2.0,
+                      StateOnPlan(*plan->trajectory, 2.0))
+                   .ok());
 }
 
 }  // namespace

@@ -494,6 +494,7 @@ core::Status TryAlternativeGuesses(const PlanningScene& scene, const Task& task,
     trial.moving_target = result->moving_target;
     trial.terminal_at_zero = result->terminal_at_zero;
     trial.insertion_at_zero = result->insertion_at_zero;
+    trial.target_at_zero = result->target_at_zero;
     trial.path = result->path;
     auto solved = SolveFromPath(scene, task, changed, schedule, corners, &trial);
     if (!solved.ok()) return solved.status();
@@ -624,6 +625,7 @@ core::Result<bool> ResolveMovingGoal(const PlanningScene& scene, const Task& tas
   }
   result->terminal_at_zero = StateAtZero(result->terminal, motion, result->arrival_guess_s);
   result->insertion_at_zero = insertion_at_zero;
+  result->target_at_zero = moving.target_at_zero;
   return true;
 }
 

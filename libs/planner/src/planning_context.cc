@@ -278,6 +278,8 @@ core::Result<std::unique_ptr<MovingSceneModels>> PlanningContext::MovingSceneFor
   for (const Vec3& p : moving_checked_points_) owned->checked_points.push_back(placement * p);
   MovingScene& scene = owned->scene;
   scene.motion = &owned->motion;
+  scene.target_at_zero =
+      placement * MakePose(task_.tool->position, task_.tool->orientation.toRotationMatrix());
   if (!owned->checked_points.empty()) {
     if (!options_.representations.empty()) {
       auto model = MakeRepresentation("mrc_sdf", robot_, task_.sdf_dir, owned->points, options_.representation_options,

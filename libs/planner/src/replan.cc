@@ -311,6 +311,32 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   result.terminal_searched = current.terminal_searched;
   result.terminal_search = current.terminal_search;
   result.insertion = current.insertion;
+  // A moving target: `scene.moving` is the new prediction, its clock
+  // starting at the new plan's start. The grasp (the terminal state and the
+  // insertion relative to the target) is carried from the current plan's
+  // target at its zero to the new one's: a rigid move with a turn about z,
+  // which a hovering state follows exactly.
+  const bool moving = current.moving_target;
+  if (moving) {
+    if (scene.moving == nullptr || !scene.moving->moves()) {
+      return core::Status::InvalidArgument("a plan to a moving target is replanned against a prediction of it "
+                                           "(PlanningScene::moving)");
+    }
+    const Pose carry = scene.moving->target_at_zero * current.target_at_zero.inverse();
+    const double turn = std::atan2(carry.linear()(1, 0), carry.linear()(0, 0));
+    result.moving_target = true;
+    result.target_at_zero = scene.moving->target_at_zero;
+    result.terminal_at_zero = current.terminal_at_zero;
+    result.terminal_at_zero.position = carry * current.terminal_at_zero.position;
+    result.terminal_at_zero.yaw = current.terminal_at_zero.yaw + turn;
+    result.insertion_at_zero = current.insertion_at_zero;
+    if (result.insertion_at_zero.enabled) {
+      result.insertion_at_zero.tool_position = carry * current.insertion_at_zero.tool_position;
+      result.insertion_at_zero.tool_orientation =
+          Quat(carry.linear() * current.insertion_at_zero.tool_orientation.toRotationMatrix());
+      result.insertion_at_zero.direction = carry.linear() * current.insertion_at_zero.direction;
+    }
+  }
 
   InitialGuess guess;
   int first_piece = 0;
@@ -363,7 +389,10 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   // (measured with that rule: docs/online.md).
   checked.resolve_sample_factor = 1;
 
-  if (auto rejoin = FindRejoin(current, task, checked.post_check, guess.durations, t_from, replan.horizon)) {
+  // A moving goal moves the whole remainder's end: nothing of the current
+  // plan can be kept.
+  if (auto rejoin = moving ? std::nullopt
+                           : FindRejoin(current, task, checked.post_check, guess.durations, t_from, replan.horizon)) {
     auto rejoined = SolveRejoining(scene, replan_task, checked, replan, solver, current, guess, *rejoin, &result);
     if (!rejoined.ok()) return rejoined.status();
     if (*rejoined) return result;
@@ -374,8 +403,9 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   result.num_pieces = static_cast<int>(guess.durations.size());
   // Corridors (sfc) along the remaining piece boundaries: there is no front-end path.
   PlanCollision collision;
-  auto built = BuildPlanCollision(scene, {}, replan_task.start.position, guess, result.terminal.position, &collision,
-                                  &result);
+  const Vec3 end = moving ? MovedState(result.terminal_at_zero, *scene.moving->motion, guess.durations.sum()).position
+                          : result.terminal.position;
+  auto built = BuildPlanCollision(scene, {}, replan_task.start.position, guess, end, &collision, &result);
   if (!built.ok()) return built.status();
   if (!*built) return result;
   const SolveSchedule schedule{solver, replan.solver, options.solver, replan.max_attempts};

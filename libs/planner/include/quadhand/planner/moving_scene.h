@@ -26,6 +26,9 @@ struct MovingScene {
   // The farthest moving point from the target's position at t = 0, metres:
   // with the turn rate it bounds how fast a moving point goes.
   double radius = 0.0;
+  // The target's pose (the tool goal's) at t = 0: a replan against a new
+  // prediction of the target carries the grasp from the old pose to it.
+  Pose target_at_zero = Pose::Identity();
 
   bool moves() const { return motion != nullptr; }
   bool has_points() const { return exact != nullptr; }

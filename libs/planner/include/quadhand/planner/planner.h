@@ -170,6 +170,7 @@ struct PlanResult {
   bool moving_target = false;
   BoundaryState terminal_at_zero;
   InsertionGoal insertion_at_zero;
+  Pose target_at_zero = Pose::Identity();  // the target's (tool goal's) pose at t = 0
   double arrival_guess_s = 0.0;
   int arrival_rounds = 0;
   FrontEndPath path;

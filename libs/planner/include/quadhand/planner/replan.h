@@ -41,6 +41,12 @@
 // and attempts include both. result.rejoined_at says where the kept pieces
 // start (negative: not rejoined).
 //
+// A moving target (docs/moving_targets.md, current.moving_target): `scene`'s
+// moving part is the new prediction of the target, its clock starting at
+// the new plan's start; the grasp is carried from the current plan's target
+// pose at its zero to the prediction's (MovingScene::target_at_zero), the
+// arrival is optimised again and nothing is rejoined.
+//
 // The result's time 0 is the start state's time (t_from on the old clock).
 // World ENU, metres, radians, seconds.
 #pragma once
