@@ -241,3 +241,34 @@ def test_a_mission_dict_plans_as_the_cli_plans_its_file(sdf_dir, tmp_path):
     cli.pop("task"), got.pop("task")
     cli.pop("mission_phase_build_ms"), got.pop("mission_phase_build_ms")
     assert got == cli
+
+
+def test_a_moving_target_dict_plans_as_the_cli_plans_its_file(sdf_dir, tmp_path):
+    """A cup moving at 0.15 m/s (goal.tool.motion) from a dict: met where it
+    is at the arrival, the target columns in the trajectory, and the same
+    plan and report as quadhand-plan's."""
+    task = window_cup_dict()
+    goal = task["goal"]
+    for key in ("position", "yaw", "joints"):
+        goal.pop(key)
+    goal["tool"]["motion"] = {"velocity": [0.0, 0.15, 0.0],
+                              "moving_points": {"min": [-3.36, -0.16, 0.49], "max": [-3.04, 0.16, 0.91]}}
+    robot = quadhand.Robot(URDF, sdf_dir=sdf_dir)
+    result = quadhand.plan(task, robot=robot, scene=quadhand.Scene.from_pcd(SCENE))
+    assert result.success, result.message
+    arrival = result.report["moving_target"]["arrival_s"]
+    assert math.isclose(result.report["moving_target"]["target_position"][1], 0.15 * arrival, abs_tol=1e-9)
+    assert result.report["moving_target"]["tool_to_target_m"] < 0.002
+    assert result.columns[-7:] == ["target_x", "target_y", "target_z", "target_qw", "target_qx", "target_qy",
+                                   "target_qz"]
+    assert np.allclose(result.trajectory["target_y"], 0.15 * result.trajectory["t"], atol=1e-6)
+
+    file_task = dict(task, robot=str(URDF), sdf_dir=str(sdf_dir), scene=str(SCENE))
+    task_file = tmp_path / "moving.json"  # JSON is YAML
+    task_file.write_text(json.dumps(file_task, default=lambda array: array.tolist()))
+    csv, report = tmp_path / "plan.csv", tmp_path / "report.json"
+    run = subprocess.run([str(BIN_DIR / "quadhand-plan"), str(task_file), "--out", str(csv), "--report", str(report)],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert result.csv() == csv.read_text()
+    assert without_timings(json.loads(report.read_text()))["moving_target"] == without_timings(result.report)["moving_target"]
