@@ -44,6 +44,19 @@ std::vector<std::pair<int, Vec3>> WorldVertices(const robot::KinematicsState& ki
   return world;
 }
 
+// The robot's collision vertex farthest along `direction`.
+Vec3 OutermostVertex(const robot::KinematicsState& kinematics, const Vec3& direction) {
+  Vec3 outermost = Vec3::Zero();
+  double extent = -1e9;
+  for (const auto& [link, v] : WorldVertices(kinematics)) {
+    if (v.dot(direction) > extent) {
+      extent = v.dot(direction);
+      outermost = v;
+    }
+  }
+  return outermost;
+}
+
 PostCheckReport Check(const env::ExactMeshModel& exact, double dt, double clearance_dt) {
   const PlanResult& plan = DefaultPlan();
   PostCheckOptions options = DefaultPlannerOptions().post_check;
@@ -198,14 +211,7 @@ TEST(CertificateTest, RejectsAPlanThatGrazesAPointBetweenSamples) {
     across.normalize();
     for (double side : {1.0, -1.0}) {
       const Vec3 direction = side * across;
-      Vec3 outermost = Vec3::Zero();
-      double extent = -1e9;
-      for (const auto& [link, v] : WorldVertices(KinematicsAt(trajectory, mid))) {
-        if (v.dot(direction) > extent) {
-          extent = v.dot(direction);
-          outermost = v;
-        }
-      }
+      const Vec3 outermost = OutermostVertex(KinematicsAt(trajectory, mid), direction);
       const Vec3 point = outermost + graze * direction;
       const auto lone = env::ExactMeshModel::Create(WindowCup().robot(), std::vector<Vec3>{point});
       ASSERT_TRUE(lone.ok());
@@ -266,14 +272,7 @@ TEST(CertificateTest, RejectsAPlanThatAMovingPointGrazesBetweenSamples) {
       for (double up : {1.0, -1.0}) {
         if (found) break;
         const Vec3 direction = side * across;
-        Vec3 outermost = Vec3::Zero();
-        double extent = -1e9;
-        for (const auto& [link, v] : WorldVertices(KinematicsAt(trajectory, mid))) {
-          if (v.dot(direction) > extent) {
-            extent = v.dot(direction);
-            outermost = v;
-          }
-        }
+        const Vec3 outermost = OutermostVertex(KinematicsAt(trajectory, mid), direction);
         // At `mid` the point is `graze` beside the robot; at t = 0 it was
         // speed * mid below (or above) that.
         const Vec3 velocity = up * speed * Vec3::UnitZ();

@@ -59,4 +59,15 @@ double DistanceToObjectSurface(const MissionObject& object, const Vec3& x) {
   return (x - object.pose.translation()).norm();
 }
 
+InsertionGoal InsertionOf(const ToolGoal& tool, int tool_link) {
+  InsertionGoal insertion;
+  insertion.enabled = tool.has_insertion;
+  insertion.tool_link = tool_link;
+  insertion.tool_position = tool.position;
+  insertion.tool_orientation = tool.orientation;
+  insertion.direction = tool.insertion_direction;
+  insertion.length = tool.insertion_length;
+  return insertion;
+}
+
 }  // namespace quadhand::planner

@@ -791,13 +791,7 @@ core::Result<bool> MissionPlanner::InsertionLeg(size_t i, bool places) {
   leg.terminal = AtRest(terminal.position - back, terminal.yaw, terminal.joints);
   auto transit = ReachLeg(i, leg, false);
   if (!transit.ok() || !*transit) return transit;
-  InsertionGoal line;
-  line.enabled = true;
-  line.tool_link = tool_link;
-  line.tool_position = tool.position;
-  line.tool_orientation = tool.orientation;
-  line.direction = tool.insertion_direction;
-  line.length = tool.insertion_length;
+  const InsertionGoal line = InsertionOf(tool, tool_link);
   last_insertion_ = tool.insertion_direction;
   const double duration = LineDuration(at_goal.translation() - back, tool.insertion_direction, tool.insertion_length,
                                        std::nullopt);

@@ -294,15 +294,10 @@ core::Result<bool> ResolveGoal(const PlanningScene& scene, const Task& task, con
 
   InsertionGoal& insertion = result->insertion;
   if (task.tool && task.tool->has_insertion) {
-    insertion.enabled = true;
-    insertion.tool_link = robot.LinkIndex(task.tool_link);
+    insertion = InsertionOf(*task.tool, robot.LinkIndex(task.tool_link));
     if (insertion.tool_link < 0) {
       return core::Status::InvalidArgument(task.file + ": tool_link: the robot has no link named '" + task.tool_link + "'");
     }
-    insertion.tool_position = task.tool->position;
-    insertion.tool_orientation = task.tool->orientation;
-    insertion.direction = task.tool->insertion_direction;
-    insertion.length = task.tool->insertion_length;
     // The terminal state must put the tool where the task says.
     const Pose tool = robot::LinkPose(robot, HoverPose(result->terminal.position, result->terminal.yaw),
                                       result->terminal.joints, insertion.tool_link);
@@ -556,15 +551,7 @@ core::Result<bool> ResolveMovingGoal(const PlanningScene& scene, const Task& tas
   }
   result->moving_target = true;
   const ToolGoal& tool_at_zero = *task.tool;
-  InsertionGoal insertion_at_zero;
-  if (tool_at_zero.has_insertion) {
-    insertion_at_zero.enabled = true;
-    insertion_at_zero.tool_link = tool_link;
-    insertion_at_zero.tool_position = tool_at_zero.position;
-    insertion_at_zero.tool_orientation = tool_at_zero.orientation;
-    insertion_at_zero.direction = tool_at_zero.insertion_direction;
-    insertion_at_zero.length = tool_at_zero.insertion_length;
-  }
+  const InsertionGoal insertion_at_zero = InsertionOf(tool_at_zero, tool_link);
   TerminalStateOptions search = options.terminal_state;
   search.clearance_tolerance = options.post_check.clearance_tolerance;
   const double cruise = std::min(options.cruise_speed, task.limits.v_max);

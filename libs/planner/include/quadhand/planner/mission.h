@@ -29,6 +29,10 @@ struct ToolGoal {
   std::optional<MovingTarget> moving;         // goal.tool.motion
 };
 
+// The straight approach a tool goal asks for, of the robot link
+// `tool_link`: enabled when the goal has an insertion.
+InsertionGoal InsertionOf(const ToolGoal& tool, int tool_link);
+
 enum class StepKind { kReach, kMove, kVia, kGrasp, kRelease, kHold };
 
 // "reach", "move", ... as in the task file.
