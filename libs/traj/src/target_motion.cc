@@ -53,27 +53,23 @@ int TargetMotion::Segment(double t) const {
   return std::clamp(index, 0, rows - 2);
 }
 
-Vec3 TargetMotion::Center(double t) const {
-  if (!sampled()) return origin_ + velocity_ * t + 0.5 * acceleration_ * t * t;
-  if (path_.size() == 1) return path_[0].position;
+TargetPathSample TargetMotion::Interpolated(double t) const {
+  if (path_.size() == 1) return path_[0];
   const int k = Segment(t);
   const TargetPathSample& a = path_[k];
   const TargetPathSample& b = path_[k + 1];
   const double f = std::clamp((t - a.t) / (b.t - a.t), 0.0, 1.0);
-  return (1.0 - f) * a.position + f * b.position;
+  return TargetPathSample{t, (1.0 - f) * a.position + f * b.position, (1.0 - f) * a.yaw + f * b.yaw};
+}
+
+Vec3 TargetMotion::Center(double t) const {
+  if (!sampled()) return origin_ + velocity_ * t + 0.5 * acceleration_ * t * t;
+  return Interpolated(t).position;
 }
 
 double TargetMotion::Yaw(double t) const {
   if (!sampled()) return yaw_rate_ * t;
-  auto absolute = [this](double time) {
-    if (path_.size() == 1) return path_[0].yaw;
-    const int k = Segment(time);
-    const TargetPathSample& a = path_[k];
-    const TargetPathSample& b = path_[k + 1];
-    const double f = std::clamp((time - a.t) / (b.t - a.t), 0.0, 1.0);
-    return (1.0 - f) * a.yaw + f * b.yaw;
-  };
-  return absolute(t) - absolute(0.0);
+  return Interpolated(t).yaw - Interpolated(0.0).yaw;
 }
 
 double TargetMotion::YawRate(double t) const {

@@ -40,6 +40,18 @@ inline double RateAsTheTargetMoves(const TargetMotion& motion, const Pose& link,
            wrench.torque.z() * motion.YawRate(time));
 }
 
+// The collision penalty's parameters in transit and on the insertion piece
+// (WholeBodyCostOptions::insertion_collision_threshold, or the transit one),
+// shared by the still and the moving scene's collision terms.
+struct CollisionPenalties {
+  env::PenaltyParameters transit, insertion;
+};
+inline CollisionPenalties CollisionPenaltiesOf(const WholeBodyCostOptions& o) {
+  return {{o.collision_threshold, o.collision_mu},
+          {o.insertion_collision_threshold > 0.0 ? o.insertion_collision_threshold : o.collision_threshold,
+           o.collision_mu}};
+}
+
 CostTermDescriptor VelocityTerm();      // rate_limit_terms.cc
 CostTermDescriptor AccelerationTerm();  // rate_limit_terms.cc
 CostTermDescriptor YawRateTerm();       // rate_limit_terms.cc

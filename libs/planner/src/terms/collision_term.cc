@@ -33,12 +33,9 @@ class CollisionPenalty final : public CostTerm {
 CostTermDescriptor CollisionTerm() {
   return {"collision", &WholeBodyCostOptions::weight_collision, {CheckKind::kClearance},
           [](const CostTermInputs& in, double weight) -> std::unique_ptr<CostTerm> {
-            const WholeBodyCostOptions& o = in.options;
-            const env::PenaltyParameters transit{o.collision_threshold, o.collision_mu};
-            const env::PenaltyParameters insertion{
-                o.insertion_collision_threshold > 0.0 ? o.insertion_collision_threshold : o.collision_threshold,
-                o.collision_mu};
-            return std::make_unique<CollisionPenalty>(in.robot, in.collision, transit, insertion, weight);
+            const CollisionPenalties penalties = CollisionPenaltiesOf(in.options);
+            return std::make_unique<CollisionPenalty>(in.robot, in.collision, penalties.transit, penalties.insertion,
+                                                      weight);
           }};
 }
 

@@ -57,12 +57,9 @@ CostTermDescriptor MovingCollisionTerm() {
   return {"moving_collision", &WholeBodyCostOptions::weight_collision, {CheckKind::kClearance},
           [](const CostTermInputs& in, double weight) -> std::unique_ptr<CostTerm> {
             if (in.moving == nullptr || in.moving->collision == nullptr) return nullptr;  // nothing moves
-            const WholeBodyCostOptions& o = in.options;
-            const env::PenaltyParameters transit{o.collision_threshold, o.collision_mu};
-            const env::PenaltyParameters insertion{
-                o.insertion_collision_threshold > 0.0 ? o.insertion_collision_threshold : o.collision_threshold,
-                o.collision_mu};
-            return std::make_unique<MovingCollisionPenalty>(in.robot, *in.moving, transit, insertion, weight);
+            const CollisionPenalties penalties = CollisionPenaltiesOf(in.options);
+            return std::make_unique<MovingCollisionPenalty>(in.robot, *in.moving, penalties.transit,
+                                                            penalties.insertion, weight);
           }};
 }
 

@@ -63,6 +63,8 @@ class TargetMotion {
   // The segment of a sampled path holding t: index of its first row, and
   // t clamped into the path.
   int Segment(double t) const;
+  // A sampled path's position and yaw at t, linear between its rows.
+  TargetPathSample Interpolated(double t) const;
 
   // Constant motion.
   Vec3 origin_ = Vec3::Zero(), velocity_ = Vec3::Zero(), acceleration_ = Vec3::Zero();
