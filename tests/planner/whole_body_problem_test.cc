@@ -85,7 +85,7 @@ struct ProblemSetup {
 };
 
 ProblemSetup MakeSetup(const WholeBodyCostOptions& options, bool insertion, const std::vector<Vec3>& extra_points = {},
-                       bool moving = false) {
+                       bool moving = false, bool insertion_begun = false) {
   const auto& fx = CoarseQuadHand();
   ProblemSetup setup;
   std::vector<Vec3> points = Wall();
@@ -110,6 +110,7 @@ ProblemSetup MakeSetup(const WholeBodyCostOptions& options, bool insertion, cons
     goal_tool.tool_orientation = Quat(Eigen::AngleAxisd(0.3, Vec3::UnitY()) * k.link_poses[goal_tool.tool_link].linear());
     goal_tool.direction = Vec3(0.1, 0.0, -1.0);
     goal_tool.length = 0.1;
+    goal_tool.begun = insertion_begun;
   }
   auto problem = WholeBodyProblem::Create(fx.robot, *setup.model, Start(), Goal(), limits, goal_tool, options, kPieces,
                                           &SelfCollision());
@@ -236,6 +237,22 @@ TEST_P(MovingGoalTermGradientTest, MatchesFiniteDifferences) {
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryTerm, MovingGoalTermGradientTest, ::testing::ValuesIn(EveryTermName()));
+
+// An insertion that has begun (InsertionGoal::begun, a replan partway down
+// the line to a moving target): the line's term on every piece, no back-off
+// cost, the same gradient as finite differences.
+TEST(WholeBodyProblemTest, AnInsertionThatHasBegunCostsEveryPieceWithItsGradient) {
+  ProblemSetup begun = MakeSetup(OnlyTerm("insertion"), /*insertion=*/true, {}, /*moving=*/true, /*begun=*/true);
+  ProblemSetup fresh = MakeSetup(OnlyTerm("insertion"), /*insertion=*/true, {}, /*moving=*/true, /*begun=*/false);
+  auto begun_cost = begun.problem->Breakdown(begun.x0);
+  auto fresh_cost = fresh.problem->Breakdown(fresh.x0);
+  ASSERT_TRUE(begun_cost.ok() && fresh_cost.ok());
+  // Every piece is on the line: far more of the trajectory is off it.
+  EXPECT_GT(begun_cost->Term("insertion"), 2.0 * fresh_cost->Term("insertion"));
+  int skipped = 0;
+  ExpectGradientMatches(*begun.problem, begun.x0, 1e-5, &skipped);
+  EXPECT_LE(skipped, 3);
+}
 
 
 // Weights fixed here (not the defaults, which get tuned): large enough that

@@ -346,10 +346,28 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   if (current.insertion.enabled) {
     // The insertion piece must start backed off the full length above the
     // goal; a start inside it, or too close before it to keep a proper first
-    // piece, cannot give a plan that passes the insertion check.
+    // piece, cannot give a plan that passes the insertion check. A moving
+    // target's goal moves on, though: a start inside the piece is replanned
+    // as the rest of an approach that has begun (InsertionGoal::begun), one
+    // piece along the line in the target's frame, while at least
+    // min_piece_duration of it is left.
     const bool inside = first_piece == old_pieces - 1;
     const bool merged_into_insertion = guess.durations.size() == 1;
-    if (inside || merged_into_insertion) {
+    const double left = trajectory.duration() - t_from;
+    if (moving && inside && left >= replan.min_piece_duration) {
+      result.insertion_at_zero.begun = true;
+      // Two pieces with a junction on the current plan halfway: one piece's
+      // only freedom would be its duration.
+      if (left >= 2.0 * replan.min_piece_duration) {
+        const double half = 0.5 * left;
+        guess.durations = VecX::Constant(2, half);
+        guess.position_waypoints = trajectory.Sample(t_from + half).position;
+        const WholeBodySample mid = trajectory.Sample(t_from + half);
+        guess.aux_waypoints.resize(1 + n, 1);
+        guess.aux_waypoints(0, 0) = mid.yaw;
+        guess.aux_waypoints.block(1, 0, n, 1) = mid.joints;
+      }
+    } else if (inside || merged_into_insertion) {
       result.status = PlanStatus::kInsertionInProgress;
       result.message = "the current plan is in (or about to start) its insertion piece: not replanned";
       return result;

@@ -113,7 +113,8 @@ class StartAndEndStates final : public SampledCheck {
 };
 
 // The tool's final approach: from the last sample where it was at least
-// the insertion length back along the line, it stays on the line.
+// the insertion length back along the line (an approach that began before
+// the trajectory: from its first sample), it stays on the line.
 class InsertionLine final : public SampledCheck {
  public:
   InsertionLine(const InsertionGoal& insertion, const PostCheckOptions& options)
@@ -125,8 +126,8 @@ class InsertionLine final : public SampledCheck {
     times_.push_back(s.t);
   }
   void Finish(PostCheckReport* report) override {
-    int approach_start = -1;
-    for (int i = static_cast<int>(track_.size()) - 1; i >= 0; --i) {
+    int approach_start = insertion_.begun && !track_.empty() ? 0 : -1;
+    for (int i = static_cast<int>(track_.size()) - 1; i >= 0 && approach_start < 0; --i) {
       if (track_[i].first <= -insertion_.length + 1e-3) {
         approach_start = i;
         break;

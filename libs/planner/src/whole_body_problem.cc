@@ -358,7 +358,8 @@ void WholeBodyProblem::AccumulatePiece(int piece, bool with_gradient, SampleScra
   {
     const double duration = w.durations[piece];
     s.piece = piece;
-    s.insertion_piece = insertion_.enabled && piece == num_pieces_ - 1;
+    // An approach that has begun is the whole trajectory.
+    s.insertion_piece = insertion_.enabled && (piece == num_pieces_ - 1 || insertion_.begun);
     const int K = s.insertion_piece && o.insertion_samples > 0 ? o.insertion_samples : o.samples_per_piece;
     s.K = K;
     for (int k = 0; k <= K; ++k) {

@@ -55,7 +55,7 @@ class InsertionPenalty final : public CostTerm {
     // length (plus a margin) along the line, or part of the approach would
     // escape the penalty. A point cost at the piece's first sample, not
     // integrated: a quadrature weight there would make it negligible.
-    if (s.k == 0) {
+    if (s.k == 0 && !goal_.begun) {
       double slope_backoff = 0.0;
       const double along = direction.dot(offset);
       const double c_backoff = opt::SmoothedL1(along + goal_.length + backoff_margin_, mu_, &slope_backoff);

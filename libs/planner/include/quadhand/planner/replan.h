@@ -45,7 +45,10 @@
 // moving part is the new prediction of the target, its clock starting at
 // the new plan's start; the grasp is carried from the current plan's target
 // pose at its zero to the prediction's (MovingScene::target_at_zero), the
-// arrival is optimised again and nothing is rejoined.
+// arrival is optimised again and nothing is rejoined; a start inside the
+// insertion piece (at least min_piece_duration before its end) is
+// replanned as the rest of an approach that has begun (InsertionGoal::begun),
+// in two pieces along the line as it now moves.
 //
 // The result's time 0 is the start state's time (t_from on the old clock).
 // World ENU, metres, radians, seconds.
@@ -109,8 +112,9 @@ core::Status RemainderGuess(const WholeBodyTrajectory& trajectory, double t_from
 // t_from (seconds on the current plan's clock). `task` is the task the
 // current plan was made for (its goal, limits, safety distance); its start is
 // replaced by `start`. Ordinary outcomes are PlanResults with success false:
-// status "insertion_in_progress" (t_from lies in the insertion piece: a plan
-// starting partway down the insertion line cannot pass the insertion check),
+// status "insertion_in_progress" (t_from lies in the insertion piece of a
+// still goal, or too near a moving one's end: a plan starting partway down
+// the insertion line to a still goal cannot pass the insertion check),
 // "start_in_collision" (the measured state is more than
 // max_start_penetration inside the scene), "representation_failed", or the
 // statuses of SolveAndPostCheck (planner.h). A start inside the safety margin is judged

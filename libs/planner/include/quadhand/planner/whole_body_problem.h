@@ -76,6 +76,11 @@ struct InsertionGoal {
   Quat tool_orientation = Quat::Identity();
   Vec3 direction = -Vec3::UnitZ();        // unit approach direction, world
   double length = 0.1;                    // metres of straight approach before the goal
+  // The approach began before this trajectory (a replan partway down the
+  // line to a moving target, replan.h): the tool need not back off the
+  // length first, and stays on the line from the first sample; every piece
+  // is on the line.
+  bool begun = false;
 };
 
 struct WholeBodyCostOptions {
