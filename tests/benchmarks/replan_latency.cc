@@ -5,11 +5,16 @@
 // as an online controller would after a disturbance. Prints the success rate
 // and the wall time of each replan (median, p95, max: solve plus post-check),
 // and the same figures for cold plans (front end and all) from the same states.
-// docs/online.md reports its output.
+// A task whose target moves (docs/moving_targets.md) is replanned against a
+// new prediction at each state's time: the target where the plan's motion
+// has it then, its velocity off by up to --target-velocity-noise m/s (a
+// tracker's error), the moving part of the scene rebuilt for it (not
+// timed). docs/online.md and docs/moving_targets.md report its output.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -57,7 +62,7 @@ int main(int argc, char** argv) {
   int trials = 100, max_iterations = -1, cold_trials = 5, attempts = -1;
   unsigned seed = 1;
   double min_offset = 0.05, max_offset = 0.20, velocity_noise = 0.1;
-  double relative_tolerance = -1.0, horizon = -1.0;
+  double relative_tolerance = -1.0, horizon = -1.0, target_velocity_noise = 0.02;
   int horizon_attempts = -1;
   bool profile_post_check = false, each = false;
   app.add_option("--task", task_path, "Task file")->capture_default_str();
@@ -75,6 +80,9 @@ int main(int argc, char** argv) {
   app.add_option("--attempts", attempts, "Override the replan's max_attempts (solves with post-checks)");
   app.add_option("--horizon", horizon, "Override the replan's rejoining horizon, s (0: never rejoin)");
   app.add_option("--horizon-attempts", horizon_attempts, "Override the solves of the new part before the fallback");
+  app.add_option("--target-velocity-noise", target_velocity_noise,
+                 "A moving target: the largest error of the new prediction's velocity, m/s")
+      ->capture_default_str();
   app.add_flag("--each", each, "Print one line per replan (time, offset, rejoined, attempts, outcome, ms)");
   app.add_flag("--profile-post-check", profile_post_check, "Also time the parts of the post-check over the initial plan");
   CLI11_PARSE(app, argc, argv);
@@ -162,8 +170,25 @@ int main(int argc, char** argv) {
     start.yaw_rate = s.yaw_rate;
     start.joints = s.joints;
     start.joint_rates = s.joint_rates;
+    // A moving target: the new prediction at t (its clock starting there).
+    planner::PlanningScene replan_scene = scene;
+    std::unique_ptr<planner::MovingSceneModels> prediction;
+    if (const planner::MovingScene* moving = scene.moving) {
+      const Pose moved = moving->motion->Displacement(t);
+      const Vec3 at = moved * task.tool->position;
+      Vec3 velocity = moving->motion->PointVelocity(at, t);
+      velocity.head<2>() += target_velocity_noise * uniform(rng) * Vec3(random_unit()).head<2>();
+      auto built = (*context)->MovingSceneFor(
+          planner::TargetMotion::Constant(at, velocity, Vec3::Zero(), moving->motion->YawRate(t)), moved);
+      if (!built.ok()) {
+        std::fprintf(stderr, "replan error: %s\n", built.status().message().c_str());
+        return 1;
+      }
+      prediction = std::move(*built);
+      replan_scene.moving = &prediction->scene;
+    }
     const auto begin = Clock::now();
-    auto result = planner::Replan(scene, task, options, replan, **solver, *plan, t, start);
+    auto result = planner::Replan(replan_scene, task, options, replan, **solver, *plan, t, start);
     const double ms = Ms(begin);
     if (!result.ok()) {
       std::fprintf(stderr, "replan error: %s\n", result.status().message().c_str());
@@ -220,6 +245,9 @@ int main(int argc, char** argv) {
 
   std::vector<double> cold_ms;
   int cold_successes = 0;
+  // (A moving target's cold plan from a state mid-flight would need the
+  // prediction at that time as its task: not compared here.)
+  if (scene.moving != nullptr) cold_trials = 0;
   for (int i = 0; i < std::min<int>(cold_trials, static_cast<int>(starts.size())); ++i) {
     planner::Task cold_task = task;
     cold_task.start = starts[i];
