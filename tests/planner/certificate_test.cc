@@ -57,6 +57,21 @@ Vec3 OutermostVertex(const robot::KinematicsState& kinematics, const Vec3& direc
   return outermost;
 }
 
+// The verdict on a plan that grazes a point between two samples `step`
+// apart: failed, not certified, its clearance check first and failed, the
+// certified clearance no higher than the brute-force `truth` at `at`, and
+// the refinement found the graze itself, near where it is.
+void ExpectTheGrazeFound(const PostCheckReport& report, double truth, double at, double bound, double step) {
+  EXPECT_FALSE(report.passed);
+  EXPECT_FALSE(report.certified);
+  EXPECT_LE(report.certified_clearance, truth);
+  ASSERT_FALSE(report.checks.empty());
+  EXPECT_EQ(report.checks[0].kind, CheckKind::kClearance);
+  EXPECT_FALSE(report.checks[0].passed) << report.checks[0].detail;
+  EXPECT_LT(report.min_clearance_exact, bound);
+  EXPECT_NEAR(report.checks[0].time, at, step / 2);
+}
+
 PostCheckReport Check(const env::ExactMeshModel& exact, double dt, double clearance_dt) {
   const PlanResult& plan = DefaultPlan();
   PostCheckOptions options = DefaultPlannerOptions().post_check;
@@ -232,15 +247,7 @@ TEST(CertificateTest, RejectsAPlanThatGrazesAPointBetweenSamples) {
       // often or every 10 ms.
       const PostCheckReport report = Check(**grazed, dt, dt);
       EXPECT_EQ(Check(**grazed, 0.01, dt).checks[0].passed, false);
-      EXPECT_FALSE(report.passed);
-      EXPECT_FALSE(report.certified);
-      EXPECT_LE(report.certified_clearance, truth);
-      ASSERT_FALSE(report.checks.empty());
-      EXPECT_EQ(report.checks[0].kind, CheckKind::kClearance);
-      EXPECT_FALSE(report.checks[0].passed) << report.checks[0].detail;
-      // The refinement found the graze itself, near where it is.
-      EXPECT_LT(report.min_clearance_exact, bound);
-      EXPECT_NEAR(report.checks[0].time, at, step / 2);
+      ExpectTheGrazeFound(report, truth, at, bound, step);
     }
   }
   EXPECT_TRUE(found) << "no place for a graze between samples on this plan: the test proves nothing";
@@ -300,14 +307,7 @@ TEST(CertificateTest, RejectsAPlanThatAMovingPointGrazesBetweenSamples) {
         const PostCheckReport report = PostCheck(trajectory, WindowCup().robot(), WindowCup().task,
                                                  DefaultPlan().terminal, no_insertion, *WindowCup().model,
                                                  *WindowCup().exact, nullptr, options, &moving);
-        EXPECT_FALSE(report.passed);
-        EXPECT_FALSE(report.certified);
-        EXPECT_LE(report.certified_clearance, truth);
-        ASSERT_FALSE(report.checks.empty());
-        EXPECT_EQ(report.checks[0].kind, CheckKind::kClearance);
-        EXPECT_FALSE(report.checks[0].passed) << report.checks[0].detail;
-        EXPECT_LT(report.min_clearance_exact, bound);  // the refinement found it
-        EXPECT_NEAR(report.checks[0].time, at, step / 2);
+        ExpectTheGrazeFound(report, truth, at, bound, step);
         // The same point standing still where it is at t = 0 is far from
         // the plan: the moving check, not another point, failed it.
         const TargetMotion still = TargetMotion::Constant(at_zero, Vec3::Zero(), Vec3::Zero(), 0.0);

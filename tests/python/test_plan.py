@@ -42,6 +42,19 @@ def window_cup_dict():
     }
 
 
+def plan_file_with_cli(task, sdf_dir, tmp_path):
+    """quadhand-plan on `task` (a dict) written as a file with the robot, SDF
+    and scene paths: its plan file's text and its report."""
+    task_file = tmp_path / "task.json"  # JSON is YAML
+    task_file.write_text(json.dumps(dict(task, robot=str(URDF), sdf_dir=str(sdf_dir), scene=str(SCENE)),
+                                    default=lambda array: array.tolist()))
+    csv, report = tmp_path / "plan.csv", tmp_path / "report.json"
+    run = subprocess.run([str(BIN_DIR / "quadhand-plan"), str(task_file), "--out", str(csv), "--report", str(report)],
+                         capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    return csv.read_text(), json.loads(report.read_text())
+
+
 def read_csv(path):
     lines = path.read_text().splitlines()
     return lines[0].split(","), np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
@@ -228,15 +241,9 @@ def test_a_mission_dict_plans_as_the_cli_plans_its_file(sdf_dir, tmp_path):
     assert set(result.trajectory["step"]) == {0.0, 1.0, 2.0}
     assert np.array_equal(result.trajectory["gripper"], (result.trajectory["step"] >= 1).astype(float))
 
-    task = dict(mission, robot=str(URDF), sdf_dir=str(sdf_dir), scene=str(SCENE))
-    task_file = tmp_path / "mission.json"  # JSON is YAML
-    task_file.write_text(json.dumps(task, default=lambda array: array.tolist()))
-    csv, report = tmp_path / "plan.csv", tmp_path / "report.json"
-    run = subprocess.run([str(BIN_DIR / "quadhand-plan"), str(task_file), "--out", str(csv), "--report", str(report)],
-                         capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr
-    assert result.csv() == csv.read_text()
-    cli = without_timings(json.loads(report.read_text()))
+    csv, report = plan_file_with_cli(mission, sdf_dir, tmp_path)
+    assert result.csv() == csv
+    cli = without_timings(report)
     got = without_timings(result.report)
     cli.pop("task"), got.pop("task")
     cli.pop("mission_phase_build_ms"), got.pop("mission_phase_build_ms")
@@ -263,12 +270,6 @@ def test_a_moving_target_dict_plans_as_the_cli_plans_its_file(sdf_dir, tmp_path)
                                    "target_qz"]
     assert np.allclose(result.trajectory["target_y"], 0.15 * result.trajectory["t"], atol=1e-6)
 
-    file_task = dict(task, robot=str(URDF), sdf_dir=str(sdf_dir), scene=str(SCENE))
-    task_file = tmp_path / "moving.json"  # JSON is YAML
-    task_file.write_text(json.dumps(file_task, default=lambda array: array.tolist()))
-    csv, report = tmp_path / "plan.csv", tmp_path / "report.json"
-    run = subprocess.run([str(BIN_DIR / "quadhand-plan"), str(task_file), "--out", str(csv), "--report", str(report)],
-                         capture_output=True, text=True)
-    assert run.returncode == 0, run.stderr
-    assert result.csv() == csv.read_text()
-    assert without_timings(json.loads(report.read_text()))["moving_target"] == without_timings(result.report)["moving_target"]
+    csv, report = plan_file_with_cli(task, sdf_dir, tmp_path)
+    assert result.csv() == csv
+    assert without_timings(report)["moving_target"] == without_timings(result.report)["moving_target"]

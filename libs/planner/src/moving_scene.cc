@@ -64,25 +64,32 @@ BoundaryState MovedState(const BoundaryState& at_zero, const TargetMotion& motio
   return moved;
 }
 
+BoundaryState MovedRestState(const BoundaryState& state, const Pose& move, double turn) {
+  BoundaryState moved = state;
+  moved.position = move * state.position;
+  moved.yaw = state.yaw + turn;
+  moved.velocity.setZero();
+  moved.acceleration.setZero();
+  moved.jerk.setZero();
+  moved.yaw_rate = 0.0;
+  moved.joint_rates = VecX::Zero(state.joints.size());
+  return moved;
+}
+
 BoundaryState StateAtZero(const BoundaryState& at_t, const TargetMotion& motion, double t) {
-  BoundaryState back = at_t;
-  back.position = motion.Displacement(t).inverse() * at_t.position;
-  back.yaw = at_t.yaw - motion.Yaw(t);
-  back.velocity.setZero();
-  back.acceleration.setZero();
-  back.jerk.setZero();
-  back.yaw_rate = 0.0;
-  back.joint_rates = VecX::Zero(at_t.joints.size());
-  return back;
+  return MovedRestState(at_t, motion.Displacement(t).inverse(), -motion.Yaw(t));
+}
+
+InsertionGoal MovedInsertion(const InsertionGoal& insertion, const Pose& move) {
+  InsertionGoal moved = insertion;
+  moved.tool_position = move * insertion.tool_position;
+  moved.tool_orientation = Quat(move.linear() * insertion.tool_orientation.toRotationMatrix());
+  moved.direction = move.linear() * insertion.direction;
+  return moved;
 }
 
 InsertionGoal MovedInsertion(const InsertionGoal& at_zero, const TargetMotion& motion, double t) {
-  InsertionGoal moved = at_zero;
-  const Pose displacement = motion.Displacement(t);
-  moved.tool_position = displacement * at_zero.tool_position;
-  moved.tool_orientation = Quat(displacement.linear() * at_zero.tool_orientation.toRotationMatrix());
-  moved.direction = displacement.linear() * at_zero.direction;
-  return moved;
+  return MovedInsertion(at_zero, motion.Displacement(t));
 }
 
 robot::KinematicsState InTargetFrameAtZero(const robot::KinematicsState& kinematics, const TargetMotion& motion,

@@ -520,7 +520,7 @@ core::Status TryAlternativeGuesses(const PlanningScene& scene, const Task& task,
 // and the terminal state are found together. From a first guess of the
 // arrival (the straight line to the target at cruise speed), each round
 // searches the terminal state against the scene as it stands then (the
-// still points and the moving ones moved there), finds the front-end path
+// still models and the moving ones where the points are then), finds the front-end path
 // to it and the initial guess's duration; the next round aims at that
 // duration, until the two agree within 5 % (at most kArrivalRounds). The
 // optimiser then moves the arrival itself. Sets the terminal state and
@@ -567,12 +567,13 @@ core::Result<bool> ResolveMovingGoal(const PlanningScene& scene, const Task& tas
         collision_at ? static_cast<const env::CollisionModel&>(*collision_at) : scene.collision;
     const env::CollisionModel& search_exact =
         exact_at ? static_cast<const env::CollisionModel&>(*exact_at) : scene.exact;
-    const Pose displacement = motion.Displacement(arrival);
+    // The tool goal where the target is then, as its insertion moved there.
+    result->insertion = MovedInsertion(insertion_at_zero, motion, arrival);
     ToolGoal tool = tool_at_zero;
     tool.moving.reset();
-    tool.position = displacement * tool_at_zero.position;
-    tool.orientation = Quat(displacement.linear() * tool_at_zero.orientation.toRotationMatrix());
-    tool.insertion_direction = displacement.linear() * tool_at_zero.insertion_direction;
+    tool.position = result->insertion.tool_position;
+    tool.orientation = result->insertion.tool_orientation;
+    tool.insertion_direction = result->insertion.direction;
     auto found = FindTerminalState(robot, search_collision, search_exact, task, tool, tool_link, search, solver);
     if (!found.ok()) {
       if (found.status().code() != core::StatusCode::kInfeasible) return found.status();
@@ -584,7 +585,6 @@ core::Result<bool> ResolveMovingGoal(const PlanningScene& scene, const Task& tas
     result->terminal_search = *found;
     result->terminal = found->state;
     result->terminal.yaw = task.start.yaw + std::remainder(result->terminal.yaw - task.start.yaw, 2.0 * M_PI);
-    result->insertion = MovedInsertion(insertion_at_zero, motion, arrival);
     // Errors about the end state or the path there are about the target
     // where it is at the arrival: they say so, naming the file once.
     const std::string at_arrival =

@@ -230,7 +230,11 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     if (name == "mrc_sdf") model->build_ms += sdf_load_ms;
     context->representations_.push_back(std::move(*model));
   }
-  if (moving != nullptr) QUADHAND_RETURN_IF_ERROR(context->BuildMovingScene());
+  if (moving != nullptr) {
+    auto moving_part = context->MovingSceneFor(moving->motion, Pose::Identity());
+    if (!moving_part.ok()) return moving_part.status();
+    context->moving_ = std::move(*moving_part);
+  }
   return context;
 }
 
@@ -257,13 +261,6 @@ core::Status PlanningContext::SplitMovingPoints() {
     return core::Status::InvalidArgument(task_.file + ": goal.tool.motion.moving_points: the box holds every point of "
                                          "the scene; something must stand still");
   }
-  return core::Status::Ok();
-}
-
-core::Status PlanningContext::BuildMovingScene() {
-  auto moving = MovingSceneFor(task_.tool->moving->motion, Pose::Identity());
-  if (!moving.ok()) return moving.status();
-  moving_ = std::move(*moving);
   return core::Status::Ok();
 }
 

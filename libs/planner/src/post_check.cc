@@ -162,15 +162,18 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     m->has_clearance = what != Measure::kLimits;
     if (what == Measure::kLimits && !insertion.enabled) return;
     robot::ComputeKinematics(robot, m->sample.BasePose(), m->sample.joints, kinematics);
+    // A moving target's displacement at t: the tool and the moving points
+    // are judged in its frame at t = 0.
+    const Pose displacement = moving != nullptr ? moving->motion->Displacement(t) : Pose::Identity();
     if (insertion.enabled) {
       m->tool = kinematics->link_poses[insertion.tool_link].translation();
-      if (moving != nullptr) m->tool = moving->motion->Displacement(t).inverse() * m->tool;
+      if (moving != nullptr) m->tool = displacement.inverse() * m->tool;
     }
     if (what == Measure::kLimits) return;
     m->d_exact = env::WholeBodyClearance(*kinematics, exact, radii.first, {}, &m->link);
     std::optional<robot::KinematicsState> in_target_frame;
     if (moving != nullptr && moving->has_points()) {
-      in_target_frame = InTargetFrameAtZero(*kinematics, *moving->motion, t);
+      in_target_frame = InTargetFrameAtZero(*kinematics, displacement);
       int link = -1;
       const double d = env::WholeBodyClearance(*in_target_frame, *moving->exact, radii.first, {}, &link);
       if (d < m->d_exact) {

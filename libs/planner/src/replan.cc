@@ -326,16 +326,8 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
     const double turn = std::atan2(carry.linear()(1, 0), carry.linear()(0, 0));
     result.moving_target = true;
     result.target_at_zero = scene.moving->target_at_zero;
-    result.terminal_at_zero = current.terminal_at_zero;
-    result.terminal_at_zero.position = carry * current.terminal_at_zero.position;
-    result.terminal_at_zero.yaw = current.terminal_at_zero.yaw + turn;
-    result.insertion_at_zero = current.insertion_at_zero;
-    if (result.insertion_at_zero.enabled) {
-      result.insertion_at_zero.tool_position = carry * current.insertion_at_zero.tool_position;
-      result.insertion_at_zero.tool_orientation =
-          Quat(carry.linear() * current.insertion_at_zero.tool_orientation.toRotationMatrix());
-      result.insertion_at_zero.direction = carry.linear() * current.insertion_at_zero.direction;
-    }
+    result.terminal_at_zero = MovedRestState(current.terminal_at_zero, carry, turn);
+    result.insertion_at_zero = MovedInsertion(current.insertion_at_zero, carry);
   }
 
   InitialGuess guess;
@@ -348,8 +340,8 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
     // goal; a start inside it, or too close before it to keep a proper first
     // piece, cannot give a plan that passes the insertion check. A moving
     // target's goal moves on, though: a start inside the piece is replanned
-    // as the rest of an approach that has begun (InsertionGoal::begun), one
-    // piece along the line in the target's frame, while at least
+    // as the rest of an approach that has begun (InsertionGoal::begun),
+    // along the line in the target's frame, while at least
     // min_piece_duration of it is left.
     const bool inside = first_piece == old_pieces - 1;
     const bool merged_into_insertion = guess.durations.size() == 1;
@@ -360,9 +352,9 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
       // only freedom would be its duration.
       if (left >= 2.0 * replan.min_piece_duration) {
         const double half = 0.5 * left;
-        guess.durations = VecX::Constant(2, half);
-        guess.position_waypoints = trajectory.Sample(t_from + half).position;
         const WholeBodySample mid = trajectory.Sample(t_from + half);
+        guess.durations = VecX::Constant(2, half);
+        guess.position_waypoints = mid.position;
         guess.aux_waypoints.resize(1 + n, 1);
         guess.aux_waypoints(0, 0) = mid.yaw;
         guess.aux_waypoints.block(1, 0, n, 1) = mid.joints;

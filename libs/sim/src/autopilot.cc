@@ -184,6 +184,56 @@ core::Result<std::vector<GripperLoad>> LoadTaskGripperLoads(const std::string& t
   return loads;
 }
 
+core::Result<TaskTarget> LoadTaskTarget(const std::string& task_path) {
+  auto loaded = LoadTaskYaml(task_path);
+  if (!loaded.ok()) return loaded.status();
+  const YAML::Node& root = *loaded;
+  auto fail = [&task_path](const std::string& key, const std::string& problem) {
+    return core::Status::InvalidArgument(task_path + ": " + key + ": " + problem);
+  };
+  const YAML::Node goal = root.IsMap() ? root["goal"] : YAML::Node();
+  const YAML::Node tool = goal && goal.IsMap() ? goal["tool"] : YAML::Node();
+  const YAML::Node motion = tool && tool.IsMap() ? tool["motion"] : YAML::Node();
+  if (!motion || !motion.IsMap()) return fail("goal.tool.motion", "missing: the task's target does not move");
+  TaskTarget target;
+  const auto position = Numbers(tool["position"]);
+  if (!position || position->size() != 3) return fail("goal.tool.position", "expected a list of 3 numbers");
+  const auto q = Numbers(tool["orientation"]);
+  if (!q || q->size() != 4 ||
+      std::abs(std::sqrt((*q)[0] * (*q)[0] + (*q)[1] * (*q)[1] + (*q)[2] * (*q)[2] + (*q)[3] * (*q)[3]) - 1.0) > 1e-3) {
+    return fail("goal.tool.orientation", "expected a unit quaternion [w, x, y, z]");
+  }
+  target.pose = MakePose(Vec3((*position)[0], (*position)[1], (*position)[2]),
+                         Quat((*q)[0], (*q)[1], (*q)[2], (*q)[3]).normalized().toRotationMatrix());
+  const Vec3 origin = target.pose.translation();
+  if (const YAML::Node file = motion["file"]) {
+    if (!file.IsScalar()) return fail("goal.tool.motion.file", "expected a path");
+    const std::string path = core::ResolvePath(core::DirectoryOf(task_path), file.as<std::string>());
+    auto path_text = core::ReadFileToString(path);
+    if (!path_text.ok()) return fail("goal.tool.motion.file", path_text.status().message());
+    auto samples = traj::ParseTargetPath(*path_text, path);
+    if (!samples.ok()) return fail("goal.tool.motion.file", samples.status().message());
+    target.motion = traj::TargetMotion::Sampled(std::move(*samples));
+    return target;
+  }
+  const auto velocity = Numbers(motion["velocity"]);
+  if (!velocity || velocity->size() != 3) return fail("goal.tool.motion.velocity", "expected a list of 3 numbers");
+  Vec3 acceleration = Vec3::Zero();
+  if (motion["acceleration"]) {
+    const auto a = Numbers(motion["acceleration"]);
+    if (!a || a->size() != 3) return fail("goal.tool.motion.acceleration", "expected a list of 3 numbers");
+    acceleration = Vec3((*a)[0], (*a)[1], (*a)[2]);
+  }
+  double yaw_rate = 0.0;
+  if (motion["yaw_rate"] && (!motion["yaw_rate"].IsScalar() ||
+                             !YAML::convert<double>::decode(motion["yaw_rate"], yaw_rate) || !std::isfinite(yaw_rate))) {
+    return fail("goal.tool.motion.yaw_rate", "expected a number");
+  }
+  target.motion = traj::TargetMotion::Constant(origin, Vec3((*velocity)[0], (*velocity)[1], (*velocity)[2]),
+                                               acceleration, yaw_rate);
+  return target;
+}
+
 Autopilot::Autopilot(Simulator simulator, const AutopilotOptions& options)
     : simulator_(std::move(simulator)), options_(options) {}
 

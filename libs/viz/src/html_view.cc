@@ -255,6 +255,19 @@ Vec3 StorageOrigin(const HtmlViewData& data) {
   return (0.5 * (lo + hi)).array().round().matrix();
 }
 
+// One sample of a pose track: the translation, then the rotation as
+// x, y, z, w in the hemisphere of the track's last sample (`previous`), so
+// that the page's slerp between samples takes the short way.
+void WritePose(const Vec3& translation, const Mat3& rotation, Eigen::Vector4d* previous, LittleEndianWriter* out) {
+  Quat q(rotation);
+  q.normalize();
+  Eigen::Vector4d xyzw(q.x(), q.y(), q.z(), q.w());
+  if (xyzw.dot(*previous) < 0.0) xyzw = -xyzw;
+  *previous = xyzw;
+  out->Vec(translation);
+  for (int k = 0; k < 4; ++k) out->F32(xyzw[k]);
+}
+
 std::string DataJson(const HtmlViewData& data, const HtmlViewOptions& options) {
   const Vec3 origin = StorageOrigin(data);
   std::string json = "{\"version\":" + std::to_string(kDataVersion);
@@ -296,13 +309,7 @@ std::string DataJson(const HtmlViewData& data, const HtmlViewOptions& options) {
       times.F64(data.times[i]);
       for (std::size_t j = 0; j < data.links.size(); ++j) {
         const Pose& pose = data.link_poses[i][j];
-        Quat q(Mat3(pose.linear()));
-        q.normalize();
-        Eigen::Vector4d xyzw(q.x(), q.y(), q.z(), q.w());
-        if (xyzw.dot(previous[j]) < 0.0) xyzw = -xyzw;  // same hemisphere as the last sample
-        previous[j] = xyzw;
-        poses.Vec(pose.translation() - origin);
-        for (int k = 0; k < 4; ++k) poses.F32(xyzw[k]);
+        WritePose(pose.translation() - origin, pose.linear(), &previous[j], &poses);
       }
     }
     json += ",\"num_times\":" + std::to_string(data.times.size());
@@ -317,13 +324,7 @@ std::string DataJson(const HtmlViewData& data, const HtmlViewOptions& options) {
     for (const std::size_t i : moving) positions.Vec(data.moving_points[i] - origin);
     Eigen::Vector4d previous = Eigen::Vector4d::Zero();
     for (const Pose& pose : data.moving_displacements) {
-      Quat q(Mat3(pose.linear()));
-      q.normalize();
-      Eigen::Vector4d xyzw(q.x(), q.y(), q.z(), q.w());
-      if (xyzw.dot(previous) < 0.0) xyzw = -xyzw;
-      previous = xyzw;
-      poses.Vec(pose.linear() * origin + pose.translation() - origin);
-      for (int k = 0; k < 4; ++k) poses.F32(xyzw[k]);
+      WritePose(pose.linear() * origin + pose.translation() - origin, pose.linear(), &previous, &poses);
     }
     json += ",\"moving\":{\"count\":" + std::to_string(moving.size()) + ",\"positions\":\"" +
             positions.Base64() + "\",\"poses\":\"" + poses.Base64() + "\"}";

@@ -80,6 +80,12 @@ BoundaryState StateAtZero(const BoundaryState& at_t, const TargetMotion& motion,
 // An insertion (its tool pose and line) moved by Displacement(t).
 InsertionGoal MovedInsertion(const InsertionGoal& at_zero, const TargetMotion& motion, double t);
 
+// The same moves by any rigid `move` whose rotation turns about z by `turn`
+// (rad, given so that a turn past pi keeps its sign and count): a state at
+// rest (position moved, yaw turned, every rate zero) and an insertion.
+BoundaryState MovedRestState(const BoundaryState& state, const Pose& move, double turn);
+InsertionGoal MovedInsertion(const InsertionGoal& insertion, const Pose& move);
+
 // The same for link poses: `kinematics` with every link pose moved by the
 // inverse of Displacement(t), as the moving points' models see the robot.
 robot::KinematicsState InTargetFrameAtZero(const robot::KinematicsState& kinematics, const TargetMotion& motion,

@@ -125,9 +125,8 @@ class PlanningContext {
 
  private:
   PlanningContext(Task task, robot::RobotModel robot) : task_(std::move(task)), robot_(std::move(robot)) {}
-  // A moving target's points out of the cloud, and their models.
+  // A moving target's points out of the cloud (their models: MovingSceneFor).
   core::Status SplitMovingPoints();
-  core::Status BuildMovingScene();
   static core::Result<std::unique_ptr<PlanningContext>> Build(
       Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
       const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,

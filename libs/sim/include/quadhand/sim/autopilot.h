@@ -119,6 +119,17 @@ core::Result<StartPose> LoadTaskStartPose(const std::string& task_path);
 // mission. Only those keys are read; errors name the file and the key.
 core::Result<std::vector<GripperLoad>> LoadTaskGripperLoads(const std::string& task_path);
 
+// A task file's moving target (contracts.md 0.3): goal.tool.position and
+// orientation (its pose at t = 0) and goal.tool.motion (a constant motion,
+// or a path file resolved against the task's folder).
+// Read with yaml-cpp, as LoadTaskStartPose reads the start. Errors name the
+// file and the key; a task whose goal has no motion is an error too.
+struct TaskTarget {
+  Pose pose = Pose::Identity();
+  traj::TargetMotion motion;
+};
+core::Result<TaskTarget> LoadTaskTarget(const std::string& task_path);
+
 class Autopilot {
  public:
   // Puts the vehicle at rest at `start` (level, thrusts that hold it), in

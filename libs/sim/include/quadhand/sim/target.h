@@ -71,15 +71,4 @@ class SimTarget {
   Vec3 walk_velocity_ = Vec3::Zero(), walk_offset_ = Vec3::Zero();
 };
 
-// A task file's moving target (contracts.md 0.3): goal.tool.position and
-// orientation (its pose at t = 0) and goal.tool.motion (a constant motion,
-// or a path file resolved against the task's folder).
-// Read with yaml-cpp, as LoadTaskStartPose reads the start. Errors name the
-// file and the key; a task whose goal has no motion is an error too.
-struct TaskTarget {
-  Pose pose = Pose::Identity();
-  traj::TargetMotion motion;
-};
-core::Result<TaskTarget> LoadTaskTarget(const std::string& task_path);
-
 }  // namespace quadhand::sim
