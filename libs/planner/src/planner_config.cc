@@ -106,6 +106,7 @@ void Visit(Config& c, Visitor&& v) {
   v("terminal_state.weight_rotation", t.weight_rotation);
   v("terminal_state.weight_collision", t.weight_collision);
   v("terminal_state.weight_joint_limits", t.weight_joint_limits);
+  v("terminal_state.weight_turn", t.weight_turn);
   v("terminal_state.collision_mu", t.collision_mu);
   v("terminal_state.joint_limit_mu", t.joint_limit_mu);
 

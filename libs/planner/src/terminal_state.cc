@@ -35,7 +35,7 @@ class TerminalStateObjective final : public opt::Objective {
   TerminalStateObjective(const robot::RobotModel& robot, const env::CollisionModel& collision, const Task& task,
                          const ToolGoal& tool, int tool_link, const TerminalStateOptions& options)
       : robot_(robot), tool_(tool), tool_link_(tool_link), options_(options),
-        goal_rotation_(tool.orientation.toRotationMatrix()), limits_(task.limits),
+        goal_rotation_(tool.orientation.toRotationMatrix()), start_yaw_(task.start.yaw), limits_(task.limits),
         cost_options_(TermOptions(task, options)) {
     const CostTermInputs inputs{robot, collision, limits_, no_insertion_, cost_options_};
     collision_ = CollisionTerm().make(inputs, options.weight_collision);
@@ -79,7 +79,8 @@ class TerminalStateObjective final : public opt::Objective {
     const Pose& tool = kinematics_.link_poses[tool_link_];
     const Vec3 error = tool.translation() - tool_.position;
     const RotationDistance rotation = RotationDistanceTo(tool.linear(), goal_rotation_);
-    total += options_.weight_position * error.squaredNorm() + options_.weight_rotation * rotation.value;
+    total += options_.weight_position * error.squaredNorm() + options_.weight_rotation * rotation.value +
+             options_.weight_turn * (1.0 - std::cos(yaw - start_yaw_));
     if (gradient != nullptr) {
       env::LinkWrench wrench;
       wrench.force = 2.0 * options_.weight_position * error;
@@ -100,7 +101,7 @@ class TerminalStateObjective final : public opt::Objective {
     if (grad != nullptr) {
       grad->head<3>() = g.position + g.point.position;
       // The base turns about world z with the yaw.
-      (*grad)[3] = g.rotation.z() + g.point.rotation.z() + g.aux_value[0];
+      (*grad)[3] = g.rotation.z() + g.point.rotation.z() + g.aux_value[0] + options_.weight_turn * std::sin(yaw - start_yaw_);
       grad->tail(n) = g.aux_value.tail(n) + g.point.joints;
     }
     return std::isfinite(total);
@@ -112,6 +113,7 @@ class TerminalStateObjective final : public opt::Objective {
   int tool_link_;
   TerminalStateOptions options_;
   Mat3 goal_rotation_;
+  double start_yaw_;
   const Limits limits_;
   const WholeBodyCostOptions cost_options_;
   const InsertionGoal no_insertion_;
@@ -151,7 +153,7 @@ bool TerminalStateOptions::IsValid(std::string* why) const {
   };
   if (restarts < 1) return fail("restarts must be at least 1");
   for (double v : {position_tolerance, angle_tolerance, collision_margin, clearance_tolerance, joint_limit_margin, weight_position,
-                   weight_rotation, weight_collision, weight_joint_limits, collision_mu, joint_limit_mu}) {
+                   weight_rotation, weight_collision, weight_joint_limits, weight_turn, collision_mu, joint_limit_mu}) {
     if (!(std::isfinite(v) && v >= 0.0)) return fail("tolerances, margins and weights must be finite and >= 0");
   }
   return true;

@@ -33,6 +33,12 @@ struct TerminalStateOptions {
   double weight_rotation = 1e3;        // per unit of d_R = (3 - tr(R_e R_g^T)) / 2
   double weight_collision = 1e3;
   double weight_joint_limits = 1e3;
+  // Per unit of 1 - cos(yaw - start yaw): of the states that put the tool
+  // at its goal, the one the base need not turn to. A wrist that rolls
+  // about the same axis as the yaw (a tool pointing down) leaves the split
+  // between them free, and an arbitrary split can leave the vehicle to turn
+  // a right angle in transit, through every window on the way.
+  double weight_turn = 1.0;
   double collision_mu = 0.01;          // smoothing of the collision penalty, metres
   double joint_limit_mu = 0.02;        // smoothing of the joint-limit penalty, rad
 
