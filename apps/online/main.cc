@@ -138,6 +138,10 @@ int DryRun(const planner::PlanningContext& context, const online::PlanningSetup&
   std::printf("would stream %ld SET_POSITION_TARGET_LOCAL_NED + JOINT_SP pairs at %.1f Hz (type_mask 0, "
               "MAV_FRAME_LOCAL_NED) after >= %.1f s of hold, OFFBOARD and arming; peak speed %.2f m/s\n",
               count, rate, hold_time, max_speed);
+  if (context.moving_scene() != nullptr) {
+    std::printf("the target moves: this plan meets it as the task's goal.tool.motion moves it; in flight every plan is "
+                "made against its measurements (LANDING_TARGET) instead\n");
+  }
   const std::vector<planner::MissionStep>& mission = context.task().mission;
   for (size_t i = 0; !planner::PlansAsGoal(context.task()) && i < mission.size() && i < result->steps.size(); ++i) {
     const planner::MissionStep& step = mission[i];
@@ -296,6 +300,25 @@ int main(int argc, char** argv) {
                "Let the vehicle fly an estimate jump: by default every setpoint after a jump is shifted by it, so "
                "that the vehicle stays where it was and the flight goes on in the frame it began in (as PX4 does on "
                "an EKF2 reset); with this flag exit 0 also needs the flown clearance less the jumps to hold");
+  // A moving target (goal.tool.motion), measured over LANDING_TARGET.
+  double target_acceleration_noise = options.target_tracker.acceleration_noise;
+  app.add_option("--target-acceleration-noise", target_acceleration_noise,
+                 "A moving target: its filter's white acceleration, m^2/s^3 (and rad^2/s^3 for its heading); the "
+                 "default suits a belt or turntable whose speed drifts by a few cm/s over seconds, 0.01 a cup "
+                 "pushed by hand")
+      ->capture_default_str();
+  app.add_option("--target-noise", options.target_tracker.position_noise,
+                 "A moving target: its measurements' position noise, m (one sigma per axis)")
+      ->capture_default_str();
+  app.add_option("--target-replan-threshold", options.target_replan_threshold,
+                 "A moving target: replan when its prediction at the arrival moves by more than this, m")
+      ->capture_default_str();
+  app.add_option("--target-timeout", options.target_timeout,
+                 "A moving target: seconds without a measurement, while flying, after which it is lost (exit 1)")
+      ->capture_default_str();
+  app.add_option("--target-tolerance", options.target_arrival_tolerance,
+                 "A moving target: the tool within this many metres of it at the arrival counts as settled")
+      ->capture_default_str();
   app.add_option("--target-system", target_system, "The vehicle's MAVLink system id")->capture_default_str();
   app.add_option("--target-component", target_component, "The vehicle's MAVLink component id")->capture_default_str();
   app.add_option("--system-id", system_id, "Our MAVLink system id")->capture_default_str();
@@ -417,10 +440,15 @@ int main(int argc, char** argv) {
   auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;
-  // Its replans, flight judges and holds know only a still scene.
-  if (ctx.moving_scene() != nullptr) {
-    return Fail(task_path + ": goal.tool.motion: quadhand-online does not track a moving target yet (quadhand-plan "
-                "plans it; docs/moving_targets.md)");
+  options.target_tracker.acceleration_noise = target_acceleration_noise;
+  options.target_tracker.yaw_acceleration_noise = target_acceleration_noise;
+  // A moving target's points: judged where the tracker had the target.
+  const planner::MovingScene* moving = ctx.moving_scene();
+  online::MovingJudge moving_judge;
+  if (moving != nullptr) {
+    moving_judge.exact = moving->exact;
+    moving_judge.task_target = moving->target_at_zero;
+    if (moving->exact != nullptr) moving->exact->BuildAllQueries();
   }
   // A replan in flight must not wait for an exact-mesh tree to be built.
   ctx.exact().BuildAllQueries();
@@ -470,7 +498,7 @@ int main(int argc, char** argv) {
   auto now = [&start] { return std::chrono::duration<double>(Clock::now() - start).count(); };
   const double period = 1.0 / rate;
   double next_tick = 0.0;
-  online::FlightLog log;
+  online::FlightLog log(moving != nullptr);
   std::optional<GrowingLog> growing_log;
   if (!log_path.empty()) growing_log.emplace(log_path, ctx.robot().ActuatedJointNames());
   double last_log_flush = 0.0;
@@ -488,7 +516,8 @@ int main(int argc, char** argv) {
       if (r.frame.system_id != targets.vehicle_system) ++from_other_systems;
       const bool used = online::DeliverToController(r.message, r.frame.system_id, t, targets, &controller);
       if (used && std::holds_alternative<link::LocalPositionNed>(r.message) && controller.has_measured_state()) {
-        log.Record(controller.measured(), controller.last_setpoint(), controller.phase());
+        const online::MeasuredState measured = controller.measured();
+        log.Record(measured, controller.last_setpoint(), controller.phase(), controller.TargetPoseAt(measured.time));
       }
     }
     const double t = now();
@@ -563,7 +592,7 @@ int main(int argc, char** argv) {
                                                       ctx.task(), options.clearance_tolerance, 0.3, end_time,
                                                       controller.failed_plan_time())
                       : online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
-                                               flown_plan.terminal.position, 0.3, end_time);
+                                               flown_plan.terminal.position, 0.3, end_time, moving_judge);
     const double required = planner::AcceptedClearance(ctx.task(), options.clearance_tolerance);
     if (metrics->held_object_margin < 0.0) {
       code = kExitClearanceLost;
@@ -683,6 +712,26 @@ int main(int argc, char** argv) {
                 stats.estimate_shift.y(), stats.estimate_shift.z());
   }
   std::printf("\n");
+  if (controller.tracks_target()) {
+    std::vector<double> prediction_ms;
+    for (const online::PlanRecord& r : stats.plans) {
+      if (r.moving_target) prediction_ms.push_back(r.prediction_ms);
+    }
+    std::printf("  target: %ld measurements used; dropped %ld stale and %ld malformed; %ld rejected by the gate, %d "
+                "restarts; %d replans for its prediction (building its points' models: median %.1f ms of each "
+                "plan's latency)\n",
+                stats.target_measurements, stats.target_dropped_stale, stats.target_dropped_malformed,
+                stats.target_rejected, stats.target_restarts, stats.target_replans,
+                prediction_ms.empty() ? 0.0 : Quantile(prediction_ms, 0.5));
+    if (!std::isnan(stats.arrival_target_error)) {
+      const double arrival = controller.current_plan_start() + controller.current_plan()->trajectory->duration();
+      std::printf("  tool to target (as measured): %.4f m at the arrival (the vehicle's t = %.3f s), at most %.4f m "
+                  "while following it\n",
+                  stats.arrival_target_error, clock.synced() ? clock.ToVehicle(arrival) : arrival,
+                  stats.max_follow_target_error);
+    }
+  }
+  if (clock.synced()) std::printf("  ended at the vehicle's t = %.3f s\n", clock.ToVehicle(last_tick));
   const link::ParserStats& link_stats = connection.stats();
   std::printf("  link: %llu frames accepted (%llu from other systems, ignored), %llu sent; dropped: %llu bad CRC, "
               "%llu unsigned, %llu bad signature, %llu replayed, %llu unknown message; %llu bytes skipped\n",

@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
       "  quadhand-sim --track plan.csv --out flown.csv [--pcgc on|off] [--payload KG] [--seed N]\n"
       "  quadhand-sim --figure8 --out plan.csv [--loops N] [--period S]\n"
       "  quadhand-sim --udp udp://127.0.0.1:14540 [--realtime] [--duration S] [--start X,Y,Z[,YAW] | --start-task\n"
-      "               TASK [--target-rate HZ [--target-noise M] [--target-walk M/S]]] [--log flown.csv]\n"
+      "               TASK [--target-rate HZ [--target-noise M] [--target-walk M/S] [--target-pass-time S]]] [--log flown.csv]\n"
       "               [--signing-key FILE [--require-signing]] [--system-id N]\n"
       "Exit codes: 0 success, 1 the simulation diverged, 2 bad input."};
   std::string track_path, out_path, config_path = core::FindBundledFile("data/sim/quadhand_sim.yaml", QUADHAND_SOURCE_DIR), pcgc, noise;
@@ -112,6 +112,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--target-walk", target_options.random_walk,
                  "--target-rate: random walk of the target's velocity on top of its motion, m/s per sqrt(s)")
+      ->capture_default_str();
+  app.add_option("--target-pass-time", target_options.pass_time,
+                 "--target-rate: simulated time (s) at which the target is at its pose in the task (its motion's "
+                 "t = 0; a constant motion is extrapolated backwards before it)")
       ->capture_default_str();
   std::vector<std::string> package_path;
   quadhand::apps::AddPackagePathOption(&app, &package_path);
@@ -233,8 +237,9 @@ int main(int argc, char** argv) {
       auto target = sim::LoadTaskTarget(start_task);
       if (!target.ok()) return Fail(target.status().message());
       autopilot_options.target.emplace(target->pose, target->motion, target_options);
-    } else if (app.count("--target-noise") + app.count("--target-yaw-noise") + app.count("--target-walk") > 0) {
-      return Fail("--target-noise, --target-yaw-noise and --target-walk need --target-rate");
+    } else if (app.count("--target-noise") + app.count("--target-yaw-noise") + app.count("--target-walk") +
+                   app.count("--target-pass-time") > 0) {
+      return Fail("--target-noise, --target-yaw-noise, --target-walk and --target-pass-time need --target-rate");
     }
     autopilot_options.record_flown = !log_path.empty();
     autopilot_options.gripper_loads = std::move(gripper_loads);

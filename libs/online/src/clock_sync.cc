@@ -77,6 +77,7 @@ void ClockSync::Estimate() {
 }
 
 double ClockSync::ToLocal(double vehicle_time) const { return vehicle_time - estimate_.value_or(0.0); }
+double ClockSync::ToVehicle(double local_time) const { return local_time + estimate_.value_or(0.0); }
 
 LinkLatency ClockSync::latency() const {
   LinkLatency l;

@@ -31,6 +31,12 @@ constexpr double kLinkPlanningShare = 0.7;
 constexpr double kLinkHoldSlack = 1.5;
 constexpr double kLinkSettleTime = 1.0;  // s of link figures before the first plan
 constexpr double kRestSpeed = 0.05;      // m/s: a holding vehicle, planned from rest
+constexpr double kLatestTargetStart = 0.05;  // s a moving target's plan from rest may be entered late
+// TrimTool: how often the shift is updated, and the share of the tool's
+// offset each update takes (about a second to converge, slower than the
+// autopilot's position loop, so the vehicle follows each step).
+constexpr double kTrimPeriod = 0.2;
+constexpr double kTrimGain = 0.3;
 
 }  // namespace
 
@@ -53,6 +59,7 @@ const char* HoldCauseName(HoldCause cause) {
     case HoldCause::kLinkFailed: return "the link failed during the mission";
     case HoldCause::kToolNotSettled: return "the tool did not settle";
     case HoldCause::kGripperFailed: return "the gripper did not act";
+    case HoldCause::kTargetLost: return "the target was lost";
   }
   return "?";
 }
@@ -118,6 +125,19 @@ bool OnlineOptions::IsValid(std::string* why) const {
   if (!positive(innovation_gate) || !positive(innovation_acceleration)) {
     return fail("innovation_gate and innovation_acceleration must be positive");
   }
+  if (std::string tracker_why; !target_tracker.IsValid(&tracker_why)) {
+    static thread_local std::string message;
+    message = "target_tracker: " + tracker_why;
+    return fail(message.c_str());
+  }
+  if (!positive(max_target_age) || !positive(target_plan_lead) || !positive(target_replan_threshold) ||
+      !(std::isfinite(target_replan_interval) && target_replan_interval >= 0.0) || !positive(target_timeout) ||
+      !positive(target_tail) || !(std::isfinite(target_correction) && target_correction >= 0.0 && target_correction <= 0.1) ||
+      !positive(target_arrival_tolerance)) {
+    return fail("max_target_age, target_plan_lead, target_replan_threshold, target_tail, target_timeout and "
+                "target_arrival_tolerance must be positive, target_replan_interval >= 0, target_correction in "
+                "[0, 0.1] m");
+  }
   return true;
 }
 
@@ -138,10 +158,15 @@ class OnlineController::Worker {
     // Plans from rest (the first, and after a hold for the link): planned
     // at the task's limits, then slowed down to v_max (time_scale.h).
     bool from_rest = false;
+    // A moving target: its predicted motion from the plan's t = 0 and the
+    // placement of the task's target there (MovingSceneFor).
+    std::optional<planner::TargetMotion> target_motion;
+    Pose target_placement = Pose::Identity();
   };
   struct Done {
     PlanRecord record;
     std::shared_ptr<const planner::PlanResult> plan;  // set when it succeeded
+    std::shared_ptr<const planner::MovingSceneModels> target;  // a moving target's prediction
   };
 
   Worker(const PlanningSetup& setup, bool cold_fallback)
@@ -224,8 +249,32 @@ class OnlineController::Worker {
     // post-check certifies the speed flown.
     planner::Task limited = *setup_.task;
     if (job.v_max > 0.0) limited.limits.v_max = std::min(limited.limits.v_max, job.v_max);
+    // A moving target: the moving points' models for this prediction, and
+    // the task's target placed and moving alike. A plan from rest is made
+    // at the link's limit rather than slowed down afterwards, which would
+    // move its arrival away from the target's.
+    planner::PlanningScene scene = setup_.scene;
+    planner::Task placed = *setup_.task;
+    if (job.target_motion) {
+      done.record.moving_target = true;
+      auto built = setup_.context->MovingSceneFor(*job.target_motion, job.target_placement);
+      done.record.prediction_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
+      if (!built.ok()) {
+        done.record.status = planner::PlanStatus::kInvalidInput;
+        done.record.message = built.status().message();
+        return done;
+      }
+      done.target = std::move(*built);
+      scene.moving = &done.target->scene;
+      limited.tool->position = job.target_placement * limited.tool->position;
+      limited.tool->orientation = Quat(job.target_placement.linear() * limited.tool->orientation.toRotationMatrix());
+      limited.tool->moving->motion = *job.target_motion;
+      placed = limited;
+    }
+    const bool slow_down_after = job.from_rest && !job.target_motion;
     auto cold_plan = [&]() -> core::Result<planner::PlanResult> {
-      planner::Task task = job.from_rest ? *setup_.task : limited;
+      planner::Task task = slow_down_after ? placed : limited;
       task.start = job.start;
       if (!planner::PlansAsGoal(task)) {
         // A mission's legs are checked against their own phases, so it is
@@ -235,17 +284,16 @@ class OnlineController::Worker {
         return planner::PlanTask(*setup_.context, task, 0, setup_.plan_options, *setup_.solver,
                                  setup_.mission_phases);
       }
-      core::Result<planner::PlanResult> planned =
-          planner::Plan(setup_.scene, task, setup_.plan_options, *setup_.solver);
-      if (!job.from_rest || job.v_max <= 0.0 || !planned.ok() || !planned->success) return planned;
+      core::Result<planner::PlanResult> planned = planner::Plan(scene, task, setup_.plan_options, *setup_.solver);
+      if (!slow_down_after || job.v_max <= 0.0 || !planned.ok() || !planned->success) return planned;
       const double peak = planner::PeakSpeed(*planned->trajectory);
       if (peak <= job.v_max) return planned;
       done.record.slowdown = peak / job.v_max;
-      return planner::SlowDown(*planned, peak / job.v_max, setup_.scene, task, setup_.plan_options);
+      return planner::SlowDown(*planned, peak / job.v_max, scene, task, setup_.plan_options);
     };
     core::Result<planner::PlanResult> result = core::Status::Internal("not run");
     if (job.replan) {
-      result = planner::Replan(setup_.scene, limited, setup_.plan_options, setup_.replan_options, *setup_.solver,
+      result = planner::Replan(scene, limited, setup_.plan_options, setup_.replan_options, *setup_.solver,
                                *job.base, job.t_from, job.start);
       done.record.warm_ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
@@ -303,6 +351,9 @@ core::Result<std::unique_ptr<OnlineController>> OnlineController::Create(const P
   }
   if (std::string why; !setup.plan_options.IsValid(&why)) return core::Status::InvalidArgument("planner options: " + why);
   if (std::string why; !setup.replan_options.IsValid(&why)) return core::Status::InvalidArgument(why);
+  if (setup.task->tool && setup.task->tool->moving && setup.context == nullptr) {
+    return core::Status::InvalidArgument("a moving target needs the planning context (its moving points' models)");
+  }
   return std::unique_ptr<OnlineController>(new OnlineController(setup, options));
 }
 
@@ -312,7 +363,12 @@ OnlineController::OnlineController(const PlanningSetup& setup, const OnlineOptio
       worker_(std::make_unique<Worker>(setup, options.cold_fallback)),
       clock_(options.clock_sync),
       planned_speed_limit_(setup.task->limits.v_max),
-      tool_link_(setup.scene.robot.LinkIndex(setup.task->tool_link)) {}
+      tool_link_(setup.scene.robot.LinkIndex(setup.task->tool_link)) {
+  if (setup.task->tool && setup.task->tool->moving) {
+    tracker_ = std::make_unique<TargetTracker>(options.target_tracker);
+    task_target_ = MakePose(setup.task->tool->position, setup.task->tool->orientation.toRotationMatrix());
+  }
+}
 
 OnlineController::~OnlineController() = default;
 
@@ -365,7 +421,8 @@ void OnlineController::CheckAbort(double t) {
     if (!retreating_ && t - retreat_start_ >= retreat_duration_ + options_.abort_hold) abort_done_ = true;
     return;
   }
-  if (!options_.abort_near_goal || IsMission() || !to_.plan || !to_.plan->insertion.enabled || link_hold_ ||
+  if (!options_.abort_near_goal || IsMission() || tracker_ != nullptr || !to_.plan || !to_.plan->insertion.enabled ||
+      link_hold_ ||
       blending_ || arrival_done_ || !HaveState() || position_time_ <= abort_checked_time_) {
     return;
   }
@@ -829,10 +886,15 @@ planner::BoundaryState OnlineController::MeasuredBoundaryState() const {
 }
 
 void OnlineController::MaybeReplan(double t, bool periodic, double error) {
-  if (!options_.replanning || phase_ != Phase::kFlying || link_hold_ || blending_ || replan_pending_ || !to_.plan ||
-      aborted_) {
+  // A moving target's tail replan waiting for its splice does not hold a
+  // replan from the measured state back: that one starts from the plan
+  // flown now and replaces the tail.
+  const bool tail_pending = PendingTailSplice(t);
+  if (!options_.replanning || phase_ != Phase::kFlying || link_hold_ || (blending_ && !tail_pending) ||
+      replan_pending_ || !to_.plan || aborted_) {
     return;
   }
+  const ActivePlan& flown = tail_pending ? from_ : to_;
   if (!periodic && t - last_trigger_ < options_.min_replan_interval) return;
   // The start is the newest state predicted over its age and the lead: not
   // from a state too old to predict from (a slow or lossy link).
@@ -844,23 +906,30 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
                  periodic ? "periodic" : "tracking-error", age * 1e3, options_.max_state_age * 1e3));
     return;
   }
-  const planner::WholeBodyTrajectory& trajectory = *to_.plan->trajectory;
+  const planner::WholeBodyTrajectory& trajectory = *flown.plan->trajectory;
   const double t_splice = t + options_.replan_lead;
-  const double plan_time = t_splice - to_.start;
-  // Not in (or right before) the insertion piece: Replan would refuse.
-  if (plan_time >= InsertionStart(*to_.plan) - setup_.replan_options.min_piece_duration) return;
+  const double plan_time = t_splice - flown.start;
+  // Not in (or right before) the insertion piece: Replan would refuse. A
+  // moving target's insertion is replanned as one that has begun, while a
+  // piece's worth of it is left.
+  if (tracker_ != nullptr) {
+    if (plan_time >= trajectory.duration() - setup_.replan_options.min_piece_duration) return;
+  } else if (plan_time >= InsertionStart(*flown.plan) - setup_.replan_options.min_piece_duration) {
+    return;
+  }
+  Worker::Job job;
+  if (tracker_ != nullptr && !PredictTarget(t_splice, &job.target_motion, &job.target_placement)) return;
 
   // The measured state predicted to the splice time, the tracking error held
   // constant: the error is against the reference the vehicle was following
   // when it measured the state (streamed an uplink latency before), and the
   // new plan's setpoints reach it as late as the current plan's did.
   const double followed = position_time_ - UplinkLatency();
-  const planner::WholeBodySample now = trajectory.Sample(std::max(0.0, followed - to_.start));
+  const planner::WholeBodySample now = trajectory.Sample(std::max(0.0, followed - flown.start));
   const planner::WholeBodySample then = trajectory.Sample(plan_time);
   const planner::BoundaryState measured = MeasuredBoundaryState();
-  Worker::Job job;
   job.replan = true;
-  job.base = to_.plan;
+  job.base = flown.plan;
   job.t_from = plan_time;
   job.requested_at = t;
   job.periodic = periodic;
@@ -878,6 +947,8 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   replan_pending_ = true;
   pending_resume_ = false;
   pending_splice_time_ = t_splice;
+  pending_exact_ = false;
+  pending_keep_from_ = tail_pending;
   last_trigger_ = t;
   ++stats_.replans_triggered;
   if (periodic) {
@@ -886,6 +957,100 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   } else {
     Event(Format("tracking error %.3f m > %.3f m: replanning from the measured state", error, options_.replan_threshold));
   }
+}
+
+// A moving target's (controller_target.cc has the rest): here, as it makes a
+// worker's job.
+void OnlineController::ReplanTail(double t, double shift) {
+  const bool tail_pending = PendingTailSplice(t);
+  if (!options_.replanning || phase_ != Phase::kFlying || link_hold_ || (blending_ && !tail_pending) ||
+      replan_pending_ || !to_.plan || !to_.target || aborted_) {
+    return;
+  }
+  const planner::WholeBodyTrajectory& trajectory = *to_.plan->trajectory;
+  // A tail waiting for its splice is replaced from the same junction (the
+  // plan flown until then is not the tail's); the splice must not be due
+  // before the new one can be ready.
+  double from = to_.start;
+  if (tail_pending) {
+    if (to_.start < t + options_.replan_lead) return;
+  } else {
+    from = std::max(t + options_.replan_lead, to_.start + trajectory.duration() - options_.target_tail);
+  }
+  const double plan_time = from - to_.start;
+  if (trajectory.duration() - plan_time < setup_.replan_options.min_piece_duration) return;
+  Worker::Job job;
+  if (!PredictTarget(from, &job.target_motion, &job.target_placement)) return;
+  const planner::WholeBodySample s = trajectory.Sample(plan_time);
+  planner::BoundaryState& start = job.start;
+  start.position = s.position;
+  start.velocity = s.velocity;
+  start.acceleration = s.acceleration;
+  start.jerk = s.jerk;
+  start.yaw = s.yaw;
+  start.yaw_rate = s.yaw_rate;
+  start.joints = s.joints;
+  start.joint_rates = s.joint_rates;
+  job.replan = true;
+  job.base = to_.plan;
+  job.t_from = plan_time;
+  job.requested_at = t;
+  job.periodic = true;  // a failure keeps the plan
+  job.v_max = planned_speed_limit_;
+  worker_->Submit(std::move(job));
+  replan_pending_ = true;
+  pending_resume_ = false;
+  pending_splice_time_ = from;
+  pending_exact_ = true;
+  pending_keep_from_ = tail_pending;
+  last_target_trigger_ = t;
+  ++stats_.replans_triggered;
+  ++stats_.target_replans;
+  Event(Format("the target's prediction moved the grasp %.4f m: replanning the plan from t = %.2f s", shift, from));
+}
+
+// TargetCorrection blends its shift in over this long before the insertion.
+constexpr double kCorrectionRamp = 0.5;
+
+void OnlineController::TargetCorrection(double t, Vec3* position, Vec3* velocity) {
+  position->setZero();
+  velocity->setZero();
+  if (tracker_ == nullptr || options_.target_correction <= 0.0 || !to_.plan || !to_.target || retreating_) return;
+  const planner::PlanResult& plan = *to_.plan;
+  const double plan_time = t - to_.start;
+  // The ramp starts once for the flight: a replan down the insertion has
+  // its own (shorter) last piece, and the shift must not go out and in again.
+  if (correction_start_ < 0.0) {
+    if (plan_time <= InsertionStart(plan) - kCorrectionRamp) return;
+    correction_start_ = t;
+  }
+  const double ramp_start = plan_time - (t - correction_start_);
+  const std::optional<TargetEstimate> estimate = tracker_->Estimate(t);
+  if (!estimate) return;
+  if (correction_plan_ != &plan) {
+    // What the still scene leaves over the accepted clearance, from the
+    // ramp's start to the end of the follow: the most the shift may be.
+    correction_plan_ = &plan;
+    const double follow_end = plan.trajectory->duration() + options_.arrival_hold;
+    double margin = PathMargin(std::max(0.0, ramp_start), plan.trajectory->duration(), Vec3::Zero(), {}, nullptr,
+                               nullptr, nullptr);
+    for (double tau = plan.trajectory->duration(); tau <= follow_end + 1e-9; tau += 0.05) {
+      int link = -1;
+      margin = std::min(margin, ConfigurationMargin(nullptr, FollowState(tau), &link));
+    }
+    correction_bound_ = std::clamp(margin, 0.0, options_.target_correction);
+  }
+  const planner::TargetMotion& motion = to_.target->motion;
+  const Vec3 planned = motion.Displacement(plan_time) * plan.target_at_zero.translation();
+  Vec3 shift = estimate->position - planned;
+  Vec3 rate = estimate->velocity - motion.PointVelocity(planned, plan_time);
+  if (shift.norm() > correction_bound_) {
+    shift *= correction_bound_ / shift.norm();
+    rate.setZero();
+  }
+  const double weight = SpliceWeight((plan_time - ramp_start) / kCorrectionRamp);
+  *position = weight * shift;
+  *velocity = weight * rate;
 }
 
 void OnlineController::CollectPlan(double t) {
@@ -903,7 +1068,7 @@ void OnlineController::CollectPlan(double t) {
            HoldCause::kPlanFailed);
       return;
     }
-    to_ = {done->plan, t};
+    to_ = {done->plan, done->target ? first_plan_zero_ : t, done->target};
     from_ = ActivePlan{};
     blending_ = false;
     link_hold_ = false;
@@ -925,6 +1090,7 @@ void OnlineController::CollectPlan(double t) {
       return;
     }
     first_plan_ = done->plan;
+    first_target_ = done->target;
     planned_speed_limit_ = record.speed_limit;
     Event(Format("plan ready: %.2f s long, ", first_plan_->trajectory->duration()) +
           Format("planned in %.1f ms", record.latency_ms) +
@@ -938,10 +1104,14 @@ void OnlineController::CollectPlan(double t) {
   if (link_hold_) return;  // braking for the link: a fresh plan follows when it is good again
   if (done->plan) {
     planned_speed_limit_ = record.speed_limit;
-    from_ = to_;
-    to_ = {done->plan, pending_splice_time_};
+    // A tail replan starts on the plan itself: spliced at its start with
+    // no blend, unless it came too late for that.
+    const bool late = t > pending_splice_time_;
+    if (!pending_keep_from_) from_ = to_;
+    to_ = {done->plan, pending_splice_time_, done->target};
     blending_ = true;
     blend_start_ = std::max(t, pending_splice_time_);
+    splice_window_ = pending_exact_ && !late ? 0.0 : options_.blend_window;
     ++stats_.splices;
     Event(Format(record.cold_fallback ? "replanned in %.1f ms (the warm start failed the post-check: planned cold); "
                                         "blending the new plan in from t = %.2f s"
@@ -965,10 +1135,10 @@ void OnlineController::CollectPlan(double t) {
 
 std::optional<Setpoint> OnlineController::Reference(double t) const {
   if (!to_.plan) return std::nullopt;
-  auto sample = [t](const ActivePlan& p) { return FromSample(p.plan->trajectory->Sample(t - p.start)); };
+  auto sample = [t](const ActivePlan& p) { return SampleActive(p, t); };
   if (blending_) {
     if (t < blend_start_) return sample(from_);
-    const double s = (t - blend_start_) / options_.blend_window;
+    const double s = splice_window_ > 0.0 ? (t - blend_start_) / splice_window_ : 1.0;
     if (s < 1.0) return Blend(sample(from_), sample(to_), SpliceWeight(s));
   }
   return sample(to_);
@@ -1054,6 +1224,11 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   job.requested_at = t;
   job.v_max = limit;
   job.from_rest = true;
+  if (tracker_ != nullptr) {
+    // Against the prediction from a t = 0 fixed now (the plan is held there until then).
+    first_plan_zero_ = t + options_.target_plan_lead;
+    if (!PredictTarget(first_plan_zero_, &job.target_motion, &job.target_placement)) return;
+  }
   worker_->Submit(std::move(job));
   pending_resume_ = true;
   Event(Format("link good again (%.2f m/s allowed): planning afresh from the measured state", limit));
@@ -1395,7 +1570,8 @@ void OnlineController::CheckTracking(double t) {
   position_checked_ = true;
   if (last_error_ > options_.replan_threshold) {
     MaybeReplan(t, false, last_error_);
-  } else if (options_.replan_period > 0.0 && t - std::max(last_trigger_, to_.start) >= options_.replan_period) {
+  } else if (options_.replan_period > 0.0 && tracker_ == nullptr &&
+             t - std::max(last_trigger_, to_.start) >= options_.replan_period) {
     MaybeReplan(t, true, last_error_);
   }
 }
@@ -1414,6 +1590,17 @@ void OnlineController::RequestFirstPlan(double t) {
     return;
   }
   Worker::Job job;
+  if (tracker_ != nullptr) {
+    // Planned once the vehicle is offboard and armed, against the
+    // prediction from a t = 0 fixed now (target_plan_lead).
+    if (phase_ != Phase::kWaitingForPlan) return;
+    first_plan_zero_ = t + options_.target_plan_lead;
+    if (!PredictTarget(first_plan_zero_, &job.target_motion, &job.target_placement)) {
+      if (!target_wait_noted_) Event("waiting for the target's measurements before planning");
+      target_wait_noted_ = true;
+      return;
+    }
+  }
   job.start.position = hold_.position;
   job.start.yaw = hold_.yaw;
   job.start.joints = hold_.joints;
@@ -1518,11 +1705,6 @@ Vec3 OnlineController::ToolOffsetFromPlan(double plan_time) const {
   return measured - planned;
 }
 
-// TrimTool: how often the shift is updated, and the share of the tool's
-// offset each update takes (about a second to converge, slower than the
-// autopilot's position loop, so the vehicle follows each step).
-constexpr double kTrimPeriod = 0.2;
-constexpr double kTrimGain = 0.3;
 
 void OnlineController::TrimTool(double t, double junction) {
   if (options_.tool_trim <= 0.0 || tool_link_ < 0 || velocity_.norm() > options_.arrival_settle_speed ||
@@ -1733,12 +1915,26 @@ ControllerOutput OnlineController::Tick(double t) {
     RequestFirstPlan(t);
   }
 
-  if (phase_ == Phase::kWaitingForPlan && first_plan_) {
+  if (phase_ == Phase::kWaitingForPlan && first_plan_ && tracker_ != nullptr && t >= first_plan_zero_) {
+    // A moving target's plan starts at its t = 0 or not at all: later, the
+    // target is no longer where it was planned to meet it.
+    const double offset = (position_ - hold_.position).norm();
+    const bool settled = offset <= options_.start_tolerance || t - confirmed_time_ >= options_.settle_timeout;
+    if (!settled || t > first_plan_zero_ + kLatestTargetStart) {
+      first_plan_.reset();
+      first_target_.reset();
+      first_plan_requested_ = false;
+      Event(settled ? "the plan came too late for the target: planning again"
+                    : "the vehicle has not settled at the hold by the plan's start: planning again");
+    }
+  }
+  if (phase_ == Phase::kWaitingForPlan && first_plan_ && (tracker_ == nullptr || t >= first_plan_zero_)) {
     const double offset = (position_ - hold_.position).norm();
     const bool settled = offset <= options_.start_tolerance;
     if (settled || t - confirmed_time_ >= options_.settle_timeout) {
-      to_ = {first_plan_, t};
-      plan_clock_ = PlanClock{t, {}};
+      const double start = tracker_ != nullptr ? first_plan_zero_ : t;
+      to_ = {first_plan_, start, first_target_};
+      plan_clock_ = PlanClock{start, {}};
       phase_ = Phase::kFlying;
       Event(settled ? Format("flying the plan (%.3f m from the start)", offset)
                     : Format("flying the plan although the vehicle is still %.3f m from the start", offset));
@@ -1747,7 +1943,7 @@ ControllerOutput OnlineController::Tick(double t) {
   CheckLink(t, &out);
   if (phase_ == Phase::kFlying) CheckTracking(t);
   if (phase_ == Phase::kFlying && !link_hold_) {
-    if (blending_ && t >= blend_start_ + options_.blend_window) {
+    if (blending_ && t >= blend_start_ + splice_window_) {
       blending_ = false;
       from_ = ActivePlan{};
     }
@@ -1755,13 +1951,31 @@ ControllerOutput OnlineController::Tick(double t) {
     if (phase_ == Phase::kFlying && !blending_ && !retreating_ && t - to_.start >= to_.plan->trajectory->duration()) {
       phase_ = Phase::kArrived;
       arrival_time_ = t;
-      Event("the plan has ended: holding at the goal");
+      if (tracker_ != nullptr) {
+        follow_duration_ = ClearFollowDuration();
+        Event(Format("the plan has ended: following the target for %.2f s", follow_duration_) +
+              (follow_duration_ < options_.arrival_hold
+                   ? Format(" (farther would come under the safety distance less the tolerance)")
+                   : std::string()));
+      } else {
+        Event("the plan has ended: holding at the goal");
+      }
     }
   }
+  if (tracker_ != nullptr) CheckTarget(t);
   CheckAbort(t);
   CheckJointStall(t);
-  if (phase_ == Phase::kArrived && !arrival_done_ && !aborted_) TrimTool(t, to_.plan->trajectory->duration());
-  if (phase_ == Phase::kArrived && !arrival_done_ && !aborted_ && gripper_pending_ < 0 &&
+  if (phase_ == Phase::kArrived && !arrival_done_ && !aborted_ && tracker_ == nullptr) {
+    TrimTool(t, to_.plan->trajectory->duration());
+  }
+  if (phase_ == Phase::kArrived && !arrival_done_ && tracker_ != nullptr && t - arrival_time_ >= follow_duration_) {
+    arrival_done_ = true;
+    arrival_settled_ = stats_.arrival_target_error <= options_.target_arrival_tolerance;
+    Event(Format("followed the target for %.2f s: the tool was %.4f m from it at the arrival, ", t - arrival_time_,
+                 stats_.arrival_target_error) +
+          Format("at most %.4f m while following: done", stats_.max_follow_target_error));
+  }
+  if (phase_ == Phase::kArrived && !arrival_done_ && !aborted_ && gripper_pending_ < 0 && tracker_ == nullptr &&
       t - arrival_time_ >= options_.arrival_hold) {
     const double offset = ArrivalOffset();
     const double speed = velocity_.norm();
@@ -1800,8 +2014,13 @@ ControllerOutput OnlineController::Tick(double t) {
       }
       break;
     case Phase::kArrived:
-      setpoint = retreating_ ? RetreatReference(t)
-                             : HoldAt(FromSample(to_.plan->trajectory->Sample(to_.plan->trajectory->duration())));
+      if (retreating_) {
+        setpoint = RetreatReference(t);
+      } else if (to_.target) {
+        setpoint = Reference(t);  // following the target
+      } else {
+        setpoint = HoldAt(FromSample(to_.plan->trajectory->Sample(to_.plan->trajectory->duration())));
+      }
       break;
     default:
       break;
@@ -1824,7 +2043,10 @@ ControllerOutput OnlineController::Tick(double t) {
     ++stats_.setpoints;
     // Into the frame of the vehicle's estimate, where the autopilot flies,
     // and shifted to bring the tool to its pose (TrimTool).
-    setpoint->position += stats_.estimate_shift + tool_trim_;
+    Vec3 target_shift, target_rate;
+    TargetCorrection(t, &target_shift, &target_rate);
+    setpoint->position += stats_.estimate_shift + tool_trim_ + target_shift;
+    setpoint->velocity += target_rate;
     out.setpoint = std::move(setpoint);
   }
   const bool streaming_phase = phase_ != Phase::kVehicleLost && phase_ != Phase::kHandshakeFailed && !arrival_done_;

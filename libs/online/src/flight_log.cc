@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "quadhand/io/plan_file.h"
+#include "quadhand/planner/moving_scene.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/traj/flatness.h"
 
@@ -27,7 +28,8 @@ double Quantile(std::vector<double> v, double p) {
 
 }  // namespace
 
-void FlightLog::Record(const MeasuredState& measured, const std::optional<Setpoint>& setpoint, Phase phase) {
+void FlightLog::Record(const MeasuredState& measured, const std::optional<Setpoint>& setpoint, Phase phase,
+                       const std::optional<Pose>& target) {
   if (!samples_.empty() && measured.time <= samples_.back().measured.time) {
     if (measured.time < samples_.back().measured.time) return;  // out of order: dropped
     samples_.pop_back();
@@ -36,6 +38,7 @@ void FlightLog::Record(const MeasuredState& measured, const std::optional<Setpoi
   sample.measured = measured;
   sample.setpoint = setpoint;
   sample.phase = phase;
+  sample.target = target;
   if (!samples_.empty()) {
     const FlightSample& last = samples_.back();
     sample.acceleration = (measured.velocity - last.measured.velocity) / (measured.time - last.measured.time);
@@ -53,7 +56,9 @@ std::string FlightLog::CsvHeader(const std::vector<std::string>& joint_names) co
   out += ",sp_px,sp_py,sp_pz,sp_vx,sp_vy,sp_vz,sp_ax,sp_ay,sp_az,sp_yaw,sp_yaw_rate";
   for (const auto& name : joint_names) out += ",sp_" + name;
   for (const auto& name : joint_names) out += ",sp_" + name + "_rate";
-  out += ",err_pos,phase\n";
+  out += ",err_pos,phase";
+  if (target_columns_) out += ",target_x,target_y,target_z,target_qw,target_qx,target_qy,target_qz";
+  out += "\n";
   return out;
 }
 
@@ -93,6 +98,16 @@ std::string FlightLog::CsvRows(const std::vector<std::string>& joint_names, size
     }
     out += ",";
     out += PhaseName(s.phase);
+    if (target_columns_ && s.target) {
+      const Quat q(s.target->linear());
+      for (int i = 0; i < 3; ++i) Put(&out, s.target->translation()[i]);
+      Put(&out, q.w());
+      Put(&out, q.x());
+      Put(&out, q.y());
+      Put(&out, q.z());
+    } else if (target_columns_) {
+      out += ",,,,,,,";
+    }
     out += "\n";
   }
   return out;
@@ -130,7 +145,7 @@ FlightMetrics Evaluate(const std::vector<FlightSample>& samples, int num_joints,
     }
     last_time = s.measured.time;
     ++metrics.judged_samples;
-    const Judged j = judge(s.measured);
+    const Judged j = judge(s);
     if (std::isnan(metrics.min_clearance_time)) metrics.min_clearance_time = s.measured.time;
     if (j.clearance < min_clearance) {
       min_clearance = j.clearance;
@@ -168,7 +183,9 @@ FlightMetrics Evaluate(const std::vector<FlightSample>& samples, int num_joints,
   if (!samples.empty()) {
     const MeasuredState& last = samples.back().measured;
     metrics.final_base_error = (last.position - terminal_position).norm();
-    if (const auto tool_error = ToolGoalError(robot, task, last)) metrics.final_tool_error = *tool_error;
+    planner::Task at_target = task;
+    if (samples.back().target && at_target.tool) at_target.tool->position = samples.back().target->translation();
+    if (const auto tool_error = ToolGoalError(robot, at_target, last)) metrics.final_tool_error = *tool_error;
   }
   return metrics;
 }
@@ -177,12 +194,23 @@ FlightMetrics Evaluate(const std::vector<FlightSample>& samples, int num_joints,
 
 FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
                              const env::ExactMeshModel& exact, const planner::Task& task,
-                             const Vec3& terminal_position, double reach, double end_time) {
+                             const Vec3& terminal_position, double reach, double end_time,
+                             const MovingJudge& moving) {
   robot::KinematicsState kinematics;
-  auto judge = [&](const MeasuredState& m) {
+  auto judge = [&](const FlightSample& s) {
     Judged j;
     j.robot = &robot;
-    j.clearance = MeasuredClearance(robot, exact, m, reach, &kinematics, &j.link);
+    j.clearance = MeasuredClearance(robot, exact, s.measured, reach, &kinematics, &j.link);
+    if (moving.exact != nullptr) {
+      const Pose displacement = s.target ? Pose(*s.target * moving.task_target.inverse()) : Pose::Identity();
+      int link = -1;
+      const double near_target = env::WholeBodyClearance(planner::InTargetFrameAtZero(kinematics, displacement),
+                                                         *moving.exact, reach, {}, &link);
+      if (near_target < j.clearance) {
+        j.clearance = near_target;
+        j.link = link;
+      }
+    }
     return j;
   };
   return Evaluate(samples, robot.num_actuated(), judge, robot, task, terminal_position, reach, end_time);
@@ -224,7 +252,8 @@ FlightMetrics EvaluateMissionFlight(const std::vector<FlightSample>& samples, co
     }
   }
   robot::KinematicsState kinematics;
-  auto judge = [&](const MeasuredState& m) {
+  auto judge = [&](const FlightSample& s) {
+    const MeasuredState& m = s.measured;
     const double t = frozen_plan_time >= 0.0 ? std::min(clock.PlanTime(m.time), frozen_plan_time)
                                              : clock.PlanTime(m.time);
     size_t k = 0;

@@ -86,6 +86,16 @@ bool DeliverToController(const link::Message& message, uint8_t from_system, doub
     controller->OnJoints(controller->MeasurementTime(t, static_cast<double>(array->time_usec) * 1e-6), q, qd);
     return true;
   }
+  if (const auto* landing = std::get_if<link::LandingTarget>(&message)) {
+    const std::optional<TargetMeasurement> measurement = TargetFromLandingTarget(*landing);
+    if (!measurement) {
+      controller->OnMalformedTarget();
+      return false;
+    }
+    const double when = controller->MeasurementTime(t, measurement->vehicle_time);
+    controller->OnTarget(when, measurement->position, measurement->yaw, t - when);
+    return controller->tracks_target();
+  }
   if (const auto* sync = std::get_if<link::Timesync>(&message)) {
     if (sync->tc1 == 0) return false;  // the vehicle's own request: not answered (optional in MAVLink)
     controller->OnTimesync(t, sync->tc1, sync->ts1);

@@ -19,6 +19,7 @@ bool SimTargetOptions::IsValid(std::string* why) const {
   if (!(noise >= 0.0 && noise <= 1.0)) return fail("target noise must be in [0, 1] m");
   if (!(yaw_noise >= 0.0 && yaw_noise <= 1.0)) return fail("target yaw noise must be in [0, 1] rad");
   if (!(random_walk >= 0.0 && random_walk <= 10.0)) return fail("target random walk must be in [0, 10] m/s/sqrt(s)");
+  if (!(pass_time >= 0.0 && pass_time <= 3600.0)) return fail("target pass time must be in [0, 3600] s");
   return true;
 }
 
@@ -38,7 +39,7 @@ void SimTarget::AdvanceWalk(double t) {
 
 Vec3 SimTarget::Position(double t) {
   AdvanceWalk(t);
-  return motion_.Displacement(t) * pose_.translation() + walk_offset_;
+  return motion_.Displacement(t - options_.pass_time) * pose_.translation() + walk_offset_;
 }
 
 Pose SimTarget::PoseAt(double t) {

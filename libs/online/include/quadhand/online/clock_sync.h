@@ -50,6 +50,8 @@ class ClockSync {
   bool synced() const { return estimate_.has_value(); }
   // Our time (s) of a vehicle time stamp (s of the vehicle's clock); needs synced().
   double ToLocal(double vehicle_time) const;
+  // The inverse: the vehicle's time (s) of one of ours; needs synced().
+  double ToVehicle(double local_time) const;
   // Latency figures over the window (zeros before the first answer).
   LinkLatency latency() const;
   // Answers received in all (for the summary).

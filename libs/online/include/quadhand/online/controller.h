@@ -68,6 +68,7 @@
 #include "quadhand/opt/solver.h"
 #include "quadhand/online/clock_sync.h"
 #include "quadhand/online/setpoint.h"
+#include "quadhand/online/target_tracker.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/mission_plan.h"
 #include "quadhand/planner/planning_context.h"
@@ -250,6 +251,67 @@ struct OnlineOptions {
   double joint_stall_rate = 0.3;
   double joint_stall_time = 0.1;
 
+  // A moving target (goal.tool.motion; docs/moving_targets.md, "Online").
+  // The task's motion is not used in flight: the target is what its
+  // measurements (OnTarget) say, filtered by target_tracker and predicted
+  // forward as a constant motion. Every plan and replan is made against
+  // that prediction from its own start, with the task's moving points
+  // placed where the estimate has the target then.
+  // The default filter suits a target whose speed drifts by a few cm/s over
+  // seconds (a belt, a turntable); TargetTrackerOptions' own default
+  // (0.01 m^2/s^3) one pushed by hand, at the price of a noisier velocity.
+  TargetTrackerOptions target_tracker = [] {
+    TargetTrackerOptions tracker;
+    tracker.acceleration_noise = 1e-4;
+    tracker.yaw_acceleration_noise = 1e-4;
+    return tracker;
+  }();
+  // A measurement older than this on arrival (s, from its stamp) is dropped.
+  double max_target_age = 0.5;
+  // The first plan's t = 0 is fixed before it is made (the prediction
+  // starts there): target_plan_lead s after it is requested, once the
+  // vehicle is offboard and armed. A plan ready later than that, or a
+  // vehicle not settled by then (until settle_timeout), is planned again.
+  double target_plan_lead = 0.5;
+  // While flying, the plan's tail is replanned whenever the tracker's
+  // prediction of the target at the plan's arrival differs from the plan's
+  // by more than target_replan_threshold m (its position, and its heading
+  // times the base's distance from it), at most every
+  // target_replan_interval s: from the plan's own state at
+  // max(now + replan_lead, arrival - target_tail) to the target as now
+  // predicted, spliced there without a blend (the two plans meet exactly).
+  // The head stays as it was certified; a tail replan that fails keeps the
+  // plan. The tracking-error replans (replan_threshold) still start from
+  // the measured state; the periodic ones are not made (a moving target's
+  // replans come from its prediction).
+  double target_replan_threshold = 0.005;
+  double target_replan_slope = 0.01;  // m per s left to the arrival, added to the threshold
+  double target_tail = 3.0;
+  // From half a second before the insertion (and while following after the
+  // arrival), the setpoints are shifted by where the tracker has the target
+  // now less where the plan's prediction has it (and the velocities by the
+  // difference of their velocities), blended in over that half second: the
+  // prediction's last error, which a replan this late could not fix
+  // (Replan's begun insertion must keep the tool on the line from its first
+  // sample). Relative to the target the robot then moves as planned; against
+  // the still scene it moves by the shift, which is therefore at most
+  // target_correction m and at most what the still scene leaves the rest of
+  // the plan and the follow over the accepted clearance (0: no shift).
+  double target_correction = 0.02;
+  double target_replan_interval = 0.2;
+  // No target measurement for this long (s) while flying: the target is
+  // lost, and the flight ends holding (HoldCause::kTargetLost).
+  double target_timeout = 1.0;
+  // At the arrival the vehicle follows the target for arrival_hold s (the
+  // plan's end state moved on with the plan's prediction; the path
+  // checked first against the still scene and cut short where it would
+  // come under the safety distance less the tolerance), then finishes.
+  // It has settled when the measured tool was within
+  // target_arrival_tolerance m of the tracker's target at the arrival.
+  // The abort near the goal and the tool trim are not used for a moving
+  // target (the retreat along the plan would go where the target was).
+  double target_arrival_tolerance = 0.01;
+
   bool IsValid(std::string* why) const;
 };
 
@@ -274,6 +336,7 @@ enum class HoldCause {
   kLinkFailed,       // a mission's link hold (a mission is not resumed)
   kToolNotSettled,   // a mission's tool did not settle at a junction or a gripper step
   kGripperFailed,    // the gripper command was refused or not acknowledged
+  kTargetLost,       // a moving target was not measured for target_timeout
 };
 const char* HoldCauseName(HoldCause cause);  // "the plan failed", ...
 
@@ -352,6 +415,10 @@ struct PlanRecord {
   int iterations = 0;
   double speed_limit = 0.0;   // v_max it was planned with (m/s: the task's, or lower for the link)
   double slowdown = 1.0;      // plans from rest: the factor it was slowed down by for the link
+  // A moving target: the plan's prediction (time of its t = 0, and the
+  // ms spent building the moving points' models for it, in latency_ms).
+  bool moving_target = false;
+  double prediction_ms = 0.0;
 };
 
 struct OnlineStats {
@@ -390,6 +457,20 @@ struct OnlineStats {
   // the flight is judged in, and the setpoints were streamed plus it
   // (zero unless OnlineOptions::shift_setpoints_on_jump).
   Vec3 estimate_shift = Vec3::Zero();
+  // A moving target's measurements: used, dropped (older than the newest,
+  // older than max_target_age on arrival, or malformed) and rejected by
+  // the tracker's gate; its restarts; replans its prediction triggered.
+  long target_measurements = 0;
+  long target_dropped_stale = 0;
+  long target_dropped_malformed = 0;
+  long target_rejected = 0;
+  int target_restarts = 0;
+  int target_replans = 0;
+  // The measured tool's distance from the tracker's target at the arrival
+  // (the first state at or after the plan's end) and the most while
+  // following it after (m; NaN before the arrival / without a target).
+  double arrival_target_error = std::numeric_limits<double>::quiet_NaN();
+  double max_follow_target_error = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Controller time -> plan time of a mission flown with the waits at its
@@ -447,6 +528,18 @@ class OnlineController {
   // joint standing still is not a stall.
   void OnJointGoals(double t, const VecX& goals);
   const VecX& joint_goals() const { return joint_goals_; }  // empty until reported
+  // A moving target's measured pose (LANDING_TARGET, mavlink_bridge.h):
+  // its position and heading at controller time t (the vehicle's stamp
+  // mapped), `age` s old on arrival. Dropped (and counted) when the task's
+  // target does not move, when older than max_target_age, or when not
+  // newer than the newest; else filtered (target_tracker.h).
+  void OnTarget(double t, const Vec3& position, double yaw, double age);
+  // A target message that could not be read (counted, never used).
+  void OnMalformedTarget() { ++stats_.target_dropped_malformed; }
+  bool tracks_target() const { return tracker_ != nullptr; }
+  // The tracker's estimate of the target at t as the pose of the task's
+  // tool goal (where the tool must be); none before it has one.
+  std::optional<Pose> TargetPoseAt(double t) const;
   // The vehicle's heartbeat: armed flag and whether it is in OFFBOARD.
   void OnHeartbeat(double t, bool armed, bool offboard);
   // The mode the same heartbeat gives: each change is an event, so that
@@ -512,7 +605,30 @@ class OnlineController {
   struct ActivePlan {
     std::shared_ptr<const planner::PlanResult> plan;
     double start = 0.0;  // controller time of the plan's t = 0
+    // A moving target: the prediction it was planned against (its motion's
+    // clock is the plan's); the plan's setpoints after its end follow it.
+    std::shared_ptr<const planner::MovingSceneModels> target;
   };
+  // The setpoint of `plan` at controller time t (after a moving target's
+  // plan has ended: its end state following the prediction).
+  static Setpoint SampleActive(const ActivePlan& plan, double t);
+  // A moving target (controller_target.cc): the prediction from time t as
+  // a job's motion and placement; false without an estimate.
+  bool PredictTarget(double t, std::optional<planner::TargetMotion>* motion, Pose* placement) const;
+  // The replan its prediction calls for (target_replan_threshold).
+  void CheckTarget(double t);
+  // The predicted target at the current plan's arrival less the plan's.
+  double ArrivalShift() const;
+  // The measured tool's distance from the tracker's target now.
+  double ToolTargetError() const;
+  // The follow's configuration at plan time `plan_time` (past the plan's
+  // end), level, with the other fields of the measured state.
+  MeasuredState FollowState(double plan_time) const;
+  // At the arrival: how long the follow keeps its clearance (<= arrival_hold).
+  double ClearFollowDuration() const;
+  // The shift of the setpoints at t (OnlineOptions::target_correction):
+  // position and velocity, zero outside the insertion and the follow.
+  void TargetCorrection(double t, Vec3* position, Vec3* velocity);
   class Worker;
 
   OnlineController(const PlanningSetup& setup, const OnlineOptions& options);
@@ -543,6 +659,10 @@ class OnlineController {
   // A replan from the measured state at t; `periodic`: started by
   // replan_period with the tracking error below the threshold.
   void MaybeReplan(double t, bool periodic, double error);
+  // A moving target's replan of the current plan's tail (controller_target.cc).
+  void ReplanTail(double t, double shift);
+  // A tail replan has been spliced in and waits for its start (t before it).
+  bool PendingTailSplice(double t) const { return blending_ && splice_window_ <= 0.0 && t < blend_start_; }
   // At a tick: replans due from the newest state, and the link budget.
   void CheckTracking(double t);
   void CheckLink(double t, ControllerOutput* out);
@@ -742,6 +862,28 @@ class OnlineController {
   std::optional<Setpoint> last_setpoint_;
   double last_setpoint_time_ = 0.0;
   bool last_setpoint_in_blend_ = false;
+
+  // A moving target: its tracker (null when the goal stands still), the
+  // task's target pose (its tool goal at the motion's t = 0), the newest
+  // measurement's time, the first plan's t = 0, and the follow's length.
+  std::unique_ptr<TargetTracker> tracker_;
+  Pose task_target_ = Pose::Identity();
+  double target_time_ = -1e300;
+  double first_plan_zero_ = 0.0;
+  std::shared_ptr<const planner::MovingSceneModels> first_target_;
+  bool target_wait_noted_ = false;
+  double last_target_trigger_ = -1e300;
+  // The pending replan starts on the plan itself (a tail: spliced without a
+  // blend), and whether from_ (the plan flown now) is kept when it is
+  // spliced (it was made while a tail waited for its splice).
+  bool pending_exact_ = false, pending_keep_from_ = false;
+  double splice_window_ = 0.5;  // s of the blend under way (0: a tail's exact splice)
+  double follow_duration_ = 0.0;
+  // TargetCorrection's bound for the plan it was last worked out for, and
+  // the controller time its ramp began (negative: not yet).
+  const planner::PlanResult* correction_plan_ = nullptr;
+  double correction_bound_ = 0.0;
+  double correction_start_ = -1.0;
 
   OnlineStats stats_;
 };

@@ -5,7 +5,11 @@
 // yaw_rate, joints, joint rates; so sim::LoadPlanCsv reads it), then what was
 // streamed at that moment: sp_px..sp_pz, sp_vx..sp_vz, sp_ax..sp_az, sp_yaw,
 // sp_yaw_rate, sp_<joint>..., sp_<joint>_rate... (empty when nothing was
-// streamed), err_pos (|p - sp_p|, m, empty likewise) and phase (PhaseName).
+// streamed), err_pos (|p - sp_p|, m, empty likewise) and phase (PhaseName);
+// for a moving target, then target_x..target_z, target_qw..target_qz: the
+// pose of the task's tool goal where the controller's tracker had the target
+// at the state's time (empty before it had an estimate), as a plan file's
+// target columns.
 // The measured acceleration is not sent by the vehicle: it is the backward
 // difference of the measured velocities (0 in the first row). yaw is the Hopf
 // yaw of the measured attitude, yaw_rate the matching rate of the body rates.
@@ -30,12 +34,16 @@ struct FlightSample {
   Vec3 acceleration = Vec3::Zero();  // difference of measured velocities
   std::optional<Setpoint> setpoint;  // streamed at the time (none: nothing streamed)
   Phase phase = Phase::kWaitingForVehicle;
+  std::optional<Pose> target;        // a moving target's estimated pose (the tool goal's)
 };
 
 class FlightLog {
  public:
+  // `target_columns`: the CSV has the target's columns (a moving target).
+  explicit FlightLog(bool target_columns = false) : target_columns_(target_columns) {}
   // Appends one row (times must increase; a row at the same time replaces the last).
-  void Record(const MeasuredState& measured, const std::optional<Setpoint>& setpoint, Phase phase);
+  void Record(const MeasuredState& measured, const std::optional<Setpoint>& setpoint, Phase phase,
+              const std::optional<Pose>& target = std::nullopt);
   const std::vector<FlightSample>& samples() const { return samples_; }
   std::string Csv(const std::vector<std::string>& joint_names) const;  // CsvHeader + every row
   // The header line, and rows [begin, end) (for a log written as it grows).
@@ -43,6 +51,7 @@ class FlightLog {
   std::string CsvRows(const std::vector<std::string>& joint_names, size_t begin, size_t end) const;
 
  private:
+  bool target_columns_ = false;
   std::vector<FlightSample> samples_;
 };
 
@@ -100,9 +109,22 @@ FlightMetrics EvaluateMissionFlight(const std::vector<FlightSample>& samples, co
                                     const PlanClock& clock, const planner::Task& task, double tolerance,
                                     double reach = 0.3, double end_time = kNoEndTime, double frozen_plan_time = -1.0);
 
+// A moving target's points as the flight is judged against them: their
+// exact model where the task places them (its motion's t = 0) and the
+// task's target pose there (the tool goal's). Each state is judged with them
+// moved to where its row's target pose has them; a row without a target
+// pose (the tracker had no estimate yet) is judged against them where the
+// task places them.
+struct MovingJudge {
+  const env::ExactMeshModel* exact = nullptr;
+  Pose task_target = Pose::Identity();
+};
+
+// `moving`: a moving target's points (the final tool error is then against
+// the last row's target pose).
 FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const robot::RobotModel& robot,
                              const env::ExactMeshModel& exact, const planner::Task& task,
                              const Vec3& terminal_position, double reach = 0.3,
-                             double end_time = kNoEndTime);
+                             double end_time = kNoEndTime, const MovingJudge& moving = {});
 
 }  // namespace quadhand::online

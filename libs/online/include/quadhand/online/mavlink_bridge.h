@@ -70,6 +70,8 @@ std::optional<TargetMeasurement> TargetFromLandingTarget(const link::LandingTarg
 // Hands one received message to the controller at time t (s). Messages from
 // another system than targets.vehicle_system (when not 0), unknown names and
 // malformed joint arrays are ignored; returns whether the message was used.
+// LANDING_TARGET goes to OnTarget (any target_num: one target is tracked)
+// at its stamp's time, or to OnMalformedTarget when it cannot be read.
 bool DeliverToController(const link::Message& message, uint8_t from_system, double t, const LinkTargets& targets,
                          OnlineController* controller);
 

@@ -26,6 +26,11 @@ struct SimTargetOptions {
   double random_walk = 0.0;
   uint64_t seed = 0;
   uint8_t target_num = 1;     // LANDING_TARGET's target_num
+  // The simulated time at which the target is at its pose in the task (its
+  // motion's t = 0): a conveyor's cup that passes the task's place while
+  // the vehicle is on its way. Before it a constant motion is extrapolated
+  // backwards; a path file's first pose is held.
+  double pass_time = 0.0;
 
   bool IsValid(std::string* why) const;
 };
@@ -49,7 +54,7 @@ class SimTarget {
   // times must not decrease between calls). The heading is the target's
   // turn about world z since t = 0 (its pose in the task is heading 0).
   Vec3 Position(double t);
-  double Yaw(double t) const { return motion_.Yaw(t); }
+  double Yaw(double t) const { return motion_.Yaw(t - options_.pass_time); }
   // The true pose: the pose at t = 0 turned by Yaw(t), at Position(t).
   Pose PoseAt(double t);
   // The measurement due at or before t, if one is (then the next is due
