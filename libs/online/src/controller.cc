@@ -967,6 +967,10 @@ void OnlineController::ReplanTail(double t, double shift) {
       replan_pending_ || !to_.plan || !to_.target || aborted_) {
     return;
   }
+  // Once the shift has begun (the insertion is near), it corrects the
+  // prediction: a replan this late seldom keeps the tool on the moved line
+  // (Replan's begun insertion), and each one reshapes the last approach.
+  if (correction_start_ >= 0.0) return;
   const planner::WholeBodyTrajectory& trajectory = *to_.plan->trajectory;
   // A tail waiting for its splice is replaced from the same junction (the
   // plan flown until then is not the tail's); the splice must not be due

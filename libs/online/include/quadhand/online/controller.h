@@ -279,7 +279,8 @@ struct OnlineOptions {
   // times the base's distance from it), at most every
   // target_replan_interval s: from the plan's own state at
   // max(now + replan_lead, arrival - target_tail) to the target as now
-  // predicted, spliced there without a blend (the two plans meet exactly).
+  // predicted, spliced there without a blend (the two plans meet exactly),
+  // until the shift below begins.
   // The head stays as it was certified; a tail replan that fails keeps the
   // plan. The tracking-error replans (replan_threshold) still start from
   // the measured state; the periodic ones are not made (a moving target's
