@@ -161,15 +161,9 @@ int main(int argc, char** argv) {
   for (int trial = 0; trial < trials; ++trial) {
     const double t = uniform(rng) * (insertion_start - 0.3);
     const planner::WholeBodySample s = trajectory.Sample(t);
-    planner::BoundaryState start;
-    start.position = s.position + (min_offset + uniform(rng) * (max_offset - min_offset)) * random_unit();
-    start.velocity = s.velocity + velocity_noise * uniform(rng) * random_unit();
-    start.acceleration = s.acceleration;
-    start.jerk = s.jerk;
-    start.yaw = s.yaw;
-    start.yaw_rate = s.yaw_rate;
-    start.joints = s.joints;
-    start.joint_rates = s.joint_rates;
+    planner::BoundaryState start = s.State();
+    start.position += (min_offset + uniform(rng) * (max_offset - min_offset)) * random_unit();
+    start.velocity += velocity_noise * uniform(rng) * random_unit();
     // A moving target: the new prediction at t (its clock starting there).
     planner::PlanningScene replan_scene = scene;
     std::unique_ptr<planner::MovingSceneModels> prediction;

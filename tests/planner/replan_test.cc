@@ -21,19 +21,7 @@ using testing::WindowCup;
 const PlanResult& DefaultPlan() { return testing::WindowCupPlan(); }
 
 // The plan's state at t (a measured state with no error).
-BoundaryState StateOnPlan(const WholeBodyTrajectory& trajectory, double t) {
-  const WholeBodySample s = trajectory.Sample(t);
-  BoundaryState state;
-  state.position = s.position;
-  state.velocity = s.velocity;
-  state.acceleration = s.acceleration;
-  state.jerk = s.jerk;
-  state.yaw = s.yaw;
-  state.yaw_rate = s.yaw_rate;
-  state.joints = s.joints;
-  state.joint_rates = s.joint_rates;
-  return state;
-}
+BoundaryState StateOnPlan(const WholeBodyTrajectory& trajectory, double t) { return trajectory.Sample(t).State(); }
 
 // Exact clearance of the whole robot in `state` (as Replan measures its start).
 double StartClearance(const BoundaryState& state) {

@@ -985,16 +985,7 @@ void OnlineController::ReplanTail(double t, double shift) {
   if (trajectory.duration() - plan_time < setup_.replan_options.min_piece_duration) return;
   Worker::Job job;
   if (!PredictTarget(from, &job.target_motion, &job.target_placement)) return;
-  const planner::WholeBodySample s = trajectory.Sample(plan_time);
-  planner::BoundaryState& start = job.start;
-  start.position = s.position;
-  start.velocity = s.velocity;
-  start.acceleration = s.acceleration;
-  start.jerk = s.jerk;
-  start.yaw = s.yaw;
-  start.yaw_rate = s.yaw_rate;
-  start.joints = s.joints;
-  start.joint_rates = s.joint_rates;
+  job.start = trajectory.Sample(plan_time).State();
   job.replan = true;
   job.base = to_.plan;
   job.t_from = plan_time;

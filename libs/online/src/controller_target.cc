@@ -21,20 +21,6 @@ constexpr double kFollowCheckStep = 0.02;
 
 Mat3 TurnAboutZ(double yaw) { return Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix(); }
 
-// The setpoint of a state (its rates as given, the joints' rates zero: a
-// state moved with the target holds its arm).
-Setpoint FromState(const planner::BoundaryState& state) {
-  Setpoint s;
-  s.position = state.position;
-  s.velocity = state.velocity;
-  s.acceleration = state.acceleration;
-  s.yaw = state.yaw;
-  s.yaw_rate = state.yaw_rate;
-  s.joints = state.joints;
-  s.joint_rates = VecX::Zero(state.joints.size());
-  return s;
-}
-
 }  // namespace
 
 void OnlineController::OnTarget(double t, const Vec3& position, double yaw, double age) {

@@ -5,17 +5,19 @@
 
 namespace quadhand::online {
 
-Setpoint FromSample(const planner::WholeBodySample& sample) {
+Setpoint FromState(const planner::BoundaryState& state) {
   Setpoint s;
-  s.position = sample.position;
-  s.velocity = sample.velocity;
-  s.acceleration = sample.acceleration;
-  s.yaw = sample.yaw;
-  s.yaw_rate = sample.yaw_rate;
-  s.joints = sample.joints;
-  s.joint_rates = sample.joint_rates;
+  s.position = state.position;
+  s.velocity = state.velocity;
+  s.acceleration = state.acceleration;
+  s.yaw = state.yaw;
+  s.yaw_rate = state.yaw_rate;
+  s.joints = state.joints;
+  s.joint_rates = state.joint_rates;
   return s;
 }
+
+Setpoint FromSample(const planner::WholeBodySample& sample) { return FromState(sample.State()); }
 
 Setpoint HoldAt(const Setpoint& setpoint) {
   Setpoint hold = setpoint;

@@ -35,7 +35,9 @@ struct Setpoint {
   VecX joint_rates;                  // rad/s
 };
 
-// The setpoint of a plan sample (its jerk, attitude and thrust are dropped).
+// The setpoint of a state (its jerk dropped), and of a plan sample (its
+// jerk, attitude and thrust dropped).
+Setpoint FromState(const planner::BoundaryState& state);
 Setpoint FromSample(const planner::WholeBodySample& sample);
 
 // The same pose with every rate and acceleration zero: a hold.

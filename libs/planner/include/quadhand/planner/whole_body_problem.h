@@ -172,6 +172,19 @@ struct WholeBodySample {
   double yaw = 0, yaw_rate = 0;
   VecX joints, joint_rates;
   Pose BasePose() const { return MakePose(position, attitude.toRotationMatrix()); }
+  // The sample as a boundary state (a replan's start on its plan).
+  BoundaryState State() const {
+    BoundaryState state;
+    state.position = position;
+    state.velocity = velocity;
+    state.acceleration = acceleration;
+    state.jerk = jerk;
+    state.yaw = yaw;
+    state.yaw_rate = yaw_rate;
+    state.joints = joints;
+    state.joint_rates = joint_rates;
+    return state;
+  }
 };
 
 // The decoded trajectory: both MINCO curves and flatness.
