@@ -100,7 +100,8 @@ Flight FlyConveyor(uint64_t seed, double pass_time, const OnlineOptions& options
   const LinkTargets targets;
   std::vector<link::Message> from_vehicle, replies;
   double t = 0.0;
-  for (; t < 40.0 && !c.finished(); t += 0.02) {
+  // (Holding after a failure, the controller streams the hold until stopped.)
+  for (; t < 40.0 && !c.finished() && c.phase() != Phase::kHoldingAfterFailure; t += 0.02) {
     from_vehicle.clear();
     EXPECT_TRUE(flight.autopilot->AdvanceTo(t, &from_vehicle).ok());
     for (const link::Message& m : from_vehicle) {
@@ -200,6 +201,15 @@ TEST(OnlineMovingTargetTest, ATargetNoLongerMeasuredEndsTheFlightHolding) {
   const OnlineController& c = *flight.controller;
   EXPECT_EQ(c.phase(), Phase::kHoldingAfterFailure);
   EXPECT_EQ(c.hold_cause(), HoldCause::kTargetLost);
+  EXPECT_FALSE(c.stats().plans.empty());  // it flew until then
+
+  // Never measured: no plan, and the wait for one ends (it would hold for ever).
+  const Flight unseen = FlyConveyor(2, 12.0, {}, /*measured_until=*/-1.0);
+  ASSERT_NE(unseen.controller, nullptr);
+  EXPECT_EQ(unseen.controller->phase(), Phase::kHoldingAfterFailure);
+  EXPECT_EQ(unseen.controller->hold_cause(), HoldCause::kTargetLost);
+  EXPECT_TRUE(unseen.controller->stats().plans.empty());
+  EXPECT_LT(unseen.end, 15.0);
 }
 
 // Measurements the controller must not use: stale ones, unreadable ones, a

@@ -112,6 +112,16 @@ double OnlineController::ClearFollowDuration() const {
 }
 
 void OnlineController::CheckTarget(double t) {
+  // Offboard and armed, nothing to plan against: the vehicle holds, and
+  // would hold for ever.
+  if (phase_ == Phase::kWaitingForPlan && !first_plan_ && !TargetPoseAt(t) &&
+      t - confirmed_time_ > options_.connect_timeout) {
+    Fail(Phase::kHoldingAfterFailure,
+         Format("no estimate of the target %.1f s after the vehicle was ready (%ld measurements used)",
+                options_.connect_timeout, stats_.target_measurements),
+         HoldCause::kTargetLost);
+    return;
+  }
   if (phase_ == Phase::kFlying && t - target_time_ > options_.target_timeout) {
     Fail(Phase::kHoldingAfterFailure,
          Format("no measurement of the target for %.2f s (limit %.2f s)", t - target_time_, options_.target_timeout),

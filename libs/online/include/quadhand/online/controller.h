@@ -301,7 +301,9 @@ struct OnlineOptions {
   double target_correction = 0.02;
   double target_replan_interval = 0.2;
   // No target measurement for this long (s) while flying: the target is
-  // lost, and the flight ends holding (HoldCause::kTargetLost).
+  // lost, and the flight ends holding (HoldCause::kTargetLost); so does a
+  // flight with no estimate of it connect_timeout s after the vehicle was
+  // offboard and armed.
   double target_timeout = 1.0;
   // At the arrival the vehicle follows the target for arrival_hold s (the
   // plan's end state moved on with the plan's prediction; the path
