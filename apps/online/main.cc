@@ -588,11 +588,16 @@ int main(int argc, char** argv) {
     // silent at the end was not seen arriving.
     const planner::PlanResult& flown_plan = *controller.current_plan();
     const double end_time = code == kExitSuccess ? last_tick : online::kNoEndTime;
+    // A moving target's base ends where the follow had it, not at the plan's end.
+    Vec3 terminal = flown_plan.terminal.position;
+    if (moving != nullptr && !log.samples().empty()) {
+      if (const auto followed = controller.Reference(log.samples().back().measured.time)) terminal = followed->position;
+    }
     metrics = mission ? online::EvaluateMissionFlight(log.samples(), flown_plan, controller.plan_clock(),
                                                       ctx.task(), options.clearance_tolerance, 0.3, end_time,
                                                       controller.failed_plan_time())
                       : online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
-                                               flown_plan.terminal.position, 0.3, end_time, moving_judge);
+                                               terminal, 0.3, end_time, moving_judge);
     const double required = planner::AcceptedClearance(ctx.task(), options.clearance_tolerance);
     if (metrics->held_object_margin < 0.0) {
       code = kExitClearanceLost;
@@ -677,7 +682,8 @@ int main(int argc, char** argv) {
     const std::string tool = std::isfinite(m.final_tool_error)
                                  ? core::Format("final tool error %.4f m, ", m.final_tool_error)
                                  : std::string("no single tool goal; ");
-    std::printf("  flown path: min clearance %.4f m (%s); %sbase %.4f m from the plan's terminal state\n",
+    std::printf(moving != nullptr ? "  flown path: min clearance %.4f m (%s); %sbase %.4f m from where the follow had it\n"
+                                  : "  flown path: min clearance %.4f m (%s); %sbase %.4f m from the plan's terminal state\n",
                 m.min_clearance, where.c_str(), tool.c_str(), m.final_base_error);
     std::printf("  judged on %ld of the vehicle's time-stamped states; longest gap between two %.3f s\n",
                 m.judged_samples, m.max_state_gap);
