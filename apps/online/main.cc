@@ -402,6 +402,15 @@ int main(int argc, char** argv) {
     return std::isfinite(v) && (open_low ? v > lo : v >= lo) && v <= hi;
   };
   if (!in_range(options.max_state_age, 0.0, 5.0, true)) return Fail("--max-state-age must be in (0, 5] s");
+  if (!in_range(target_acceleration_noise, 0.0, 100.0, true)) {
+    return Fail("--target-acceleration-noise must be in (0, 100] m^2/s^3");
+  }
+  if (!in_range(options.target_tracker.position_noise, 0.0, 1.0, true)) return Fail("--target-noise must be in (0, 1] m");
+  if (!in_range(options.target_replan_threshold, 0.0, 1.0, true)) {
+    return Fail("--target-replan-threshold must be in (0, 1] m");
+  }
+  if (!in_range(options.target_timeout, 0.0, 60.0, true)) return Fail("--target-timeout must be in (0, 60] s");
+  if (!in_range(options.target_arrival_tolerance, 0.0, 1.0, true)) return Fail("--target-tolerance must be in (0, 1] m");
   if (!in_range(options.link_budget, 0.0, 1000.0, true)) return Fail("--link-budget must be in (0, 1000]");
   if (!in_range(options.max_blind_time, 0.0, 60.0, true)) return Fail("--max-blind-time must be in (0, 60] s");
   if (!in_range(options.min_link_speed, 0.0, 10.0, true)) return Fail("--min-link-speed must be in (0, 10] m/s");

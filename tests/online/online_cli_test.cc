@@ -674,6 +674,11 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {task + vehicle + " --ack-timeout 0", "--ack-timeout must be in (0, 10] s"},
       {task + vehicle + " --command-attempts 0", "--command-attempts must be in [1, 100]"},
       {task + vehicle + " --command-attempts 1000", "--command-attempts must be in [1, 100]"},
+      {task + vehicle + " --target-acceleration-noise 0", "--target-acceleration-noise must be in (0, 100]"},
+      {task + vehicle + " --target-noise nan", "--target-noise must be in (0, 1] m"},
+      {task + vehicle + " --target-replan-threshold 1e400", "--target-replan-threshold must be in (0, 1] m"},
+      {task + vehicle + " --target-timeout 0", "--target-timeout must be in (0, 60] s"},
+      {task + vehicle + " --target-tolerance -1", "--target-tolerance must be in (0, 1] m"},
   };
   for (const auto& [args, fragment] : cases) {
     const auto r = RunCommand(kOnline + " " + args);
@@ -694,7 +699,8 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
                              "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-settle-speed", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "--threads", "--package-path",
                              "--no-timesync", "--max-state-age", "--link-budget", "--max-blind-time", "--min-link-speed",
                              "--clearance-tolerance", "--max-judged-gap", "--tool-trim", "--ack-timeout",
-                             "--command-attempts", "Exit codes"}) {
+                             "--command-attempts", "--target-acceleration-noise", "--target-noise",
+                             "--target-replan-threshold", "--target-timeout", "--target-tolerance", "Exit codes"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }
