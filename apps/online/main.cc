@@ -304,8 +304,7 @@ int main(int argc, char** argv) {
   double target_acceleration_noise = options.target_tracker.acceleration_noise;
   app.add_option("--target-acceleration-noise", target_acceleration_noise,
                  "A moving target: its filter's white acceleration, m^2/s^3 (and rad^2/s^3 for its heading); the "
-                 "default suits a belt or turntable whose speed drifts by a few cm/s over seconds, 0.01 a cup "
-                 "pushed by hand")
+                 "default suits a belt or turntable running at its speed, 0.01 a cup pushed by hand")
       ->capture_default_str();
   app.add_option("--target-noise", options.target_tracker.position_noise,
                  "A moving target: its measurements' position noise, m (one sigma per axis)")

@@ -150,14 +150,15 @@ void JudgeTruth(const Flight& flight, double from, double at, double* least, dou
   }
 }
 
-// The whole loop: the first plan waits for an estimate, every plan is made
-// against the tracker's prediction, the tail is replanned as the
-// prediction moves, and the vehicle follows the cup after the arrival. The
-// issue's figures (the tool within 1 cm at the grasp in 9 of 10 seeded
-// flights, the clearance kept) are measured by
-// scripts/moving_target_loopback.sh on loopback and reported, met or not, in
-// docs/moving_targets.md; here the flight must reach the cup and, above all,
-// judge itself as the truth judges it.
+// The whole loop: the first plan waits for an estimate and goes to the
+// insertion's start, every plan is made against the tracker's prediction,
+// the tail is replanned as the prediction moves, the vehicle settles above
+// the cup while following it, the insertion is planned from there, and the
+// vehicle follows the cup after the arrival. The loopback figures over 10
+// seeded flights are scripts/moving_target_loopback.sh's
+// (docs/moving_targets.md); here one flight must grasp the cup within 1 cm,
+// keep its clearance against the true cup, and judge itself as the truth
+// judges it.
 TEST(OnlineMovingTargetTest, GraspsACupOnAConveyorSeenOnlyThroughItsMeasurements) {
   ASSERT_NE(Conveyor().context, nullptr);
   const Flight flight = FlyConveyor(1, 12.0);
@@ -169,7 +170,14 @@ TEST(OnlineMovingTargetTest, GraspsACupOnAConveyorSeenOnlyThroughItsMeasurements
   EXPECT_GT(stats.target_measurements, 200);
   EXPECT_EQ(stats.target_dropped_stale + stats.target_dropped_malformed + stats.target_rejected, 0);
   EXPECT_GT(stats.target_replans, 0);
-  for (const PlanRecord& record : stats.plans) EXPECT_TRUE(record.moving_target);
+  int to_insertion_start = 0, from_above = 0;
+  for (const PlanRecord& record : stats.plans) {
+    EXPECT_TRUE(record.moving_target);
+    to_insertion_start += record.pre_grasp;
+    from_above += record.from_settled && record.success;
+  }
+  EXPECT_GT(to_insertion_start, 0);
+  EXPECT_EQ(from_above, 1);
   EXPECT_EQ(c.arrival_settled(), stats.arrival_target_error <= OnlineOptions{}.target_arrival_tolerance);
 
   // Its own verdict: the states against the moving points where its tracker had them.
@@ -185,7 +193,9 @@ TEST(OnlineMovingTargetTest, GraspsACupOnAConveyorSeenOnlyThroughItsMeasurements
   EXPECT_NEAR(stats.arrival_target_error, tool_error, 0.003);
   // Met where the target is, not where the task's motion would have it
   // (the conveyor passes the task's pose 1.3 s after the arrival: 0.4 m away).
-  EXPECT_LT(tool_error, 0.015) << "the tool's true distance from the cup at the arrival";
+  EXPECT_LT(tool_error, 0.01) << "the tool's true distance from the cup at the arrival";
+  const double accepted = planner::AcceptedClearance(ctx.task(), OnlineOptions{}.clearance_tolerance);
+  EXPECT_GE(least, accepted) << "the flown clearance against the true cup";
   std::printf("moving target: truth: least clearance %.4f m, tool %.4f m from the cup at the arrival (%.2f s); as "
               "measured %.4f m and %.4f m; %d replans for the target\n",
               least, tool_error, arrival, metrics.min_clearance, stats.arrival_target_error, stats.target_replans);

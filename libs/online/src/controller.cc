@@ -31,7 +31,9 @@ constexpr double kLinkPlanningShare = 0.7;
 constexpr double kLinkHoldSlack = 1.5;
 constexpr double kLinkSettleTime = 1.0;  // s of link figures before the first plan
 constexpr double kRestSpeed = 0.05;      // m/s: a holding vehicle, planned from rest
-constexpr double kLatestTargetStart = 0.05;  // s a moving target's plan from rest may be entered late
+constexpr double kLatestTargetStart = 0.05;
+constexpr double kSettledRelativeSpeed = 0.02;  // m/s: settled above a moving target
+constexpr double kLastTailReplan = 1.0;         // s before the arrival: no tail replan after  // s a moving target's plan from rest may be entered late
 // TrimTool: how often the shift is updated, and the share of the tool's
 // offset each update takes (about a second to converge, slower than the
 // autopilot's position loop, so the vehicle follows each step).
@@ -162,6 +164,9 @@ class OnlineController::Worker {
     // placement of the task's target there (MovingSceneFor).
     std::optional<planner::TargetMotion> target_motion;
     Pose target_placement = Pose::Identity();
+    // OnlineOptions::target_settle: plan to the insertion's start (no
+    // insertion), or the insertion from above the target.
+    bool pre_grasp = false, from_settled = false;
   };
   struct Done {
     PlanRecord record;
@@ -240,6 +245,8 @@ class OnlineController::Worker {
     done.record.requested_at = job.requested_at;
     done.record.replan = job.replan;
     done.record.periodic = job.periodic;
+    done.record.pre_grasp = job.pre_grasp;
+    done.record.from_settled = job.from_settled;
     done.record.speed_limit = job.v_max > 0.0 ? std::min(job.v_max, setup_.task->limits.v_max) : setup_.task->limits.v_max;
     const auto begin = std::chrono::steady_clock::now();
     // The link's speed limit, when it is lower than the task's: a plan
@@ -269,7 +276,12 @@ class OnlineController::Worker {
       scene.moving = &done.target->scene;
       limited.tool->position = job.target_placement * limited.tool->position;
       limited.tool->orientation = Quat(job.target_placement.linear() * limited.tool->orientation.toRotationMatrix());
+      limited.tool->insertion_direction = job.target_placement.linear() * limited.tool->insertion_direction;
       limited.tool->moving->motion = *job.target_motion;
+      if (job.pre_grasp) {
+        limited.tool->position -= limited.tool->insertion_length * limited.tool->insertion_direction;
+        limited.tool->has_insertion = false;
+      }
       placed = limited;
     }
     const bool slow_down_after = job.from_rest && !job.target_motion;
@@ -891,7 +903,7 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   // flown now and replaces the tail.
   const bool tail_pending = PendingTailSplice(t);
   if (!options_.replanning || phase_ != Phase::kFlying || link_hold_ || (blending_ && !tail_pending) ||
-      replan_pending_ || !to_.plan || aborted_) {
+      replan_pending_ || !to_.plan || aborted_ || target_stage_ == TargetStage::kSettling) {
     return;
   }
   const ActivePlan& flown = tail_pending ? from_ : to_;
@@ -943,6 +955,7 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   s.yaw_rate = then.yaw_rate;
   s.joints = measured.joints + (then.joints - now.joints);
   s.joint_rates = then.joint_rates;
+  job.pre_grasp = PlansToPreGrasp();
   worker_->Submit(std::move(job));
   replan_pending_ = true;
   pending_resume_ = false;
@@ -964,13 +977,15 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
 void OnlineController::ReplanTail(double t, double shift) {
   const bool tail_pending = PendingTailSplice(t);
   if (!options_.replanning || phase_ != Phase::kFlying || link_hold_ || (blending_ && !tail_pending) ||
-      replan_pending_ || !to_.plan || !to_.target || aborted_) {
+      replan_pending_ || !to_.plan || !to_.target || aborted_ || target_stage_ == TargetStage::kSettling) {
     return;
   }
   // Once the shift has begun (the insertion is near), it corrects the
   // prediction: a replan this late seldom keeps the tool on the moved line
   // (Replan's begun insertion), and each one reshapes the last approach.
   if (correction_start_ >= 0.0) return;
+  // Nor in the last second: a tail that short mostly moves the arrival on.
+  if (to_.start + to_.plan->trajectory->duration() - t < kLastTailReplan) return;
   const planner::WholeBodyTrajectory& trajectory = *to_.plan->trajectory;
   // A tail waiting for its splice is replaced from the same junction (the
   // plan flown until then is not the tail's); the splice must not be due
@@ -992,6 +1007,7 @@ void OnlineController::ReplanTail(double t, double shift) {
   job.requested_at = t;
   job.periodic = true;  // a failure keeps the plan
   job.v_max = planned_speed_limit_;
+  job.pre_grasp = PlansToPreGrasp();
   worker_->Submit(std::move(job));
   replan_pending_ = true;
   pending_resume_ = false;
@@ -1010,9 +1026,11 @@ constexpr double kCorrectionRamp = 0.5;
 void OnlineController::TargetCorrection(double t, Vec3* position, Vec3* velocity) {
   position->setZero();
   velocity->setZero();
-  if (tracker_ == nullptr || options_.target_correction <= 0.0 || !to_.plan || !to_.target || retreating_) return;
-  const planner::PlanResult& plan = *to_.plan;
-  const double plan_time = t - to_.start;
+  // The plan flown at t (a tail or the insertion may wait for its splice).
+  const ActivePlan& active = blending_ && t < blend_start_ ? from_ : to_;
+  if (tracker_ == nullptr || options_.target_correction <= 0.0 || !active.plan || !active.target || retreating_) return;
+  const planner::PlanResult& plan = *active.plan;
+  const double plan_time = t - active.start;
   // The ramp starts once for the flight: a replan down the insertion has
   // its own (shorter) last piece, and the shift must not go out and in again.
   if (correction_start_ < 0.0) {
@@ -1031,11 +1049,11 @@ void OnlineController::TargetCorrection(double t, Vec3* position, Vec3* velocity
                                nullptr, nullptr);
     for (double tau = plan.trajectory->duration(); tau <= follow_end + 1e-9; tau += 0.05) {
       int link = -1;
-      margin = std::min(margin, ConfigurationMargin(nullptr, FollowState(tau), &link));
+      margin = std::min(margin, ConfigurationMargin(nullptr, FollowState(active, tau), &link));
     }
     correction_bound_ = std::clamp(margin, 0.0, options_.target_correction);
   }
-  const planner::TargetMotion& motion = to_.target->motion;
+  const planner::TargetMotion& motion = active.target->motion;
   const Vec3 planned = motion.Displacement(plan_time) * plan.target_at_zero.translation();
   Vec3 shift = estimate->position - planned;
   Vec3 rate = estimate->velocity - motion.PointVelocity(planned, plan_time);
@@ -1046,6 +1064,48 @@ void OnlineController::TargetCorrection(double t, Vec3* position, Vec3* velocity
   const double weight = SpliceWeight((plan_time - ramp_start) / kCorrectionRamp);
   *position = weight * shift;
   *velocity = weight * rate;
+}
+
+void OnlineController::Settle(double t) {
+  if (settle_plan_requested_ || worker_->busy() || !HaveState()) return;
+  const std::optional<Pose> target = TargetPoseAt(position_time_);
+  const std::optional<TargetEstimate> estimate = tracker_->Estimate(position_time_);
+  if (!target || !estimate) return;
+  // The insertion's start as the target now stands, and the measured tool.
+  const planner::ToolGoal& goal = *setup_.task->tool;
+  const Vec3 start_in_task = goal.position - goal.insertion_length * goal.insertion_direction;
+  const Vec3 wanted = *target * (task_target_.inverse() * start_in_task);
+  const Vec3 tool =
+      robot::LinkPose(setup_.scene.robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool_link_)
+          .translation();
+  const double off = (tool - wanted).norm();
+  const double relative_speed = (velocity_ - estimate->velocity).norm();
+  const bool settled = off <= options_.target_settle_tolerance && relative_speed <= kSettledRelativeSpeed;
+  if (!settled && t - settle_start_ < options_.target_settle_timeout) return;
+  // The insertion from the state the follow will have at its start (the
+  // shift included): the vehicle is there, moving with the target.
+  Worker::Job job;
+  first_plan_zero_ = t + options_.target_plan_lead;
+  if (!PredictTarget(first_plan_zero_, &job.target_motion, &job.target_placement)) return;
+  Vec3 shift, rate;
+  TargetCorrection(first_plan_zero_, &shift, &rate);
+  const Setpoint follow = SampleActive(to_, first_plan_zero_);
+  job.start.position = follow.position + shift;
+  job.start.velocity = follow.velocity + rate;
+  job.start.yaw = follow.yaw;
+  job.start.yaw_rate = follow.yaw_rate;
+  job.start.joints = follow.joints;
+  job.start.joint_rates = VecX::Zero(follow.joints.size());
+  job.requested_at = t;
+  job.v_max = planned_speed_limit_;
+  job.from_settled = true;
+  worker_->Submit(std::move(job));
+  settle_plan_requested_ = true;
+  Event(settled ? Format("settled above the target (tool %.4f m off, %.3f m/s relative): planning the insertion",
+                         off, relative_speed)
+                : Format("not settled above the target after %.1f s (tool %.4f m off, %.3f m/s relative): planning "
+                         "the insertion anyway",
+                         options_.target_settle_timeout, off, relative_speed));
 }
 
 void OnlineController::CollectPlan(double t) {
@@ -1075,6 +1135,32 @@ void OnlineController::CollectPlan(double t) {
                  done->plan->trajectory->duration()) +
           Format("slowed down %.2fx to %.2f m/s, planned in %.1f ms)", record.slowdown, record.speed_limit,
                  record.latency_ms));
+    return;
+  }
+  if (!record.replan && record.from_settled) {
+    settle_plan_requested_ = false;
+    if (phase_ != Phase::kFlying || target_stage_ != TargetStage::kSettling) return;
+    if (!done->plan) {
+      Fail(Phase::kHoldingAfterFailure,
+           std::string("the insertion from above the target failed (") + planner::PlanStatusName(record.status) +
+               ": " + record.message + ")",
+           HoldCause::kPlanFailed);
+      return;
+    }
+    if (t > first_plan_zero_ + kLatestTargetStart) {
+      Event(Format("the insertion's plan came %.0f ms after its start: planning it again",
+                   1e3 * (t - first_plan_zero_)));
+      return;
+    }
+    // The follow until the insertion's start, which begins where it is then.
+    from_ = to_;
+    to_ = {done->plan, first_plan_zero_, done->target};
+    blending_ = true;
+    blend_start_ = first_plan_zero_;
+    splice_window_ = 0.0;
+    target_stage_ = TargetStage::kInsertion;
+    Event(Format("settled above the target: the insertion's plan (%.2f s, planned in %.1f ms) starts at t = %.2f s",
+                 done->plan->trajectory->duration(), record.latency_ms, first_plan_zero_));
     return;
   }
   if (!record.replan) {
@@ -1224,6 +1310,7 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
     first_plan_zero_ = t + options_.target_plan_lead;
     if (!PredictTarget(first_plan_zero_, &job.target_motion, &job.target_placement)) return;
   }
+  job.pre_grasp = PlansToPreGrasp();
   worker_->Submit(std::move(job));
   pending_resume_ = true;
   Event(Format("link good again (%.2f m/s allowed): planning afresh from the measured state", limit));
@@ -1603,6 +1690,7 @@ void OnlineController::RequestFirstPlan(double t) {
   job.requested_at = t;
   job.v_max = limit;
   job.from_rest = true;
+  job.pre_grasp = PlansToPreGrasp();
   worker_->Submit(std::move(job));
   first_plan_requested_ = true;
   Event(Format("planning from the hold") +
@@ -1943,7 +2031,15 @@ ControllerOutput OnlineController::Tick(double t) {
       from_ = ActivePlan{};
     }
     if (IsMission()) WaitAtJunction(t);
-    if (phase_ == Phase::kFlying && !blending_ && !retreating_ && t - to_.start >= to_.plan->trajectory->duration()) {
+    if (phase_ == Phase::kFlying && !blending_ && !retreating_ && SettlesFirst() &&
+        target_stage_ == TargetStage::kApproach && t - to_.start >= to_.plan->trajectory->duration()) {
+      target_stage_ = TargetStage::kSettling;
+      settle_start_ = t;
+      Event("at the insertion's start: following the target until the tool has settled there");
+    }
+    if (phase_ == Phase::kFlying && target_stage_ == TargetStage::kSettling) Settle(t);
+    if (phase_ == Phase::kFlying && !blending_ && !retreating_ && target_stage_ != TargetStage::kSettling &&
+        t - to_.start >= to_.plan->trajectory->duration()) {
       phase_ = Phase::kArrived;
       arrival_time_ = t;
       if (tracker_ != nullptr) {

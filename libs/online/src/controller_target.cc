@@ -91,9 +91,9 @@ double OnlineController::ToolTargetError() const {
   return (tool - target->translation()).norm();
 }
 
-MeasuredState OnlineController::FollowState(double plan_time) const {
+MeasuredState OnlineController::FollowState(const ActivePlan& plan, double plan_time) const {
   MeasuredState state = measured();
-  const Setpoint s = SampleActive(to_, to_.start + plan_time);
+  const Setpoint s = SampleActive(plan, plan.start + plan_time);
   state.position = s.position;
   state.attitude = Quat(TurnAboutZ(s.yaw));  // level: the follow does not accelerate
   state.joints = s.joints;
@@ -106,7 +106,7 @@ double OnlineController::ClearFollowDuration() const {
   // The moving points go with the robot; only the still scene can come nearer.
   for (double tau = 0.0; tau <= options_.arrival_hold + 1e-9; tau += kFollowCheckStep) {
     int link = -1;
-    if (ConfigurationMargin(nullptr, FollowState(end + tau), &link) < 0.0) return std::max(0.0, tau - kFollowCheckStep);
+    if (ConfigurationMargin(nullptr, FollowState(to_, end + tau), &link) < 0.0) return std::max(0.0, tau - kFollowCheckStep);
   }
   return options_.arrival_hold;
 }

@@ -257,13 +257,15 @@ struct OnlineOptions {
   // forward as a constant motion. Every plan and replan is made against
   // that prediction from its own start, with the task's moving points
   // placed where the estimate has the target then.
-  // The default filter suits a target whose speed drifts by a few cm/s over
-  // seconds (a belt, a turntable); TargetTrackerOptions' own default
-  // (0.01 m^2/s^3) one pushed by hand, at the price of a noisier velocity.
+  // The default filter (white acceleration 1e-5 m^2/s^3: the velocity
+  // wanders about 1 cm/s in 10 s) suits a belt or a turntable running at
+  // its speed; TargetTrackerOptions' own default (0.01 m^2/s^3) a cup
+  // pushed by hand, at the price of a noisier velocity and so a noisier
+  // grasp: the tool follows the estimate's noise down the insertion.
   TargetTrackerOptions target_tracker = [] {
     TargetTrackerOptions tracker;
-    tracker.acceleration_noise = 1e-4;
-    tracker.yaw_acceleration_noise = 1e-4;
+    tracker.acceleration_noise = 1e-5;
+    tracker.yaw_acceleration_noise = 1e-5;
     return tracker;
   }();
   // A measurement older than this on arrival (s, from its stamp) is dropped.
@@ -298,7 +300,19 @@ struct OnlineOptions {
   // the still scene it moves by the shift, which is therefore at most
   // target_correction m and at most what the still scene leaves the rest of
   // the plan and the follow over the accepted clearance (0: no shift).
-  double target_correction = 0.02;
+  double target_correction = 0.05;
+  // With target_settle, a goal with an insertion is approached in two
+  // plans: the first to the insertion's start (the tool backed off along
+  // the line), arriving at rest relative to the target; the vehicle then
+  // follows the target there until the measured tool is within
+  // target_settle_tolerance m of that point and its speed within 2 cm/s of
+  // the target's (or target_settle_timeout s have passed), and the second
+  // plan, from that state moving with the target, makes the insertion. A
+  // vehicle that has just matched the target's speed is centimetres off
+  // its reference, and the insertion's fingers leave millimetres.
+  bool target_settle = true;
+  double target_settle_tolerance = 0.003;
+  double target_settle_timeout = 2.0;
   double target_replan_interval = 0.2;
   // No target measurement for this long (s) while flying: the target is
   // lost, and the flight ends holding (HoldCause::kTargetLost); so does a
@@ -422,6 +436,10 @@ struct PlanRecord {
   // ms spent building the moving points' models for it, in latency_ms).
   bool moving_target = false;
   double prediction_ms = 0.0;
+  // A moving target approached in two plans (OnlineOptions::target_settle):
+  // this is the first (to the insertion's start), or the second (the
+  // insertion, from above the target).
+  bool pre_grasp = false, from_settled = false;
 };
 
 struct OnlineStats {
@@ -626,7 +644,7 @@ class OnlineController {
   double ToolTargetError() const;
   // The follow's configuration at plan time `plan_time` (past the plan's
   // end), level, with the other fields of the measured state.
-  MeasuredState FollowState(double plan_time) const;
+  MeasuredState FollowState(const ActivePlan& plan, double plan_time) const;
   // At the arrival: how long the follow keeps its clearance (<= arrival_hold).
   double ClearFollowDuration() const;
   // The shift of the setpoints at t (OnlineOptions::target_correction):
@@ -887,6 +905,19 @@ class OnlineController {
   const planner::PlanResult* correction_plan_ = nullptr;
   double correction_bound_ = 0.0;
   double correction_start_ = -1.0;
+  // A moving target approached in two plans (OnlineOptions::target_settle).
+  enum class TargetStage { kApproach, kSettling, kInsertion };
+  TargetStage target_stage_ = TargetStage::kApproach;
+  double settle_start_ = 0.0;
+  bool settle_plan_requested_ = false;
+  bool SettlesFirst() const {
+    return tracker_ != nullptr && options_.target_settle && setup_.task->tool && setup_.task->tool->has_insertion;
+  }
+  // Plans made now go to the insertion's start.
+  bool PlansToPreGrasp() const { return SettlesFirst() && target_stage_ == TargetStage::kApproach; }
+  // While settling: whether the vehicle has settled above the target, and
+  // the request of the insertion's plan from there.
+  void Settle(double t);
 
   OnlineStats stats_;
 };
