@@ -51,6 +51,13 @@
 // after a failed recovery there is no cold fallback (Plan() refuses such a
 // start), so the controller holds.
 //
+// A moving target (goal.tool.motion; OnlineOptions' target_* fields,
+// docs/moving_targets.md): measured by OnTarget, every plan made against the
+// tracker's prediction; the approach goes to the insertion's start, the
+// vehicle settles there following the target, the insertion is planned from
+// there, and after the arrival the vehicle follows the target; the plan's
+// tail is replanned (from the plan itself) as the prediction moves.
+//
 // Threads: planning runs in one worker thread owned by the controller; every
 // other method must be called from one thread.
 #pragma once
