@@ -999,10 +999,30 @@ TEST_F(PlanCliTest, RefusesABadMovingTargetAndDryRunsAGoodOneAgainstItsMotion) {
   std::ofstream(task, std::ios::trunc) << testing::BundledTaskText(
       "moving_cup.yaml", {{"      moving_points:", "      moving_points: {min: [0, 0, 0], max: [-1, 1, 1]}"}});
   ExpectBadInput(task, "moving.yaml: goal.tool.motion.moving_points: not a box");
-  // A target that rises out of the scene before the robot can get there.
+  // A target that rises out of the space searched before the approach at
+  // cruise speed gets there, but not before v_max could: a planning
+  // failure (exit 1), which says when it could have been met.
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
   std::ofstream(task, std::ios::trunc) << testing::BundledTaskText(
       "moving_cup.yaml", {{"      velocity:", "      velocity: [0, 0, 0.5]"}});
-  ExpectBadInput(task, "moving.yaml: goal.tool.motion: the target as it is at ");
+  auto rising = RunCommand(kPlan + " " + task + " --out " + out + " --report " + report);
+  EXPECT_EQ(rising.exit_code, 1) << rising.out << rising.err;
+  EXPECT_NE(rising.out.find("the target is within reach only from"), std::string::npos) << rising.out;
+  EXPECT_FALSE(fs::exists(out));
+  // One that runs away nearly as fast as the vehicle can fly: no plan can
+  // meet it (exit 1, target_unreachable), and the report says by how much.
+  std::ofstream(task, std::ios::trunc) << testing::BundledTaskText(
+      "moving_cup.yaml", {{"      velocity:", "      velocity: [-1.9, 0, 0]"}});
+  auto away = RunCommand(kPlan + " " + task + " --out " + out + " --report " + report);
+  EXPECT_EQ(away.exit_code, 1) << away.out << away.err;
+  EXPECT_NE(away.out.find("the target cannot be met within the limits"), std::string::npos) << away.out;
+  EXPECT_FALSE(fs::exists(out));
+  std::ifstream report_file(report);
+  ASSERT_TRUE(report_file.good());
+  std::stringstream text;
+  text << report_file.rdbuf();
+  EXPECT_NE(text.str().find("\"target_unreachable\""), std::string::npos) << text.str().substr(0, 400);
+  EXPECT_NE(text.str().find("\"out_of_reach_m\""), std::string::npos);
 
   std::ofstream(task, std::ios::trunc) << testing::BundledTaskText("moving_cup.yaml");
   const auto online = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-online " + task + " --dry-run");

@@ -133,6 +133,10 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
     // target and the tool are at the plan's end.
     nlohmann::json moving = {{"arrival_guess_s", result.arrival_guess_s},
                              {"arrival_rounds", result.arrival_rounds}};
+    if (result.status == PlanStatus::kTargetUnreachable) {
+      moving["out_of_reach_m"] = result.target_out_of_reach_m;
+      moving["out_of_reach_at_s"] = result.target_out_of_reach_at_s;
+    }
     if (result.trajectory && result.insertion.tool_link >= 0) {
       const double end = result.trajectory->duration();
       const WholeBodySample last = result.trajectory->Sample(end);

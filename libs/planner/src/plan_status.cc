@@ -14,6 +14,7 @@ const char* PlanStatusName(PlanStatus status) {
     case PlanStatus::kStartInCollision: return "start_in_collision";
     case PlanStatus::kInvalidInput: return "invalid_input";
     case PlanStatus::kMissionStepInvalid: return "mission_step_invalid";
+    case PlanStatus::kTargetUnreachable: return "target_unreachable";
   }
   return "unknown";
 }

@@ -15,6 +15,9 @@
 namespace quadhand::planner {
 namespace {
 
+// ResolveMovingGoal samples when a target could be met this often (s).
+constexpr double kReachStep = 0.05;
+
 double MillisecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
@@ -594,6 +597,58 @@ core::Result<bool> ResolveMovingGoal(const PlanningScene& scene, const Task& tas
       if (message.rfind(task.file + ": ", 0) == 0) message.erase(0, task.file.size() + 2);
       return core::Status::InvalidArgument(task.file + ": " + at_arrival + message);
     };
+    // The end state where the front end cannot search: a target gone from
+    // the planning space by the arrival aimed at. Unreachable when no time
+    // at which v_max in a straight line could bring the vehicle there finds
+    // it inside either; otherwise a faster approach than the guess's
+    // cruise_speed might, which this planner does not try.
+    const FrontEndMap& space = scene.front_end;
+    auto outside = [&](const Vec3& p) {
+      return (space.min_corner() - p).cwiseMax(p - space.max_corner()).cwiseMax(0.0).norm();
+    };
+    if (outside(result->terminal.position) > 0.0) {
+      const BoundaryState at_zero = StateAtZero(result->terminal, motion, arrival);
+      // Over the times the vehicle could be at the end state (v_max in a
+      // straight line): the least distance outside, and when it is inside.
+      double least = std::numeric_limits<double>::infinity(), least_at = 0.0, first = -1.0, last = -1.0;
+      double earliest = -1.0, leaves = -1.0;  // the first such time; the last time it is inside at all
+      const double horizon = std::max(2.0 * arrival, 60.0);
+      for (double t = 0.0; t <= horizon; t += kReachStep) {
+        const Vec3 end = MovedState(at_zero, motion, t).position;
+        const double out = outside(end);
+        if (out == 0.0) leaves = t;
+        if ((end - task.start.position).norm() > task.limits.v_max * t) continue;  // not there by then
+        if (earliest < 0.0) earliest = t;
+        if (out < least) {
+          least = out;
+          least_at = t;
+        }
+        if (out == 0.0) {
+          if (first < 0.0) first = t;
+          last = t;
+        }
+      }
+      if (first < 0.0) {
+        result->status = PlanStatus::kTargetUnreachable;
+        result->target_out_of_reach_m = std::isfinite(least) ? least : outside(result->terminal.position);
+        result->target_out_of_reach_at_s = least_at;
+        const std::string when = earliest < 0.0 ? core::Format("not within %.0f s", horizon)
+                                                : core::Format("at %.2f s at the earliest", earliest);
+        result->message = core::Format(
+            "the target cannot be met within the limits: the vehicle's end state, moving with the target, %s the "
+            "space searched (the front end's box)",
+            leaves < 0.0 ? "is never inside" : core::Format("leaves at %.2f s", leaves).c_str()) +
+            core::Format("; at v_max (%.2f m/s) the vehicle could be there %s; out of reach by %.3f m at %.2f s",
+                         task.limits.v_max, when.c_str(), result->target_out_of_reach_m, least_at);
+        return false;
+      }
+      result->status = PlanStatus::kFrontEndFailed;
+      result->message = at_arrival + core::Format(
+          "the vehicle's end state is %.3f m outside the space searched; the target is within reach only from "
+          "%.2f to %.2f s, sooner than the approach at cruise_speed (%.2f m/s) gets there",
+          outside(result->terminal.position), first, last, cruise);
+      return false;
+    }
     if (core::Status s = CheckEndPoints(scene, task, result->terminal, options); !s.ok()) return about_arrival(s);
     auto path = FindFrontEndPath(scene, task, result);
     if (!path.ok()) return about_arrival(path.status());

@@ -20,6 +20,10 @@ enum class PlanStatus {
   // robot (its start or end state too close to the scene, say): set by
   // PlanTask(), never by Plan().
   kMissionStepInvalid,
+  // A moving target that no plan can meet within the limits: wherever the
+  // vehicle could be by then at v_max in a straight line, the target has
+  // left the space the planner searches (PlanResult::target_out_of_reach_m).
+  kTargetUnreachable,
 };
 
 // "success", "post_check_failed", ... (as in reports).

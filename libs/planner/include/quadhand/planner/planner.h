@@ -173,6 +173,11 @@ struct PlanResult {
   Pose target_at_zero = Pose::Identity();  // the target's (tool goal's) pose at t = 0
   double arrival_guess_s = 0.0;
   int arrival_rounds = 0;
+  // With kTargetUnreachable: how far (m) the vehicle's end state, moved
+  // with the target, is outside the space searched at the best time it
+  // could be there; and that time (s).
+  double target_out_of_reach_m = 0.0;
+  double target_out_of_reach_at_s = 0.0;
   FrontEndPath path;
   CostBreakdown final_cost;
   std::vector<PlanAttempt> attempts;
