@@ -1044,7 +1044,11 @@ void OnlineController::TargetCorrection(double t, Vec3* position, Vec3* velocity
     // What the still scene leaves over the accepted clearance, from the
     // ramp's start to the end of the follow: the most the shift may be.
     correction_plan_ = &plan;
-    const double follow_end = plan.trajectory->duration() + options_.arrival_hold;
+    // (A plan to the insertion's start is followed while settling.)
+    const double follow = target_stage_ == TargetStage::kInsertion || !SettlesFirst()
+                              ? options_.arrival_hold
+                              : std::max(options_.arrival_hold, options_.target_settle_timeout + options_.target_plan_lead);
+    const double follow_end = plan.trajectory->duration() + follow;
     double margin = PathMargin(std::max(0.0, ramp_start), plan.trajectory->duration(), Vec3::Zero(), {}, nullptr,
                                nullptr, nullptr);
     for (double tau = plan.trajectory->duration(); tau <= follow_end + 1e-9; tau += 0.05) {
@@ -1081,7 +1085,7 @@ void OnlineController::Settle(double t) {
   const double off = (tool - wanted).norm();
   const double relative_speed = (velocity_ - estimate->velocity).norm();
   const bool settled = off <= options_.target_settle_tolerance && relative_speed <= kSettledRelativeSpeed;
-  if (!settled && t - settle_start_ < options_.target_settle_timeout) return;
+  if (!settled && t - settle_start_ < settle_limit_) return;
   // The insertion from the state the follow will have at its start (the
   // shift included): the vehicle is there, moving with the target.
   Worker::Job job;
@@ -1105,7 +1109,7 @@ void OnlineController::Settle(double t) {
                          off, relative_speed)
                 : Format("not settled above the target after %.1f s (tool %.4f m off, %.3f m/s relative): planning "
                          "the insertion anyway",
-                         options_.target_settle_timeout, off, relative_speed));
+                         t - settle_start_, off, relative_speed));
 }
 
 void OnlineController::CollectPlan(double t) {
@@ -2035,7 +2039,16 @@ ControllerOutput OnlineController::Tick(double t) {
         target_stage_ == TargetStage::kApproach && t - to_.start >= to_.plan->trajectory->duration()) {
       target_stage_ = TargetStage::kSettling;
       settle_start_ = t;
-      Event("at the insertion's start: following the target until the tool has settled there");
+      // The follow must keep its clearance until the insertion's plan takes
+      // over (target_plan_lead after the request), against the still scene.
+      const double clear = ClearFollowDuration(options_.target_settle_timeout + options_.target_plan_lead);
+      settle_limit_ = std::max(0.0, clear - options_.target_plan_lead);
+      Event("at the insertion's start: following the target until the tool has settled there" +
+            (settle_limit_ < options_.target_settle_timeout
+                 ? Format(" (at most %.2f s: farther the follow would come under the safety distance less the "
+                          "tolerance)",
+                          settle_limit_)
+                 : std::string()));
     }
     if (phase_ == Phase::kFlying && target_stage_ == TargetStage::kSettling) Settle(t);
     if (phase_ == Phase::kFlying && !blending_ && !retreating_ && target_stage_ != TargetStage::kSettling &&
@@ -2043,7 +2056,7 @@ ControllerOutput OnlineController::Tick(double t) {
       phase_ = Phase::kArrived;
       arrival_time_ = t;
       if (tracker_ != nullptr) {
-        follow_duration_ = ClearFollowDuration();
+        follow_duration_ = ClearFollowDuration(options_.arrival_hold);
         Event(Format("the plan has ended: following the target for %.2f s", follow_duration_) +
               (follow_duration_ < options_.arrival_hold
                    ? Format(" (farther would come under the safety distance less the tolerance)")

@@ -100,15 +100,15 @@ MeasuredState OnlineController::FollowState(const ActivePlan& plan, double plan_
   return state;
 }
 
-double OnlineController::ClearFollowDuration() const {
+double OnlineController::ClearFollowDuration(double longest) const {
   if (!to_.target) return 0.0;
   const double end = to_.plan->trajectory->duration();
   // The moving points go with the robot; only the still scene can come nearer.
-  for (double tau = 0.0; tau <= options_.arrival_hold + 1e-9; tau += kFollowCheckStep) {
+  for (double tau = 0.0; tau <= longest + 1e-9; tau += kFollowCheckStep) {
     int link = -1;
     if (ConfigurationMargin(nullptr, FollowState(to_, end + tau), &link) < 0.0) return std::max(0.0, tau - kFollowCheckStep);
   }
-  return options_.arrival_hold;
+  return longest;
 }
 
 void OnlineController::CheckTarget(double t) {

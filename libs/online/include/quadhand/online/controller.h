@@ -652,8 +652,12 @@ class OnlineController {
   // The follow's configuration at plan time `plan_time` (past the plan's
   // end), level, with the other fields of the measured state.
   MeasuredState FollowState(const ActivePlan& plan, double plan_time) const;
-  // At the arrival: how long the follow keeps its clearance (<= arrival_hold).
-  double ClearFollowDuration() const;
+  // How long the follow after the current plan's end keeps its clearance
+  // against the still scene (at most `longest` s).
+  double ClearFollowDuration(double longest) const;
+  // The settling's longest follow (target_settle_timeout, or less where the
+  // follow would come too near the still scene), set as it begins.
+  double settle_limit_ = 0.0;
   // The shift of the setpoints at t (OnlineOptions::target_correction):
   // position and velocity, zero outside the insertion and the follow.
   void TargetCorrection(double t, Vec3* position, Vec3* velocity);
