@@ -157,17 +157,10 @@ int main(int argc, char** argv) {
       }
     } else {
       robot::ComputeKinematics(robot, base, row.joints, &kinematics);
-      d = env::WholeBodyClearance(kinematics, ctx.exact(), 1.0, {}, &link);
       // A moving target's points, where they are at the row's time.
-      if (moving != nullptr && moving->has_points()) {
-        int moving_link = -1;
-        const double m = env::WholeBodyClearance(planner::InTargetFrameAtZero(kinematics, displacement_at(row)),
-                                                 *moving->exact, 1.0, {}, &moving_link);
-        if (m < d) {
-          d = m;
-          link = moving_link;
-        }
-      }
+      const bool points_move = moving != nullptr && moving->has_points();
+      d = planner::StillAndMovingClearance(kinematics, ctx.exact(), points_move ? moving->exact : nullptr,
+                                           points_move ? displacement_at(row) : Pose::Identity(), 1.0, &link);
     }
     if (d < least) {
       least = d;

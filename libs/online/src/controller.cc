@@ -31,14 +31,9 @@ constexpr double kLinkPlanningShare = 0.7;
 constexpr double kLinkHoldSlack = 1.5;
 constexpr double kLinkSettleTime = 1.0;  // s of link figures before the first plan
 constexpr double kRestSpeed = 0.05;      // m/s: a holding vehicle, planned from rest
-constexpr double kLatestTargetStart = 0.05;
+constexpr double kLatestTargetStart = 0.05;     // s a moving target's plan may be entered after its t = 0
 constexpr double kSettledRelativeSpeed = 0.02;  // m/s: settled above a moving target
-constexpr double kLastTailReplan = 1.0;         // s before the arrival: no tail replan after  // s a moving target's plan from rest may be entered late
-// TrimTool: how often the shift is updated, and the share of the tool's
-// offset each update takes (about a second to converge, slower than the
-// autopilot's position loop, so the vehicle follows each step).
-constexpr double kTrimPeriod = 0.2;
-constexpr double kTrimGain = 0.3;
+constexpr double kLastTailReplan = 1.0;         // s before the arrival: no tail replan after
 
 }  // namespace
 
@@ -128,9 +123,8 @@ bool OnlineOptions::IsValid(std::string* why) const {
     return fail("innovation_gate and innovation_acceleration must be positive");
   }
   if (std::string tracker_why; !target_tracker.IsValid(&tracker_why)) {
-    static thread_local std::string message;
-    message = "target_tracker: " + tracker_why;
-    return fail(message.c_str());
+    if (why != nullptr) *why = "target_tracker: " + tracker_why;
+    return false;
   }
   if (!positive(max_target_age) || !positive(target_plan_lead) || !positive(target_replan_threshold) ||
       !(std::isfinite(target_replan_interval) && target_replan_interval >= 0.0) || !positive(target_timeout) ||
@@ -1057,10 +1051,9 @@ void OnlineController::TargetCorrection(double t, Vec3* position, Vec3* velocity
     }
     correction_bound_ = std::clamp(margin, 0.0, options_.target_correction);
   }
-  const planner::TargetMotion& motion = active.target->motion;
-  const Vec3 planned = motion.Displacement(plan_time) * plan.target_at_zero.translation();
+  const Vec3 planned = PlannedTarget(active, plan_time).translation();
   Vec3 shift = estimate->position - planned;
-  Vec3 rate = estimate->velocity - motion.PointVelocity(planned, plan_time);
+  Vec3 rate = estimate->velocity - active.target->motion.PointVelocity(planned, plan_time);
   if (shift.norm() > correction_bound_) {
     shift *= correction_bound_ / shift.norm();
     rate.setZero();
@@ -1072,28 +1065,24 @@ void OnlineController::TargetCorrection(double t, Vec3* position, Vec3* velocity
 
 void OnlineController::Settle(double t) {
   if (settle_plan_requested_ || worker_->busy() || !HaveState()) return;
-  const std::optional<Pose> target = TargetPoseAt(position_time_);
   const std::optional<TargetEstimate> estimate = tracker_->Estimate(position_time_);
-  if (!target || !estimate) return;
+  if (!estimate) return;
   // The insertion's start as the target now stands, and the measured tool.
   const planner::ToolGoal& goal = *setup_.task->tool;
   const Vec3 start_in_task = goal.position - goal.insertion_length * goal.insertion_direction;
-  const Vec3 wanted = *target * (task_target_.inverse() * start_in_task);
-  const Vec3 tool =
-      robot::LinkPose(setup_.scene.robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool_link_)
-          .translation();
-  const double off = (tool - wanted).norm();
+  const Vec3 wanted = TargetPoseOf(*estimate) * (task_target_.inverse() * start_in_task);
+  const double off = (MeasuredTool() - wanted).norm();
   const double relative_speed = (velocity_ - estimate->velocity).norm();
   const bool settled = off <= options_.target_settle_tolerance && relative_speed <= kSettledRelativeSpeed;
   if (!settled && t - settle_start_ < settle_limit_) return;
   // The insertion from the state the follow will have at its start (the
   // shift included): the vehicle is there, moving with the target.
   Worker::Job job;
-  first_plan_zero_ = t + options_.target_plan_lead;
-  if (!PredictTarget(first_plan_zero_, &job.target_motion, &job.target_placement)) return;
+  prediction_zero_ = t + options_.target_plan_lead;
+  if (!PredictTarget(prediction_zero_, &job.target_motion, &job.target_placement)) return;
   Vec3 shift, rate;
-  TargetCorrection(first_plan_zero_, &shift, &rate);
-  const Setpoint follow = SampleActive(to_, first_plan_zero_);
+  TargetCorrection(prediction_zero_, &shift, &rate);
+  const Setpoint follow = SampleActive(to_, prediction_zero_);
   job.start.position = follow.position + shift;
   job.start.velocity = follow.velocity + rate;
   job.start.yaw = follow.yaw;
@@ -1127,7 +1116,7 @@ void OnlineController::CollectPlan(double t) {
            HoldCause::kPlanFailed);
       return;
     }
-    to_ = {done->plan, done->target ? first_plan_zero_ : t, done->target};
+    to_ = {done->plan, done->target ? prediction_zero_ : t, done->target};
     from_ = ActivePlan{};
     blending_ = false;
     link_hold_ = false;
@@ -1151,20 +1140,20 @@ void OnlineController::CollectPlan(double t) {
            HoldCause::kPlanFailed);
       return;
     }
-    if (t > first_plan_zero_ + kLatestTargetStart) {
+    if (t > prediction_zero_ + kLatestTargetStart) {
       Event(Format("the insertion's plan came %.0f ms after its start: planning it again",
-                   1e3 * (t - first_plan_zero_)));
+                   1e3 * (t - prediction_zero_)));
       return;
     }
     // The follow until the insertion's start, which begins where it is then.
     from_ = to_;
-    to_ = {done->plan, first_plan_zero_, done->target};
+    to_ = {done->plan, prediction_zero_, done->target};
     blending_ = true;
-    blend_start_ = first_plan_zero_;
+    blend_start_ = prediction_zero_;
     splice_window_ = 0.0;
     target_stage_ = TargetStage::kInsertion;
     Event(Format("settled above the target: the insertion's plan (%.2f s, planned in %.1f ms) starts at t = %.2f s",
-                 done->plan->trajectory->duration(), record.latency_ms, first_plan_zero_));
+                 done->plan->trajectory->duration(), record.latency_ms, prediction_zero_));
     return;
   }
   if (!record.replan) {
@@ -1311,8 +1300,8 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   job.from_rest = true;
   if (tracker_ != nullptr) {
     // Against the prediction from a t = 0 fixed now (the plan is held there until then).
-    first_plan_zero_ = t + options_.target_plan_lead;
-    if (!PredictTarget(first_plan_zero_, &job.target_motion, &job.target_placement)) return;
+    prediction_zero_ = t + options_.target_plan_lead;
+    if (!PredictTarget(prediction_zero_, &job.target_motion, &job.target_placement)) return;
   }
   job.pre_grasp = PlansToPreGrasp();
   worker_->Submit(std::move(job));
@@ -1680,8 +1669,8 @@ void OnlineController::RequestFirstPlan(double t) {
     // Planned once the vehicle is offboard and armed, against the
     // prediction from a t = 0 fixed now (target_plan_lead).
     if (phase_ != Phase::kWaitingForPlan) return;
-    first_plan_zero_ = t + options_.target_plan_lead;
-    if (!PredictTarget(first_plan_zero_, &job.target_motion, &job.target_placement)) {
+    prediction_zero_ = t + options_.target_plan_lead;
+    if (!PredictTarget(prediction_zero_, &job.target_motion, &job.target_placement)) {
       if (!target_wait_noted_) Event("waiting for the target's measurements before planning");
       target_wait_noted_ = true;
       return;
@@ -1787,11 +1776,14 @@ Vec3 OnlineController::ToolOffsetFromPlan(double plan_time) const {
   const robot::RobotModel& robot = setup_.scene.robot;
   const planner::WholeBodySample at = to_.plan->trajectory->Sample(plan_time);
   const Vec3 planned = robot::LinkPose(robot, at.BasePose(), at.joints, tool_link_).translation();
-  const Vec3 measured =
-      robot::LinkPose(robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool_link_).translation();
-  return measured - planned;
+  return MeasuredTool() - planned;
 }
 
+// TrimTool: how often the shift is updated, and the share of the tool's
+// offset each update takes (about a second to converge, slower than the
+// autopilot's position loop, so the vehicle follows each step).
+constexpr double kTrimPeriod = 0.2;
+constexpr double kTrimGain = 0.3;
 
 void OnlineController::TrimTool(double t, double junction) {
   if (options_.tool_trim <= 0.0 || tool_link_ < 0 || velocity_.norm() > options_.arrival_settle_speed ||
@@ -2002,24 +1994,20 @@ ControllerOutput OnlineController::Tick(double t) {
     RequestFirstPlan(t);
   }
 
-  if (phase_ == Phase::kWaitingForPlan && first_plan_ && tracker_ != nullptr && t >= first_plan_zero_) {
-    // A moving target's plan starts at its t = 0 or not at all: later, the
-    // target is no longer where it was planned to meet it.
+  if (phase_ == Phase::kWaitingForPlan && first_plan_ && (tracker_ == nullptr || t >= prediction_zero_)) {
     const double offset = (position_ - hold_.position).norm();
-    const bool settled = offset <= options_.start_tolerance || t - confirmed_time_ >= options_.settle_timeout;
-    if (!settled || t > first_plan_zero_ + kLatestTargetStart) {
+    const bool settled = offset <= options_.start_tolerance;
+    const bool may_start = settled || t - confirmed_time_ >= options_.settle_timeout;
+    if (tracker_ != nullptr && (!may_start || t > prediction_zero_ + kLatestTargetStart)) {
+      // A moving target's plan starts at its t = 0 or not at all: later, the
+      // target is no longer where it was planned to meet it.
       first_plan_.reset();
       first_target_.reset();
       first_plan_requested_ = false;
-      Event(settled ? "the plan came too late for the target: planning again"
-                    : "the vehicle has not settled at the hold by the plan's start: planning again");
-    }
-  }
-  if (phase_ == Phase::kWaitingForPlan && first_plan_ && (tracker_ == nullptr || t >= first_plan_zero_)) {
-    const double offset = (position_ - hold_.position).norm();
-    const bool settled = offset <= options_.start_tolerance;
-    if (settled || t - confirmed_time_ >= options_.settle_timeout) {
-      const double start = tracker_ != nullptr ? first_plan_zero_ : t;
+      Event(may_start ? "the plan came too late for the target: planning again"
+                      : "the vehicle has not settled at the hold by the plan's start: planning again");
+    } else if (may_start) {
+      const double start = tracker_ != nullptr ? prediction_zero_ : t;
       to_ = {first_plan_, start, first_target_};
       plan_clock_ = PlanClock{start, {}};
       phase_ = Phase::kFlying;

@@ -45,12 +45,25 @@ void OnlineController::OnTarget(double t, const Vec3& position, double yaw, doub
   stats_.target_restarts = tracker_->restarts();
 }
 
+Pose OnlineController::TargetPoseOf(const TargetEstimate& estimate) const {
+  // The measured heading is the target's turn about z from its pose in the task.
+  return MakePose(estimate.position, TurnAboutZ(estimate.yaw) * task_target_.linear());
+}
+
 std::optional<Pose> OnlineController::TargetPoseAt(double t) const {
   if (tracker_ == nullptr) return std::nullopt;
   const std::optional<TargetEstimate> estimate = tracker_->Estimate(t);
   if (!estimate) return std::nullopt;
-  // The measured heading is the target's turn about z from its pose in the task.
-  return MakePose(estimate->position, TurnAboutZ(estimate->yaw) * task_target_.linear());
+  return TargetPoseOf(*estimate);
+}
+
+Pose OnlineController::PlannedTarget(const ActivePlan& plan, double plan_time) {
+  return plan.target->motion.Displacement(plan_time) * plan.plan->target_at_zero;
+}
+
+Vec3 OnlineController::MeasuredTool() const {
+  return robot::LinkPose(setup_.scene.robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool_link_)
+      .translation();
 }
 
 bool OnlineController::PredictTarget(double t, std::optional<planner::TargetMotion>* motion, Pose* placement) const {
@@ -75,7 +88,7 @@ double OnlineController::ArrivalShift() const {
   const double arrival = to_.start + plan.trajectory->duration();
   const std::optional<Pose> predicted = TargetPoseAt(arrival);
   if (!predicted || !to_.target) return 0.0;
-  const Pose planned = to_.target->motion.Displacement(plan.trajectory->duration()) * plan.target_at_zero;
+  const Pose planned = PlannedTarget(to_, plan.trajectory->duration());
   // A turn of the target swings the base about the grasp by the arm's reach.
   const double reach = (plan.terminal.position - planned.translation()).norm();
   const Mat3 turn = predicted->linear() * planned.linear().transpose();
@@ -85,10 +98,7 @@ double OnlineController::ArrivalShift() const {
 double OnlineController::ToolTargetError() const {
   const std::optional<Pose> target = TargetPoseAt(position_time_);
   if (!target || tool_link_ < 0 || !HaveState()) return std::numeric_limits<double>::quiet_NaN();
-  const Vec3 tool =
-      robot::LinkPose(setup_.scene.robot, MakePose(position_, attitude_.toRotationMatrix()), joints_, tool_link_)
-          .translation();
-  return (tool - target->translation()).norm();
+  return (MeasuredTool() - target->translation()).norm();
 }
 
 MeasuredState OnlineController::FollowState(const ActivePlan& plan, double plan_time) const {

@@ -200,17 +200,10 @@ FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const rob
   auto judge = [&](const FlightSample& s) {
     Judged j;
     j.robot = &robot;
-    j.clearance = MeasuredClearance(robot, exact, s.measured, reach, &kinematics, &j.link);
-    if (moving.exact != nullptr) {
-      const Pose displacement = s.target ? Pose(*s.target * moving.task_target.inverse()) : Pose::Identity();
-      int link = -1;
-      const double near_target = env::WholeBodyClearance(planner::InTargetFrameAtZero(kinematics, displacement),
-                                                         *moving.exact, reach, {}, &link);
-      if (near_target < j.clearance) {
-        j.clearance = near_target;
-        j.link = link;
-      }
-    }
+    const MeasuredState& m = s.measured;
+    robot::ComputeKinematics(robot, MakePose(m.position, m.attitude.toRotationMatrix()), m.joints, &kinematics);
+    const Pose displacement = s.target ? Pose(*s.target * moving.task_target.inverse()) : Pose::Identity();
+    j.clearance = planner::StillAndMovingClearance(kinematics, exact, moving.exact, displacement, reach, &j.link);
     return j;
   };
   return Evaluate(samples, robot.num_actuated(), judge, robot, task, terminal_position, reach, end_time);

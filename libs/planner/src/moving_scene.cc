@@ -106,4 +106,20 @@ robot::KinematicsState InTargetFrameAtZero(const robot::KinematicsState& kinemat
   return back;
 }
 
+double StillAndMovingClearance(const robot::KinematicsState& kinematics, const env::CollisionModel& still,
+                               const env::CollisionModel* moving, const Pose& displacement, double reach, int* link) {
+  int still_link = -1;
+  double clearance = env::WholeBodyClearance(kinematics, still, reach, {}, &still_link);
+  if (link != nullptr) *link = still_link;
+  if (moving == nullptr) return clearance;
+  int moving_link = -1;
+  const double near_target =
+      env::WholeBodyClearance(InTargetFrameAtZero(kinematics, displacement), *moving, reach, {}, &moving_link);
+  if (near_target < clearance) {
+    clearance = near_target;
+    if (link != nullptr) *link = moving_link;
+  }
+  return clearance;
+}
+
 }  // namespace quadhand::planner

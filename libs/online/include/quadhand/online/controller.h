@@ -655,9 +655,11 @@ class OnlineController {
   // How long the follow after the current plan's end keeps its clearance
   // against the still scene (at most `longest` s).
   double ClearFollowDuration(double longest) const;
-  // The settling's longest follow (target_settle_timeout, or less where the
-  // follow would come too near the still scene), set as it begins.
-  double settle_limit_ = 0.0;
+  // The task's tool goal where an estimate has the target.
+  Pose TargetPoseOf(const TargetEstimate& estimate) const;
+  // Where `plan`'s prediction has the target (the tool goal's pose) at plan
+  // time `plan_time`.
+  static Pose PlannedTarget(const ActivePlan& plan, double plan_time);
   // The shift of the setpoints at t (OnlineOptions::target_correction):
   // position and velocity, zero outside the insertion and the follow.
   void TargetCorrection(double t, Vec3* position, Vec3* velocity);
@@ -684,6 +686,9 @@ class OnlineController {
   double ToolOffPlan(double plan_time) const { return ToolOffsetFromPlan(plan_time).norm(); }
   // The measured tool less the planned one at `plan_time` (zero as above).
   Vec3 ToolOffsetFromPlan(double plan_time) const;
+  // The tool frame's position at the measured base pose and joints (needs
+  // a complete state and the tool link).
+  Vec3 MeasuredTool() const;
   // The same with the plan's base at the measured attitude: where the plan
   // is not at rest its attitude tilts with its acceleration, and a vehicle
   // holding there cannot tilt so (a mission's link hold).
@@ -897,11 +902,13 @@ class OnlineController {
 
   // A moving target: its tracker (null when the goal stands still), the
   // task's target pose (its tool goal at the motion's t = 0), the newest
-  // measurement's time, the first plan's t = 0, and the follow's length.
+  // measurement's time, the t = 0 fixed ahead for the plan being made
+  // against the prediction (the first, one after a link hold, the
+  // insertion from above the target), and the follow's length.
   std::unique_ptr<TargetTracker> tracker_;
   Pose task_target_ = Pose::Identity();
   double target_time_ = -1e300;
-  double first_plan_zero_ = 0.0;
+  double prediction_zero_ = 0.0;
   std::shared_ptr<const planner::MovingSceneModels> first_target_;
   bool target_wait_noted_ = false;
   double last_target_trigger_ = -1e300;
@@ -920,6 +927,9 @@ class OnlineController {
   enum class TargetStage { kApproach, kSettling, kInsertion };
   TargetStage target_stage_ = TargetStage::kApproach;
   double settle_start_ = 0.0;
+  // The settling's longest follow (target_settle_timeout, or less where the
+  // follow would come too near the still scene), set as it begins.
+  double settle_limit_ = 0.0;
   bool settle_plan_requested_ = false;
   bool SettlesFirst() const {
     return tracker_ != nullptr && options_.target_settle && setup_.task->tool && setup_.task->tool->has_insertion;

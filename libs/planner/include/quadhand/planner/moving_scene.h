@@ -93,4 +93,12 @@ robot::KinematicsState InTargetFrameAtZero(const robot::KinematicsState& kinemat
 // The same for a displacement given (one a record measured).
 robot::KinematicsState InTargetFrameAtZero(const robot::KinematicsState& kinematics, const Pose& displacement);
 
+// The clearance of `kinematics` against the still scene's `still` model
+// and, when given, against the moving points' `moving` model (at t = 0) as
+// the target's `displacement` has moved them, searched out to `reach`;
+// `link` (optional) gets the nearest link. What a flown record is judged by.
+double StillAndMovingClearance(const robot::KinematicsState& kinematics, const env::CollisionModel& still,
+                               const env::CollisionModel* moving, const Pose& displacement, double reach,
+                               int* link = nullptr);
+
 }  // namespace quadhand::planner
