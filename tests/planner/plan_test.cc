@@ -125,6 +125,33 @@ TEST(PlanTest, ClearanceFailureResolvesWithMoreSamples) {
   EXPECT_EQ(weights_only->message.rfind("clearance", 0), 0u) << weights_only->message;
 }
 
+// The still and the moving scene's collision terms share one weight, and a
+// report may fail a check twice: each weight is raised once per re-solve,
+// by the factor, and the samples are multiplied once.
+TEST(PlanTest, AFailedCheckRaisesEachWeightOnce) {
+  WholeBodyCostOptions cost;
+  const double collision = cost.weight_collision, velocity = cost.weight_velocity;
+  const int samples = cost.samples_per_piece;
+  PostCheckReport report;
+  CheckResult failed_clearance;
+  failed_clearance.kind = CheckKind::kClearance;
+  failed_clearance.passed = false;
+  report.checks = {failed_clearance, failed_clearance};
+  ASSERT_TRUE(RaiseWeightsOfFailedChecks(report, 5.0, 2, 1000, &cost));
+  EXPECT_DOUBLE_EQ(cost.weight_collision, 5.0 * collision);
+  EXPECT_DOUBLE_EQ(cost.weight_velocity, velocity);
+  EXPECT_EQ(cost.samples_per_piece, 2 * samples);
+
+  // A failed check that no term's weight answers: re-solving cannot help.
+  WholeBodyCostOptions untouched;
+  CheckResult failed_start;
+  failed_start.kind = CheckKind::kStartState;
+  failed_start.passed = false;
+  report.checks = {failed_start};
+  EXPECT_FALSE(RaiseWeightsOfFailedChecks(report, 5.0, 2, 1000, &untouched));
+  EXPECT_DOUBLE_EQ(untouched.weight_collision, collision);
+}
+
 // A plan whose every solve fails its post-check tries the other initial
 // guesses in their fixed order, each with the same solves, and keeps the
 // times and attempts of all (here nothing can pass: no collision cost).

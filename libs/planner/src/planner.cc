@@ -96,26 +96,31 @@ WholeBodyCostOptions CostForTask(const PlannerOptions& options, const Task& task
 
 bool RaiseWeightsOfFailedChecks(const PostCheckReport& report, double factor, int sample_factor, int max_samples,
                                 WholeBodyCostOptions* cost) {
-  bool raised = false;
+  // Several terms share one weight (the still and the moving scene's
+  // collision), and several failed checks can name one term: each weight is
+  // raised once per re-solve, however many of them ask.
+  std::vector<double WholeBodyCostOptions::*> to_raise;
+  bool clearance_failed = false;
   for (const CheckResult& check : report.checks) {
     if (check.passed) continue;
-    // A thin link can pass an obstacle edge between two samples of a long
-    // piece, where no weight on the sampled penalty sees it.
-    if (check.kind == CheckKind::kClearance) {
-      for (int* samples : {&cost->samples_per_piece, &cost->insertion_samples}) {
-        *samples = std::max(*samples, std::min(*samples * sample_factor, max_samples));
-      }
-    }
+    clearance_failed = clearance_failed || check.kind == CheckKind::kClearance;
     // Each term declares the checks that raise its weight; start and end
     // states raise none (MINCO meets the boundary conditions exactly).
     for (const CostTermDescriptor& term : CostTermDescriptors()) {
       const auto& kinds = term.raised_by;
       if (std::find(kinds.begin(), kinds.end(), check.kind) == kinds.end()) continue;
-      cost->*(term.weight) *= factor;
-      raised = true;
+      if (std::find(to_raise.begin(), to_raise.end(), term.weight) == to_raise.end()) to_raise.push_back(term.weight);
     }
   }
-  return raised;
+  // A thin link can pass an obstacle edge between two samples of a long
+  // piece, where no weight on the sampled penalty sees it.
+  if (clearance_failed) {
+    for (int* samples : {&cost->samples_per_piece, &cost->insertion_samples}) {
+      *samples = std::max(*samples, std::min(*samples * sample_factor, max_samples));
+    }
+  }
+  for (double WholeBodyCostOptions::*weight : to_raise) cost->*weight *= factor;
+  return !to_raise.empty();
 }
 
 core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const PlanningScene& scene,

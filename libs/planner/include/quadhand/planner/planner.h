@@ -260,8 +260,8 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
                                const env::CollisionModel& collision, const Task& task,
                                const PlannerOptions& options, const SolveSchedule& schedule, PlanResult* result);
 
-// Raises (by `factor`) the weight of each term whose post-check failed; a
-// failed clearance also multiplies the samples per piece by `sample_factor`
+// Raises (by `factor`, once however many terms share it or failed checks
+// name it) the weight of each term whose post-check failed; a failed clearance also multiplies the samples per piece by `sample_factor`
 // (up to `max_samples`): a link that slips past an obstacle between two
 // samples is invisible to the sampled penalty, whatever its weight. False when
 // no failed check has a weight to raise (re-solving cannot help).
