@@ -112,14 +112,21 @@ int main(int argc, char** argv) {
     gripper = replay->held_step() >= 0 ? 1 : 0;
   }
   // A moving target is judged where the record has it (its target_*
-  // columns: the simulator's true pose, a plan's prediction), else where
-  // the task's motion puts it at the row's time.
+  // columns: the simulator's true pose, a plan's prediction, an online
+  // flight's estimate), else where the task's motion puts it at the row's
+  // time. An online flight log's rows before its tracker's first estimate
+  // have no target: they are judged with the target at its pose in the task,
+  // as quadhand-online's own judge has it (no plan is flown before then).
   const planner::MovingScene* moving = ctx.moving_scene();
-  const bool record_has_target = !flown->rows.empty() && flown->rows.front().target.has_value();
+  long rows_without_target = 0;
+  for (const sim::PlanRow& row : flown->rows) rows_without_target += row.target ? 0 : 1;
+  const bool record_has_target = rows_without_target < static_cast<long>(flown->rows.size());
+  if (!record_has_target) rows_without_target = 0;
   Pose task_target = Pose::Identity();
   if (ctx.task().tool) task_target = MakePose(ctx.task().tool->position, ctx.task().tool->orientation.toRotationMatrix());
   auto displacement_at = [&](const sim::PlanRow& row) {
-    return row.target ? Pose(*row.target * task_target.inverse()) : moving->motion->Displacement(row.t);
+    if (row.target) return Pose(*row.target * task_target.inverse());
+    return record_has_target ? Pose::Identity() : moving->motion->Displacement(row.t);
   };
   robot::KinematicsState kinematics;
   double least = 1e300, least_time = std::nan(""), gap = 0.0, gap_time = std::nan(""), last_time = 0.0;
@@ -193,13 +200,13 @@ int main(int argc, char** argv) {
     std::printf("{\"kept\": %s, \"seen\": %s, \"min_clearance\": %.6f, \"link\": \"%s\", \"t\": %.4f, "
                 "\"required\": %.6f, \"rows\": %ld, \"max_gap\": %.4f, \"max_gap_t\": %.4f, \"tool_error\": %.6f, "
                 "\"base_error\": %.6f, \"gripper_events\": %d, \"held_object_min_clearance\": %s, "
-                "\"held_object_t\": %.4f, \"moving_target\": %s}\n",
+                "\"held_object_t\": %.4f, \"moving_target\": %s, \"rows_without_target\": %ld}\n",
                 kept ? "true" : "false", seen ? "true" : "false", least, closest.c_str(), least_time, required, judged,
                 gap, std::isnan(gap_time) ? 0.0 : gap_time, std::isnan(tool_error) ? -1.0 : tool_error,
                 std::isnan(base_error) ? -1.0 : base_error, gripper_events,
                 held ? core::Format("%.6f", least_object).c_str() : "null",
                 std::isnan(least_object_time) ? 0.0 : least_object_time,
-                moving == nullptr ? "null" : record_has_target ? "\"record\"" : "\"task\"");
+                moving == nullptr ? "null" : record_has_target ? "\"record\"" : "\"task\"", rows_without_target);
   } else {
     std::printf("%s: min exact clearance %.4f m (link %s, t = %.2f s); required %.4f m (safety distance %.4f m "
                 "less %.4f m)\n",
@@ -208,9 +215,15 @@ int main(int argc, char** argv) {
     std::printf("  %ld rows judged, longest gap %.3f s%s; final tool error %.4f m, base %.4f m from the goal\n", judged,
                 gap, seen ? "" : " (over --max-gap)", tool_error, base_error);
     if (moving != nullptr) {
-      std::printf("  moving target: judged where %s\n",
+      std::printf("  moving target: judged where %s%s\n",
                   record_has_target ? "the record has it (its target_* columns)"
-                                    : "the task's motion puts it (the record has no target_* columns)");
+                                    : "the task's motion puts it (the record has no target_* columns)",
+                  rows_without_target > 0
+                      ? core::Format("; %ld rows without one (before an online flight's first estimate) at its pose "
+                                     "in the task",
+                                     rows_without_target)
+                            .c_str()
+                      : "");
     }
     if (replay) {
       std::printf("  mission: %d gripper events; held object: %s\n", gripper_events,

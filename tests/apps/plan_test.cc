@@ -985,6 +985,38 @@ TEST_F(PlanCliTest, FlightcheckMeasuresMovingPointsWhereTheyAreAtEachRow) {
   const auto lost = RunCommand(check + task + " " + raised_path);
   EXPECT_EQ(lost.exit_code, 6) << lost.out << lost.err;
   EXPECT_NE(lost.out.find("judged where the record has it"), std::string::npos) << lost.out;
+
+  // An online flight log leaves the target blank before its tracker's first
+  // estimate: those rows are judged with the cup at its pose in the task
+  // and counted; a row with some of the seven cells blank is refused.
+  const size_t tx = plan.Column("target_x");
+  auto with_blanks = [&](size_t rows, size_t cells) {
+    std::string text;
+    for (size_t c = 0; c < plan.names.size(); ++c) text += (c > 0 ? "," : "") + plan.names[c];
+    text += "\n";
+    for (size_t r = 0; r < plan.rows.size(); ++r) {
+      for (size_t c = 0; c < plan.rows[r].size(); ++c) {
+        const bool blank = r < rows && c >= tx && c < tx + cells;
+        text += (c > 0 ? "," : "") + (blank ? std::string() : core::Format("%.10g", plan.rows[r][c]));
+      }
+      text += "\n";
+    }
+    const std::string path = (dir_ / core::Format("blank_%zu_%zu.csv", rows, cells)).string();
+    std::ofstream(path) << text;
+    return path;
+  };
+  const auto early = RunCommand(check + task + " " + with_blanks(10, 7) + " --json");
+  EXPECT_EQ(early.exit_code, 0) << early.out << early.err;
+  const nlohmann::json judged = nlohmann::json::parse(early.out);
+  EXPECT_EQ(judged["moving_target"], "record");
+  EXPECT_EQ(judged["rows_without_target"].get<long>(), 10);
+  const auto words = RunCommand(check + task + " " + with_blanks(10, 7));
+  EXPECT_NE(words.out.find("10 rows without one"), std::string::npos) << words.out;
+  const std::string partial = with_blanks(3, 2);
+  const auto refused = RunCommand(check + task + " " + partial);
+  EXPECT_EQ(refused.exit_code, 2) << refused.out << refused.err;
+  EXPECT_NE(refused.err.find(partial + ": row 1: target_x..target_qz: all seven blank"), std::string::npos)
+      << refused.err;
 }
 
 // Bad moving targets are refused before anything is planned; quadhand-online's

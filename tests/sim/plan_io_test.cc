@@ -81,6 +81,25 @@ TEST(PlanIoTest, RoundTripsAndFindsColumnsByName) {
   EXPECT_EQ(plan->rows[0].gripper, -1);
 }
 
+// An online flight log's target is blank until its tracker's first
+// estimate: such a row has no target; a row with some of the seven cells
+// blank is refused, and blank cells elsewhere stay errors.
+TEST(PlanIoTest, ReadsBlankTargetsAsNoTarget) {
+  const std::string header =
+      "t,px,py,pz,vx,vy,vz,ax,ay,az,qw,qx,qy,qz,yaw,yaw_rate,joint1,joint2,joint3,joint1_rate,joint2_rate,"
+      "joint3_rate,target_x,target_y,target_z,target_qw,target_qx,target_qy,target_qz\n";
+  const std::string blank_row = "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0,,,,,,,\n";
+  const std::string target_row = "1,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0,2,3,4,1,0,0,0\n";
+  auto plan = ParsePlanCsv(header + blank_row + target_row, kJoints, "p.csv");
+  ASSERT_TRUE(plan.ok()) << plan.status().message();
+  EXPECT_FALSE(plan->rows[0].target.has_value());
+  ASSERT_TRUE(plan->rows[1].target.has_value());
+  EXPECT_EQ(plan->rows[1].target->translation(), Vec3(2, 3, 4));
+  ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0,2,,4,1,0,0,0\n" + target_row,
+              "row 1: target_x..target_qz: all seven blank");
+  ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,,0,0,0,0,0,,,,,,,\n" + target_row, "column 'joint1'");
+}
+
 TEST(PlanIoTest, RejectsMalformedPlans) {
   const std::string text = SmallPlan();
   const std::string header = text.substr(0, text.find('\n') + 1);

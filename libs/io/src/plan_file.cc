@@ -1,9 +1,11 @@
 #include "quadhand/io/plan_file.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -72,7 +74,8 @@ std::string PlanTableCsv(const PlanTable& table) {
 }
 
 core::Result<PlanTable> ParsePlanFile(const std::string& text, const std::vector<std::string>& joint_names,
-                                      const std::string& source, const std::vector<std::string>& optional_columns) {
+                                      const std::string& source, const std::vector<std::string>& optional_columns,
+                                      const std::vector<std::string>& blank_allowed) {
   auto bad = [&](const std::string& what) { return core::Status::InvalidArgument(source + ": " + what); };
   std::istringstream in(text);
   std::string line;
@@ -96,6 +99,10 @@ core::Result<PlanTable> ParsePlanFile(const std::string& text, const std::vector
   }
 
   const size_t width = table.columns.size();
+  std::vector<bool> may_be_blank(width, false);
+  for (size_t k = 0; k < width; ++k) {
+    may_be_blank[k] = std::find(blank_allowed.begin(), blank_allowed.end(), table.columns[k]) != blank_allowed.end();
+  }
   std::vector<double> values;
   std::vector<double> row(width);
   int line_number = 1;
@@ -109,6 +116,10 @@ core::Result<PlanTable> ParsePlanFile(const std::string& text, const std::vector
       return bad(where + std::to_string(fields.size()) + " fields, the header has " + std::to_string(header.size()));
     }
     for (size_t k = 0; k < width; ++k) {
+      if (may_be_blank[k] && Trim(fields[index[k]]).empty()) {
+        row[k] = std::numeric_limits<double>::quiet_NaN();
+        continue;
+      }
       if (!ParseNumber(fields[index[k]], &row[k])) {
         return bad(where + "column '" + table.columns[k] + "': not a finite number: '" + Trim(fields[index[k]]) + "'");
       }

@@ -61,7 +61,10 @@ core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::
                                 const std::string& source) {
   std::vector<std::string> optional = {"gripper"};
   optional.insert(optional.end(), std::begin(kTargetColumns), std::end(kTargetColumns));
-  auto table = io::ParsePlanFile(text, joint_names, source, optional);
+  // An online flight log leaves the target blank until its tracker's first
+  // estimate: such a row has no target.
+  const std::vector<std::string> blank_allowed(std::begin(kTargetColumns), std::end(kTargetColumns));
+  auto table = io::ParsePlanFile(text, joint_names, source, optional, blank_allowed);
   if (!table.ok()) return table.status();
   Plan plan;
   plan.joint_names = joint_names;
@@ -88,7 +91,13 @@ core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::
     r.yaw_rate = v[15];
     r.joints = v.segment(16, n).transpose();
     r.joint_rates = v.segment(16 + n, n).transpose();
-    if (target_column >= 0) {
+    int blank = 0;
+    for (int k = 0; k < 7 && target_column >= 0; ++k) blank += std::isnan(v[target_column + k]) ? 1 : 0;
+    if (blank != 0 && blank != 7) {
+      return core::Status::InvalidArgument(source + ": row " + std::to_string(i + 1) +
+                                           ": target_x..target_qz: all seven blank (no estimate yet) or none");
+    }
+    if (target_column >= 0 && blank == 0) {
       const Quat q(v[target_column + 3], v[target_column + 4], v[target_column + 5], v[target_column + 6]);
       if (std::abs(q.norm() - 1.0) > 1e-3) {
         return core::Status::InvalidArgument(source + ": row " + std::to_string(i + 1) +

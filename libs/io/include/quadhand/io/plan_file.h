@@ -32,13 +32,16 @@ void AppendCsvNumber(std::string* line, double value);
 // Parses a plan file for these joints: the plan columns are found by name in
 // the header; of the others, those named in `optional_columns` that the
 // file has follow them in `columns` and `values` (in that order), and the
-// rest are ignored. Errors start with `source` and name the line: an empty
-// file, a missing column, a row of the wrong width, a value that is not a
-// finite number, a quaternion (qw, qx, qy, qz) not of unit length (1e-3),
-// time not strictly increasing, fewer than 2 rows.
+// rest are ignored. A blank cell of a column named in `blank_allowed` (an
+// online flight log's target before its first estimate) is read as NaN.
+// Errors start with `source` and name the line: an empty file, a missing
+// column, a row of the wrong width, a value that is not a finite number, a
+// quaternion (qw, qx, qy, qz) not of unit length (1e-3), time not strictly
+// increasing, fewer than 2 rows.
 core::Result<PlanTable> ParsePlanFile(const std::string& text, const std::vector<std::string>& joint_names,
                                       const std::string& source,
-                                      const std::vector<std::string>& optional_columns = {});
+                                      const std::vector<std::string>& optional_columns = {},
+                                      const std::vector<std::string>& blank_allowed = {});
 core::Result<PlanTable> LoadPlanFile(const std::string& path, const std::vector<std::string>& joint_names);
 
 }  // namespace quadhand::io

@@ -29,7 +29,9 @@ struct PlanRow {
   int gripper = -1;
   // The `target_*` columns of a moving target's plan or flown record
   // (contracts.md 0.3): the target's pose then - the tool goal's pose moved
-  // with the target (docs/moving_targets.md); none where the file has none.
+  // with the target (docs/moving_targets.md); none where the file has none,
+  // and none in an online flight log's rows before the tracker's first
+  // estimate (all seven cells blank).
   std::optional<Pose> target;
 };
 
@@ -46,7 +48,8 @@ struct Plan {
 // values (with their line), time not strictly increasing, fewer than 2 rows,
 // a `gripper` column (read when there is one) holding other than 0 or 1,
 // target_* columns (read when all seven are there) whose quaternion is not
-// of unit length (1e-3).
+// of unit length (1e-3), or with some of a row's seven cells blank and not
+// all.
 core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::string>& joint_names,
                                 const std::string& source);
 core::Result<Plan> LoadPlanCsv(const std::string& path, const std::vector<std::string>& joint_names);
