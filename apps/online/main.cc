@@ -257,6 +257,10 @@ int main(int argc, char** argv) {
                  "that a steady force (wind, a payload) holds off its pose there, where the next leg so shifted\n"
                  "keeps the clearance; kept over that leg (0: no shift)")
       ->capture_default_str();
+  app.add_option("--setpoint-lead", options.setpoint_lead,
+                 "Sample each setpoint this many seconds ahead of its sending (the autopilot flies it until the\n"
+                 "next comes), at most 0.1; negative: half the measured streaming period")
+      ->capture_default_str();
   app.add_option("--arrival-settle-speed", options.arrival_settle_speed,
                  "Base speed (m/s) below which the vehicle counts as settled at the goal")
       ->capture_default_str();
@@ -377,6 +381,9 @@ int main(int argc, char** argv) {
   }
   if (!(std::isfinite(options.tool_trim) && options.tool_trim >= 0.0 && options.tool_trim <= 0.1)) {
     return Fail("--tool-trim must be in [0, 0.1] m");
+  }
+  if (!(std::isfinite(options.setpoint_lead) && options.setpoint_lead <= 0.1)) {
+    return Fail("--setpoint-lead must be at most 0.1 s (negative: half the streaming period)");
   }
   if (!(std::isfinite(options.junction_timeout) && options.junction_timeout >= 0.0 &&
         options.junction_timeout <= 600.0)) {
@@ -525,7 +532,8 @@ int main(int argc, char** argv) {
       const bool used = online::DeliverToController(r.message, r.frame.system_id, t, targets, &controller);
       if (used && std::holds_alternative<link::LocalPositionNed>(r.message) && controller.has_measured_state()) {
         const online::MeasuredState measured = controller.measured();
-        log.Record(measured, controller.last_setpoint(), controller.phase(), controller.TargetPoseAt(measured.time));
+        log.Record(measured, controller.last_setpoint(), controller.phase(), controller.TargetPoseAt(measured.time),
+                   controller.last_setpoint_shift());
       }
     }
     const double t = now();

@@ -209,7 +209,7 @@ TEST(FlightLogTest, WritesThePlanColumnsThenTheSetpoints) {
     m.velocity = Vec3(0.5 * k, 0.0, 0.0);
     std::optional<Setpoint> sp;
     if (k >= 2) sp = MakeSetpoint(Vec3(0.01 * k, 0.03, 1.0), Vec3::Zero(), 0.4);
-    log.Record(m, sp, k >= 2 ? Phase::kFlying : Phase::kWaitingForVehicle);
+    log.Record(m, sp, k >= 2 ? Phase::kFlying : Phase::kWaitingForVehicle, std::nullopt, Vec3(0.004, -0.005, 0.0));
   }
   const std::vector<std::string> names = WindowCup().robot().ActuatedJointNames();
   const std::string csv = log.Csv(names);
@@ -221,7 +221,10 @@ TEST(FlightLogTest, WritesThePlanColumnsThenTheSetpoints) {
   EXPECT_NEAR(plan->rows[3].yaw, 0.4, 1e-9);
   EXPECT_NE(csv.find(",sp_px,sp_py,sp_pz,"), std::string::npos);
   EXPECT_NE(csv.find(",sp_joint1_rate,"), std::string::npos);
-  EXPECT_NE(csv.find(",0.03,1,0,0,0,0.1,-0.2,0.3,0.4,0.4,0.3,-0.2,0.1,0.01,0.02,-0.03,0.03,flying\n"), std::string::npos)
+  // The shift added when the setpoint was sent follows the setpoint.
+  EXPECT_NE(csv.find(",sp_joint3_rate,sp_shift_x,sp_shift_y,sp_shift_z,err_pos,phase\n"), std::string::npos);
+  EXPECT_NE(csv.find(",0.03,1,0,0,0,0.1,-0.2,0.3,0.4,0.4,0.3,-0.2,0.1,0.01,0.02,-0.03,0.004,-0.005,0,0.03,flying\n"),
+            std::string::npos)
       << csv;
   EXPECT_NE(csv.find(",,waiting_for_vehicle\n"), std::string::npos);
   // Every line has as many fields as the header.

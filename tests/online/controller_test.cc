@@ -115,6 +115,50 @@ TEST(OnlineControllerTest, FliesTheDefaultTaskToTheCupThroughTheAutopilot) {
   EXPECT_LT((kinematics.link_poses[WindowCup().robot().LinkIndex("tool")].translation() - CupPosition()).norm(), 0.02);
 }
 
+// The autopilot flies each setpoint until the next one, a streaming period
+// later: the setpoints are sampled half a period ahead (measured from the
+// ticks), or as far as OnlineOptions::setpoint_lead says.
+TEST(OnlineControllerTest, SamplesTheSetpointsHalfAStreamingPeriodAhead) {
+  for (const double lead : {-1.0, 0.0, 0.03}) {
+    const planner::Task& task = WindowCup().task;
+    sim::StartPose start;
+    start.position = task.start.position;
+    start.yaw = task.start.yaw;
+    start.joints = task.start.joints;
+    auto autopilot = sim::Autopilot::Create(sim::Simulator(testing::VehicleModel(), 3), start, sim::AutopilotOptions{});
+    ASSERT_TRUE(autopilot.ok()) << autopilot.status().message();
+    OnlineOptions options;
+    options.setpoint_lead = lead;
+    auto controller = MakeController(options);
+    const LinkTargets targets;
+    std::vector<link::Message> from_vehicle, replies;
+    int compared = 0;
+    double largest = 0.0, fastest = 0.0;
+    for (double t = 0.0; t < 40.0 && !controller->finished(); t += 0.02) {
+      from_vehicle.clear();
+      ASSERT_TRUE(autopilot->AdvanceTo(t, &from_vehicle).ok());
+      for (const link::Message& m : from_vehicle) DeliverToController(m, 1, t, targets, controller.get());
+      const ControllerOutput out = controller->Tick(t);
+      controller->WaitUntilIdle();
+      if (out.setpoint && out.phase == Phase::kFlying) {
+        const double expected = lead < 0.0 ? 0.01 : lead;
+        const std::optional<Setpoint> ahead = controller->Reference(t + expected);
+        ASSERT_TRUE(ahead.has_value());
+        largest = std::max(largest, (out.setpoint->position - ahead->position).norm());
+        fastest = std::max(fastest, ahead->velocity.norm());
+        EXPECT_NEAR(controller->SetpointLead(), expected, 1e-9);
+        ++compared;
+      }
+      replies.clear();
+      for (const link::Message& m : MessagesFor(out, t, targets)) autopilot->Handle(m, 255, 190, &replies);
+      for (const link::Message& m : replies) DeliverToController(m, 1, t, targets, controller.get());
+    }
+    EXPECT_GT(compared, 100) << "lead " << lead;
+    EXPECT_GT(fastest, 0.5) << "lead " << lead;  // a lead shows only where the plan moves
+    EXPECT_LT(largest, 1e-9) << "lead " << lead;
+  }
+}
+
 TEST(OnlineControllerTest, APushTriggersAReplanThatIsSplicedWithoutAJump) {
   OnlineOptions options;
   auto controller = MakeController(options);

@@ -118,6 +118,9 @@ bool OnlineOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(abort_hold) && abort_hold >= 0.0)) return fail("abort_hold must be >= 0");
   if (!(std::isfinite(joint_stall_rate) && joint_stall_rate >= 0.0)) return fail("joint_stall_rate must be >= 0");
   if (!(std::isfinite(tool_trim) && tool_trim >= 0.0 && tool_trim <= 0.1)) return fail("tool_trim must be in [0, 0.1] m");
+  if (!(std::isfinite(setpoint_lead) && setpoint_lead <= 0.1)) {
+    return fail("setpoint_lead must be at most 0.1 s (negative: half the streaming period)");
+  }
   if (!positive(joint_stall_time)) return fail("joint_stall_time must be positive");
   if (!positive(innovation_gate) || !positive(innovation_acceleration)) {
     return fail("innovation_gate and innovation_acceleration must be positive");
@@ -1220,8 +1223,20 @@ std::optional<Setpoint> OnlineController::Reference(double t) const {
 
 double OnlineController::UplinkLatency() const { return clock_.synced() ? clock_.latency().uplink : 0.0; }
 
+// Each setpoint is sampled SetpointLead() ahead of its sending, and flown
+// from an uplink's latency after it.
 std::optional<Setpoint> OnlineController::ReferenceFollowedAt(double t) const {
-  return Reference(t - UplinkLatency());
+  return Reference(t - UplinkLatency() + SetpointLead());
+}
+
+double OnlineController::SetpointLead() const {
+  if (options_.setpoint_lead >= 0.0) return options_.setpoint_lead;
+  // Half the period only: leading by the uplink's latency too would put a
+  // slow link's setpoints where the vehicle is not yet, and its braking
+  // (LinkHoldReference) starts from where it is. Capped: a stalled stream
+  // is no streaming period.
+  constexpr double kLongestLead = 0.05;
+  return std::min(kLongestLead, 0.5 * streaming_period_);
 }
 
 double OnlineController::BlindTime(double t) const {
@@ -1935,6 +1950,13 @@ ControllerOutput OnlineController::Tick(double t) {
     first_tick_ = t;
     next_heartbeat_ = t;
   }
+  if (previous_tick_ >= 0.0 && t > previous_tick_) {
+    constexpr double kPeriodSmoothing = 0.05;  // about the last 20 periods
+    const double period = t - previous_tick_;
+    streaming_period_ =
+        streaming_period_ > 0.0 ? streaming_period_ + kPeriodSmoothing * (period - streaming_period_) : period;
+  }
+  previous_tick_ = t;
   CollectPlan(t);
   if (have_position_ && !age_noted_) {
     // Its age when it was first looked at (it arrived within the last tick).
@@ -2085,6 +2107,9 @@ ControllerOutput OnlineController::Tick(double t) {
 
   std::optional<Setpoint> setpoint;
   bool in_blend = false;
+  // Sampled ahead, so that the setpoint the autopilot flies until the next
+  // one is on average where the plan is (OnlineOptions::setpoint_lead).
+  const double at = t + SetpointLead();
   switch (phase_) {
     case Phase::kStreamingHold:
     case Phase::kRequestingOffboard:
@@ -2095,21 +2120,21 @@ ControllerOutput OnlineController::Tick(double t) {
       break;
     case Phase::kFlying:
       if (retreating_) {
-        setpoint = RetreatReference(t);
+        setpoint = RetreatReference(at);
       } else if (link_hold_ && mission_hold_) {
-        setpoint = MissionHoldReference(t);
+        setpoint = MissionHoldReference(at);
       } else if (link_hold_) {
-        setpoint = hold_until_resume_ ? hold_ : LinkHoldReference(t);
+        setpoint = hold_until_resume_ ? hold_ : LinkHoldReference(at);
       } else {
-        setpoint = Reference(t);
-        in_blend = blending_ && t >= blend_start_;
+        setpoint = Reference(at);
+        in_blend = blending_ && at >= blend_start_;
       }
       break;
     case Phase::kArrived:
       if (retreating_) {
-        setpoint = RetreatReference(t);
+        setpoint = RetreatReference(at);
       } else if (to_.target) {
-        setpoint = Reference(t);  // following the target
+        setpoint = Reference(at);  // following the target
       } else {
         setpoint = HoldAt(FromSample(to_.plan->trajectory->Sample(to_.plan->trajectory->duration())));
       }
@@ -2136,8 +2161,9 @@ ControllerOutput OnlineController::Tick(double t) {
     // Into the frame of the vehicle's estimate, where the autopilot flies,
     // and shifted to bring the tool to its pose (TrimTool).
     Vec3 target_shift, target_rate;
-    TargetCorrection(t, &target_shift, &target_rate);
-    setpoint->position += stats_.estimate_shift + tool_trim_ + target_shift;
+    TargetCorrection(at, &target_shift, &target_rate);
+    last_setpoint_shift_ = tool_trim_ + target_shift;
+    setpoint->position += stats_.estimate_shift + last_setpoint_shift_;
     setpoint->velocity += target_rate;
     out.setpoint = std::move(setpoint);
   }

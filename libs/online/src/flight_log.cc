@@ -29,7 +29,7 @@ double Quantile(std::vector<double> v, double p) {
 }  // namespace
 
 void FlightLog::Record(const MeasuredState& measured, const std::optional<Setpoint>& setpoint, Phase phase,
-                       const std::optional<Pose>& target) {
+                       const std::optional<Pose>& target, const Vec3& setpoint_shift) {
   if (!samples_.empty() && measured.time <= samples_.back().measured.time) {
     if (measured.time < samples_.back().measured.time) return;  // out of order: dropped
     samples_.pop_back();
@@ -37,6 +37,7 @@ void FlightLog::Record(const MeasuredState& measured, const std::optional<Setpoi
   FlightSample sample;
   sample.measured = measured;
   sample.setpoint = setpoint;
+  sample.setpoint_shift = setpoint_shift;
   sample.phase = phase;
   sample.target = target;
   if (!samples_.empty()) {
@@ -56,7 +57,7 @@ std::string FlightLog::CsvHeader(const std::vector<std::string>& joint_names) co
   out += ",sp_px,sp_py,sp_pz,sp_vx,sp_vy,sp_vz,sp_ax,sp_ay,sp_az,sp_yaw,sp_yaw_rate";
   for (const auto& name : joint_names) out += ",sp_" + name;
   for (const auto& name : joint_names) out += ",sp_" + name + "_rate";
-  out += ",err_pos,phase";
+  out += ",sp_shift_x,sp_shift_y,sp_shift_z,err_pos,phase";
   if (target_columns_) out += ",target_x,target_y,target_z,target_qw,target_qx,target_qy,target_qz";
   out += "\n";
   return out;
@@ -92,9 +93,10 @@ std::string FlightLog::CsvRows(const std::vector<std::string>& joint_names, size
       Put(&out, sp.yaw_rate);
       for (size_t k = 0; k < n; ++k) Put(&out, k < static_cast<size_t>(sp.joints.size()) ? sp.joints[k] : 0.0);
       for (size_t k = 0; k < n; ++k) Put(&out, k < static_cast<size_t>(sp.joint_rates.size()) ? sp.joint_rates[k] : 0.0);
+      for (int i = 0; i < 3; ++i) Put(&out, s.setpoint_shift[i]);
       Put(&out, (m.position - sp.position).norm());
     } else {
-      out += std::string(11 + 2 * n + 1, ',');
+      out += std::string(11 + 2 * n + 3 + 1, ',');
     }
     out += ",";
     out += PhaseName(s.phase);

@@ -151,6 +151,15 @@ struct OnlineOptions {
   // acting) and updated at the next junction; the same while holding at
   // the goal, where only the goal's configuration is checked. 0: no shift.
   double tool_trim = 0.03;
+  // The autopilot flies each position setpoint until the next one comes,
+  // a streaming period later: a setpoint sampled at the time it is sent is
+  // on average half a period old where it is flown, and the vehicle trails
+  // the plan by that much times its speed (3 mm behind a target moving at
+  // 0.3 m/s over loopback at 50 Hz). Setpoints are sampled this many
+  // seconds ahead; negative (the default): half the measured streaming
+  // period (at most 0.05 s). 0: at the time they are sent. The uplink's
+  // latency is not led: a slow link is met by its speed limit and holds.
+  double setpoint_lead = -1.0;
   // The planner's collision margin (PlannerOptions::collision_margin, the
   // distance above the safety distance the optimiser aims for) is raised by
   // this much for plans flown: the flown path strays from the plan by several
@@ -617,6 +626,13 @@ class OnlineController {
   bool has_measured_state() const { return HaveState(); }
   // The last setpoint Tick() returned (none before the first).
   const std::optional<Setpoint>& last_setpoint() const { return last_setpoint_; }
+  // What the last setpoint's position was shifted by when it was sent,
+  // besides an estimate jump's shift: the tool trim and a moving target's
+  // last correction.
+  const Vec3& last_setpoint_shift() const { return last_setpoint_shift_; }
+  // How far ahead of its sending time a setpoint is sampled (s,
+  // OnlineOptions::setpoint_lead).
+  double SetpointLead() const;
   // The reference at time t while flying (blended during a splice).
   std::optional<Setpoint> Reference(double t) const;
   // The reference the vehicle was following at time t: the one we streamed
@@ -894,6 +910,11 @@ class OnlineController {
   double junction_wait_start_ = -1.0;
   // TrimTool's shift of the base's setpoints (world frame) and its last update.
   Vec3 tool_trim_ = Vec3::Zero();
+  Vec3 last_setpoint_shift_ = Vec3::Zero();  // last_setpoint_shift()
+  // The streaming period, measured between Tick calls (a running mean), and
+  // the previous call's time; SetpointLead() from them.
+  double streaming_period_ = 0.0;
+  double previous_tick_ = -1.0;
   double trim_updated_ = -1.0;
   PlanClock plan_clock_;
   std::optional<Setpoint> last_setpoint_;

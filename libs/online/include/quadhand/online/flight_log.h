@@ -33,6 +33,10 @@ struct FlightSample {
   MeasuredState measured;
   Vec3 acceleration = Vec3::Zero();  // difference of measured velocities
   std::optional<Setpoint> setpoint;  // streamed at the time (none: nothing streamed)
+  // What was added to the setpoint's position when it was sent, besides an
+  // estimate jump's shift: the tool trim and a moving target's last
+  // correction (OnlineController::last_setpoint_shift).
+  Vec3 setpoint_shift = Vec3::Zero();
   Phase phase = Phase::kWaitingForVehicle;
   std::optional<Pose> target;        // a moving target's estimated pose (the tool goal's)
 };
@@ -43,7 +47,7 @@ class FlightLog {
   explicit FlightLog(bool target_columns = false) : target_columns_(target_columns) {}
   // Appends one row (times must increase; a row at the same time replaces the last).
   void Record(const MeasuredState& measured, const std::optional<Setpoint>& setpoint, Phase phase,
-              const std::optional<Pose>& target = std::nullopt);
+              const std::optional<Pose>& target = std::nullopt, const Vec3& setpoint_shift = Vec3::Zero());
   const std::vector<FlightSample>& samples() const { return samples_; }
   std::string Csv(const std::vector<std::string>& joint_names) const;  // CsvHeader + every row
   // The header line, and rows [begin, end) (for a log written as it grows).
