@@ -671,6 +671,8 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {task + vehicle + " --threads 1000", "--threads"},
       {task + vehicle + " --tool-trim 0.5", "--tool-trim must be in [0, 0.1] m"},
       {task + vehicle + " --tool-trim nan", "--tool-trim"},
+      {task + vehicle + " --setpoint-lead 0.5", "--setpoint-lead must be at most 0.1 s"},
+      {task + vehicle + " --setpoint-lead nan", "--setpoint-lead"},
       {task + vehicle + " --ack-timeout 0", "--ack-timeout must be in (0, 10] s"},
       {task + vehicle + " --command-attempts 0", "--command-attempts must be in [1, 100]"},
       {task + vehicle + " --command-attempts 1000", "--command-attempts must be in [1, 100]"},
@@ -698,7 +700,7 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
                              "--dry-run", "--vehicle-timeout", "--replan-threshold", "--hold-time", "--quiet",
                              "--max-duration", "--arrival-hold", "--arrival-tolerance", "--arrival-settle-speed", "--arrival-timeout", "--no-replan", "--target-system", "--system-id", "--threads", "--package-path",
                              "--no-timesync", "--max-state-age", "--link-budget", "--max-blind-time", "--min-link-speed",
-                             "--clearance-tolerance", "--max-judged-gap", "--tool-trim", "--ack-timeout",
+                             "--clearance-tolerance", "--max-judged-gap", "--tool-trim", "--setpoint-lead", "--ack-timeout",
                              "--command-attempts", "--target-acceleration-noise", "--target-noise",
                              "--target-replan-threshold", "--target-timeout", "--target-tolerance", "Exit codes"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
