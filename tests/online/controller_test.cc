@@ -26,6 +26,16 @@ FlightMetrics Metrics(const FlightLog& log, const OnlineController& controller) 
                         controller.current_plan()->terminal.position);
 }
 
+// The simulated autopilot hovering at the default task's start.
+core::Result<sim::Autopilot> AutopilotAtTheTasksStart() {
+  const planner::Task& task = WindowCup().task;
+  sim::StartPose start;
+  start.position = task.start.position;
+  start.yaw = task.start.yaw;
+  start.joints = task.start.joints;
+  return sim::Autopilot::Create(sim::Simulator(testing::VehicleModel(), 3), start, sim::AutopilotOptions{});
+}
+
 // The whole message path: controller -> MAVLink messages -> autopilot ->
 // simulator -> telemetry messages -> controller.
 // A mission's plan clock: plan time runs with controller time except where
@@ -52,12 +62,7 @@ TEST(PlanClockTest, StandsStillAtItsPausesAndNowhereElse) {
 }
 
 TEST(OnlineControllerTest, FliesTheDefaultTaskToTheCupThroughTheAutopilot) {
-  const planner::Task& task = WindowCup().task;
-  sim::StartPose start;
-  start.position = task.start.position;
-  start.yaw = task.start.yaw;
-  start.joints = task.start.joints;
-  auto autopilot = sim::Autopilot::Create(sim::Simulator(testing::VehicleModel(), 3), start, sim::AutopilotOptions{});
+  auto autopilot = AutopilotAtTheTasksStart();
   ASSERT_TRUE(autopilot.ok()) << autopilot.status().message();
   auto controller = MakeController();
   const LinkTargets targets;
@@ -120,12 +125,7 @@ TEST(OnlineControllerTest, FliesTheDefaultTaskToTheCupThroughTheAutopilot) {
 // ticks), or as far as OnlineOptions::setpoint_lead says.
 TEST(OnlineControllerTest, SamplesTheSetpointsHalfAStreamingPeriodAhead) {
   for (const double lead : {-1.0, 0.0, 0.03}) {
-    const planner::Task& task = WindowCup().task;
-    sim::StartPose start;
-    start.position = task.start.position;
-    start.yaw = task.start.yaw;
-    start.joints = task.start.joints;
-    auto autopilot = sim::Autopilot::Create(sim::Simulator(testing::VehicleModel(), 3), start, sim::AutopilotOptions{});
+    auto autopilot = AutopilotAtTheTasksStart();
     ASSERT_TRUE(autopilot.ok()) << autopilot.status().message();
     OnlineOptions options;
     options.setpoint_lead = lead;
