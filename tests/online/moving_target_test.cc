@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -59,10 +60,13 @@ struct Flight {
   double end = 0.0;
 };
 
+// Called before each period's step, to disturb the vehicle.
+using Disturbance = std::function<void(double t, const OnlineController&, sim::Autopilot*)>;
+
 // Flies the conveyor task with the target passing its task pose at
 // `pass_time` s, measured with noise drawn from `seed` until `measured_until`.
 Flight FlyConveyor(uint64_t seed, double pass_time, const OnlineOptions& options = {},
-                   double measured_until = 1e9) {
+                   double measured_until = 1e9, const Disturbance& disturb = nullptr) {
   Flight flight;
   const ConveyorTask& task = Conveyor();
   const planner::PlanningContext& ctx = *task.context;
@@ -102,6 +106,7 @@ Flight FlyConveyor(uint64_t seed, double pass_time, const OnlineOptions& options
   double t = 0.0;
   // (Holding after a failure, the controller streams the hold until stopped.)
   for (; t < 40.0 && !c.finished() && c.phase() != Phase::kHoldingAfterFailure; t += 0.02) {
+    if (disturb) disturb(t, c, flight.autopilot.get());
     from_vehicle.clear();
     EXPECT_TRUE(flight.autopilot->AdvanceTo(t, &from_vehicle).ok());
     for (const link::Message& m : from_vehicle) {
@@ -199,6 +204,58 @@ TEST(OnlineMovingTargetTest, GraspsACupOnAConveyorSeenOnlyThroughItsMeasurements
   std::printf("moving target: truth: least clearance %.4f m, tool %.4f m from the cup at the arrival (%.2f s); as "
               "measured %.4f m and %.4f m; %d replans for the target\n",
               least, tool_error, arrival, metrics.min_clearance, stats.arrival_target_error, stats.target_replans);
+}
+
+// A push against the cup's travel (0.4 m/s), 3 cm above the grasp, brings
+// the gripper under the safety distance of the cup (a push along x does
+// not: it slides between the open fingers): the flight aborts, and the
+// retreat goes up the plan carried with the target (stopping with the
+// fingers around the cup would drag it against them), then follows the
+// cup above it.
+TEST(OnlineMovingTargetTest, APushOnTheInsertionAbortsAndRetreatsWithTheTarget) {
+  ASSERT_NE(Conveyor().context, nullptr);
+  const planner::PlanningContext& ctx = *Conveyor().context;
+  const robot::RobotModel& robot = ctx.robot();
+  const int tool = robot.LinkIndex(ctx.task().tool_link);
+  double pushed_at = -1.0;
+  auto push = [&](double t, const OnlineController& c, sim::Autopilot* autopilot) {
+    if (pushed_at >= 0.0 || !c.current_plan() || !c.current_plan()->insertion.enabled ||
+        autopilot->flown().empty() || !autopilot->flown().back().target) {
+      return;
+    }
+    const sim::VehicleState& s = autopilot->state();
+    const Vec3 at = robot::LinkPose(robot, MakePose(s.position, s.attitude.toRotationMatrix()), s.joints, tool)
+                        .translation();
+    if (at.z() - autopilot->flown().back().target->translation().z() > 0.03) return;
+    sim::VehicleState pushed = s;
+    pushed.velocity += Vec3(0.0, -0.4, 0.0);
+    autopilot->mutable_simulator()->Reset(pushed, autopilot->time());
+    pushed_at = t;
+  };
+  const Flight flight = FlyConveyor(1, 12.0, {}, 1e9, push);
+  ASSERT_NE(flight.controller, nullptr);
+  const OnlineController& c = *flight.controller;
+  ASSERT_GE(pushed_at, 0.0) << "the insertion was never halfway down";
+  ASSERT_TRUE(c.finished()) << PhaseName(c.phase());
+  EXPECT_TRUE(c.aborted());
+  EXPECT_FALSE(c.joint_stalled());
+  // The retreat moved with the cup and ended above it: the tool back up
+  // the insertion line (0.10 m), within 1 cm of it, as the cup moved on.
+  ASSERT_FALSE(flight.autopilot->flown().empty());
+  const sim::PlanRow& last = flight.autopilot->flown().back();
+  ASSERT_TRUE(last.target.has_value());
+  const Vec3 end_tool =
+      robot::LinkPose(robot, MakePose(last.position, last.attitude.toRotationMatrix()), last.joints, tool).translation();
+  const Vec3 above = end_tool - last.target->translation();
+  EXPECT_NEAR(above.z(), ctx.task().tool->insertion_length, 0.02) << "the tool's height over the cup at the end";
+  EXPECT_LT(above.head<2>().norm(), 0.02) << "the tool's offset across the cup at the end";
+  EXPECT_NEAR(last.velocity.y(), 0.3, 0.05) << "following the cup";
+  EXPECT_GT(last.t - pushed_at, 1.0);
+  // Once out of the cup, nothing is touched: the truth from the end of the
+  // retreat on keeps the clearance.
+  double least = 0.0, tool_error = 0.0;
+  JudgeTruth(flight, last.t - 0.5, last.t, &least, &tool_error);
+  EXPECT_GE(least, planner::AcceptedClearance(ctx.task(), OnlineOptions{}.clearance_tolerance));
 }
 
 // Measurements that stop mid-flight: the target is lost, and the flight

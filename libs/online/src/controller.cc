@@ -413,6 +413,20 @@ bool OnlineController::finished() const {
 }
 
 void OnlineController::CheckAbort(double t) {
+  if (aborted_ && retreat_follows_target_) {
+    // Along the plan with the target, then following it at the insertion's
+    // start (RetreatReference stands there, carried with the target).
+    if (!retreat_ended_noted_ && t - retreat_start_ >= retreat_duration_) {
+      retreat_ended_noted_ = true;
+      Event(Format("retreated to the insertion's start with the target: following it there for %.2f s",
+                   retreat_hold_) +
+            (retreat_hold_ < options_.abort_hold ? " (farther it would come under the safety distance less the "
+                                                   "tolerance against the still scene)"
+                                                 : ""));
+    }
+    if (t - retreat_start_ >= retreat_duration_ + retreat_hold_) abort_done_ = true;
+    return;
+  }
   if (aborted_) {
     if (retreating_ && t - retreat_start_ >= retreat_duration_) {
       retreating_ = false;
@@ -430,11 +444,13 @@ void OnlineController::CheckAbort(double t) {
     if (!retreating_ && t - retreat_start_ >= retreat_duration_ + options_.abort_hold) abort_done_ = true;
     return;
   }
-  if (!options_.abort_near_goal || IsMission() || tracker_ != nullptr || !to_.plan || !to_.plan->insertion.enabled ||
-      link_hold_ ||
-      blending_ || arrival_done_ || !HaveState() || position_time_ <= abort_checked_time_) {
+  const bool moving = tracker_ != nullptr;
+  if (!options_.abort_near_goal || IsMission() || !to_.plan || !to_.plan->insertion.enabled || link_hold_ ||
+      blending_ || arrival_done_ || retreat_refused_ || !HaveState() || position_time_ <= abort_checked_time_) {
     return;
   }
+  // A moving target: on the insertion's plan (and the follow after it).
+  if (moving && (!to_.target || PlansToPreGrasp() || target_stage_ == TargetStage::kSettling)) return;
   if (phase_ != Phase::kFlying && phase_ != Phase::kArrived) return;
   const double insertion_start = InsertionStart(*to_.plan);
   const double plan_time = std::min(to_.plan->trajectory->duration(), t - to_.start);
@@ -443,20 +459,40 @@ void OnlineController::CheckAbort(double t) {
   const double accepted = planner::AcceptedClearance(*setup_.task, options_.clearance_tolerance);
   int link = -1;
   robot::KinematicsState kinematics;
-  const double clearance = MeasuredClearance(setup_.scene.robot, setup_.scene.exact, measured(),
-                                             planner::ClearanceSearchReach(*setup_.task), &kinematics, &link);
+  const double clearance =
+      moving ? MeasuredClearanceWithTarget(&link)
+             : MeasuredClearance(setup_.scene.robot, setup_.scene.exact, measured(),
+                                 planner::ClearanceSearchReach(*setup_.task), &kinematics, &link);
   if (clearance >= accepted) return;
-  aborted_ = true;
-  retreating_ = true;
   retreat_start_ = t;
   retreat_from_ = plan_time;
   retreat_to_ = insertion_start;
-  retreat_duration_ = std::max(1.0, 2.0 * (retreat_from_ - retreat_to_));
-  Event(Format("the vehicle is %.4f m from the scene", clearance) +
-        " (link " + (link >= 0 ? setup_.scene.robot.link(link).name : std::string("?")) +
-        Format(") on the insertion or at the goal, under the safety distance less the tolerance (%.4f m): aborting, "
-               "retreating along the plan to the insertion's start",
-               accepted));
+  // With the target as short as the plan allows (the longer the retreat,
+  // the farther the target takes the vehicle): the smoothstep clock's
+  // peak rate is 1.5 / duration per second of plan, so over 1.5 times the
+  // plan's span no state is run faster than it was planned.
+  retreat_duration_ = moving ? std::max(0.5, 1.5 * (retreat_from_ - retreat_to_))
+                             : std::max(1.0, 2.0 * (retreat_from_ - retreat_to_));
+  const std::string near = Format("the vehicle is %.4f m from the scene", clearance) + " (link " +
+                           (link >= 0 ? setup_.scene.robot.link(link).name : std::string("?")) +
+                           Format(") on the insertion or at the goal, under the safety distance less the tolerance "
+                                  "(%.4f m): ",
+                                  accepted);
+  if (moving) {
+    // The retreat goes on with the target: first make sure that the still
+    // scene leaves it room, as the target is predicted now.
+    retreat_follows_target_ = true;
+    if (!RetreatWithTargetIsClear(t)) {
+      retreat_follows_target_ = false;
+      retreat_refused_ = true;
+      Event(near + "a retreat with the target would come under it against the still scene: flying on");
+      return;
+    }
+  }
+  aborted_ = true;
+  retreating_ = true;
+  Event(near + (moving ? "aborting, retreating along the plan with the target to the insertion's start"
+                       : "aborting, retreating along the plan to the insertion's start"));
 }
 
 // How far (rad) a following joint may be from the plan beyond what the
@@ -628,6 +664,7 @@ Setpoint OnlineController::RetreatReference(double t) const {
   sp.acceleration = s.acceleration * rate * rate + s.velocity * rate_change;
   sp.yaw_rate = s.yaw_rate * rate;
   sp.joint_rates = s.joint_rates * rate;
+  if (retreat_follows_target_) CarryWithTarget(t, tau, s.velocity, rate, rate_change, &sp);
   return sp;
 }
 
@@ -2082,7 +2119,8 @@ ControllerOutput OnlineController::Tick(double t) {
   if (phase_ == Phase::kArrived && !arrival_done_ && !aborted_ && tracker_ == nullptr) {
     TrimTool(t, to_.plan->trajectory->duration());
   }
-  if (phase_ == Phase::kArrived && !arrival_done_ && tracker_ != nullptr && t - arrival_time_ >= follow_duration_) {
+  if (phase_ == Phase::kArrived && !arrival_done_ && !aborted_ && tracker_ != nullptr &&
+      t - arrival_time_ >= follow_duration_) {
     arrival_done_ = true;
     arrival_settled_ = stats_.arrival_target_error <= options_.target_arrival_tolerance;
     Event(Format("followed the target for %.2f s: the tool was %.4f m from it at the arrival, ", t - arrival_time_,

@@ -158,4 +158,62 @@ void OnlineController::CheckTarget(double t) {
   if (shift > options_.target_replan_threshold + options_.target_replan_slope * left) ReplanTail(t, shift);
 }
 
+double OnlineController::MeasuredClearanceWithTarget(int* link) const {
+  const planner::MovingScene* moving = setup_.scene.moving;
+  robot::KinematicsState kinematics;
+  const MeasuredState state = measured();
+  robot::ComputeKinematics(setup_.scene.robot, MakePose(state.position, state.attitude.toRotationMatrix()),
+                           state.joints, &kinematics);
+  const std::optional<Pose> target = TargetPoseAt(position_time_);
+  const bool points = moving != nullptr && moving->has_points() && target.has_value();
+  return planner::StillAndMovingClearance(kinematics, setup_.scene.exact, points ? moving->exact : nullptr,
+                                          points ? Pose(*target * moving->target_at_zero.inverse()) : Pose::Identity(),
+                                          planner::ClearanceSearchReach(*setup_.task), link);
+}
+
+void OnlineController::CarryWithTarget(double t, double tau, const Vec3& plan_velocity, double rate,
+                                       double rate_change, Setpoint* retreat) const {
+  const std::optional<TargetEstimate> now = tracker_ != nullptr ? tracker_->Estimate(t) : std::nullopt;
+  if (!now || !to_.target) return;
+  const planner::TargetMotion& planned = to_.target->motion;
+  // Relative to the target the plan runs backwards at `rate`, and the
+  // target carries the whole: the world velocity is the target's at the
+  // point plus the relative one turned with it (the tracker's motion has no
+  // acceleration; the turn's own terms are left out).
+  const Pose carry = TargetPoseOf(*now) * PlannedTarget(to_, tau).inverse();
+  const Mat3& turn = carry.linear();
+  const Vec3 planned_point_velocity = planned.PointVelocity(retreat->position, tau);
+  const Vec3 position = carry * retreat->position;
+  retreat->velocity = now->velocity + now->yaw_rate * Vec3::UnitZ().cross(position - now->position) +
+                      turn * (plan_velocity - planned_point_velocity) * rate;
+  retreat->acceleration = turn * (retreat->acceleration - planned_point_velocity * rate_change);
+  retreat->position = position;
+  retreat->yaw += std::atan2(turn(1, 0), turn(0, 0));
+  retreat->yaw_rate = now->yaw_rate + retreat->yaw_rate - planned.YawRate(tau) * rate;
+}
+
+bool OnlineController::RetreatWithTargetIsClear(double t) {
+  auto margin_at = [&](double tau) {
+    const Setpoint s = RetreatReference(t + tau);
+    MeasuredState state = measured();
+    state.position = s.position;
+    state.attitude = Quat(TurnAboutZ(s.yaw));  // level: the follow does not accelerate
+    state.joints = s.joints;
+    int link = -1;
+    return ConfigurationMargin(nullptr, state, &link);
+  };
+  for (double tau = 0.0; tau <= retreat_duration_ + 1e-9; tau += kFollowCheckStep) {
+    if (margin_at(tau) < 0.0) return false;
+  }
+  // The follow after it stops short of what would come too near.
+  retreat_hold_ = options_.abort_hold;
+  for (double tau = kFollowCheckStep; tau <= options_.abort_hold + 1e-9; tau += kFollowCheckStep) {
+    if (margin_at(retreat_duration_ + tau) < 0.0) {
+      retreat_hold_ = tau - kFollowCheckStep;
+      break;
+    }
+  }
+  return true;
+}
+
 }  // namespace quadhand::online

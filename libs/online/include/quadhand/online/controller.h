@@ -671,6 +671,19 @@ class OnlineController {
   // How long the follow after the current plan's end keeps its clearance
   // against the still scene (at most `longest` s).
   double ClearFollowDuration(double longest) const;
+  // The measured state's clearance against the still scene and the moving
+  // points where the tracker has the target at the state's time.
+  double MeasuredClearanceWithTarget(int* link) const;
+  // `retreat` (the plan's setpoint at plan time `tau` run backwards, its
+  // clock at `rate` and `rate_change`; `plan_velocity` the plan's own
+  // velocity there) carried with the target from where the plan predicted
+  // it at `tau` to where the tracker has it at t.
+  void CarryWithTarget(double t, double tau, const Vec3& plan_velocity, double rate, double rate_change,
+                       Setpoint* retreat) const;
+  // Whether the retreat keeps the clearance against the still scene, as the
+  // target is predicted now (the moving points go with the robot); sets how
+  // long the follow after it does (retreat_hold_, at most abort_hold).
+  bool RetreatWithTargetIsClear(double t);
   // The task's tool goal where an estimate has the target.
   Pose TargetPoseOf(const TargetEstimate& estimate) const;
   // Where `plan`'s prediction has the target (the tool goal's pose) at plan
@@ -947,6 +960,14 @@ class OnlineController {
   // A moving target approached in two plans (OnlineOptions::target_settle).
   enum class TargetStage { kApproach, kSettling, kInsertion };
   TargetStage target_stage_ = TargetStage::kApproach;
+  // A moving target's abort retreats along the plan carried with the target
+  // (RetreatReference) and then follows it at the insertion's start for
+  // abort_hold; a retreat that the still scene would not leave room for is
+  // refused once, and the flight goes on (controller_target.cc).
+  bool retreat_follows_target_ = false;
+  bool retreat_refused_ = false;
+  bool retreat_ended_noted_ = false;
+  double retreat_hold_ = 0.0;
   double settle_start_ = 0.0;
   // The settling's longest follow (target_settle_timeout, or less where the
   // follow would come too near the still scene), set as it begins.

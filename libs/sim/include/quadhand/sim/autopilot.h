@@ -154,6 +154,8 @@ class Autopilot {
   bool armed() const { return armed_; }
   const VehicleState& state() const { return simulator_.state(); }
   const Simulator& simulator() const { return simulator_; }
+  // For tests that push the vehicle (Simulator::Reset with a changed state).
+  Simulator* mutable_simulator() { return &simulator_; }
   // The setpoint the controller is given now (hold or offboard), ENU.
   Setpoint CurrentSetpoint() const;
   // Flown states at the telemetry times (record_flown), in the plan columns,
