@@ -118,10 +118,11 @@ int main(int argc, char** argv) {
   // have no target: they are judged with the target at its pose in the task,
   // as quadhand-online's own judge has it (no plan is flown before then).
   const planner::MovingScene* moving = ctx.moving_scene();
+  const bool record_has_target = flown->has_target_columns;
   long rows_without_target = 0;
-  for (const sim::PlanRow& row : flown->rows) rows_without_target += row.target ? 0 : 1;
-  const bool record_has_target = rows_without_target < static_cast<long>(flown->rows.size());
-  if (!record_has_target) rows_without_target = 0;
+  if (record_has_target) {
+    for (const sim::PlanRow& row : flown->rows) rows_without_target += row.target ? 0 : 1;
+  }
   Pose task_target = Pose::Identity();
   if (ctx.task().tool) task_target = MakePose(ctx.task().tool->position, ctx.task().tool->orientation.toRotationMatrix());
   auto displacement_at = [&](const sim::PlanRow& row) {

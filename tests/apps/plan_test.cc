@@ -1012,6 +1012,14 @@ TEST_F(PlanCliTest, FlightcheckMeasuresMovingPointsWhereTheyAreAtEachRow) {
   EXPECT_EQ(judged["rows_without_target"].get<long>(), 10);
   const auto words = RunCommand(check + task + " " + with_blanks(10, 7));
   EXPECT_NE(words.out.find("10 rows without one"), std::string::npos) << words.out;
+  // A log whose target was never estimated: every row at the task's pose
+  // (the vehicle waited at its start), not where the task's motion would
+  // have the target at the log's own clock.
+  const auto never = RunCommand(check + task + " " + with_blanks(plan.rows.size(), 7) + " --json");
+  EXPECT_EQ(never.exit_code, 0) << never.out << never.err;
+  const nlohmann::json never_judged = nlohmann::json::parse(never.out);
+  EXPECT_EQ(never_judged["moving_target"], "record");
+  EXPECT_EQ(never_judged["rows_without_target"].get<long>(), static_cast<long>(plan.rows.size()));
   const std::string partial = with_blanks(3, 2);
   const auto refused = RunCommand(check + task + " " + partial);
   EXPECT_EQ(refused.exit_code, 2) << refused.out << refused.err;

@@ -92,8 +92,15 @@ TEST(PlanIoTest, ReadsBlankTargetsAsNoTarget) {
   const std::string target_row = "1,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0,2,3,4,1,0,0,0\n";
   auto plan = ParsePlanCsv(header + blank_row + target_row, kJoints, "p.csv");
   ASSERT_TRUE(plan.ok()) << plan.status().message();
+  EXPECT_TRUE(plan->has_target_columns);
   EXPECT_FALSE(plan->rows[0].target.has_value());
   ASSERT_TRUE(plan->rows[1].target.has_value());
+  // A log whose target was never estimated still has the columns.
+  auto never = ParsePlanCsv(header + blank_row + "1,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0,,,,,,,\n", kJoints, "p.csv");
+  ASSERT_TRUE(never.ok()) << never.status().message();
+  EXPECT_TRUE(never->has_target_columns);
+  EXPECT_FALSE(never->rows[1].target.has_value());
+  EXPECT_FALSE(ParsePlanCsv(SmallPlan(), kJoints, "p.csv")->has_target_columns);
   EXPECT_EQ(plan->rows[1].target->translation(), Vec3(2, 3, 4));
   ExpectError(header + "0,0,0,1,0,0,0,0,0,0,1,0,0,0,0,0,0.1,0,0,0,0,0,2,,4,1,0,0,0\n" + target_row,
               "row 1: target_x..target_qz: all seven blank");

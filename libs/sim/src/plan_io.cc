@@ -79,6 +79,7 @@ core::Result<Plan> ParsePlanCsv(const std::string& text, const std::vector<std::
   for (int k = 1; k < 7 && target_column >= 0; ++k) {
     if (column(kTargetColumns[k]) != target_column + k) target_column = -1;  // all seven, in order, or none
   }
+  plan.has_target_columns = target_column >= 0;
   for (Eigen::Index i = 0; i < table->values.rows(); ++i) {
     const auto v = table->values.row(i);
     PlanRow r;

@@ -38,6 +38,9 @@ struct PlanRow {
 struct Plan {
   std::vector<std::string> joint_names;
   std::vector<PlanRow> rows;  // t strictly increasing, at least 2 rows
+  // The file has the seven target_* columns (its rows may still have no
+  // target: an online flight log's before its tracker's first estimate).
+  bool has_target_columns = false;
 
   double start_time() const { return rows.front().t; }
   double end_time() const { return rows.back().t; }
