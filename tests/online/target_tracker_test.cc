@@ -64,6 +64,24 @@ TEST(TargetTrackerTest, LearnsAConstantMotionFromNoisyMeasurementsAndPredictsIt)
   EXPECT_LT(std::sqrt(yaw_rate_sq / runs), 0.05);
 }
 
+// A vehicle's state is judged against the target at the state's own time,
+// which can be before the newest measurement: the estimate then is where
+// the target was, not where it was last measured.
+TEST(TargetTrackerTest, EstimatesBeforeTheNewestMeasurementWhereTheTargetWas) {
+  const Belt belt;
+  TargetTracker tracker;
+  for (int k = 0; k <= 60; ++k) tracker.Observe(k / 30.0, belt.Position(k / 30.0), belt.Yaw(k / 30.0));
+  const double newest = 2.0, before = newest - 0.03;
+  const auto estimate = tracker.Estimate(before);
+  ASSERT_TRUE(estimate.has_value());
+  EXPECT_DOUBLE_EQ(estimate->time, before);
+  EXPECT_LT((estimate->position - belt.Position(before)).norm(), 0.001);
+  EXPECT_GT((belt.Position(newest) - belt.Position(before)).norm(), 0.005);  // the belt moves that much between
+  EXPECT_LT(std::abs(estimate->yaw - belt.Yaw(before)), 1e-3);
+  // The spread grows either way from the newest measurement.
+  EXPECT_GT(estimate->position_sigma, tracker.Estimate(newest)->position_sigma);
+}
+
 TEST(TargetTrackerTest, DropsReorderedAndRejectsOutlyingMeasurementsThenRestartsOnAMovedTarget) {
   const Belt belt;
   TargetTracker tracker;

@@ -57,8 +57,9 @@ class TargetTracker {
   // newest, not finite, or rejected by the gate).
   bool Observe(double t, const Vec3& position, double yaw);
 
-  // The estimate predicted to time t (>= the newest measurement's time, or
-  // it is that one's); none before min_measurements were taken.
+  // The estimate predicted to time t, before the newest measurement's time
+  // too (the constant-velocity model run backwards; the spread grows with
+  // |t - that time|); none before min_measurements were taken.
   std::optional<TargetEstimate> Estimate(double t) const;
 
   // The estimate at t as a constant motion whose clock starts at t (its
