@@ -467,11 +467,10 @@ void OnlineController::CheckAbort(double t) {
       moving ? MeasuredClearanceWithTarget(&link)
              : MeasuredClearance(setup_.scene.robot, setup_.scene.exact, measured(),
                                  planner::ClearanceSearchReach(*setup_.task), &kinematics, &link);
-  // Against a moving target the clearance is measured against an estimate:
-  // only what is under by more than twice its uncertainty aborts (over
-  // loopback the estimate's own verdict is 2-4 mm off the truth's, and a
-  // flight the truth kept by 4 mm aborted on it). The verdict (exit 6) is
-  // still the accepted clearance's.
+  // Against a moving target the clearance is measured against an estimate
+  // that is off by a few millimetres: only what is under by more than twice
+  // its uncertainty aborts (a false abort gives up a grasp the truth would
+  // have kept). The verdict (exit 6) is still the accepted clearance's.
   double abort_below = accepted;
   if (moving) {
     const std::optional<TargetEstimate> estimate = tracker_->Estimate(position_time_);
