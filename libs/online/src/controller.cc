@@ -35,6 +35,11 @@ constexpr double kLatestTargetStart = 0.05;     // s a moving target's plan may 
 constexpr double kSettledRelativeSpeed = 0.02;  // m/s: settled above a moving target
 constexpr double kLastTailReplan = 1.0;         // s before the arrival: no tail replan after
 
+// "<what> (<status>: <message>)": the words for a plan that failed.
+std::string FailedPlanWords(const char* what, const PlanRecord& record) {
+  return std::string(what) + " (" + planner::PlanStatusName(record.status) + ": " + record.message + ")";
+}
+
 }  // namespace
 
 const char* AutopilotModeName(AutopilotMode mode) {
@@ -463,10 +468,16 @@ void OnlineController::CheckAbort(double t) {
   const double accepted = planner::AcceptedClearance(*setup_.task, options_.clearance_tolerance);
   int link = -1;
   robot::KinematicsState kinematics;
+  const double reach = planner::ClearanceSearchReach(*setup_.task);
+  const planner::MovingScene* points = moving && setup_.scene.moving != nullptr && setup_.scene.moving->has_points()
+                                           ? setup_.scene.moving
+                                           : nullptr;
   const double clearance =
-      moving ? MeasuredClearanceWithTarget(&link)
-             : MeasuredClearance(setup_.scene.robot, setup_.scene.exact, measured(),
-                                 planner::ClearanceSearchReach(*setup_.task), &kinematics, &link);
+      points != nullptr ? MeasuredClearance(setup_.scene.robot, setup_.scene.exact, points->exact,
+                                            points->target_at_zero, TargetPoseAt(position_time_), measured(), reach,
+                                            &link)
+                        : MeasuredClearance(setup_.scene.robot, setup_.scene.exact, measured(), reach, &kinematics,
+                                            &link);
   // Against a moving target the clearance is measured against an estimate
   // that is off by a few millimetres: only what is under by more than twice
   // its uncertainty aborts (a false abort gives up a grasp the truth would
@@ -1164,8 +1175,7 @@ void OnlineController::CollectPlan(double t) {
     if (phase_ != Phase::kFlying) return;
     if (!done->plan) {
       Fail(Phase::kHoldingAfterFailure,
-           std::string("the plan to resume after the link hold failed (") + planner::PlanStatusName(record.status) +
-               ": " + record.message + ")",
+           FailedPlanWords("the plan to resume after the link hold failed", record),
            HoldCause::kPlanFailed);
       return;
     }
@@ -1188,8 +1198,7 @@ void OnlineController::CollectPlan(double t) {
     if (phase_ != Phase::kFlying || target_stage_ != TargetStage::kSettling) return;
     if (!done->plan) {
       Fail(Phase::kHoldingAfterFailure,
-           std::string("the insertion from above the target failed (") + planner::PlanStatusName(record.status) +
-               ": " + record.message + ")",
+           FailedPlanWords("the insertion from above the target failed", record),
            HoldCause::kPlanFailed);
       return;
     }
@@ -1212,7 +1221,7 @@ void OnlineController::CollectPlan(double t) {
   if (!record.replan) {
     if (!done->plan) {
       Fail(Phase::kHoldingAfterFailure,
-           std::string("the plan failed (") + planner::PlanStatusName(record.status) + ": " + record.message + ")",
+           FailedPlanWords("the plan failed", record),
            HoldCause::kPlanFailed);
       return;
     }
@@ -1251,11 +1260,10 @@ void OnlineController::CollectPlan(double t) {
     Event("not replanned: the insertion has begun");
   } else if (record.periodic) {
     // On track when it started: the current plan is still certified.
-    Event(std::string("the periodic replan failed (") + planner::PlanStatusName(record.status) + ": " +
-          record.message + "); flying on with the current plan");
+    Event(FailedPlanWords("the periodic replan failed", record) + "; flying on with the current plan");
   } else {
     Fail(Phase::kHoldingAfterFailure,
-         std::string("the replan failed (") + planner::PlanStatusName(record.status) + ": " + record.message + ")",
+         FailedPlanWords("the replan failed", record),
          HoldCause::kPlanFailed);
   }
 }
@@ -1791,6 +1799,16 @@ double MeasuredClearance(const robot::RobotModel& robot, const env::ExactMeshMod
   robot::ComputeKinematics(robot, MakePose(state.position, state.attitude.toRotationMatrix()), state.joints,
                            kinematics);
   return env::WholeBodyClearance(*kinematics, exact, reach, {}, link);
+}
+
+double MeasuredClearance(const robot::RobotModel& robot, const env::ExactMeshModel& exact,
+                         const env::ExactMeshModel* moving, const Pose& task_target, const std::optional<Pose>& target,
+                         const MeasuredState& state, double reach, int* link) {
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(robot, MakePose(state.position, state.attitude.toRotationMatrix()), state.joints,
+                           &kinematics);
+  const Pose displacement = target ? Pose(*target * task_target.inverse()) : Pose::Identity();
+  return planner::StillAndMovingClearance(kinematics, exact, moving, displacement, reach, link);
 }
 
 std::optional<double> ToolGoalError(const robot::RobotModel& robot, const planner::Task& task,

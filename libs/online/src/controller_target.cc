@@ -102,10 +102,13 @@ double OnlineController::ToolTargetError() const {
 }
 
 MeasuredState OnlineController::FollowState(const ActivePlan& plan, double plan_time) const {
+  return LevelStateOf(SampleActive(plan, plan.start + plan_time));
+}
+
+MeasuredState OnlineController::LevelStateOf(const Setpoint& s) const {
   MeasuredState state = measured();
-  const Setpoint s = SampleActive(plan, plan.start + plan_time);
   state.position = s.position;
-  state.attitude = Quat(TurnAboutZ(s.yaw));  // level: the follow does not accelerate
+  state.attitude = Quat(TurnAboutZ(s.yaw));
   state.joints = s.joints;
   return state;
 }
@@ -158,19 +161,6 @@ void OnlineController::CheckTarget(double t) {
   if (shift > options_.target_replan_threshold + options_.target_replan_slope * left) ReplanTail(t, shift);
 }
 
-double OnlineController::MeasuredClearanceWithTarget(int* link) const {
-  const planner::MovingScene* moving = setup_.scene.moving;
-  robot::KinematicsState kinematics;
-  const MeasuredState state = measured();
-  robot::ComputeKinematics(setup_.scene.robot, MakePose(state.position, state.attitude.toRotationMatrix()),
-                           state.joints, &kinematics);
-  const std::optional<Pose> target = TargetPoseAt(position_time_);
-  const bool points = moving != nullptr && moving->has_points() && target.has_value();
-  return planner::StillAndMovingClearance(kinematics, setup_.scene.exact, points ? moving->exact : nullptr,
-                                          points ? Pose(*target * moving->target_at_zero.inverse()) : Pose::Identity(),
-                                          planner::ClearanceSearchReach(*setup_.task), link);
-}
-
 void OnlineController::CarryWithTarget(double t, double tau, const Vec3& plan_velocity, double rate,
                                        double rate_change, Setpoint* retreat) const {
   const std::optional<TargetEstimate> now = tracker_ != nullptr ? tracker_->Estimate(t) : std::nullopt;
@@ -194,13 +184,8 @@ void OnlineController::CarryWithTarget(double t, double tau, const Vec3& plan_ve
 
 bool OnlineController::RetreatWithTargetIsClear(double t) {
   auto margin_at = [&](double tau) {
-    const Setpoint s = RetreatReference(t + tau);
-    MeasuredState state = measured();
-    state.position = s.position;
-    state.attitude = Quat(TurnAboutZ(s.yaw));  // level: the follow does not accelerate
-    state.joints = s.joints;
     int link = -1;
-    return ConfigurationMargin(nullptr, state, &link);
+    return ConfigurationMargin(nullptr, LevelStateOf(RetreatReference(t + tau)), &link);
   };
   for (double tau = 0.0; tau <= retreat_duration_ + 1e-9; tau += kFollowCheckStep) {
     if (margin_at(tau) < 0.0) return false;

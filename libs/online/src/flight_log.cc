@@ -198,14 +198,11 @@ FlightMetrics EvaluateFlight(const std::vector<FlightSample>& samples, const rob
                              const env::ExactMeshModel& exact, const planner::Task& task,
                              const Vec3& terminal_position, double reach, double end_time,
                              const MovingJudge& moving) {
-  robot::KinematicsState kinematics;
   auto judge = [&](const FlightSample& s) {
     Judged j;
     j.robot = &robot;
-    const MeasuredState& m = s.measured;
-    robot::ComputeKinematics(robot, MakePose(m.position, m.attitude.toRotationMatrix()), m.joints, &kinematics);
-    const Pose displacement = s.target ? Pose(*s.target * moving.task_target.inverse()) : Pose::Identity();
-    j.clearance = planner::StillAndMovingClearance(kinematics, exact, moving.exact, displacement, reach, &j.link);
+    j.clearance =
+        MeasuredClearance(robot, exact, moving.exact, moving.task_target, s.target, s.measured, reach, &j.link);
     return j;
   };
   return Evaluate(samples, robot.num_actuated(), judge, robot, task, terminal_position, reach, end_time);

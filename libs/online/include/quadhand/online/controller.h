@@ -413,6 +413,13 @@ std::optional<double> ToolGoalError(const robot::RobotModel& robot, const planne
 // `link` (optional) gets the closest link.
 double MeasuredClearance(const robot::RobotModel& robot, const env::ExactMeshModel& exact, const MeasuredState& state,
                          double reach, robot::KinematicsState* kinematics, int* link = nullptr);
+// The same with a moving target: against the still scene `exact` and the
+// moving points `moving` (their model at the target's pose in the task,
+// `task_target`; null: none) where `target` has the target (none: at its
+// pose in the task, as before a tracker's first estimate).
+double MeasuredClearance(const robot::RobotModel& robot, const env::ExactMeshModel& exact,
+                         const env::ExactMeshModel* moving, const Pose& task_target, const std::optional<Pose>& target,
+                         const MeasuredState& state, double reach, int* link = nullptr);
 
 // What the planner needs; the scene, task and solver must outlive the controller.
 struct PlanningSetup {
@@ -668,12 +675,13 @@ class OnlineController {
   // The follow's configuration at plan time `plan_time` (past the plan's
   // end), level, with the other fields of the measured state.
   MeasuredState FollowState(const ActivePlan& plan, double plan_time) const;
+  // Setpoint `s`'s configuration, level (a follow does not accelerate), with
+  // the other fields of the measured state: what a follow or a retreat with
+  // the target is checked by.
+  MeasuredState LevelStateOf(const Setpoint& s) const;
   // How long the follow after the current plan's end keeps its clearance
   // against the still scene (at most `longest` s).
   double ClearFollowDuration(double longest) const;
-  // The measured state's clearance against the still scene and the moving
-  // points where the tracker has the target at the state's time.
-  double MeasuredClearanceWithTarget(int* link) const;
   // `retreat` (the plan's setpoint at plan time `tau` run backwards, its
   // clock at `rate` and `rate_change`; `plan_velocity` the plan's own
   // velocity there) carried with the target from where the plan predicted
