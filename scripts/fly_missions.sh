@@ -18,6 +18,12 @@ echo "| mission | outcome (exit) | robot min clearance, m | held object min clea
 echo "|---|---|---|---|---|"
 for task in data/tasks/missions/*.yaml data/tasks/missions/*/*.yaml; do
   name="${task#data/tasks/missions/}"; name="${name%.yaml}"
+  # A mission with a moving reach is planned and certified offline only:
+  # the online mode refuses it (docs/moving_targets.md, "In a mission").
+  if grep -qE '^ +motion:' "$task"; then
+    echo "| $name | not flown: a moving reach (offline only) | - | - | - |"
+    continue
+  fi
   "./$build/bin/quadhand-sim" --udp "udp://127.0.0.1:$port" --realtime --start-task "$task" --duration 60 --quiet &
   sim=$!
   sleep 0.3

@@ -124,7 +124,11 @@ int main(int argc, char** argv) {
     for (const sim::PlanRow& row : flown->rows) rows_without_target += row.target ? 0 : 1;
   }
   Pose task_target = Pose::Identity();
-  if (ctx.task().tool) task_target = MakePose(ctx.task().tool->position, ctx.task().tool->orientation.toRotationMatrix());
+  if (const planner::ToolGoal* target = planner::MovingToolGoal(ctx.task())) {
+    task_target = MakePose(target->position, target->orientation.toRotationMatrix());
+  } else if (ctx.task().tool) {
+    task_target = MakePose(ctx.task().tool->position, ctx.task().tool->orientation.toRotationMatrix());
+  }
   auto displacement_at = [&](const sim::PlanRow& row) {
     if (row.target) return Pose(*row.target * task_target.inverse());
     return record_has_target ? Pose::Identity() : moving->motion->Displacement(row.t);
@@ -140,7 +144,8 @@ int main(int argc, char** argv) {
     const Pose base = MakePose(row.position, row.attitude.toRotationMatrix());
     if (replay && row.gripper >= 0 && row.gripper != gripper) {
       const core::Status changed =
-          row.gripper == 1 ? replay->GripperClosed(base, row.joints) : replay->GripperOpened(base, row.joints);
+          row.gripper == 1 ? replay->GripperClosed(base, row.joints, moving != nullptr ? displacement_at(row) : Pose::Identity())
+                           : replay->GripperOpened(base, row.joints);
       if (!changed.ok()) return Fail(flown_path + core::Format(": t = %.3f s: ", row.t) + changed.message());
       gripper = row.gripper;
       ++gripper_events;
@@ -156,7 +161,8 @@ int main(int argc, char** argv) {
     int link = -1;
     double d = 0.0;
     if (replay) {
-      const planner::MissionReplay::Clearances c = replay->Measure(base, row.joints, 1.0);
+      const planner::MissionReplay::Clearances c =
+          replay->Measure(base, row.joints, 1.0, moving != nullptr ? displacement_at(row) : Pose::Identity());
       d = c.robot;
       link = c.robot_link;
       if (c.object < least_object) {

@@ -147,5 +147,42 @@ TEST(MissionTest, EachDefectIsOneLineNamingTheStep) {
   EXPECT_NE(neither.status().message().find("task.yaml: goal: missing"), std::string::npos) << neither.status().message();
 }
 
+// A longer mission's moving target (docs/moving_targets.md, "In a mission"):
+// one, reached with nothing held, then grasped (or the mission's end), and
+// after the grasp a move, a reach or a via; the object on it inside its box.
+TEST(MissionTest, AMovingReachIsReadAndItsLimitsAreOneLineEach) {
+  const std::string moving_reach =
+      "  - reach:\n"
+      "      tool:\n"
+      "        position: [1, 0, 0.5]\n"
+      "        orientation: [1, 0, 0, 0]\n"
+      "        insertion: {direction: [0, 0, -1], length: 0.1}\n"
+      "        motion: {velocity: [0, 0.1, 0], moving_points: {min: [0.8, -0.2, 0], max: [1.2, 0.2, 0.6]}}\n";
+  const std::string lift = "  - move: {length: 0.15}\n";
+  auto task = Parse(moving_reach + kGraspCup + lift + "  - hold: {duration: 1}\n");
+  ASSERT_TRUE(task.ok()) << task.status().message();
+  ASSERT_NE(MovingToolGoal(*task), nullptr);
+  EXPECT_EQ(MovingToolGoal(*task), &*task->mission[0].reach_tool);
+  EXPECT_FALSE(task->tool.has_value());
+  // As the last step, or after a still part of the mission.
+  EXPECT_TRUE(Parse("  - hold: {duration: 1}\n" + moving_reach).ok());
+  EXPECT_TRUE(Parse(moving_reach + kGraspCup + "  - reach: {position: [0, 0, 1], yaw: 0, joints: [0.1]}\n").ok());
+
+  ExpectRefused(moving_reach + kGraspCup + lift + "  - release: {}\n" + moving_reach,
+                "mission[4].reach.tool.motion: a mission has one moving target at most; mission[0] (reach) moves");
+  ExpectRefused(moving_reach + "  - hold: {duration: 1}\n",
+                "mission[0].reach.tool.motion: a moving reach is followed by a grasp, or ends the mission");
+  ExpectRefused(moving_reach + kGraspCup + "  - hold: {duration: 1}\n",
+                "mission[2]: after the grasp of a moving target the vehicle moves with it");
+  ExpectRefused(moving_reach + kGraspCup, "mission[1]: after the grasp of a moving target the vehicle moves with it");
+  ExpectRefused(kReachDown + kGraspCup + lift + moving_reach,
+                "mission[3].reach.tool.motion: a moving reach while an object is held");
+  // The box above the cup's centre.
+  std::string above = moving_reach;
+  above.replace(above.find("min: [0.8, -0.2, 0]"), 19, "min: [0.8, -0.2, 0.5]");
+  ExpectRefused(above + kGraspCup + lift,
+                "mission[1].grasp.object.pose: the object of a moving target moves with it");
+}
+
 }  // namespace
 }  // namespace quadhand::planner

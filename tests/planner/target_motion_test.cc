@@ -55,6 +55,39 @@ TEST(TargetMotionTest, PointDerivativesMatchFiniteDifferences) {
   }
 }
 
+// A mission's leg that starts at s sees the target on the mission's clock:
+// the shifted motion at t is the motion at s + t, its displacement still
+// from the mission's t = 0, and its speed bound over [s, s + horizon].
+TEST(TargetMotionTest, AShiftedMotionRunsOnTheLaterClock) {
+  const TargetMotion constant = TargetMotion::Constant(Vec3(0.1, 0.2, 1.0), Vec3(0.3, -0.2, 0.0),
+                                                       Vec3(0.2, 0.0, 0.0), 0.4);
+  const TargetMotion sampled = TargetMotion::Sampled({{0.0, Vec3(0, 0, 1), 0.0}, {2.0, Vec3(1, 0.5, 1), 0.8},
+                                                      {4.0, Vec3(1.5, 1.5, 1.2), 0.2}});
+  const Vec3 x0(0.4, -0.3, 1.1);
+  for (const TargetMotion* motion : {&constant, &sampled}) {
+    const TargetMotion later = motion->Shifted(1.5);
+    EXPECT_DOUBLE_EQ(later.time_offset(), 1.5);
+    EXPECT_DOUBLE_EQ(later.Shifted(0.5).time_offset(), 2.0);
+    for (double t : {0.0, 0.7, 2.1}) {
+      EXPECT_TRUE(later.Displacement(t).isApprox(motion->Displacement(1.5 + t), 1e-12)) << t;
+      EXPECT_TRUE(later.Center(t).isApprox(motion->Center(1.5 + t), 1e-12));
+      EXPECT_DOUBLE_EQ(later.Yaw(t), motion->Yaw(1.5 + t));
+      EXPECT_DOUBLE_EQ(later.YawRate(t), motion->YawRate(1.5 + t));
+      Vec3 a[5], b[5];
+      later.PointDerivatives(x0, t, a);
+      motion->PointDerivatives(x0, 1.5 + t, b);
+      for (int k = 0; k < 5; ++k) EXPECT_TRUE(a[k].isApprox(b[k], 1e-12) || (a[k] - b[k]).norm() < 1e-12) << k;
+    }
+  }
+  // The constant motion speeds up at 0.2 m/s^2: over [1.5, 2.5] its centre
+  // goes from |(0.6, -0.2)| to |(0.8, -0.2)|; a point 0.5 m out adds 0.2.
+  EXPECT_NEAR(constant.Shifted(1.5).MaxSpeed(0.5, 1.0), std::hypot(0.8, 0.2) + 0.2, 1e-12);
+  EXPECT_NEAR(constant.MaxSpeed(0.5, 1.0), std::hypot(0.5, 0.2) + 0.2, 1e-12);
+  // The path's first interval is over by 2 s: from 2.5 s only the second counts.
+  EXPECT_NEAR(sampled.Shifted(2.5).MaxYawRate(1.0), 0.3, 1e-12);
+  EXPECT_NEAR(sampled.MaxYawRate(1.0), 0.4, 1e-12);
+}
+
 TEST(TargetMotionTest, ASampledPathHoldsItsEndsAndBoundsItsSpeed) {
   const TargetMotion sampled =
       TargetMotion::Sampled({{0.0, Vec3(0, 0, 1), 0.0}, {2.0, Vec3(1, 0, 1), 0.0}, {3.0, Vec3(1, 2, 1), 1.0}});

@@ -42,26 +42,48 @@ BoundaryState AtRest(const Vec3& position, double yaw, const VecX& joints) {
   return state;
 }
 
-// A leg from `from` (at rest) to `to_position` at rest, yaw and joints
-// held, in `duration` seconds: a hover when the two positions are the same.
-core::Result<WholeBodyTrajectory> RestToRestLeg(const BoundaryState& from, const Vec3& to_position, double duration,
-                                                const traj::FlatnessOptions& flatness) {
+// A leg of one piece from the whole state `from` to `to` in `duration`
+// seconds: the base's position with its velocity, acceleration and jerk,
+// the yaw and joints with their rates, matched at both ends. The piece is
+// the one polynomial of degree 7 (3 for yaw and joints) that does, so a
+// motion of lower degree between the two states is reproduced exactly: a
+// hover, or a target's motion at a constant velocity or acceleration.
+core::Result<WholeBodyTrajectory> StateToStateLeg(const BoundaryState& from, const BoundaryState& to, double duration,
+                                                  const traj::FlatnessOptions& flatness) {
   const int n = static_cast<int>(from.joints.size());
   traj::Minco position, aux;
   QUADHAND_RETURN_IF_ERROR(position.Reset(4, 3, 1));
   QUADHAND_RETURN_IF_ERROR(aux.Reset(2, 1 + n, 1));
-  MatX head = MatX::Zero(4, 3), tail = MatX::Zero(4, 3);
-  head.row(0) = from.position.transpose();
-  tail.row(0) = to_position.transpose();
-  QUADHAND_RETURN_IF_ERROR(position.SetBoundary(head, tail));
-  MatX aux_state = MatX::Zero(2, 1 + n);
-  aux_state(0, 0) = from.yaw;
-  for (int q = 0; q < n; ++q) aux_state(0, 1 + q) = from.joints[q];
-  QUADHAND_RETURN_IF_ERROR(aux.SetBoundary(aux_state, aux_state));
+  auto position_rows = [](const BoundaryState& state) {
+    MatX rows(4, 3);
+    rows << state.position.transpose(), state.velocity.transpose(), state.acceleration.transpose(),
+        state.jerk.transpose();
+    return rows;
+  };
+  auto aux_rows = [n](const BoundaryState& state) {
+    MatX rows = MatX::Zero(2, 1 + n);
+    rows(0, 0) = state.yaw;
+    rows(1, 0) = state.yaw_rate;
+    for (int q = 0; q < n; ++q) {
+      rows(0, 1 + q) = state.joints[q];
+      if (state.joint_rates.size() == n) rows(1, 1 + q) = state.joint_rates[q];
+    }
+    return rows;
+  };
+  QUADHAND_RETURN_IF_ERROR(position.SetBoundary(position_rows(from), position_rows(to)));
+  QUADHAND_RETURN_IF_ERROR(aux.SetBoundary(aux_rows(from), aux_rows(to)));
   const VecX durations = VecX::Constant(1, duration);
   QUADHAND_RETURN_IF_ERROR(position.Generate(MatX(3, 0), durations));
   QUADHAND_RETURN_IF_ERROR(aux.Generate(MatX(1 + n, 0), durations));
   return WholeBodyTrajectory(std::move(position), std::move(aux), flatness);
+}
+
+// A leg from `from` (at rest) to `to_position` at rest, yaw and joints
+// held, in `duration` seconds: a hover when the two positions are the same.
+core::Result<WholeBodyTrajectory> RestToRestLeg(const BoundaryState& from, const Vec3& to_position, double duration,
+                                                const traj::FlatnessOptions& flatness) {
+  return StateToStateLeg(AtRest(from.position, from.yaw, from.joints), AtRest(to_position, from.yaw, from.joints),
+                         duration, flatness);
 }
 
 core::Result<WholeBodyTrajectory> Join(const WholeBodyTrajectory& first, const WholeBodyTrajectory& second) {
@@ -119,6 +141,15 @@ struct Phase {
   int object_link = -1;
   // While something is held: the robot without it, and the object alone.
   std::unique_ptr<env::ExactMeshModel> robot_only, object_only;
+  // With a moving target (MovingToolGoal): the points that move with it,
+  // where they are at t = 0 (the mission's clock), as this phase has them
+  // (a grasp of the target's object takes its points out, its release
+  // gives them back); while something is held, their exact models for the
+  // robot without it and for the object alone. The context's
+  // moving_scene() is built on them for the phase's robot.
+  std::shared_ptr<const std::vector<Vec3>> moving_points, moving_checked;
+  std::shared_ptr<const std::vector<Vec3>> moving_before_grasp, moving_checked_before_grasp;
+  std::unique_ptr<env::ExactMeshModel> moving_robot_only, moving_object_only;
 };
 
 std::pair<Vec3, Vec3> SceneBounds(const std::vector<Vec3>& points) {
@@ -223,10 +254,14 @@ core::Result<geometry::SdfGrid> ObjectSdf(const ObjectShape& shape, const std::v
 core::Result<Phase> MakePhase(const PlanningContext& base, std::optional<HeldObject> held,
                               std::vector<geometry::TriangleMesh> object_elements,
                               std::shared_ptr<const std::vector<Vec3>> points,
-                              std::shared_ptr<const std::vector<Vec3>> checked_points, const MissionPlanOptions& options) {
+                              std::shared_ptr<const std::vector<Vec3>> checked_points, const MissionPlanOptions& options,
+                              std::shared_ptr<const std::vector<Vec3>> moving_points,
+                              std::shared_ptr<const std::vector<Vec3>> moving_checked) {
   Phase phase;
   phase.points = points;
   phase.checked_points = checked_points;
+  phase.moving_points = moving_points;
+  phase.moving_checked = moving_checked;
   phase.held = held;
   robot::RobotModel robot = base.robot();
   std::vector<std::pair<int, geometry::SdfGrid>> given;
@@ -241,7 +276,8 @@ core::Result<Phase> MakePhase(const PlanningContext& base, std::optional<HeldObj
     given.emplace_back(phase.object_link, std::move(*grid));
     phase.object_elements = std::move(object_elements);
   }
-  auto context = base.ForMissionPhase(std::move(robot), points, checked_points, std::move(given));
+  auto context = base.ForMissionPhase(std::move(robot), points, checked_points, std::move(given), moving_points,
+                                      moving_checked);
   if (!context.ok()) return context.status();
   phase.owned = std::move(*context);
   phase.context = phase.owned.get();
@@ -258,6 +294,15 @@ core::Result<Phase> MakePhase(const PlanningContext& base, std::optional<HeldObj
     if (!object_only.ok()) return object_only.status();
     phase.robot_only = std::move(*robot_only);
     phase.object_only = std::move(*object_only);
+    if (moving_checked != nullptr && !moving_checked->empty()) {
+      auto moving_index = std::make_shared<const scene::PointGrid>(*moving_checked, env::ExactMeshModel::kIndexCellSize);
+      auto moving_robot = env::ExactMeshModel::Create(r, moving_index, robot_links);
+      if (!moving_robot.ok()) return moving_robot.status();
+      auto moving_object = env::ExactMeshModel::Create(r, moving_index, {phase.object_link});
+      if (!moving_object.ok()) return moving_object.status();
+      phase.moving_robot_only = std::move(*moving_robot);
+      phase.moving_object_only = std::move(*moving_object);
+    }
   }
   return phase;
 }
@@ -311,15 +356,20 @@ std::vector<Vec3> ObjectSurface(const std::vector<geometry::TriangleMesh>& eleme
 // The phase after grasp step `i` of `task`, the tool at `tool` (world) as
 // it closes: the object held where it lies relative to the tool (as the
 // task places it when it is held from the start), its points, and those
-// within its scene_margin, gone from both clouds.
+// within its scene_margin, gone from both clouds. An object that moves with
+// the target (`moving_object`: the grasp after a moving reach) is where
+// its pose says at t = 0, and so is `tool` (in the target's frame at
+// t = 0): it and its margin leave the moving clouds, the still ones stay.
 core::Result<Phase> PhaseAfterGrasp(const PlanningContext& base, const Phase& before, const Task& task, size_t i,
-                                    const Pose& tool, const MissionPlanOptions& options) {
+                                    const Pose& tool, const MissionPlanOptions& options, bool moving_object = false) {
   const MissionStep& step = task.mission[i];
   HeldObject held;
   held.grasp_step = i;
   held.object = step.object;
   auto points = before.points;
   auto checked = before.checked_points;
+  auto moving = before.moving_points;
+  auto moving_checked = before.moving_checked;
   auto elements = ObjectElements(base.robot(), step.object);
   if (!elements.ok()) return elements.status().WithPrefix(task.file + ": " + StepName(task.mission, i));
   if (step.held_at_start) {
@@ -329,28 +379,34 @@ core::Result<Phase> PhaseAfterGrasp(const PlanningContext& base, const Phase& be
     auto without = [&](const std::vector<Vec3>& cloud) -> core::Result<std::shared_ptr<const std::vector<Vec3>>> {
       auto kept = WithoutObject(cloud, *elements, step.object.pose, step.scene_margin);
       if (!kept.ok()) return kept.status();
-      if (kept->empty()) {
+      if (kept->empty() && !moving_object) {
         return core::Status::InvalidArgument(task.file + ": " + StepName(task.mission, i) +
                                              ": the object's scene_margin takes every scene point");
       }
       return std::make_shared<const std::vector<Vec3>>(std::move(*kept));
     };
-    const bool same = points == checked;
-    auto kept = without(*points);
-    if (!kept.ok()) return kept.status();
-    points = std::move(*kept);
-    if (same) {
-      checked = points;
-    } else {
-      auto kept_checked = without(*checked);
-      if (!kept_checked.ok()) return kept_checked.status();
-      checked = std::move(*kept_checked);
+    std::shared_ptr<const std::vector<Vec3>>& from = moving_object ? moving : points;
+    std::shared_ptr<const std::vector<Vec3>>& from_checked = moving_object ? moving_checked : checked;
+    if (from != nullptr) {
+      const bool same = from == from_checked;
+      auto kept = without(*from);
+      if (!kept.ok()) return kept.status();
+      from = std::move(*kept);
+      if (same) {
+        from_checked = from;
+      } else if (from_checked != nullptr) {
+        auto kept_checked = without(*from_checked);
+        if (!kept_checked.ok()) return kept_checked.status();
+        from_checked = std::move(*kept_checked);
+      }
     }
   }
-  auto phase = MakePhase(base, held, std::move(*elements), points, checked, options);
+  auto phase = MakePhase(base, held, std::move(*elements), points, checked, options, moving, moving_checked);
   if (!phase.ok()) return phase.status().WithPrefix(task.file + ": " + StepName(task.mission, i));
   phase->points_before_grasp = before.points;
   phase->checked_before_grasp = before.checked_points;
+  phase->moving_before_grasp = before.moving_points;
+  phase->moving_checked_before_grasp = before.moving_checked;
   return phase;
 }
 
@@ -374,7 +430,8 @@ core::Result<Phase> PhaseAfterRelease(const PlanningContext& base, const Phase& 
   auto points = with(*before.points_before_grasp);
   auto checked = before.points_before_grasp == before.checked_before_grasp ? points
                                                                             : with(*before.checked_before_grasp);
-  auto phase = MakePhase(base, std::nullopt, {}, points, checked, options);
+  auto phase = MakePhase(base, std::nullopt, {}, points, checked, options, before.moving_before_grasp,
+                         before.moving_checked_before_grasp);
   if (!phase.ok()) return phase.status().WithPrefix(task.file + ": " + StepName(task.mission, i));
   return phase;
 }
@@ -387,6 +444,10 @@ std::shared_ptr<Phase> FirstPhase(const PlanningContext& base) {
   first->checked_points = &base.points() == &base.checked_points()
                               ? first->points
                               : std::shared_ptr<const std::vector<Vec3>>(&base.checked_points(), [](auto*) {});
+  if (base.moving_scene() != nullptr) {
+    first->moving_points = std::shared_ptr<const std::vector<Vec3>>(&base.moving_points(), [](auto*) {});
+    first->moving_checked = std::shared_ptr<const std::vector<Vec3>>(&base.moving_checked_points(), [](auto*) {});
+  }
   return first;
 }
 
@@ -496,7 +557,21 @@ class MissionPlanner {
  private:
   // One leg's outcome; false when the step failed (result_ says why).
   core::Result<bool> PlanStep(size_t i);
-  core::Result<bool> ReachLeg(size_t i, const Task& leg_task, bool relaxed_object);
+  // `goal_moves`: the leg's task has the moving target's tool goal.
+  core::Result<bool> ReachLeg(size_t i, const Task& leg_task, bool relaxed_object, bool goal_moves = false);
+  // A reach of the moving target: planned as a goal is (the arrival
+  // optimised, the insertion inside the leg), on the target's clock from
+  // the leg's start; the vehicle then moves with the target.
+  core::Result<bool> MovingReachLeg(size_t i);
+  // While the vehicle moves with the target: a leg of `duration` that goes
+  // on moving with it, the base `offset` (world, at the leg's start) farther
+  // in the target's frame at the end, the tool on `line` (given in the
+  // target's frame at t = 0; disabled: the tool stays where it is in that
+  // frame, checked as follow_target).
+  core::Result<bool> FollowLeg(size_t i, double duration, const Vec3& offset, const InsertionGoal& line,
+                               bool relaxed_object);
+  // From a state moving with the target to rest, straight on (part of step i).
+  core::Result<bool> BrakeLeg(size_t i);
   // The steps of the vias reach step `reach`'s leg passed (pending_vias_),
   // from the leg's start and the via check's times in it.
   void PassedVias(size_t reach, double leg_start, const std::vector<double>& via_times);
@@ -522,13 +597,29 @@ class MissionPlanner {
   // The phase after step i (a grasp or a release): from the cache, or built.
   core::Status ChangePhase(size_t i);
   Task LegTask() const;
-  // The pose of `link` of `robot` at the state the mission has reached (at rest).
+  // The pose of `link` of `robot` at the state the mission has reached (at
+  // rest; moving with the target, as the plan flies it there).
   Pose LinkAtState(const robot::RobotModel& robot, int link) const {
+    if (with_target_ && whole_) {
+      const WholeBodySample last = whole_->Sample(whole_->duration());
+      return robot::LinkPose(robot, last.BasePose(), last.joints, link);
+    }
     return robot::LinkPose(robot, HoverPose(state_.position, state_.yaw), state_.joints, link);
   }
-  // The phase's scene; its exact model without the held object when asked
-  // (the object is then checked on its own).
-  const PlanningScene Scene(bool without_held_object) const;
+  // The same in the frame the mission's objects are given in: the world,
+  // or while moving with the target its frame at t = 0.
+  Pose LinkForObjects(const robot::RobotModel& robot, int link) const {
+    const Pose pose = LinkAtState(robot, link);
+    return with_target_ ? TaskMotion().Displacement(Now()).inverse() * pose : pose;
+  }
+  double Now() const { return whole_ ? whole_->duration() : 0.0; }
+  // The moving target's motion on the mission's clock.
+  const TargetMotion& TaskMotion() const { return *base_.moving_scene()->motion; }
+  // The phase's scene for the next leg; its exact model without the held
+  // object when asked (the object is then checked on its own). With a
+  // moving target, its moving part on the target's clock from the leg's
+  // start (leg_moving_; the goal moves with it when `goal_moves`).
+  PlanningScene Scene(bool without_held_object, bool goal_moves = false);
   bool Fail(size_t i, PlanStatus status, const std::string& why);
 
   const PlanningContext& base_;
@@ -550,6 +641,16 @@ class MissionPlanner {
   PlanResult result_;
   std::optional<WholeBodyTrajectory> whole_;
   bool first_leg_ = true;
+  // The leg's moving part (Scene()): the motion shifted to the leg's start,
+  // for the robot and for the held object alone (CheckAndAppend).
+  TargetMotion leg_motion_;
+  MovingScene leg_moving_, leg_object_moving_;
+  bool leg_moves_ = false;
+  // The vehicle moves with the target: from its reach to the move after
+  // its grasp (or the reach or via after that).
+  bool with_target_ = false;
+  // The moving reach's insertion direction in the target's frame at t = 0.
+  std::optional<Vec3> moving_insertion_;
 };
 
 Task MissionPlanner::LegTask() const {
@@ -562,11 +663,27 @@ Task MissionPlanner::LegTask() const {
   return leg;
 }
 
-const PlanningScene MissionPlanner::Scene(bool without_held_object) const {
+PlanningScene MissionPlanner::Scene(bool without_held_object, bool goal_moves) {
   const PlanningScene scene = phase_->context->Scene(representation_);
-  if (!phase_->held || !without_held_object) return scene;
-  return PlanningScene{scene.robot, scene.collision, *phase_->robot_only, scene.front_end, scene.per_plan_collision,
-                       scene.self_collision};
+  const bool without = phase_->held && without_held_object;
+  const MovingScene* phase_moving = phase_->context->moving_scene();
+  leg_moves_ = phase_moving != nullptr;
+  if (leg_moves_) {
+    leg_motion_ = phase_moving->motion->Shifted(Now());
+    leg_moving_ = *phase_moving;
+    leg_moving_.motion = &leg_motion_;
+    leg_moving_.goal_moves = goal_moves;
+    if (without && phase_->moving_robot_only) leg_moving_.exact = phase_->moving_robot_only.get();
+    leg_object_moving_ = leg_moving_;
+    leg_object_moving_.exact = phase_->moving_object_only.get();
+  }
+  return PlanningScene{scene.robot,
+                       scene.collision,
+                       without ? *phase_->robot_only : scene.exact,
+                       scene.front_end,
+                       scene.per_plan_collision,
+                       scene.self_collision,
+                       leg_moves_ ? &leg_moving_ : nullptr};
 }
 
 bool MissionPlanner::Fail(size_t i, PlanStatus status, const std::string& why) {
@@ -602,7 +719,8 @@ core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory 
         relaxed_object ? options_.post_check.clearance_tolerance : task_.safety_distance;
     const PlanningScene scene = phase_->context->Scene(representation_);
     const PostCheckReport object = PostCheck(trajectory, scene.robot, object_task, end, insertion, scene.collision,
-                                             *phase_->object_only, nullptr, options_.post_check);
+                                             *phase_->object_only, nullptr, options_.post_check,
+                                             leg_moves_ ? &leg_object_moving_ : nullptr);
     CheckResult held;
     held.kind = CheckKind::kHeldObjectClearance;
     held.name = CheckKindName(held.kind);
@@ -668,8 +786,8 @@ core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory 
   return true;
 }
 
-core::Result<bool> MissionPlanner::ReachLeg(size_t i, const Task& leg_task, bool relaxed_object) {
-  auto planned = Plan(Scene(relaxed_object), leg_task, options_, solver_);
+core::Result<bool> MissionPlanner::ReachLeg(size_t i, const Task& leg_task, bool relaxed_object, bool goal_moves) {
+  auto planned = Plan(Scene(relaxed_object, goal_moves), leg_task, options_, solver_);
   if (!planned.ok()) {
     // The first step starts from the task's start: its errors are the
     // task's. A later one starts where the mission left the robot.
@@ -691,6 +809,21 @@ core::Result<bool> MissionPlanner::ReachLeg(size_t i, const Task& leg_task, bool
   result_.terminal_searched = leg.terminal_searched;
   result_.terminal_search = leg.terminal_search;
   result_.insertion = leg.insertion;
+  if (goal_moves) {
+    result_.moving_target = leg.moving_target;
+    result_.terminal_at_zero = leg.terminal_at_zero;
+    result_.insertion_at_zero = leg.insertion_at_zero;
+    result_.target_at_zero = leg.target_at_zero;
+    result_.arrival_rounds = leg.arrival_rounds;
+    result_.target_out_of_reach_m = leg.target_out_of_reach_m;
+    // The leg's times on the mission's clock.
+    result_.arrival_guess_s = Now() + leg.arrival_guess_s;
+    result_.target_out_of_reach_at_s = Now() + leg.target_out_of_reach_at_s;
+    if (leg.trajectory) {
+      result_.target_met_s = Now() + leg.trajectory->duration();
+      result_.target_met_insertion = leg.insertion;
+    }
+  }
   if (!leg.trajectory) return Fail(i, leg.status, leg.message);
   if (leg.insertion.enabled) last_insertion_ = leg.insertion.direction;
   const double leg_start = whole_ ? whole_->duration() : 0.0;
@@ -730,10 +863,95 @@ core::Result<bool> MissionPlanner::RestLeg(size_t i, const Vec3& to_position, do
   const PlanningScene scene = Scene(true);
   const auto check_start = std::chrono::steady_clock::now();
   PostCheckReport report = PostCheck(*trajectory, scene.robot, leg_task, end, line, scene.collision, scene.exact,
-                                     scene.self_collision, options_.post_check);
+                                     scene.self_collision, options_.post_check, scene.moving);
   result_.post_check_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_start).count();
   return CheckAndAppend(i, std::move(*trajectory), leg_task, end, line, relaxed_object, std::move(report));
+}
+
+core::Result<bool> MissionPlanner::MovingReachLeg(size_t i) {
+  const MissionStep& step = task_.mission[i];
+  QUADHAND_RETURN_IF_ERROR(RequireToolLink(i));
+  Task leg = LegTask();
+  leg.tool = step.reach_tool;
+  auto reached = ReachLeg(i, leg, false, /*goal_moves=*/true);
+  if (!reached.ok() || !*reached) return reached;
+  with_target_ = true;
+  if (result_.insertion_at_zero.enabled) moving_insertion_ = result_.insertion_at_zero.direction;
+  return true;
+}
+
+core::Result<bool> MissionPlanner::FollowLeg(size_t i, double duration, const Vec3& offset, const InsertionGoal& line,
+                                             bool relaxed_object) {
+  const TargetMotion& motion = TaskMotion();
+  const double start = Now();
+  const Pose at_start = motion.Displacement(start);
+  // Where the base is in the target's frame at t = 0, then moved on with it.
+  BoundaryState at_zero = StateAtZero(state_, motion, start);
+  at_zero.joints = state_.joints;
+  at_zero.position += at_start.linear().transpose() * offset;
+  const BoundaryState end = MovedState(at_zero, motion, start + duration);
+  auto trajectory = StateToStateLeg(state_, end, duration, options_.cost.flatness);
+  if (!trajectory.ok()) return trajectory.status();
+  const Task leg_task = LegTask();
+  const PlanningScene scene = Scene(true, /*goal_moves=*/true);
+  const auto check_start = std::chrono::steady_clock::now();
+  PostCheckReport report = PostCheck(*trajectory, scene.robot, leg_task, end, line, scene.collision, scene.exact,
+                                     scene.self_collision, options_.post_check, scene.moving);
+  if (!line.enabled) {
+    // The tool holds its place on the target while the gripper closes: its
+    // distance from there, in the target's frame, at the post-check's step.
+    const Vec3 tool_start = (at_start.inverse() * LinkAtState(scene.robot, tool_link_)).translation();
+    CheckResult follow;
+    follow.kind = CheckKind::kFollowTarget;
+    follow.name = CheckKindName(follow.kind);
+    follow.bound = options_.post_check.position_tolerance;
+    follow.value = 0.0;
+    const int steps = std::max(1, static_cast<int>(std::ceil(duration / options_.post_check.dt)));
+    for (int k = 0; k <= steps; ++k) {
+      const double t = duration * k / steps;
+      const WholeBodySample sample = trajectory->Sample(t);
+      const Vec3 tool = robot::LinkPose(scene.robot, sample.BasePose(), sample.joints, tool_link_).translation();
+      const double off = ((motion.Displacement(start + t).inverse() * tool) - tool_start).norm();
+      if (off > follow.value) {
+        follow.value = off;
+        follow.time = t;
+      }
+    }
+    follow.passed = follow.value <= follow.bound;
+    follow.detail = core::Format("the tool stays within %.4f m of where it met the moving target, in its frame, "
+                                 "while the gripper closes (at most %.4f m)",
+                                 follow.value, follow.bound);
+    report.checks.push_back(follow);
+    report.passed = report.passed && follow.passed;
+    report.certified = report.certified && follow.passed;
+  }
+  result_.post_check_ms +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_start).count();
+  return CheckAndAppend(i, std::move(*trajectory), leg_task, end, line, relaxed_object, std::move(report));
+}
+
+core::Result<bool> MissionPlanner::BrakeLeg(size_t i) {
+  // Straight on, as a constant deceleration would stop: the end at rest
+  // half the time's travel on, yaw likewise; long enough that the stop
+  // asks for a fifth of a_max on average (the polynomial's peak is about
+  // twice its mean), never shorter than a move.
+  const double speed = state_.velocity.norm();
+  const double duration = std::max({options_.mission.move_min_duration, 5.0 * speed / task_.limits.a_max,
+                                    5.0 * std::abs(state_.yaw_rate) / task_.limits.yaw_rate_max, 0.1});
+  BoundaryState end = AtRest(state_.position + 0.5 * duration * state_.velocity, state_.yaw + 0.5 * duration * state_.yaw_rate,
+                             state_.joints);
+  auto trajectory = StateToStateLeg(state_, end, duration, options_.cost.flatness);
+  if (!trajectory.ok()) return trajectory.status();
+  const Task leg_task = LegTask();
+  const PlanningScene scene = Scene(true);
+  const auto check_start = std::chrono::steady_clock::now();
+  PostCheckReport report = PostCheck(*trajectory, scene.robot, leg_task, end, InsertionGoal{}, scene.collision,
+                                     scene.exact, scene.self_collision, options_.post_check, scene.moving);
+  result_.post_check_ms +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_start).count();
+  with_target_ = false;
+  return CheckAndAppend(i, std::move(*trajectory), leg_task, end, InsertionGoal{}, false, std::move(report));
 }
 
 core::Status MissionPlanner::RequireToolLink(size_t i) const {
@@ -801,7 +1019,8 @@ core::Result<bool> MissionPlanner::InsertionLeg(size_t i, bool places) {
 core::Status MissionPlanner::Grasp(size_t i) {
   const MissionStep& step = task_.mission[i];
   QUADHAND_RETURN_IF_ERROR(RequireToolLink(i));
-  const Pose tool = LinkAtState(base_.robot(), tool_link_);
+  // (Both in the target's frame at t = 0 when it moves: LinkForObjects.)
+  const Pose tool = LinkForObjects(base_.robot(), tool_link_);
   if (!step.held_at_start) {
     // The task's check of the reach waits for the kinematics when the reach
     // before gives only a state: here the tool is where the plan put it.
@@ -814,7 +1033,7 @@ core::Status MissionPlanner::Grasp(size_t i) {
                        gap, kGraspReach));
     }
   }
-  auto phase = PhaseAfterGrasp(base_, *phase_, task_, i, tool, options_.mission);
+  auto phase = PhaseAfterGrasp(base_, *phase_, task_, i, tool, options_.mission, with_target_);
   if (!phase.ok()) return phase.status();
   phase_ = std::make_shared<const Phase>(std::move(*phase));
   return core::Status::Ok();
@@ -839,7 +1058,7 @@ core::Status MissionPlanner::ChangePhase(size_t i) {
     pose = LinkAtState(phase_->context->robot(), phase_->object_link);
   } else if (!step.held_at_start) {
     const robot::RobotModel& robot = base_.robot();
-    if (tool_link_ >= 0) pose = LinkAtState(robot, tool_link_).inverse() * pose;
+    if (tool_link_ >= 0) pose = LinkForObjects(robot, tool_link_).inverse() * pose;
   }
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 4; ++c) key += core::Format("%.9f,", pose.matrix()(r, c));
@@ -864,6 +1083,8 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
     case StepKind::kReach: {
       // (A mission of one reach never comes here: it plans as its goal,
       // the insertion inside the optimised leg.)
+      if (step.reach_tool && step.reach_tool->moving) return MovingReachLeg(i);
+      with_target_ = false;  // a reach from a state moving with the target leaves it
       if (step.reach_tool && step.reach_tool->has_insertion) {
         const bool places = phase_->held && i + 1 < mission.size() && mission[i + 1].kind == StepKind::kRelease;
         return InsertionLeg(i, places);
@@ -879,6 +1100,7 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
       // gripper, the mission's end) the robot has to be somewhere at rest,
       // and the via's point is the only place given: it ends there, yaw and
       // joints as they are.
+      with_target_ = false;
       pending_vias_.push_back(i);
       if (i + 1 < mission.size() &&
           (mission[i + 1].kind == StepKind::kReach || mission[i + 1].kind == StepKind::kVia)) {
@@ -895,6 +1117,8 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
       Vec3 direction;
       if (step.move_direction) {
         direction = *step.move_direction;
+      } else if (with_target_ && moving_insertion_) {
+        direction = -(TaskMotion().Displacement(Now()).linear() * *moving_insertion_);
       } else if (last_insertion_) {
         direction = -*last_insertion_;
       } else {
@@ -910,7 +1134,13 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
       // The scene's bounds: the box of its points. A move is a short
       // straight line near what the robot handles; one that leaves the
       // scanned volume is a mistake in the task (a sign, a unit).
-      const Vec3 tool_end = tool.translation() + direction * step.move_length;
+      Vec3 tool_end = tool.translation() + direction * step.move_length;
+      if (with_target_) {
+        // The line is drawn in the target's frame: where the tool ends
+        // moves on with the target for the line's duration.
+        const double now = Now();
+        tool_end = TaskMotion().Displacement(now + duration) * (TaskMotion().Displacement(now).inverse() * tool_end);
+      }
       const auto [scene_min, scene_max] = SceneBounds(base_.points());
       if ((tool_end.array() < scene_min.array()).any() || (tool_end.array() > scene_max.array()).any()) {
         return core::Status::InvalidArgument(
@@ -928,6 +1158,21 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
       line.direction = direction;
       line.length = length;
       const bool relaxed = after_grasp_or_release && mission[i - 1].kind == StepKind::kGrasp;
+      if (with_target_) {
+        // A line in the target's frame (a lift off a moving belt), checked
+        // there (the line given at t = 0); then to rest, unless a reach or a
+        // via is next (it starts from the moving state).
+        const Pose back = TaskMotion().Displacement(Now()).inverse();
+        InsertionGoal at_zero = line;
+        at_zero.tool_position = back * line.tool_position;
+        at_zero.tool_orientation = Quat(back.linear() * line.tool_orientation.toRotationMatrix());
+        at_zero.direction = back.linear() * line.direction;
+        auto moved = FollowLeg(i, duration, direction * length, at_zero, relaxed);
+        if (!moved.ok() || !*moved) return moved;
+        const bool leg_next = i + 1 < mission.size() &&
+                              (mission[i + 1].kind == StepKind::kReach || mission[i + 1].kind == StepKind::kVia);
+        return leg_next ? moved : BrakeLeg(i);
+      }
       return RestLeg(i, state_.position + direction * length, duration, line, relaxed);
     }
     case StepKind::kGrasp: {
@@ -935,6 +1180,7 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
       QUADHAND_RETURN_IF_ERROR(ChangePhase(i));
       result_.mission_phase_ms +=
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - phase_start).count();
+      if (with_target_) return FollowLeg(i, step.close_time, Vec3::Zero(), InsertionGoal{}, true);
       return RestLeg(i, state_.position, step.close_time, InsertionGoal{}, true);
     }
     case StepKind::kRelease: {
@@ -1038,7 +1284,7 @@ core::Result<std::unique_ptr<MissionReplay>> MissionReplay::Start(const Planning
   return std::unique_ptr<MissionReplay>(new MissionReplay(std::move(impl)));
 }
 
-core::Status MissionReplay::GripperClosed(const Pose& base, const VecX& joints) {
+core::Status MissionReplay::GripperClosed(const Pose& base, const VecX& joints, const Pose& target) {
   Impl& m = *impl_;
   const Task& task = m.base_.task();
   if (m.phase_->held) {
@@ -1053,8 +1299,12 @@ core::Status MissionReplay::GripperClosed(const Pose& base, const VecX& joints) 
   if (m.tool_link_ < 0) {
     return core::Status::InvalidArgument(task.file + ": the robot has no tool link '" + task.tool_link + "'");
   }
-  const Pose tool = robot::LinkPose(m.base_.robot(), base, joints, m.tool_link_);
-  auto phase = PhaseAfterGrasp(m.base_, *m.phase_, task, i, tool, m.options_);
+  Pose tool = robot::LinkPose(m.base_.robot(), base, joints, m.tool_link_);
+  // The grasp after the moving reach takes the target's object, given (as
+  // the tool is then put) in the target's frame at t = 0.
+  const bool moving_object = i > 0 && task.mission[i - 1].reach_tool && task.mission[i - 1].reach_tool->moving;
+  if (moving_object) tool = target.inverse() * tool;
+  auto phase = PhaseAfterGrasp(m.base_, *m.phase_, task, i, tool, m.options_, moving_object);
   if (!phase.ok()) return phase.status();
   m.phase_ = std::make_shared<const Phase>(std::move(*phase));
   m.next_grasp_ = i + 1;
@@ -1077,19 +1327,31 @@ core::Status MissionReplay::GripperOpened(const Pose& base, const VecX& joints) 
   return core::Status::Ok();
 }
 
-MissionReplay::Clearances MissionReplay::Measure(const Pose& base, const VecX& joints, double reach) const {
+MissionReplay::Clearances MissionReplay::Measure(const Pose& base, const VecX& joints, double reach,
+                                                 const Pose& target) const {
   const Phase& phase = *impl_->phase_;
   const robot::RobotModel& robot = phase.context->robot();
   robot::KinematicsState kinematics;
   robot::ComputeKinematics(robot, base, joints, &kinematics);
   Clearances c;
   c.object = std::numeric_limits<double>::infinity();
+  const MovingScene* moving = phase.context->moving_scene();
+  const bool points_move = moving != nullptr && moving->has_points();
   if (!phase.held) {
-    c.robot = env::WholeBodyClearance(kinematics, phase.context->exact(), reach, {}, &c.robot_link);
+    c.robot = StillAndMovingClearance(kinematics, phase.context->exact(), points_move ? moving->exact : nullptr, target,
+                                      reach, &c.robot_link);
     return c;
   }
-  c.robot = env::WholeBodyClearance(kinematics, *phase.robot_only, reach, {}, &c.robot_link);
+  c.robot = StillAndMovingClearance(kinematics, *phase.robot_only,
+                                    points_move ? phase.moving_robot_only.get() : nullptr, target, reach,
+                                    &c.robot_link);
   c.object = phase.object_only->LinkClearance(phase.object_link, kinematics.link_poses[phase.object_link], reach, {});
+  if (points_move && phase.moving_object_only != nullptr) {
+    const robot::KinematicsState moved = InTargetFrameAtZero(kinematics, target);
+    c.object = std::min(c.object, phase.moving_object_only->LinkClearance(phase.object_link,
+                                                                          moved.link_poses[phase.object_link], reach,
+                                                                          {}));
+  }
   return c;
 }
 

@@ -62,17 +62,18 @@ void AppendMissionColumns(const std::vector<MissionStep>& mission, const std::ve
 }
 
 void AppendTargetColumns(const Task& task, io::PlanTable* table) {
-  if (!task.tool || !task.tool->moving) return;
-  const TargetMotion& motion = task.tool->moving->motion;
+  const ToolGoal* tool = MovingToolGoal(task);
+  if (tool == nullptr) return;
+  const TargetMotion& motion = tool->moving->motion;
   const Eigen::Index rows = table->values.rows(), columns = table->values.cols();
   table->values.conservativeResize(rows, columns + 7);
   for (const char* name : {"target_x", "target_y", "target_z", "target_qw", "target_qx", "target_qy", "target_qz"}) {
     table->columns.push_back(name);
   }
-  const Mat3 orientation = task.tool->orientation.toRotationMatrix();
+  const Mat3 orientation = tool->orientation.toRotationMatrix();
   for (Eigen::Index r = 0; r < rows; ++r) {
     const Pose displacement = motion.Displacement(table->values(r, 0));
-    const Vec3 position = displacement * task.tool->position;
+    const Vec3 position = displacement * tool->position;
     const Quat q(displacement.linear() * orientation);
     table->values.block<1, 7>(r, columns) << position.x(), position.y(), position.z(), q.w(), q.x(), q.y(), q.z();
   }
@@ -137,14 +138,15 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
       moving["out_of_reach_m"] = result.target_out_of_reach_m;
       moving["out_of_reach_at_s"] = result.target_out_of_reach_at_s;
     }
-    if (result.trajectory && result.insertion.tool_link >= 0) {
-      const double end = result.trajectory->duration();
+    const bool in_mission = result.target_met_s >= 0.0;
+    const InsertionGoal& met = in_mission ? result.target_met_insertion : result.insertion;
+    if (result.trajectory && met.tool_link >= 0) {
+      const double end = in_mission ? result.target_met_s : result.trajectory->duration();
       const WholeBodySample last = result.trajectory->Sample(end);
-      const Vec3 tool = robot::LinkPose(robot, last.BasePose(), last.joints, result.insertion.tool_link).translation();
+      const Vec3 tool = robot::LinkPose(robot, last.BasePose(), last.joints, met.tool_link).translation();
       moving["arrival_s"] = end;
-      moving["target_position"] = {result.insertion.tool_position.x(), result.insertion.tool_position.y(),
-                                   result.insertion.tool_position.z()};
-      moving["tool_to_target_m"] = (tool - result.insertion.tool_position).norm();
+      moving["target_position"] = {met.tool_position.x(), met.tool_position.y(), met.tool_position.z()};
+      moving["tool_to_target_m"] = (tool - met.tool_position).norm();
     }
     for (const CheckResult& check : result.post_check.checks) {
       if (check.kind == CheckKind::kRelativeSpeed) moving["relative_speed_mps"] = check.value;

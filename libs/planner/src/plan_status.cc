@@ -36,6 +36,7 @@ const char* CheckKindName(CheckKind kind) {
     case CheckKind::kHeldObjectClearance: return "held_object_clearance";
     case CheckKind::kVia: return "via";
     case CheckKind::kRelativeSpeed: return "relative_speed";
+    case CheckKind::kFollowTarget: return "follow_target";
   }
   return "unknown";
 }

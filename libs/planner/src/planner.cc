@@ -22,6 +22,19 @@ double MillisecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
+// Whether the plan's goal moves with the target: the goal was resolved as a
+// moving one against a scene whose goal moves.
+bool MovesTheGoal(const PlanningScene& scene, const PlanResult& result) {
+  return result.moving_target && scene.moving != nullptr && scene.moving->goal_moves;
+}
+
+// What of the scene moves for this plan: everything of a moving goal's
+// scene, or the points alone (a mission's leg past them to a still goal).
+const MovingScene* MovingPartOf(const PlanningScene& scene, const PlanResult& result) {
+  if (scene.moving == nullptr) return nullptr;
+  return MovesTheGoal(scene, result) || !scene.moving->goal_moves ? scene.moving : nullptr;
+}
+
 }  // namespace
 
 bool MissionPlanOptions::IsValid(std::string* why) const {
@@ -161,14 +174,14 @@ core::Status SolveAndPostCheck(WholeBodyProblem* problem, const VecX& x0, const 
     check.stop_at_first_failure = check.stop_at_first_failure || attempt + 1 < schedule.max_attempts;
     // A moving target's goal is where the target is at this trajectory's
     // own end; the insertion line is checked in the target's frame.
-    const bool moving = result->moving_target && scene.moving != nullptr;
+    const bool moving = MovesTheGoal(scene, *result);
     if (moving) {
       result->terminal = MovedState(result->terminal_at_zero, *scene.moving->motion, trajectory->duration());
       result->insertion = MovedInsertion(result->insertion_at_zero, *scene.moving->motion, trajectory->duration());
     }
     result->post_check = PostCheck(*trajectory, scene.robot, task, result->terminal,
                                    moving ? result->insertion_at_zero : result->insertion, collision, scene.exact,
-                                   scene.self_collision, check, moving ? scene.moving : nullptr);
+                                   scene.self_collision, check, MovingPartOf(scene, *result));
     record.post_check_ms = MillisecondsSince(check_start);
     result->post_check_ms += record.post_check_ms;
     result->trajectory = std::move(*trajectory);
@@ -253,13 +266,13 @@ core::Status Optimise(const PlanningScene& scene, const PlanCollision& collision
                       PlanResult* result) {
   result->num_pieces = static_cast<int>(guess.durations.size());
   // A moving target: the optimiser gets the goal at t = 0 and moves it.
-  const bool moving = result->moving_target && scene.moving != nullptr;
+  const bool moving = MovesTheGoal(scene, *result);
   auto problem = WholeBodyProblem::Create(scene.robot, *collision.model, task.start,
                                           moving ? result->terminal_at_zero : result->terminal, task.limits,
                                           moving ? result->insertion_at_zero : result->insertion,
                                           CostForTask(options, task), result->num_pieces, scene.self_collision);
   if (!problem.ok()) return problem.status().WithPrefix(task.file);
-  if (moving) QUADHAND_RETURN_IF_ERROR((*problem)->SetMovingScene(scene.moving));
+  if (const MovingScene* part = MovingPartOf(scene, *result)) QUADHAND_RETURN_IF_ERROR((*problem)->SetMovingScene(part));
   if (!task.vias.empty()) {
     auto balls = ViaBalls(task.vias, guess.position_waypoints);
     if (!balls.ok()) return balls.status().WithPrefix(task.file);
@@ -549,7 +562,9 @@ core::Result<bool> ResolveMovingGoal(const PlanningScene& scene, const Task& tas
     robot::KinematicsState kinematics;
     robot::ComputeKinematics(robot, HoverPose(task.start.position, task.start.yaw), task.start.joints, &kinematics);
     int link = -1;
-    const double clearance = env::WholeBodyClearance(kinematics, *moving.exact, ClearanceSearchReach(task), {}, &link);
+    // (A mission's leg starts later on the target's clock: the points have moved.)
+    const double clearance = env::WholeBodyClearance(InTargetFrameAtZero(kinematics, motion, 0.0), *moving.exact,
+                                                     ClearanceSearchReach(task), {}, &link);
     if (clearance < AcceptedClearance(task, options.post_check.clearance_tolerance)) {
       return core::Status::InvalidArgument(task.file + ": start state is in collision: link " + robot.link(link).name +
                                            " is " + std::to_string(clearance) +

@@ -80,14 +80,20 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
 core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForMissionPhase(
     robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points,
     std::shared_ptr<const std::vector<Vec3>> checked_points,
-    std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs) const {
+    std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, std::shared_ptr<const std::vector<Vec3>> moving_points,
+    std::shared_ptr<const std::vector<Vec3>> moving_checked_points) const {
   // The grids this context loaded serve the phase too (its robot is this
   // one, plus perhaps a held object): no file is read again.
   if (sdf_grids_ != nullptr) {
     for (size_t g = 0; g < sdf_links_.size(); ++g) given_sdfs.emplace_back(sdf_links_[g], (*sdf_grids_)[g]);
   }
+  if (moving_points == nullptr) moving_points = std::make_shared<const std::vector<Vec3>>(moving_points_);
+  if (moving_checked_points == nullptr) {
+    moving_checked_points = std::make_shared<const std::vector<Vec3>>(moving_checked_points_);
+  }
   auto phase = Build(task_, std::move(robot), std::move(points), dropped_non_finite_, options_,
-                     std::move(checked_points), std::move(given_sdfs), /*mission_phase=*/true);
+                     std::move(checked_points), std::move(given_sdfs), /*mission_phase=*/true,
+                     std::move(moving_points), std::move(moving_checked_points));
   if (phase.ok()) (*phase)->scene_load_seconds_ = 0.0;
   return phase;
 }
@@ -95,7 +101,8 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForMissionPhase(
 core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
     const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
-    std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, bool mission_phase) {
+    std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, bool mission_phase,
+    std::shared_ptr<const std::vector<Vec3>> moving_given, std::shared_ptr<const std::vector<Vec3>> moving_checked_given) {
   QUADHAND_RETURN_IF_ERROR(CheckRepresentationNames(options));
   if (checked_points == nullptr) checked_points = points;
   for (const auto* cloud : {&points, &checked_points}) {
@@ -119,8 +126,14 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
   context->checked_points_ = std::move(checked_points);
   context->dropped_non_finite_ = dropped_non_finite;
   const Task& t = context->task_;
-  const MovingTarget* moving = t.tool && t.tool->moving ? &*t.tool->moving : nullptr;
-  if (moving != nullptr) {
+  const ToolGoal* moving_tool = MovingToolGoal(t);
+  const MovingTarget* moving = moving_tool != nullptr ? &*moving_tool->moving : nullptr;
+  if (moving != nullptr && mission_phase) {
+    // A phase's moving points are given (its mission took the held object
+    // out of them): the still cloud has none left to split.
+    if (moving_given != nullptr) context->moving_points_ = *moving_given;
+    if (moving_checked_given != nullptr) context->moving_checked_points_ = *moving_checked_given;
+  } else if (moving != nullptr) {
     QUADHAND_RETURN_IF_ERROR(context->SplitMovingPoints());
   }
 
@@ -239,7 +252,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
 }
 
 core::Status PlanningContext::SplitMovingPoints() {
-  const MovingTarget& moving = *task_.tool->moving;
+  const MovingTarget& moving = *MovingToolGoal(task_)->moving;
   if (!moving.moving_box) return core::Status::Ok();
   const TargetBox& box = *moving.moving_box;
   auto split = [&box](const std::vector<Vec3>& cloud, std::vector<Vec3>* still, std::vector<Vec3>* moving_part) {
@@ -266,9 +279,8 @@ core::Status PlanningContext::SplitMovingPoints() {
 
 core::Result<std::unique_ptr<MovingSceneModels>> PlanningContext::MovingSceneFor(const TargetMotion& motion,
                                                                                  const Pose& placement) const {
-  if (!task_.tool || !task_.tool->moving) {
-    return core::Status::InvalidArgument(task_.file + ": the task's target does not move");
-  }
+  const ToolGoal* tool = MovingToolGoal(task_);
+  if (tool == nullptr) return core::Status::InvalidArgument(task_.file + ": the task's target does not move");
   auto owned = std::make_unique<MovingSceneModels>();
   owned->motion = motion;
   for (const Vec3& p : moving_points_) owned->points.push_back(placement * p);
@@ -276,7 +288,7 @@ core::Result<std::unique_ptr<MovingSceneModels>> PlanningContext::MovingSceneFor
   MovingScene& scene = owned->scene;
   scene.motion = &owned->motion;
   scene.target_at_zero =
-      placement * MakePose(task_.tool->position, task_.tool->orientation.toRotationMatrix());
+      placement * MakePose(tool->position, tool->orientation.toRotationMatrix());
   if (!owned->checked_points.empty()) {
     if (!options_.representations.empty()) {
       auto model = MakeRepresentation("mrc_sdf", robot_, task_.sdf_dir, owned->points, options_.representation_options,

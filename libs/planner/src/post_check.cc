@@ -167,7 +167,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
     const Pose displacement = moving != nullptr ? moving->motion->Displacement(t) : Pose::Identity();
     if (insertion.enabled) {
       m->tool = kinematics->link_poses[insertion.tool_link].translation();
-      if (moving != nullptr) m->tool = displacement.inverse() * m->tool;
+      if (moving != nullptr && moving->goal_moves) m->tool = displacement.inverse() * m->tool;
     }
     if (what == Measure::kLimits) return;
     m->d_exact = env::WholeBodyClearance(*kinematics, exact, radii.first, {}, &m->link);
@@ -497,7 +497,7 @@ PostCheckReport PostCheck(const WholeBodyTrajectory& trajectory, const robot::Ro
   report.certified = true;
   for (const CheckResult& check : report.checks) report.certified = report.certified && check.passed;
   for (const auto& check : sampled_checks) check->Finish(&report);
-  if (moving != nullptr && insertion.enabled && task.tool && task.tool->moving &&
+  if (moving != nullptr && moving->goal_moves && insertion.enabled && task.tool && task.tool->moving &&
       task.tool->moving->max_relative_speed) {
     // The tool's velocity at the end (a one-sided difference over 1 ms of
     // the trajectory) against the target point's where the tool is.

@@ -509,13 +509,55 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
       task.terminal = task.mission[0].reach_state;
       task.tool = task.mission[0].reach_tool;
     } else {
-      for (size_t i = 0; i < task.mission.size(); ++i) {
-        const MissionStep& step = task.mission[i];
-        if (step.reach_tool && step.reach_tool->moving) {
-          return r.Error(StepName(task.mission, i) + ".tool.motion",
-                         "a moving target is planned for a goal (or a mission of one reach) only; a longer "
-                         "mission's steps do not move yet (docs/moving_targets.md)");
+      // A longer mission's moving target (docs/moving_targets.md, "In a
+      // mission"): one, reached with nothing held, then grasped or the end.
+      std::optional<size_t> moving_reach;
+      bool holding = false;
+      const std::vector<MissionStep>& steps = task.mission;
+      for (size_t i = 0; i < steps.size(); ++i) {
+        const MissionStep& step = steps[i];
+        if (step.kind == StepKind::kGrasp) holding = true;
+        if (step.kind == StepKind::kRelease) holding = false;
+        if (!(step.reach_tool && step.reach_tool->moving)) continue;
+        auto key_of = [](size_t k, StepKind kind) {
+          return "mission[" + std::to_string(k) + "]." + StepKindName(kind);
+        };
+        const std::string key = key_of(i, step.kind) + ".tool.motion";
+        if (moving_reach) {
+          return r.Error(key, "a mission has one moving target at most; " + StepName(steps, *moving_reach) +
+                                  " moves already");
         }
+        if (holding) {
+          return r.Error(key, "a moving reach while an object is held (placing it onto a moving target) is not "
+                              "supported (docs/moving_targets.md)");
+        }
+        if (i + 1 < steps.size() && steps[i + 1].kind != StepKind::kGrasp) {
+          return r.Error(key, "a moving reach is followed by a grasp, or ends the mission; " +
+                                  StepName(steps, i + 1) + " is not a grasp (docs/moving_targets.md)");
+        }
+        if (i + 2 == steps.size()) {
+          return r.Error("mission[" + std::to_string(i + 1) + "]",
+                         "after the grasp of a moving target the vehicle moves with it: a move (a lift in the "
+                         "target's frame), a reach or a via must follow (docs/moving_targets.md)");
+        }
+        if (i + 2 < steps.size()) {
+          const StepKind after = steps[i + 2].kind;
+          if (after != StepKind::kMove && after != StepKind::kReach && after != StepKind::kVia) {
+            return r.Error("mission[" + std::to_string(i + 2) + "]",
+                           "after the grasp of a moving target the vehicle moves with it: the next step is a "
+                           "move (a lift in the target's frame), a reach or a via (docs/moving_targets.md)");
+          }
+        }
+        if (i + 1 < steps.size()) {
+          const MissionStep& grasp = steps[i + 1];
+          const std::optional<TargetBox>& box = step.reach_tool->moving->moving_box;
+          if (box && !box->Contains(grasp.object.pose.translation())) {
+            return r.Error(key_of(i + 1, StepKind::kGrasp) + ".object.pose",
+                           "the object of a moving target moves with it: its pose (at t = 0, as the target's) "
+                           "must lie inside " + key + ".moving_points");
+          }
+        }
+        moving_reach = i;
       }
     }
   }
@@ -546,19 +588,27 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
   }
   // A target faster than the robot may fly can only be caught by luck; the
   // terminal state follows the target, so it would break the limit.
-  if (task.tool && task.tool->moving) {
-    const MovingTarget& moving = *task.tool->moving;
+  if (const ToolGoal* moving_tool = MovingToolGoal(task)) {
+    const MovingTarget& moving = *moving_tool->moving;
+    std::string motion_key = "goal.tool.motion";
+    if (!task.tool) {
+      for (size_t i = 0; i < task.mission.size(); ++i) {
+        if (task.mission[i].reach_tool && &*task.mission[i].reach_tool == moving_tool) {
+          motion_key = "mission[" + std::to_string(i) + "].reach.tool.motion";
+        }
+      }
+    }
     const double horizon = moving.motion.sampled() ? 1e9 : 0.0;  // a path: every row; constant: at t = 0
     const double speed = moving.motion.MaxSpeed(0.0, horizon);
     if (speed > task.limits.v_max) {
-      return r.Error(moving.path_file.empty() ? "goal.tool.motion.velocity" : "goal.tool.motion.file",
+      return r.Error(motion_key + (moving.path_file.empty() ? ".velocity" : ".file"),
                      core::Format("the target moves at %.3f m/s, above limits.v_max (%.3f m/s)", speed,
                                   task.limits.v_max));
     }
     // The terminal state turns with the target.
     const double turn = moving.motion.MaxYawRate(horizon);
     if (turn > task.limits.yaw_rate_max) {
-      return r.Error(moving.path_file.empty() ? "goal.tool.motion.yaw_rate" : "goal.tool.motion.file",
+      return r.Error(motion_key + (moving.path_file.empty() ? ".yaw_rate" : ".file"),
                      core::Format("the target turns at %.3f rad/s, above limits.yaw_rate_max (%.3f rad/s)", turn,
                                   task.limits.yaw_rate_max));
     }

@@ -316,7 +316,7 @@ bool WholeBodyProblem::Generate(const VecX& x) const {
     w.piece_start[i] = start;
     start += w.durations[i];
   }
-  if (moving_ != nullptr) {
+  if (moving_ != nullptr && moving_->goal_moves) {
     // The tail follows the target to the trajectory's own end; its rate of
     // change with the total duration is its next derivative.
     const TargetMotion& motion = *moving_->motion;
@@ -499,7 +499,7 @@ bool WholeBodyProblem::DoEvaluate(const VecX& x, double* cost, VecX* grad) const
   Workspace& w = *work_;
   *cost = Accumulate(nullptr, grad != nullptr);
   if (grad == nullptr) return std::isfinite(*cost);
-  const bool moving = moving_ != nullptr;
+  const bool moving = moving_ != nullptr && moving_->goal_moves;
   if (!w.position.PropagateGradient(w.grad_position_coeffs, w.grad_durations_position, &w.total_position_waypoints,
                                     &w.total_durations_position, nullptr,
                                     moving ? &w.grad_tail_position : nullptr).ok() ||

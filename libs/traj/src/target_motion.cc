@@ -62,29 +62,35 @@ TargetPathSample TargetMotion::Interpolated(double t) const {
   return TargetPathSample{t, (1.0 - f) * a.position + f * b.position, (1.0 - f) * a.yaw + f * b.yaw};
 }
 
-Vec3 TargetMotion::Center(double t) const {
+TargetMotion TargetMotion::Shifted(double offset) const {
+  TargetMotion shifted = *this;
+  shifted.offset_ += offset;
+  return shifted;
+}
+
+Vec3 TargetMotion::CenterAt(double t) const {
   if (!sampled()) return origin_ + velocity_ * t + 0.5 * acceleration_ * t * t;
   return Interpolated(t).position;
 }
 
-double TargetMotion::Yaw(double t) const {
+double TargetMotion::YawAt(double t) const {
   if (!sampled()) return yaw_rate_ * t;
   return Interpolated(t).yaw - Interpolated(0.0).yaw;
 }
 
-double TargetMotion::YawRate(double t) const {
+double TargetMotion::YawRateAt(double t) const {
   if (!sampled()) return yaw_rate_;
   if (path_.size() < 2 || t < path_.front().t || t >= path_.back().t) return 0.0;
   const int k = Segment(t);
   return (path_[k + 1].yaw - path_[k].yaw) / (path_[k + 1].t - path_[k].t);
 }
 
-Pose TargetMotion::Displacement(double t) const {
-  const Mat3 rotation = RotationAboutZ(Yaw(t));
-  return MakePose(Center(t) - rotation * Center(0.0), rotation);
+Pose TargetMotion::DisplacementAt(double t) const {
+  const Mat3 rotation = RotationAboutZ(YawAt(t));
+  return MakePose(CenterAt(t) - rotation * CenterAt(0.0), rotation);
 }
 
-Vec3 TargetMotion::PointVelocity(const Vec3& x, double t) const {
+Vec3 TargetMotion::PointVelocityAt(const Vec3& x, double t) const {
   Vec3 center_velocity;
   if (!sampled()) {
     center_velocity = velocity_ + acceleration_ * t;
@@ -94,16 +100,23 @@ Vec3 TargetMotion::PointVelocity(const Vec3& x, double t) const {
     const int k = Segment(t);
     center_velocity = (path_[k + 1].position - path_[k].position) / (path_[k + 1].t - path_[k].t);
   }
-  return center_velocity + YawRate(t) * AboutZ(x - Center(t));
+  return center_velocity + YawRateAt(t) * AboutZ(x - CenterAt(t));
 }
 
+Vec3 TargetMotion::Center(double t) const { return CenterAt(t + offset_); }
+double TargetMotion::Yaw(double t) const { return YawAt(t + offset_); }
+double TargetMotion::YawRate(double t) const { return YawRateAt(t + offset_); }
+Pose TargetMotion::Displacement(double t) const { return DisplacementAt(t + offset_); }
+Vec3 TargetMotion::PointVelocity(const Vec3& x, double t) const { return PointVelocityAt(x, t + offset_); }
+
 void TargetMotion::PointDerivatives(const Vec3& x0, double t, Vec3 out[5]) const {
-  out[0] = Displacement(t) * x0;
-  const Vec3 r = out[0] - Center(t);
-  const double w = YawRate(t);
+  t += offset_;
+  out[0] = DisplacementAt(t) * x0;
+  const Vec3 r = out[0] - CenterAt(t);
+  const double w = YawRateAt(t);
   const Vec3 center_acceleration = sampled() ? Vec3::Zero() : acceleration_;
   const Vec3 j1 = AboutZ(r), j2 = AboutZ(j1), j3 = AboutZ(j2), j4 = AboutZ(j3);
-  out[1] = PointVelocity(out[0], t);
+  out[1] = PointVelocityAt(out[0], t);
   out[2] = center_acceleration + w * w * j2;
   out[3] = w * w * w * j3;
   out[4] = w * w * w * w * j4;
@@ -111,12 +124,14 @@ void TargetMotion::PointDerivatives(const Vec3& x0, double t, Vec3 out[5]) const
 
 double TargetMotion::MaxSpeed(double radius, double horizon) const {
   horizon = std::max(0.0, horizon);
+  const double from = offset_, to = offset_ + horizon;
   if (!sampled()) {
-    return std::max((velocity_).norm(), (velocity_ + acceleration_ * horizon).norm()) + std::abs(yaw_rate_) * radius;
+    return std::max((velocity_ + acceleration_ * from).norm(), (velocity_ + acceleration_ * to).norm()) +
+           std::abs(yaw_rate_) * radius;
   }
   double fastest = 0.0;
   for (size_t k = 0; k + 1 < path_.size(); ++k) {
-    if (path_[k].t > horizon || path_[k + 1].t < 0.0) continue;
+    if (path_[k].t > to || path_[k + 1].t < from) continue;
     const double dt = path_[k + 1].t - path_[k].t;
     const double speed = (path_[k + 1].position - path_[k].position).norm() / dt +
                          std::abs(path_[k + 1].yaw - path_[k].yaw) / dt * radius;
@@ -127,9 +142,10 @@ double TargetMotion::MaxSpeed(double radius, double horizon) const {
 
 double TargetMotion::MaxYawRate(double horizon) const {
   if (!sampled()) return std::abs(yaw_rate_);
+  const double from = offset_, to = offset_ + std::max(0.0, horizon);
   double fastest = 0.0;
   for (size_t k = 0; k + 1 < path_.size(); ++k) {
-    if (path_[k].t > std::max(0.0, horizon) || path_[k + 1].t < 0.0) continue;
+    if (path_[k].t > to || path_[k + 1].t < from) continue;
     fastest = std::max(fastest, std::abs(path_[k + 1].yaw - path_[k].yaw) / (path_[k + 1].t - path_[k].t));
   }
   return fastest;

@@ -99,7 +99,7 @@ CostTermDescriptor InsertionTerm() {
           [](const CostTermInputs& in, double weight) -> std::unique_ptr<CostTerm> {
             if (!in.insertion.enabled) return nullptr;  // a plan without an insertion: nothing to cost
             return std::make_unique<InsertionPenalty>(in.robot, in.insertion, in.options, weight,
-                                                      in.moving != nullptr ? in.moving->motion : nullptr);
+                                                      in.moving != nullptr && in.moving->goal_moves ? in.moving->motion : nullptr);
           }};
 }
 

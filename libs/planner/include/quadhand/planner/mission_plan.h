@@ -84,8 +84,10 @@ class MissionReplay {
   // The gripper closed with the vehicle at this base pose and these joints:
   // the next grasp step's object is held where it lies relative to the
   // tool. InvalidArgument when the robot has no tool link, the mission has
-  // no grasp left, or something is held already.
-  core::Status GripperClosed(const Pose& base, const VecX& joints);
+  // no grasp left, or something is held already. `target` is the moving
+  // target's displacement from t = 0 then (MovingToolGoal; the object of
+  // the grasp after its reach moves with it).
+  core::Status GripperClosed(const Pose& base, const VecX& joints, const Pose& target = Pose::Identity());
   // The gripper opened there: the held object is left where the tool holds
   // it and joins the scene. Opening with nothing held changes nothing.
   core::Status GripperOpened(const Pose& base, const VecX& joints);
@@ -96,8 +98,9 @@ class MissionReplay {
     double object = 0.0;  // the held object; +infinity when nothing is held
   };
   // Exact clearances, against the phase's scene, of the robot at this base
-  // pose and these joints (the search capped at `reach`).
-  Clearances Measure(const Pose& base, const VecX& joints, double reach) const;
+  // pose and these joints (the search capped at `reach`); the points that
+  // move with a moving target where its displacement `target` puts them.
+  Clearances Measure(const Pose& base, const VecX& joints, double reach, const Pose& target = Pose::Identity()) const;
   // The robot of the current phase (a held object is its last link).
   const robot::RobotModel& robot() const;
   // The grasp step of the held object; -1 when nothing is held.

@@ -29,6 +29,11 @@ struct MovingScene {
   // The target's pose (the tool goal's) at t = 0: a replan against a new
   // prediction of the target carries the grasp from the old pose to it.
   Pose target_at_zero = Pose::Identity();
+  // Whether the plan's goal moves with the target (its end state, its
+  // insertion line and its tool judged in the target's frame). False for a
+  // leg of a mission that only passes the moving points on its way to a
+  // still goal (mission_plan.h).
+  bool goal_moves = true;
 
   bool moves() const { return motion != nullptr; }
   bool has_points() const { return exact != nullptr; }

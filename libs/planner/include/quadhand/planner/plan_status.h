@@ -53,6 +53,10 @@ enum class CheckKind {
   // A moving target's tool speed relative to the target at the arrival,
   // against goal.tool.max_relative_speed (docs/moving_targets.md).
   kRelativeSpeed,
+  // A mission's grasp of a moving target: the tool stays where it met the
+  // target, in the target's frame, while the gripper closes (set by
+  // PlanTask(), never by PostCheck()).
+  kFollowTarget,
 };
 
 // "clearance", "velocity", ..., "joint_rate".

@@ -173,6 +173,11 @@ struct PlanResult {
   Pose target_at_zero = Pose::Identity();  // the target's (tool goal's) pose at t = 0
   double arrival_guess_s = 0.0;
   int arrival_rounds = 0;
+  // A longer mission's moving reach (negative: none, or not planned): when
+  // the plan meets the target (s from its start), and the insertion there
+  // (a goal's are its end and `insertion`).
+  double target_met_s = -1.0;
+  InsertionGoal target_met_insertion;
   // With kTargetUnreachable: how far (m) the vehicle's end state, moved
   // with the target, is outside the space searched at the best time it
   // could be there; and that time (s).

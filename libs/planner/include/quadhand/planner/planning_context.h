@@ -77,21 +77,29 @@ class PlanningContext {
   // `points` (checked_points: what the post-check judges against; null:
   // the same), with grasped objects taken out and released ones put in.
   // `given_sdfs` are the SDFs of links without a file in the task's
-  // sdf_dir (a held object's, made in memory), by robot link index.
+  // sdf_dir (a held object's, made in memory), by robot link index. With
+  // a moving target (MovingToolGoal), `moving_points` and
+  // `moving_checked_points` (at t = 0; null: this context's) are the
+  // phase's points that move with it: its moving_scene() is built on them
+  // for the phase's robot.
   core::Result<std::unique_ptr<PlanningContext>> ForMissionPhase(
       robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points,
       std::shared_ptr<const std::vector<Vec3>> checked_points,
-      std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs) const;
+      std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs,
+      std::shared_ptr<const std::vector<Vec3>> moving_points = nullptr,
+      std::shared_ptr<const std::vector<Vec3>> moving_checked_points = nullptr) const;
 
   const PlanningContextOptions& options() const { return options_; }
   const Task& task() const { return task_; }
   const robot::RobotModel& robot() const { return robot_; }
-  // A task whose target moves (goal.tool.motion): the scene points inside
+  // A task whose target moves (goal.tool.motion, or a mission's moving
+  // reach: MovingToolGoal): the scene points inside
   // its moving_points box at t = 0 are taken out of points() and
   // checked_points() and kept here, with their own models (moving_scene.h).
   // Null when the target does not move.
   const MovingScene* moving_scene() const { return moving_ ? &moving_->scene : nullptr; }
   const std::vector<Vec3>& moving_points() const { return moving_points_; }
+  const std::vector<Vec3>& moving_checked_points() const { return moving_checked_points_; }
   // The moving part for another motion of the same target, its points first
   // placed by `placement` (a benchmark's trial; a target measured elsewhere
   // than the task said), with this context's still scene: to plan with it,
@@ -130,7 +138,9 @@ class PlanningContext {
   static core::Result<std::unique_ptr<PlanningContext>> Build(
       Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
       const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
-      std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, bool mission_phase);
+      std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, bool mission_phase,
+      std::shared_ptr<const std::vector<Vec3>> moving_given = nullptr,
+      std::shared_ptr<const std::vector<Vec3>> moving_checked_given = nullptr);
 
   PlanningContextOptions options_;
   Task task_;

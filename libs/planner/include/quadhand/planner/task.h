@@ -61,6 +61,16 @@ inline bool PlansAsGoal(const Task& task) {
   return task.mission.empty() || (task.mission.size() == 1 && task.mission[0].kind == StepKind::kReach);
 }
 
+// The tool goal whose target moves: the goal's, or a longer mission's one
+// moving reach (LoadTask allows one). Null when nothing moves.
+inline const ToolGoal* MovingToolGoal(const Task& task) {
+  if (task.tool) return task.tool->moving ? &*task.tool : nullptr;
+  for (const MissionStep& step : task.mission) {
+    if (step.reach_tool && step.reach_tool->moving) return &*step.reach_tool;
+  }
+  return nullptr;
+}
+
 // Parses and checks a task file on its own: every error names the file and
 // the key ("task.yaml: start.joints: expected a list of numbers").
 core::Result<Task> LoadTask(const std::string& path);

@@ -256,7 +256,8 @@ class WholeBodyProblem final : public opt::Objective {
   // T (whose gradient reaches T through the target's motion), the insertion
   // is the target's at t = 0 and moves with it, and the moving points are
   // avoided where they are at each sample's time. Null: nothing moves. The
-  // scene must outlive the problem.
+  // scene must outlive the problem. With MovingScene::goal_moves false
+  // only the points move: the goal and the insertion stay where they are.
   core::Status SetMovingScene(const MovingScene* moving);
   const MovingScene* moving_scene() const { return moving_; }
 

@@ -35,6 +35,13 @@ class TargetMotion {
   // Rows must have strictly increasing t (the parser checks).
   static TargetMotion Sampled(std::vector<TargetPathSample> path);
 
+  // The same motion on a clock that starts `offset` seconds later: its
+  // time t is this motion's t + offset, and its Displacement(t) is still
+  // this one's from this motion's t = 0 (a mission's leg that starts at
+  // `offset` sees the target where the mission's clock has it).
+  TargetMotion Shifted(double offset) const;
+  double time_offset() const { return offset_; }
+
   // The rigid displacement from t = 0 to t: where a point fixed to the
   // target at x (t = 0) is at t is Displacement(t) * x.
   Pose Displacement(double t) const;
@@ -65,12 +72,19 @@ class TargetMotion {
   int Segment(double t) const;
   // A sampled path's position and yaw at t, linear between its rows.
   TargetPathSample Interpolated(double t) const;
+  // The public functions at this motion's own time (no offset).
+  Vec3 CenterAt(double t) const;
+  double YawAt(double t) const;
+  double YawRateAt(double t) const;
+  Pose DisplacementAt(double t) const;
+  Vec3 PointVelocityAt(const Vec3& x, double t) const;
 
   // Constant motion.
   Vec3 origin_ = Vec3::Zero(), velocity_ = Vec3::Zero(), acceleration_ = Vec3::Zero();
   double yaw_rate_ = 0.0;
   // Sampled path (non-empty: sampled).
   std::vector<TargetPathSample> path_;
+  double offset_ = 0.0;  // Shifted()
 };
 
 // Reads a target path file (contracts.md: columns t,x,y,z,qw,qx,qy,qz found
