@@ -1143,6 +1143,16 @@ core::Result<bool> MissionPlanner::PlanStep(size_t i) {
       }
       const auto [scene_min, scene_max] = SceneBounds(base_.points());
       if ((tool_end.array() < scene_min.array()).any() || (tool_end.array() > scene_max.array()).any()) {
+        if (with_target_) {
+          // Where the target has gone by then is the planner's arrival, not
+          // a mistake in the task.
+          return Fail(i, PlanStatus::kMissionStepInvalid,
+                      core::Format("the lift in the moving target's frame ends with the tool at (%.3f, %.3f, %.3f), "
+                                   "outside the scene's bounds (%.3f, %.3f, %.3f) to (%.3f, %.3f, %.3f): the target "
+                                   "leaves the scanned volume by then",
+                                   tool_end.x(), tool_end.y(), tool_end.z(), scene_min.x(), scene_min.y(),
+                                   scene_min.z(), scene_max.x(), scene_max.y(), scene_max.z()));
+        }
         return core::Status::InvalidArgument(
             task_.file + ": " + StepName(mission, i) +
             core::Format(": the move ends with the tool at (%.3f, %.3f, %.3f), outside the scene's bounds "

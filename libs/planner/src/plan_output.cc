@@ -162,7 +162,9 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   report["min_clearance_exact_m"] = result.post_check.min_clearance_exact;
   report["min_clearance_exact_is_lower_bound"] = result.post_check.min_clearance_exact_is_bound;
   report["closest_link"] = result.post_check.closest_link >= 0 ? robot.link(result.post_check.closest_link).name : "";
-  report["certified"] = result.post_check.certified;
+  // A mission that failed at a step planned no leg for it: its legs before
+  // may all be certified, the plan is not.
+  report["certified"] = result.success && result.post_check.certified;
   if (info.mission != nullptr && !info.mission->empty() && result.steps.size() == info.mission->size()) {
     // Per step (contracts.md 0.3); a step after the one that failed was
     // not planned: its figures are null.
