@@ -288,20 +288,22 @@ core::Result<Phase> MakePhase(const PlanningContext& base, std::optional<HeldObj
     for (int link : r.CollisionLinks()) {
       if (link != phase.object_link) robot_links.push_back(link);
     }
-    auto robot_only = env::ExactMeshModel::Create(r, index, robot_links);
-    if (!robot_only.ok()) return robot_only.status();
-    auto object_only = env::ExactMeshModel::Create(r, index, {phase.object_link});
-    if (!object_only.ok()) return object_only.status();
-    phase.robot_only = std::move(*robot_only);
-    phase.object_only = std::move(*object_only);
+    // The robot without the object, and the object alone, on one cloud.
+    auto split = [&](const std::shared_ptr<const scene::PointGrid>& cloud, std::unique_ptr<env::ExactMeshModel>* robot_only,
+                     std::unique_ptr<env::ExactMeshModel>* object_only) -> core::Status {
+      auto robot_model = env::ExactMeshModel::Create(r, cloud, robot_links);
+      if (!robot_model.ok()) return robot_model.status();
+      auto object_model = env::ExactMeshModel::Create(r, cloud, {phase.object_link});
+      if (!object_model.ok()) return object_model.status();
+      *robot_only = std::move(*robot_model);
+      *object_only = std::move(*object_model);
+      return core::Status::Ok();
+    };
+    QUADHAND_RETURN_IF_ERROR(split(index, &phase.robot_only, &phase.object_only));
     if (moving_checked != nullptr && !moving_checked->empty()) {
-      auto moving_index = std::make_shared<const scene::PointGrid>(*moving_checked, env::ExactMeshModel::kIndexCellSize);
-      auto moving_robot = env::ExactMeshModel::Create(r, moving_index, robot_links);
-      if (!moving_robot.ok()) return moving_robot.status();
-      auto moving_object = env::ExactMeshModel::Create(r, moving_index, {phase.object_link});
-      if (!moving_object.ok()) return moving_object.status();
-      phase.moving_robot_only = std::move(*moving_robot);
-      phase.moving_object_only = std::move(*moving_object);
+      QUADHAND_RETURN_IF_ERROR(split(
+          std::make_shared<const scene::PointGrid>(*moving_checked, env::ExactMeshModel::kIndexCellSize),
+          &phase.moving_robot_only, &phase.moving_object_only));
     }
   }
   return phase;
