@@ -254,6 +254,8 @@ int main(int argc, char** argv) {
   info.scene_load_ms = (*context)->scene_load_seconds() * 1e3;
   info.robot_load_ms = (*context)->robot_load_seconds() * 1e3;
   info.sdf_load_ms = (*context)->sdf_load_seconds() * 1e3;
+  info.front_end_build_ms = (*context)->front_end().build_seconds() * 1e3;
+  info.front_end_grid_bytes = static_cast<long>((*context)->front_end().grid_bytes());
   info.scene_points = static_cast<long>((*context)->points().size());
   info.checked_points = static_cast<long>((*context)->checked_points().size());
   info.self_collision = &(*context)->self_collision();

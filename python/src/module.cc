@@ -209,6 +209,8 @@ PlanOutput RunPlan(const PlanArguments& args) {
   info.scene_load_ms = scene_load_ms;
   info.robot_load_ms = context->robot_load_seconds() * 1e3;
   info.sdf_load_ms = context->sdf_load_seconds() * 1e3;
+  info.front_end_build_ms = context->front_end().build_seconds() * 1e3;
+  info.front_end_grid_bytes = static_cast<long>(context->front_end().grid_bytes());
   info.scene_points = static_cast<long>(context->points().size());
   info.checked_points = static_cast<long>(context->checked_points().size());
   info.mission = &context->task().mission;

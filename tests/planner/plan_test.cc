@@ -125,6 +125,51 @@ TEST(PlanTest, ClearanceFailureResolvesWithMoreSamples) {
   EXPECT_EQ(weights_only->message.rfind("clearance", 0), 0u) << weights_only->message;
 }
 
+// A path of more pieces than section_pieces is optimised in sections from
+// the initial guess's state at each junction, joined and post-checked
+// whole: the plan passes through those states, and the joined plan is the
+// one the report judges. (The default task has ~13 pieces: cut in 8s.)
+TEST(PlanTest, ALongPathIsSolvedInSectionsAndCheckedWhole) {
+  PlannerOptions options = DefaultPlannerOptions();
+  solvers::LbfgsSolver solver;
+  auto whole = Plan(WindowCup().Scene(), WindowCup().task, options, solver);
+  ASSERT_TRUE(whole.ok()) << whole.status().message();
+  ASSERT_TRUE(whole->success) << whole->message;
+  EXPECT_EQ(whole->sections, 0);
+  const int pieces = whole->num_pieces;
+  ASSERT_GT(pieces, 4 + 2);  // more than one section and its overlap
+
+  options.section_pieces = 4;  // 4 kept of a solve over 6, ..., then the rest
+  auto cut = Plan(WindowCup().Scene(), WindowCup().task, options, solver);
+  ASSERT_TRUE(cut.ok()) << cut.status().message();
+  ASSERT_TRUE(cut->success) << cut->message;
+  EXPECT_GE(cut->sections, 2);
+  EXPECT_EQ(cut->trajectory->num_pieces(), pieces);
+  EXPECT_TRUE(cut->post_check.passed);
+  EXPECT_TRUE(cut->post_check.certified);
+  EXPECT_GE(static_cast<int>(cut->attempts.size()), cut->sections);  // each section's solves
+  const WholeBodySample end = cut->trajectory->Sample(cut->trajectory->duration());
+  EXPECT_LT((end.position - cut->terminal.position).norm(), 1e-6);
+  // The junction after the first 4 pieces: as smooth as the solver's own
+  // pieces (position to jerk, yaw and joints with their rates).
+  const VecX& durations = cut->trajectory->position().durations();
+  const double junction = durations.head(4).sum();
+  const WholeBodySample before = cut->trajectory->Sample(junction - 1e-7), after = cut->trajectory->Sample(junction + 1e-7);
+  EXPECT_LT((before.position - after.position).norm(), 1e-5);
+  EXPECT_LT((before.velocity - after.velocity).norm(), 1e-4);
+  EXPECT_LT((before.acceleration - after.acceleration).norm(), 1e-3);
+  EXPECT_LT((before.joints - after.joints).norm(), 1e-5);
+  // Off: one solve, as before.
+  options.section_pieces = 0;
+  auto off = Plan(WindowCup().Scene(), WindowCup().task, options, solver);
+  ASSERT_TRUE(off.ok());
+  EXPECT_EQ(off->sections, 0);
+  std::string why;
+  options.section_pieces = 1;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("section_pieces"), std::string::npos) << why;
+}
+
 // The still and the moving scene's collision terms share one weight, and a
 // report may fail a check twice: each weight is raised once per re-solve,
 // by the factor, and the samples are multiplied once.

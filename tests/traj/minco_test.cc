@@ -319,6 +319,37 @@ TEST(MincoTest, JoinedKeepsEachPartsPiecesAndTimes) {
   EXPECT_NEAR(local, 0.5 * b.durations[3], 1e-12);
 }
 
+// A long plan solved in overlapping sections keeps each section's first
+// pieces (planner.h, section_pieces): the prefix has every derivative of
+// those pieces, the head, and as tail the state where they end.
+TEST(MincoTest, APrefixKeepsTheFirstPiecesAndEndsWhereTheyEnd) {
+  const Problem a = RandomProblem(4, 3, 5, 16u);
+  Minco whole;
+  Build(&whole, 4, 3, a);
+  auto prefix = Minco::Prefix(whole, 3);
+  ASSERT_TRUE(prefix.ok()) << prefix.status().message();
+  ASSERT_EQ(prefix->num_pieces(), 3);
+  EXPECT_NEAR(prefix->total_duration(), a.durations.head(3).sum(), 1e-15);
+  EXPECT_EQ(prefix->head(), whole.head());
+  for (int piece = 0; piece < 3; ++piece) {
+    for (double f : {0.0, 0.6, 1.0}) {
+      for (int d = 0; d < 8; ++d) {
+        const double t = f * a.durations[piece];
+        EXPECT_EQ(prefix->Evaluate(piece, t, d), whole.Evaluate(piece, t, d));
+      }
+    }
+  }
+  for (int d = 0; d < 4; ++d) {
+    EXPECT_TRUE(prefix->tail().row(d).transpose().isApprox(whole.Evaluate(3, 0.0, d), 1e-9) ||
+                (prefix->tail().row(d).transpose() - whole.Evaluate(3, 0.0, d)).norm() < 1e-9)
+        << d;
+  }
+  EXPECT_TRUE(Minco::Prefix(whole, 5).ok());
+  EXPECT_FALSE(Minco::Prefix(whole, 0).ok());
+  EXPECT_FALSE(Minco::Prefix(whole, 6).ok());
+  EXPECT_FALSE(Minco::Prefix(Minco(), 1).ok());
+}
+
 TEST(MincoTest, JoinedRefusesMismatchedParts) {
   const Problem a = RandomProblem(4, 3, 3, 13u), b = RandomProblem(2, 3, 3, 14u), c = RandomProblem(4, 2, 3, 15u);
   Minco first, other_order, other_dims, unset;

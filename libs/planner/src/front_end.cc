@@ -47,26 +47,52 @@ int Octile(int di, int dj, int dk) {
   return kCost3 * d[0] + kCost2 * (d[1] - d[0]) + kCost1 * (d[2] - d[1]);
 }
 
-// Per-thread A* scratch, reused across queries and maps: a node is "seen" in
-// the current query when stamp == current and "closed" when stamp == current + 1.
+// Per-thread A* scratch, reused across queries and maps: a node is "seen"
+// in the current query when stamp == current and "closed" when stamp ==
+// current + 1. A grid of up to kDenseScratchVoxels has a cell per voxel
+// (the node's own index: the fastest); a larger one, in blocks of the map's
+// (`block_voxels` each) given a slot when the search first touches them.
+constexpr long kDenseScratchVoxels = 2'000'000;
 struct SearchScratch {
+  bool dense = false;
+  std::vector<int> slot_of_block;  // this query's: -1 until touched
   std::vector<int> g;
   std::vector<int> parent;
   std::vector<std::uint32_t> stamp;
+  int slots = 0;
+  int block_voxels = 0;
   std::uint32_t current = 0;
 
-  void Prepare(long size) {
-    if (static_cast<long>(stamp.size()) < size) {
-      g.resize(size);
-      parent.resize(size);
-      stamp.assign(size, 0);
-      current = 0;
+  void Prepare(long grid_voxels, long blocks, int voxels_per_block) {
+    dense = grid_voxels <= kDenseScratchVoxels;
+    if (dense && static_cast<long>(stamp.size()) < grid_voxels) {
+      g.resize(grid_voxels);
+      parent.resize(grid_voxels);
+      stamp.resize(grid_voxels, 0);
     }
+    slot_of_block.assign(dense ? 0 : static_cast<size_t>(blocks), -1);
+    slots = 0;
+    block_voxels = voxels_per_block;
     if (current >= std::numeric_limits<std::uint32_t>::max() - 4) {
       std::fill(stamp.begin(), stamp.end(), 0);
       current = 0;
     }
     current += 2;
+  }
+  // The scratch cell of `node` (voxel `in_block` of `block`).
+  long Cell(int node, long block, int in_block) {
+    if (dense) return node;
+    int& slot = slot_of_block[static_cast<size_t>(block)];
+    if (slot < 0) {
+      slot = slots++;
+      const size_t size = static_cast<size_t>(slots) * block_voxels;
+      if (stamp.size() < size) {
+        g.resize(size);
+        parent.resize(size);
+        stamp.resize(size, 0);  // older queries' stamps are below current
+      }
+    }
+    return static_cast<long>(slot) * block_voxels + in_block;
   }
 };
 
@@ -225,10 +251,11 @@ core::Result<FrontEndMap> FrontEndMap::Build(const std::vector<Vec3>& obstacle_p
   map.distance_cap_ =
       std::max(map.search_radius_, options.shortcut_clearance + 0.5 * std::sqrt(3.0) * v + 0.25 * v) + 0.01 * v;
 
-  const long size = static_cast<long>(dims.x() + 2) * (dims.y() + 2) * (dims.z() + 2);
+  for (int axis = 0; axis < 3; ++axis) map.block_dims_[axis] = (dims[axis] + 2 + kBlockEdge - 1) >> kBlockShift;
+  map.block_slot_.assign(static_cast<size_t>(map.block_dims_.prod()), -1);
   const double cap = map.distance_cap_ / v;  // in voxels
   const float cap2 = static_cast<float>(cap * cap);
-  map.distance_.assign(size, cap2);  // squared, in voxels, until the end
+  // Distances are squared, in voxels, until the end.
   // Every voxel centre in the cube of half-width `cap` around each point
   // (values beyond the cap leave the initial cap^2 unchanged): no square
   // roots per column, and the inner loop vectorises. Squared offsets are
@@ -244,37 +271,39 @@ core::Result<FrontEndMap> FrontEndMap::Build(const std::vector<Vec3>& obstacle_p
       (*squares)[q - *first] = static_cast<float>(d * d);
     }
   };
+  // Runs along z within one block are contiguous: the last k of the run
+  // that starts at k (padded k + 1).
+  auto run_end = [](int k, int k_last) { return std::min(k_last, ((k + 1) | (kBlockEdge - 1)) - 1); };
   for (const Vec3& p : obstacle_points) {
     const Vec3 c = (p - lo) / v - Vec3::Constant(0.5);  // p in centre coordinates
     int i0, i1, j0, j1, k0, k1;
     offsets(c.x(), dims.x(), &i0, &i1, &dx2);
     offsets(c.y(), dims.y(), &j0, &j1, &dy2);
     offsets(c.z(), dims.z(), &k0, &k1, &dz2);
-    const int nk = k1 - k0 + 1;
     for (int i = i0; i <= i1; ++i) {
       for (int j = j0; j <= j1; ++j) {
         const float dxy2 = dx2[i - i0] + dy2[j - j0];
         if (dxy2 >= cap2) continue;
-        float* row = map.distance_.data() + map.Index(i, j, k0);
-        for (int k = 0; k < nk; ++k) row[k] = std::min(row[k], dxy2 + dz2[k]);
+        for (int k = k0; k <= k1;) {
+          const int last = run_end(k, k1);
+          const long slot = map.SlotFor(i + 1, j + 1, k + 1, cap2);  // (may grow the storage)
+          float* row = map.distance_.data() + slot * kBlockVoxels + InBlock(i + 1, j + 1, k + 1);
+          for (int q = k; q <= last; ++q) row[q - k] = std::min(row[q - k], dxy2 + dz2[q - k0]);
+          k = last + 1;
+        }
       }
     }
   }
-  map.blocked_.assign(size, 1);
   // Free: outside the ellipsoid of half-axes (search radius, search radius,
   // search height) around every point, a hair larger so that float
-  // rounding never frees a voxel. A sphere reads it off the distances.
+  // rounding never frees a voxel. A sphere reads it off the distances
+  // (a voxel in no block is at the cap, beyond the search radius: free).
   const float search2 = static_cast<float>((map.search_radius_ / v) * (map.search_radius_ / v) * (1.0 + 1e-5));
   const bool sphere = map.search_height_ == map.search_radius_;
-  for (int i = 0; i < dims.x(); ++i) {
-    for (int j = 0; j < dims.y(); ++j) {
-      for (int k = 0; k < dims.z(); ++k) {
-        const long idx = map.Index(i, j, k);
-        // Without the sphere, a voxel the sphere would block is tight until
-        // the ellipsoid blocks it below.
-        map.blocked_[idx] = map.distance_[idx] < search2 ? (sphere ? kBlocked : kTight) : kFree;
-      }
-    }
+  // Without the sphere, a voxel the sphere would block is tight until the
+  // ellipsoid blocks it below.
+  for (size_t n = 0; n < map.distance_.size(); ++n) {
+    map.blocked_[n] = map.distance_[n] < search2 ? (sphere ? kBlocked : kTight) : kFree;
   }
   if (!sphere) {
     // Along z in units of the radius: the ellipsoid becomes the sphere of
@@ -293,26 +322,52 @@ core::Result<FrontEndMap> FrontEndMap::Build(const std::vector<Vec3>& obstacle_p
         for (int j = j0; j <= j1; ++j) {
           const double dxy2 = (i - c.x()) * (i - c.x()) + (j - c.y()) * (j - c.y());
           if (dxy2 >= search2) continue;
-          unsigned char* row = map.blocked_.data() + map.Index(i, j, k0);
           for (int k = k0; k <= k1; ++k) {
             const double dz = (k - c.z()) * stretch;
-            if (dxy2 + dz * dz < search2) row[k - k0] = kBlocked;
+            if (dxy2 + dz * dz >= search2) continue;
+            const long slot = map.SlotFor(i + 1, j + 1, k + 1, cap2);
+            map.blocked_[slot * kBlockVoxels + InBlock(i + 1, j + 1, k + 1)] = kBlocked;
           }
         }
       }
     }
   }
+  // The count is of the grid's own voxels: a block's voxels outside it
+  // (the border, or past the last block's end) are never blocked here.
   map.num_blocked_ = 0;
-  for (int i = 0; i < dims.x(); ++i) {
-    for (int j = 0; j < dims.y(); ++j) {
-      for (int k = 0; k < dims.z(); ++k) map.num_blocked_ += map.blocked_[map.Index(i, j, k)] == kBlocked;
+  for (int bi = 0; bi < map.block_dims_.x(); ++bi) {
+    for (int bj = 0; bj < map.block_dims_.y(); ++bj) {
+      for (int bk = 0; bk < map.block_dims_.z(); ++bk) {
+        const int slot = map.block_slot_[(static_cast<long>(bi) * map.block_dims_.y() + bj) * map.block_dims_.z() + bk];
+        if (slot < 0) continue;
+        for (int n = 0; n < kBlockVoxels; ++n) {
+          const int pi = (bi << kBlockShift) | (n >> (2 * kBlockShift));
+          const int pj = (bj << kBlockShift) | ((n >> kBlockShift) & (kBlockEdge - 1));
+          const int pk = (bk << kBlockShift) | (n & (kBlockEdge - 1));
+          if (!map.OnBorder(pi, pj, pk) && map.blocked_[static_cast<long>(slot) * kBlockVoxels + n] == kBlocked) {
+            ++map.num_blocked_;
+          }
+        }
+      }
     }
   }
   // Squared voxels -> metres, rounded down a little so float rounding never
   // overstates a distance; the cap stays a lower bound.
-  for (float& d : map.distance_) d = static_cast<float>(std::sqrt(static_cast<double>(d)) * v * (1.0 - 1e-6));
+  auto metres = [v](float d2) { return static_cast<float>(std::sqrt(static_cast<double>(d2)) * v * (1.0 - 1e-6)); };
+  for (float& d : map.distance_) d = metres(d);
+  map.far_distance_ = metres(cap2);
   map.build_seconds_ = SecondsSince(t0);
   return map;
+}
+
+int FrontEndMap::SlotFor(int pi, int pj, int pk, float far) {
+  int& slot = block_slot_[BlockOf(pi, pj, pk)];
+  if (slot < 0) {
+    slot = static_cast<int>(distance_.size() / kBlockVoxels);
+    distance_.resize(distance_.size() + kBlockVoxels, far);
+    blocked_.resize(blocked_.size() + kBlockVoxels, kFree);
+  }
+  return slot;
 }
 
 bool FrontEndMap::VoxelOf(const Vec3& p, Eigen::Vector3i* ijk) const {
@@ -326,7 +381,7 @@ bool FrontEndMap::VoxelOf(const Vec3& p, Eigen::Vector3i* ijk) const {
 
 bool FrontEndMap::IsFree(const Vec3& p) const {
   Eigen::Vector3i ijk;
-  return VoxelOf(p, &ijk) && blocked_[Index(ijk.x(), ijk.y(), ijk.z())] != kBlocked;
+  return VoxelOf(p, &ijk) && BlockedAt(ijk.x() + 1, ijk.y() + 1, ijk.z() + 1) != kBlocked;
 }
 
 double FrontEndMap::DistanceLowerBound(const Vec3& p, double* upper) const {
@@ -336,7 +391,7 @@ double FrontEndMap::DistanceLowerBound(const Vec3& p, double* upper) const {
     return -std::numeric_limits<double>::infinity();
   }
   const double e = (p - Centre(ijk)).norm();
-  const double d = distance_[Index(ijk.x(), ijk.y(), ijk.z())];
+  const double d = DistanceAt(ijk.x() + 1, ijk.y() + 1, ijk.z() + 1);
   // Distances at or near the cap were clamped: no upper bound there.
   *upper = d < distance_cap_ * (1.0 - 1e-4) ? d + e : std::numeric_limits<double>::infinity();
   return d - e;
@@ -394,7 +449,7 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
       return core::Status::InvalidArgument(std::string("front end: the ") + name + " " + Format(p) +
                                            " is outside the search box " + Format(lo_) + " - " + Format(hi_));
     }
-    *escaped = blocked_[Index(ijk.x(), ijk.y(), ijk.z())] == kBlocked;
+    *escaped = BlockedAt(ijk.x() + 1, ijk.y() + 1, ijk.z() + 1) == kBlocked;
     if (!*escaped) {
       *out = ijk;
       return core::Status::Ok();
@@ -404,7 +459,7 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
     for (int i = std::max(0, ijk.x() - reach); i <= std::min(dims_.x() - 1, ijk.x() + reach); ++i) {
       for (int j = std::max(0, ijk.y() - reach); j <= std::min(dims_.y() - 1, ijk.y() + reach); ++j) {
         for (int k = std::max(0, ijk.z() - reach); k <= std::min(dims_.z() - 1, ijk.z() + reach); ++k) {
-          if (blocked_[Index(i, j, k)] == kBlocked) continue;
+          if (BlockedAt(i + 1, j + 1, k + 1) == kBlocked) continue;
           const Eigen::Vector3i cand(i, j, k);
           const double d = (Centre(cand) - p).norm();
           if (d <= options_.max_escape_distance && d < best) {  // strict: the first (lowest index) wins ties
@@ -451,17 +506,29 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
     tight_costs[d] = static_cast<int>(std::lround(options_.tight_cost_factor * costs[d]));
   }
   thread_local SearchScratch scratch;
-  scratch.Prepare(static_cast<long>(blocked_.size()));
+  const long grid_voxels = static_cast<long>(dims_.x() + 2) * (dims_.y() + 2) * (dims_.z() + 2);
+  scratch.Prepare(grid_voxels, static_cast<long>(block_slot_.size()), kBlockVoxels);
   const std::uint32_t seen = scratch.current, closed = scratch.current + 1;
   const int source = static_cast<int>(Index(s_ijk.x(), s_ijk.y(), s_ijk.z()));
   const int target = static_cast<int>(Index(g_ijk.x(), g_ijk.y(), g_ijk.z()));
   const Eigen::Vector3i g_padded = g_ijk + Eigen::Vector3i::Ones();
+  auto cell_of = [&](int node, int pi, int pj, int pk) {
+    return scratch.Cell(node, BlockOf(pi, pj, pk), InBlock(pi, pj, pk));
+  };
+  auto decode = [&](int node, int* pi, int* pj, int* pk) {
+    *pi = node / syz;
+    *pj = (node / sz) % (dims_.y() + 2);
+    *pk = node % sz;
+  };
 
   OpenList open;
   open.Reserve(4096);
-  scratch.g[source] = 0;
-  scratch.parent[source] = -1;
-  scratch.stamp[source] = seen;
+  {
+    const long cell = cell_of(source, s_ijk.x() + 1, s_ijk.y() + 1, s_ijk.z() + 1);
+    scratch.g[cell] = 0;
+    scratch.parent[cell] = -1;
+    scratch.stamp[cell] = seen;
+  }
   const double weight = options_.heuristic_weight;
   auto weighted = [weight](int h) { return weight == 1.0 ? h : static_cast<int>(std::lround(weight * h)); };
   open.Push({weighted(Octile(s_ijk.x() - g_ijk.x(), s_ijk.y() - g_ijk.y(), s_ijk.z() - g_ijk.z())), 0, source});
@@ -469,8 +536,11 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
   const Clock::time_point search_t0 = Clock::now();
   while (!open.empty()) {
     const OpenEntry top = open.Pop();
-    if (scratch.stamp[top.node] == closed || top.g > scratch.g[top.node]) continue;
-    scratch.stamp[top.node] = closed;
+    int pi, pj, pk;
+    decode(top.node, &pi, &pj, &pk);
+    const long top_cell = cell_of(top.node, pi, pj, pk);
+    if (scratch.stamp[top_cell] == closed || top.g > scratch.g[top_cell]) continue;
+    scratch.stamp[top_cell] = closed;
     if (top.node == target) {
       found = true;
       break;
@@ -484,18 +554,24 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
                                       std::to_string(options_.max_seconds) + " s (" +
                                       std::to_string(path.expansions) + " expansions)");
     }
-    const int pi = top.node / syz, pj = (top.node / sz) % (dims_.y() + 2), pk = top.node % sz;
     for (int d = 0; d < 26; ++d) {
-      const int nb = static_cast<int>(top.node + deltas[d]);
-      if (blocked_[nb] == kBlocked || scratch.stamp[nb] == closed) continue;
-      const int ng = top.g + (blocked_[nb] == kTight ? tight_costs[d] : costs[d]);
-      if (scratch.stamp[nb] == seen && ng >= scratch.g[nb]) continue;
-      scratch.stamp[nb] = seen;
-      scratch.g[nb] = ng;
-      scratch.parent[nb] = top.node;
-      const int h = Octile(pi + offsets[d][0] - g_padded.x(), pj + offsets[d][1] - g_padded.y(),
-                             pk + offsets[d][2] - g_padded.z());
-      open.Push({ng + weighted(h), ng, nb});
+      const int ni = pi + offsets[d][0], nj = pj + offsets[d][1], nk = pk + offsets[d][2];
+      if (OnBorder(ni, nj, nk)) continue;
+      const long block = BlockOf(ni, nj, nk);
+      const int in_block = InBlock(ni, nj, nk);
+      const int slot = block_slot_[block];
+      const unsigned char state = slot < 0 ? kFree : blocked_[static_cast<long>(slot) * kBlockVoxels + in_block];
+      if (state == kBlocked) continue;
+      const int node = static_cast<int>(top.node + deltas[d]);
+      const long cell = scratch.Cell(node, block, in_block);
+      if (scratch.stamp[cell] == closed) continue;
+      const int ng = top.g + (state == kTight ? tight_costs[d] : costs[d]);
+      if (scratch.stamp[cell] == seen && ng >= scratch.g[cell]) continue;
+      scratch.stamp[cell] = seen;
+      scratch.g[cell] = ng;
+      scratch.parent[cell] = top.node;
+      const int h = Octile(ni - g_padded.x(), nj - g_padded.y(), nk - g_padded.z());
+      open.Push({ng + weighted(h), ng, node});
     }
   }
   path.search_seconds = SecondsSince(search_t0);
@@ -507,9 +583,11 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
   }
 
   std::vector<Vec3> centres;
-  for (int n = target; n >= 0; n = scratch.parent[n]) {
-    const Eigen::Vector3i ijk(n / syz - 1, (n / sz) % (dims_.y() + 2) - 1, n % sz - 1);
-    centres.push_back(Centre(ijk));
+  for (int n = target; n >= 0;) {
+    int pi, pj, pk;
+    decode(n, &pi, &pj, &pk);
+    centres.push_back(Centre(Eigen::Vector3i(pi - 1, pj - 1, pk - 1)));
+    n = scratch.parent[cell_of(n, pi, pj, pk)];
   }
   std::reverse(centres.begin(), centres.end());
   std::vector<Vec3> raw;

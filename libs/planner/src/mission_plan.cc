@@ -51,31 +51,7 @@ BoundaryState AtRest(const Vec3& position, double yaw, const VecX& joints) {
 core::Result<WholeBodyTrajectory> StateToStateLeg(const BoundaryState& from, const BoundaryState& to, double duration,
                                                   const traj::FlatnessOptions& flatness) {
   const int n = static_cast<int>(from.joints.size());
-  traj::Minco position, aux;
-  QUADHAND_RETURN_IF_ERROR(position.Reset(4, 3, 1));
-  QUADHAND_RETURN_IF_ERROR(aux.Reset(2, 1 + n, 1));
-  auto position_rows = [](const BoundaryState& state) {
-    MatX rows(4, 3);
-    rows << state.position.transpose(), state.velocity.transpose(), state.acceleration.transpose(),
-        state.jerk.transpose();
-    return rows;
-  };
-  auto aux_rows = [n](const BoundaryState& state) {
-    MatX rows = MatX::Zero(2, 1 + n);
-    rows(0, 0) = state.yaw;
-    rows(1, 0) = state.yaw_rate;
-    for (int q = 0; q < n; ++q) {
-      rows(0, 1 + q) = state.joints[q];
-      if (state.joint_rates.size() == n) rows(1, 1 + q) = state.joint_rates[q];
-    }
-    return rows;
-  };
-  QUADHAND_RETURN_IF_ERROR(position.SetBoundary(position_rows(from), position_rows(to)));
-  QUADHAND_RETURN_IF_ERROR(aux.SetBoundary(aux_rows(from), aux_rows(to)));
-  const VecX durations = VecX::Constant(1, duration);
-  QUADHAND_RETURN_IF_ERROR(position.Generate(MatX(3, 0), durations));
-  QUADHAND_RETURN_IF_ERROR(aux.Generate(MatX(1 + n, 0), durations));
-  return WholeBodyTrajectory(std::move(position), std::move(aux), flatness);
+  return TrajectoryThrough(from, to, MatX(3, 0), MatX(1 + n, 0), VecX::Constant(1, duration), flatness);
 }
 
 // A leg from `from` (at rest) to `to_position` at rest, yaw and joints

@@ -107,6 +107,8 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
   if (info.scene_load_ms >= 0.0) report["scene_load_ms"] = info.scene_load_ms;
   if (info.robot_load_ms >= 0.0) report["robot_load_ms"] = info.robot_load_ms;
   if (info.sdf_load_ms >= 0.0) report["sdf_load_ms"] = info.sdf_load_ms;
+  if (info.front_end_build_ms >= 0.0) report["front_end_build_ms"] = info.front_end_build_ms;
+  if (info.front_end_grid_bytes >= 0) report["front_end_grid_bytes"] = info.front_end_grid_bytes;
   if (info.scene_points >= 0) report["scene_points"] = info.scene_points;
   if (info.checked_points >= 0) report["checked_points"] = info.checked_points;
   report["total_ms"] = info.total_ms;
@@ -158,6 +160,7 @@ std::string PlanReportJson(const PlanResult& result, const robot::RobotModel& ro
     report["piece_durations_s"] = std::vector<double>(durations.data(), durations.data() + durations.size());
   }
   report["duration_s"] = result.trajectory ? result.trajectory->duration() : 0.0;
+  if (result.sections > 0) report["sections"] = result.sections;
   report["min_clearance_m"] = result.post_check.min_clearance_model;
   report["min_clearance_exact_m"] = result.post_check.min_clearance_exact;
   report["min_clearance_exact_is_lower_bound"] = result.post_check.min_clearance_exact_is_bound;

@@ -6,6 +6,7 @@
 #include <functional>
 #include <iterator>
 #include <limits>
+#include <optional>
 
 #include "quadhand/core/text.h"
 #include "quadhand/planner/cost_term.h"
@@ -77,6 +78,9 @@ bool PlannerOptions::IsValid(std::string* why) const {
   if (!(stow_margin >= 0.0 && stow_lead >= 0.0 && std::isfinite(stow_lead))) return fail("stow_margin and stow_lead must be >= 0");
   if (max_attempts < 1) return fail("max_attempts must be at least 1");
   if (alternative_guesses < 0 || alternative_guesses > 3) return fail("alternative_guesses must be in [0, 3]");
+  if (section_pieces != 0 && (section_pieces < 2 || section_pieces > 100000)) {
+    return fail("section_pieces must be 0 (never) or in [2, 100000]");
+  }
   if (!(weight_raise_factor >= 1.0)) return fail("weight_raise_factor must be at least 1");
   if (resolve_sample_factor < 1) return fail("resolve_sample_factor must be at least 1");
   if (max_samples_per_piece < 1 || max_samples_per_piece > 1000) {
@@ -468,12 +472,117 @@ core::Result<InitialGuess> GuessFromPath(const robot::RobotModel& robot, const T
 // Stages "initial guess", "plan collision" and "optimise" from the
 // front-end path's corners: false, with result->status set, when the
 // representation cannot be built for this guess.
+// Stage "sections" (PlannerOptions::section_pieces): the guess's pieces
+// taken a section at a time. Each section is optimised (with its own
+// re-solves) from where the plan has got to over its pieces and a quarter
+// as many more, to the guess's whole state there (the last section: to the
+// goal, with the insertion); its first pieces are kept and the next
+// section starts where they end, so every junction is a state the
+// optimiser chose with room on both sides. The kept pieces are joined and
+// post-checked whole. False, with result's status and message, when a
+// section fails (the pieces kept before it are the plan, for the report).
+core::Result<bool> SolveInSections(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
+                                   const SolveSchedule& schedule, const InitialGuess& guess, PlanResult* result) {
+  const int pieces = static_cast<int>(guess.durations.size());
+  const int keep = options.section_pieces, overlap = std::max(2, options.section_pieces / 4);
+  auto whole_guess = TrajectoryThrough(task.start, result->terminal, guess.position_waypoints, guess.aux_waypoints,
+                                       guess.durations, options.cost.flatness);
+  if (!whole_guess.ok()) return whole_guess.status();
+  std::optional<WholeBodyTrajectory> joined;
+  BoundaryState from = task.start;
+  result->sections = 0;
+  for (int first = 0; first < pieces;) {
+    // Solved over [first, reach), kept over [first, last); the rest in one
+    // section once it is no longer than a section and its overlap.
+    const bool final_section = pieces - first <= keep + overlap;
+    const int reach = final_section ? pieces : first + keep + overlap;
+    const int last = final_section ? pieces : first + keep;
+    const int count = reach - first;
+    const double guess_at = guess.durations.head(first).sum();
+    ++result->sections;
+    Task section = task;
+    section.start = from;
+    PlanResult part;
+    part.path = result->path;
+    if (final_section) {
+      part.terminal = result->terminal;
+      part.insertion = result->insertion;
+    } else {
+      section.tool.reset();
+      part.terminal = whole_guess->Sample(guess.durations.head(reach).sum()).State();
+      section.terminal = part.terminal;
+    }
+    InitialGuess piece_guess;
+    piece_guess.position_waypoints = guess.position_waypoints.middleCols(first, count - 1);
+    piece_guess.aux_waypoints = guess.aux_waypoints.middleCols(first, count - 1);
+    piece_guess.durations = guess.durations.segment(first, count);
+    PlanCollision collision{&scene.collision, nullptr};
+    QUADHAND_RETURN_IF_ERROR(Optimise(scene, collision, section, piece_guess, options, schedule, &part));
+    result->solve_ms += part.solve_ms;
+    result->post_check_ms += part.post_check_ms;
+    result->iterations += part.iterations;
+    result->evaluations += part.evaluations;
+    result->attempts.insert(result->attempts.end(), part.attempts.begin(), part.attempts.end());
+    if (!part.success || !part.trajectory) {
+      result->success = false;
+      result->status = part.status;
+      result->message = core::Format("section %d (pieces %d to %d of %d, from %.2f s of the initial guess): ",
+                                     result->sections, first + 1, reach, pieces, guess_at) +
+                        part.message;
+      result->post_check = part.post_check;
+      result->trajectory = std::move(joined);
+      return false;
+    }
+    result->final_cost = part.final_cost;
+    // The kept pieces, and the state where they end.
+    std::optional<WholeBodyTrajectory> kept;
+    if (final_section) {
+      kept = std::move(part.trajectory);
+    } else {
+      auto position = traj::Minco::Prefix(part.trajectory->position(), last - first);
+      if (!position.ok()) return position.status();
+      auto aux = traj::Minco::Prefix(part.trajectory->aux(), last - first);
+      if (!aux.ok()) return aux.status();
+      kept.emplace(std::move(*position), std::move(*aux), options.cost.flatness);
+      from = kept->Sample(kept->duration()).State();
+    }
+    if (joined) {
+      auto position = traj::Minco::Joined(joined->position(), kept->position(), 0);
+      if (!position.ok()) return position.status();
+      auto aux = traj::Minco::Joined(joined->aux(), kept->aux(), 0);
+      if (!aux.ok()) return aux.status();
+      joined.emplace(std::move(*position), std::move(*aux), options.cost.flatness);
+    } else {
+      joined = std::move(kept);
+    }
+    first = last;
+  }
+  const auto check_start = std::chrono::steady_clock::now();
+  result->post_check = PostCheck(*joined, scene.robot, task, result->terminal, result->insertion, scene.collision,
+                                 scene.exact, scene.self_collision, options.post_check, nullptr);
+  result->post_check_ms += MillisecondsSince(check_start);
+  result->trajectory = std::move(joined);
+  result->success = result->post_check.passed;
+  result->status = result->success ? PlanStatus::kSuccess : PlanStatus::kPostCheckFailed;
+  result->message = result->success ? "every section passed, and the joined plan passed the post-check"
+                                     : "the joined sections failed the post-check: " + result->post_check.FirstFailure();
+  return result->success;
+}
+
 core::Result<bool> SolveFromPath(const PlanningScene& scene, const Task& task, const PlannerOptions& options,
                                  const SolveSchedule& schedule, const std::vector<Vec3>& corners,
                                  PlanResult* result) {
   auto guess = GuessFromPath(scene.robot, task, options, corners, *result);
   if (!guess.ok()) return guess.status();
   result->num_pieces = static_cast<int>(guess->durations.size());
+  const bool sectioned = options.section_pieces > 0 && result->num_pieces > options.section_pieces &&
+                         !result->moving_target && scene.moving == nullptr && task.vias.empty() &&
+                         scene.per_plan_collision == nullptr;
+  if (sectioned) {
+    auto solved = SolveInSections(scene, task, options, schedule, *guess, result);
+    if (!solved.ok()) return solved.status();
+    return true;  // solved or not, the result says
+  }
   PlanCollision collision;
   auto built = BuildPlanCollision(scene, corners, task.start.position, *guess, result->terminal.position, &collision,
                                   result);
@@ -532,6 +641,7 @@ core::Status TryAlternativeGuesses(const PlanningScene& scene, const Task& task,
     result->post_check = std::move(trial.post_check);
     result->final_cost = std::move(trial.final_cost);
     result->num_pieces = trial.num_pieces;
+    result->sections = trial.sections;
     result->initial_guess = alternatives[i].name;
   }
   return core::Status::Ok();

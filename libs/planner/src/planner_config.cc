@@ -35,6 +35,7 @@ void Visit(Config& c, Visitor&& v) {
   v("plan.stow_lead", p.stow_lead);
   v("plan.max_attempts", p.max_attempts);
   v("plan.alternative_guesses", p.alternative_guesses);
+  v("plan.section_pieces", p.section_pieces);
   v("plan.weight_raise_factor", p.weight_raise_factor);
   v("plan.resolve_sample_factor", p.resolve_sample_factor);
   v("plan.max_samples_per_piece", p.max_samples_per_piece);

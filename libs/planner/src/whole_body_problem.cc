@@ -15,6 +15,23 @@ namespace {
 constexpr int kPositionOrder = 4;  // s = 4: minimum snap, C^6 position
 constexpr int kAuxOrder = 2;       // s = 2: minimum acceleration for yaw and joints
 
+// A whole state as the MINCO boundaries: position and its first three
+// derivatives; yaw and joints, then their rates (empty joint rates: zero).
+MatX PositionBoundary(const BoundaryState& s) {
+  MatX m(kPositionOrder, 3);
+  m << s.position.transpose(), s.velocity.transpose(), s.acceleration.transpose(), s.jerk.transpose();
+  return m;
+}
+MatX AuxBoundary(const BoundaryState& s) {
+  const int n = static_cast<int>(s.joints.size());
+  MatX m = MatX::Zero(kAuxOrder, 1 + n);
+  m(0, 0) = s.yaw;
+  m(1, 0) = s.yaw_rate;
+  m.block(0, 1, 1, n) = s.joints.transpose();
+  if (s.joint_rates.size() == n) m.block(1, 1, 1, n) = s.joint_rates.transpose();
+  return m;
+}
+
 bool NonNegativeFinite(double v) { return std::isfinite(v) && v >= 0.0; }
 bool PositiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
 
@@ -170,21 +187,9 @@ core::Result<std::unique_ptr<WholeBodyProblem>> WholeBodyProblem::Create(
   Workspace& w = *problem->work_;
   QUADHAND_RETURN_IF_ERROR(w.position.Reset(kPositionOrder, 3, num_pieces));
   QUADHAND_RETURN_IF_ERROR(w.aux.Reset(kAuxOrder, 1 + n, num_pieces));
-  auto position_state = [](const BoundaryState& s) {
-    MatX m(kPositionOrder, 3);
-    m << s.position.transpose(), s.velocity.transpose(), s.acceleration.transpose(), s.jerk.transpose();
-    return m;
-  };
-  auto aux_state = [n](const BoundaryState& s) {
-    MatX m(kAuxOrder, 1 + n);
-    m(0, 0) = s.yaw;
-    m(1, 0) = s.yaw_rate;
-    m.block(0, 1, 1, n) = s.joints.transpose();
-    m.block(1, 1, 1, n) = s.joint_rates.transpose();
-    return m;
-  };
-  QUADHAND_RETURN_IF_ERROR(w.position.SetBoundary(position_state(problem->start_), position_state(problem->goal_)));
-  QUADHAND_RETURN_IF_ERROR(w.aux.SetBoundary(aux_state(problem->start_), aux_state(problem->goal_)));
+  QUADHAND_RETURN_IF_ERROR(
+      w.position.SetBoundary(PositionBoundary(problem->start_), PositionBoundary(problem->goal_)));
+  QUADHAND_RETURN_IF_ERROR(w.aux.SetBoundary(AuxBoundary(problem->start_), AuxBoundary(problem->goal_)));
   w.position_waypoints.resize(3, num_pieces - 1);
   w.aux_waypoints.resize(1 + n, num_pieces - 1);
   w.grad_position_coeffs.resize(2 * kPositionOrder * num_pieces, 3);
@@ -535,6 +540,25 @@ core::Result<CostBreakdown> WholeBodyProblem::Breakdown(const VecX& x) const {
 core::Result<WholeBodyTrajectory> WholeBodyProblem::Trajectory(const VecX& x) const {
   if (x.size() != num_variables() || !Generate(x)) return core::Status::InvalidArgument("cannot evaluate x");
   return WholeBodyTrajectory(work_->position, work_->aux, options_.flatness);
+}
+
+core::Result<WholeBodyTrajectory> TrajectoryThrough(const BoundaryState& start, const BoundaryState& end,
+                                                    const MatX& position_waypoints, const MatX& aux_waypoints,
+                                                    const VecX& durations, const traj::FlatnessOptions& flatness) {
+  const int pieces = static_cast<int>(durations.size());
+  const int n = static_cast<int>(start.joints.size());
+  if (pieces < 1 || end.joints.size() != n || position_waypoints.rows() != 3 ||
+      position_waypoints.cols() != pieces - 1 || aux_waypoints.rows() != 1 + n || aux_waypoints.cols() != pieces - 1) {
+    return core::Status::InvalidArgument("TrajectoryThrough: sizes do not match");
+  }
+  traj::Minco position, aux;
+  QUADHAND_RETURN_IF_ERROR(position.Reset(kPositionOrder, 3, pieces));
+  QUADHAND_RETURN_IF_ERROR(aux.Reset(kAuxOrder, 1 + n, pieces));
+  QUADHAND_RETURN_IF_ERROR(position.SetBoundary(PositionBoundary(start), PositionBoundary(end)));
+  QUADHAND_RETURN_IF_ERROR(aux.SetBoundary(AuxBoundary(start), AuxBoundary(end)));
+  QUADHAND_RETURN_IF_ERROR(position.Generate(position_waypoints, durations));
+  QUADHAND_RETURN_IF_ERROR(aux.Generate(aux_waypoints, durations));
+  return WholeBodyTrajectory(std::move(position), std::move(aux), flatness);
 }
 
 }  // namespace quadhand::planner

@@ -170,6 +170,25 @@ core::Result<Minco> Minco::Joined(const Minco& first, const Minco& second, int s
   return joined;
 }
 
+core::Result<Minco> Minco::Prefix(const Minco& whole, int pieces) {
+  if (!whole.valid_) return core::Status::InvalidArgument("a prefix of an invalid MINCO trajectory");
+  if (pieces < 1 || pieces > whole.n_) {
+    return core::Status::InvalidArgument("a prefix of " + std::to_string(pieces) + " of " + std::to_string(whole.n_) +
+                                         " pieces");
+  }
+  const int nc = 2 * whole.s_;
+  Minco prefix;
+  QUADHAND_RETURN_IF_ERROR(prefix.Reset(whole.s_, whole.m_, pieces));
+  prefix.head_ = whole.head_;
+  for (int k = 0; k < whole.s_; ++k) {
+    prefix.tail_.row(k) = whole.Evaluate(pieces - 1, whole.durations_[pieces - 1], k).transpose();
+  }
+  prefix.durations_ = whole.durations_.head(pieces);
+  prefix.coeffs_ = whole.coeffs_.topRows(nc * pieces);
+  prefix.valid_ = true;
+  return prefix;
+}
+
 void Minco::Evaluate(int piece, double t, int deriv, Eigen::Ref<Eigen::VectorXd> out) const {
   assert(piece >= 0 && piece < n_ && deriv >= 0 && out.size() == m_);
   const int nc = 2 * s_;

@@ -3,7 +3,9 @@
 //
 //   FrontEndMap  - built once per scene: a voxel grid holding, at every voxel
 //                  centre, the exact distance to the nearest cloud point
-//                  (clamped), so many queries share it.
+//                  (clamped), so many queries share it. Stored in blocks:
+//                  only the blocks near a point hold values (memory grows
+//                  with the scene's surface, not with its box).
 //   FindPath     - (weighted) A* over free voxels (26-connected, octile
 //                  heuristic, integer costs, deterministic ties), then a
 //                  greedy line-of-sight shortcut checked exactly against the
@@ -79,9 +81,11 @@ struct FrontEndOptions {
   // Search budget per query: A* node expansions (> 0) and wall time, s (> 0).
   long max_expansions = 5'000'000;
   double max_seconds = 2.0;
-  // Largest grid the map may allocate (5 bytes per voxel for the map, plus
-  // 12 per voxel of search scratch kept by each thread that queries it).
-  long max_voxels = 16'000'000;
+  // Largest grid box, in voxels (< 2^31: the search numbers them). The
+  // memory is not per voxel of the box: 5 bytes per voxel of the blocks of
+  // 8^3 voxels near a point, 4 bytes per block of the box, and 12 bytes per
+  // voxel of the blocks a query's search touches (per querying thread).
+  long max_voxels = 1'500'000'000;
   // Read by PlanningContext, not by the map: with size_from_robot the
   // inflation radius is the robot's half-width (robot::StowedHalfWidth) and
   // the shortcut clearance shortcut_ratio times it, instead of the two
@@ -149,6 +153,10 @@ class FrontEndMap {
   double search_radius() const { return search_radius_; }  // free-voxel threshold, m (horizontal)
   double search_height() const { return search_height_; }  // the same along z
   double build_seconds() const { return build_seconds_; }
+  // Bytes the grid holds: its blocks near points and the table of blocks.
+  size_t grid_bytes() const {
+    return distance_.size() * sizeof(float) + blocked_.size() + block_slot_.size() * sizeof(int);
+  }
 
  private:
   FrontEndMap(const std::vector<Vec3>& points, double cell_size) : points_(points, cell_size) {}
@@ -157,6 +165,33 @@ class FrontEndMap {
   long Index(int i, int j, int k) const {
     return (static_cast<long>(i + 1) * (dims_.y() + 2) + (j + 1)) * (dims_.z() + 2) + (k + 1);
   }
+  // The grid's storage, by padded coordinates (i + 1, j + 1, k + 1): blocks
+  // of kBlockEdge^3 voxels, only those near a point held (a slot); every
+  // other voxel is far (the distance cap) and free; the border is blocked.
+  static constexpr int kBlockShift = 3, kBlockEdge = 1 << kBlockShift, kBlockVoxels = kBlockEdge * kBlockEdge * kBlockEdge;
+  long BlockOf(int pi, int pj, int pk) const {
+    return (static_cast<long>(pi >> kBlockShift) * block_dims_.y() + (pj >> kBlockShift)) * block_dims_.z() +
+           (pk >> kBlockShift);
+  }
+  static int InBlock(int pi, int pj, int pk) {
+    const int m = kBlockEdge - 1;
+    return (((pi & m) << kBlockShift) | (pj & m)) << kBlockShift | (pk & m);
+  }
+  bool OnBorder(int pi, int pj, int pk) const {
+    return pi <= 0 || pj <= 0 || pk <= 0 || pi > dims_.x() || pj > dims_.y() || pk > dims_.z();
+  }
+  unsigned char BlockedAt(int pi, int pj, int pk) const {
+    if (OnBorder(pi, pj, pk)) return kBlocked;
+    const int slot = block_slot_[BlockOf(pi, pj, pk)];
+    return slot < 0 ? kFree : blocked_[static_cast<long>(slot) * kBlockVoxels + InBlock(pi, pj, pk)];
+  }
+  float DistanceAt(int pi, int pj, int pk) const {
+    const int slot = block_slot_[BlockOf(pi, pj, pk)];
+    return slot < 0 ? far_distance_ : distance_[static_cast<long>(slot) * kBlockVoxels + InBlock(pi, pj, pk)];
+  }
+  // Build: the slot of the block holding (pi, pj, pk), made when missing
+  // (distances `far`, every voxel free).
+  int SlotFor(int pi, int pj, int pk, float far);
   // Voxel containing p, clamped to the grid; false if p is outside the box.
   bool VoxelOf(const Vec3& p, Eigen::Vector3i* ijk) const;
   Vec3 Centre(const Eigen::Vector3i& ijk) const {
@@ -171,11 +206,15 @@ class FrontEndMap {
   scene::PointGrid points_;
   Vec3 lo_ = Vec3::Zero(), hi_ = Vec3::Zero();
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
-  std::vector<float> distance_;   // padded; distance from each centre to the cloud, clamped
-  // Padded; kBlocked: not usable by the search (border included); kTight:
-  // usable at tight_cost_factor times the cost (FrontEndOptions).
+  Eigen::Vector3i block_dims_ = Eigen::Vector3i::Zero();  // blocks per axis over the padded grid
+  std::vector<int> block_slot_;  // per block: its slot in the two arrays below, or -1 (far)
+  // kBlockVoxels per slot: the distance from each centre to the cloud,
+  // clamped; kBlocked: not usable by the search; kTight: usable at
+  // tight_cost_factor times the cost (FrontEndOptions).
+  std::vector<float> distance_;
   static constexpr unsigned char kFree = 0, kBlocked = 1, kTight = 2;
   std::vector<unsigned char> blocked_;
+  float far_distance_ = 0.0f;  // of a voxel in no slot
   double search_radius_ = 0.0;
   double search_height_ = 0.0;
   double distance_cap_ = 0.0;

@@ -58,6 +58,9 @@ struct PlanReportInfo {
   // representation_build_ms for MRC-SDF); not recorded when negative.
   double robot_load_ms = -1.0;
   double sdf_load_ms = -1.0;
+  // Building the front end's map, and the bytes its grid holds (-1: not given).
+  double front_end_build_ms = -1.0;
+  long front_end_grid_bytes = -1;
   long scene_points = -1;
   long checked_points = -1;
   // The robot's self-collision pairs (checked and excluded, with why); none

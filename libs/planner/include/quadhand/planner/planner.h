@@ -94,6 +94,15 @@ struct PlannerOptions {
   // the other way: stow_joints_in_transit toggled), "finer" (piece_length x
   // 0.5: more waypoints). At most this many (0..3; 0 = none).
   int alternative_guesses = 3;
+  // A path of more pieces than this (0: never) is optimised a section at a
+  // time: this many pieces kept from a solve over them and a quarter as
+  // many more (to the initial guess's state there), the next section from
+  // where they end; the sections are joined and post-checked whole. One
+  // solve of a few hundred pieces stops at the cost's relative tolerance
+  // while a local collision is still a small part of the cost
+  // (docs/plan.md, "Long paths"). Not for a moving target, vias, or a
+  // representation built per plan.
+  int section_pieces = 120;
   double weight_raise_factor = 5.0;
   // A failed clearance check also multiplies the samples per piece of the
   // re-solve (and those of the insertion piece) by this, up to
@@ -177,6 +186,9 @@ struct PlanResult {
   // the plan meets the target (s from its start), and the insertion there
   // (a goal's are its end and `insertion`).
   double target_met_s = -1.0;
+  // How many sections the plan was optimised in (PlannerOptions::
+  // section_pieces; 0: one solve over every piece).
+  int sections = 0;
   InsertionGoal target_met_insertion;
   // With kTargetUnreachable: how far (m) the vehicle's end state, moved
   // with the target, is outside the space searched at the best time it

@@ -205,6 +205,17 @@ class WholeBodyTrajectory {
   traj::FlatnessOptions flatness_;
 };
 
+// The trajectory from the whole state `start` to `end` (position with its
+// velocity, acceleration and jerk; yaw and joints with their rates) through
+// the inner waypoints (3 x (pieces - 1) and (1 + joints) x (pieces - 1)) in
+// `durations`: what a problem makes of its variables, without a problem (a
+// guess to read states from, a leg given by its ends). Joint rates left
+// empty are zero.
+core::Result<WholeBodyTrajectory> TrajectoryThrough(const BoundaryState& start, const BoundaryState& end,
+                                                    const MatX& position_waypoints, const MatX& aux_waypoints,
+                                                    const VecX& durations, const traj::FlatnessOptions& flatness);
+
+
 struct SampleScratch;  // one worker's buffers (whole_body_problem.cc)
 
 // An inner position waypoint (0-based, of N - 1) kept within `radius` of

@@ -68,6 +68,9 @@ class Minco {
   // when the orders or columns differ, a part is not valid, or second_from is
   // not a piece of `second`.
   static core::Result<Minco> Joined(const Minco& first, const Minco& second, int second_from);
+  // The first `pieces` pieces of `whole` (1 .. its count): its head, and
+  // as tail the state where they end. Like Joined's, no longer a MINCO.
+  static core::Result<Minco> Prefix(const Minco& whole, int pieces);
 
   int order() const { return s_; }
   int dims() const { return m_; }
