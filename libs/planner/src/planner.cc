@@ -495,8 +495,33 @@ core::Result<bool> SolveInSections(const PlanningScene& scene, const Task& task,
     // Solved over [first, reach), kept over [first, last); the rest in one
     // section once it is no longer than a section and its overlap.
     const bool final_section = pieces - first <= keep + overlap;
-    const int reach = final_section ? pieces : first + keep + overlap;
+    int reach = final_section ? pieces : first + keep + overlap;
     const int last = final_section ? pieces : first + keep;
+    if (!final_section) {
+      // The section's end is held at the guess's state there: the guess's
+      // arm may reach into an obstacle the path passes (the path clears the
+      // base only). The nearest piece boundary within half the overlap
+      // whose state clears the scene by the safety distance and 5 cm, else
+      // the clearest of them.
+      const double wanted = task.safety_distance + 0.05;
+      double best = -std::numeric_limits<double>::infinity();
+      int best_reach = reach;
+      for (int step = 0; step <= overlap / 2; ++step) {
+        for (int r : {reach + step, reach - step}) {
+          if (r <= last || r >= pieces) continue;
+          int link = -1;
+          const double clearance =
+              StateClearance(scene, whole_guess->Sample(guess.durations.head(r).sum()).State(), options.cost.flatness,
+                             wanted + 0.01, &link);
+          if (clearance > best) {
+            best = clearance;
+            best_reach = r;
+          }
+        }
+        if (best >= wanted) break;
+      }
+      reach = best_reach;
+    }
     const int count = reach - first;
     const double guess_at = guess.durations.head(first).sum();
     ++result->sections;
