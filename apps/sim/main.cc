@@ -1,6 +1,8 @@
 // quadhand-sim: the vehicle simulator (docs/sim.md).
 //   --track plan.csv --out flown.csv   fly a plan (contracts.md) with the
 //                                      geometric controller, write the flown states
+//     [--world FILE --sensor depth|lidar --frames DIR]   and what a sensor on
+//                                      the vehicle saw of the world (sim/sensor.h)
 //   --figure8 --out plan.csv           write the paper's figure-eight plan
 //   --udp udp://ADDR:PORT              behave like a PX4 autopilot over MAVLink
 //                                      (udp_mode.h, sim/autopilot.h)
@@ -17,9 +19,13 @@
 #include "app_options.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
+#include "quadhand/core/text.h"
 #include "quadhand/link/frame.h"
 #include "quadhand/link/udp.h"
+#include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/robot_model.h"
+#include "quadhand/scene/point_cloud.h"
+#include "quadhand/sim/sensor.h"
 #include "quadhand/sim/autopilot.h"
 #include "quadhand/sim/config.h"
 #include "quadhand/sim/figure_eight.h"
@@ -37,6 +43,45 @@ constexpr int kExitBadInput = 2;
 int Fail(const std::string& message, int code = kExitBadInput) {
   core::PrintError("quadhand-sim", message);
   return code;
+}
+
+// What the sensor saw along the flight (docs/sim.md, "Sensors"): a frame
+// at every 1/rate of the flown record (the vehicle's own states), each a
+// binary PCD of the returns in the sensor's frame, and DIR/frames.csv with
+// each frame's time, file and sensor pose in the world. The folder is made
+// by renaming a finished temporary one: it is all there or not at all.
+core::Status WriteFrames(const std::vector<sim::FlownSample>& samples, const robot::RobotModel& robot,
+                         const sim::SensorConfig& sensor, sim::SensorRenderer* renderer, const std::string& dir,
+                         int* frames) {
+  const int link = robot.LinkIndex(sensor.link);
+  if (link < 0) return core::Status::InvalidArgument("sensor.link: the robot has no link '" + sensor.link + "'");
+  const std::string partial = dir + ".partial";
+  std::error_code ec;
+  std::filesystem::remove_all(partial, ec);
+  if (!std::filesystem::create_directory(partial, ec)) {
+    return core::Status::InvalidArgument("--frames " + dir + ": cannot make " + partial + " (" + ec.message() + ")");
+  }
+  std::string index = "index,t,file,x,y,z,qw,qx,qy,qz\n";
+  const double period = 1.0 / sensor.rate();
+  double next = samples.empty() ? 0.0 : samples.front().flown.t;
+  *frames = 0;
+  for (const sim::FlownSample& sample : samples) {
+    if (sample.flown.t + 1e-9 < next) continue;
+    next += period * std::max(1.0, std::floor((sample.flown.t + 1e-9 - next) / period) + 1.0);
+    const Pose base = MakePose(sample.flown.position, sample.flown.attitude.toRotationMatrix());
+    const Pose pose = robot::LinkPose(robot, base, sample.flown.joints, link) * sensor.mount;
+    const std::string file = core::Format("frame_%06d.pcd", *frames);
+    QUADHAND_RETURN_IF_ERROR(scene::WritePcd(partial + "/" + file, renderer->Render(pose), scene::PcdEncoding::kBinary));
+    const Quat q(pose.linear());
+    const Vec3 p = pose.translation();
+    index += core::Format("%d,%.6f,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", *frames, sample.flown.t, file.c_str(),
+                          p.x(), p.y(), p.z(), q.w(), q.x(), q.y(), q.z());
+    ++*frames;
+  }
+  QUADHAND_RETURN_IF_ERROR(core::WriteFileAtomically(partial + "/frames.csv", index));
+  std::filesystem::rename(partial, dir, ec);
+  if (ec) return core::Status::InvalidArgument("--frames " + dir + ": " + ec.message());
+  return core::Status::Ok();
 }
 
 }  // namespace
@@ -57,6 +102,12 @@ int main(int argc, char** argv) {
   uint64_t seed = 0;
   sim::FigureEightOptions eight;
   app.add_option("--track", track_path, "Plan file to fly (CSV, contracts.md)");
+  std::string world_path, sensor_name, frames_dir;
+  app.add_option("--world", world_path, "--track: the hidden true scene a sensor sees (PCD or PLY, world frame)");
+  app.add_option("--sensor", sensor_name, "--track with --world: depth or lidar (options: the configuration's sensor:)")
+      ->check(CLI::IsMember({"depth", "lidar"}));
+  app.add_option("--frames", frames_dir, "--track with --world: write the sensor's frames to this new folder "
+                                         "(PCD per frame and frames.csv; docs/sim.md, Sensors)");
   app.add_flag("--figure8", figure8, "Write the figure-eight plan of the paper's experiment to --out instead");
   app.add_option("--out", out_path, "Output file (CSV): the flown states, or the figure-eight plan (not with --udp)");
   app.add_option("--config", config_path, "Simulator configuration (YAML, docs/sim.md)")->capture_default_str();
@@ -132,6 +183,17 @@ int main(int argc, char** argv) {
   }
   if (udp && !out_path.empty()) return Fail("--out is not used with --udp (use --log for the flown states)");
   if (udp && app.count("--settle") > 0) return Fail("--settle is only used with --track");
+  const int sensing = int{!world_path.empty()} + int{!sensor_name.empty()} + int{!frames_dir.empty()};
+  if (sensing > 0 && track_path.empty()) return Fail("--world, --sensor and --frames are only used with --track");
+  if (sensing > 0 && sensing < 3) return Fail("--world, --sensor and --frames go together");
+  if (!frames_dir.empty()) {
+    std::error_code ec;
+    if (std::filesystem::exists(frames_dir, ec)) return Fail("--frames " + frames_dir + ": exists already (give a new folder)");
+    const std::string parent = core::DirectoryOf(frames_dir);
+    if (!std::filesystem::is_directory(parent.empty() ? "." : parent, ec)) {
+      return Fail("--frames " + frames_dir + ": its folder does not exist");
+    }
+  }
   if (!udp && out_path.empty()) return Fail("--out is required with --track and --figure8");
   if (!udp) {
     const std::vector<std::pair<bool, const char*>> udp_only = {
@@ -252,6 +314,23 @@ int main(int argc, char** argv) {
 
   auto plan = sim::LoadPlanCsv(track_path, joints);
   if (!plan.ok()) return Fail(plan.status().message());
+  std::unique_ptr<sim::SensorRenderer> renderer;
+  sim::SensorConfig sensor = config->sensor;
+  if (!world_path.empty()) {
+    auto kind = sim::ParseSensorKind(sensor_name);
+    if (!kind.ok()) return Fail("--sensor: " + kind.status().message());
+    sensor.kind = *kind;
+    if (!sensor.mount_given) sensor.mount = sim::DefaultMount(sensor.kind);
+    if (robot->LinkIndex(sensor.link) < 0) {
+      return Fail(config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
+    }
+    auto world = scene::LoadPointCloud(world_path);
+    if (!world.ok()) return Fail(world.status().message());
+    if (world->points.empty()) return Fail("--world " + world_path + ": no finite points");
+    auto made = sim::SensorRenderer::Create(world->points, sensor, seed ^ 0x73656e73ull);
+    if (!made.ok()) return Fail(config_path + ": " + made.status().message());
+    renderer = std::move(*made);
+  }
   const auto start = std::chrono::steady_clock::now();
   sim::Simulator simulator(std::move(*model), seed);
   sim::TrackOptions options;
@@ -264,6 +343,13 @@ int main(int argc, char** argv) {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (core::Status s = core::WriteFileAtomically(out_path, sim::FlownCsv(result->samples, joints)); !s.ok()) {
     return Fail(s.message());
+  }
+  int frames = 0;
+  if (renderer != nullptr) {
+    if (core::Status s = WriteFrames(result->samples, *robot, sensor, renderer.get(), frames_dir, &frames); !s.ok()) {
+      return Fail(s.message());
+    }
+    if (!quiet) std::printf("sensor: %d %s frames of %s: %s\n", frames, sensor_name.c_str(), world_path.c_str(), frames_dir.c_str());
   }
   if (!quiet) {
     const sim::TrackingErrorStats& e = result->error;

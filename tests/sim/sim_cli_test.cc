@@ -7,6 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <sstream>
+
+#include "quadhand/scene/point_cloud.h"
+
 #include "support/run_command.h"
 
 namespace quadhand {
@@ -92,6 +96,62 @@ TEST_F(SimCliTest, TracksAShortPlan) {
   int files = 0;
   for (const auto& entry : fs::directory_iterator(dir_)) files += entry.is_regular_file();
   EXPECT_EQ(files, 3);
+}
+
+// What a depth camera on the vehicle sees of a hidden world while it flies
+// (docs/sim.md, "Sensors"): a frame per 1/rate of the record, each a PCD in
+// the sensor's frame, and frames.csv with each frame's time, file and pose;
+// every return, placed by its pose, lies on the world's wall.
+TEST_F(SimCliTest, WritesTheFramesASensorSeesAlongTheFlight) {
+  std::string wall = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
+  std::string rows;
+  int count = 0;
+  for (int j = -100; j <= 100; ++j) {
+    for (int k = 0; k <= 100; ++k) {
+      rows += "2.5 " + std::to_string(0.02 * j) + " " + std::to_string(0.02 * k) + "\n";
+      ++count;
+    }
+  }
+  wall += "WIDTH " + std::to_string(count) + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + std::to_string(count) +
+          "\nDATA ascii\n" + rows;
+  const std::string world = Write("wall.pcd", wall);
+  const std::string plan = ShortPlan();
+  const std::string frames = (dir_ / "frames").string(), out = (dir_ / "flown.csv").string();
+  const auto r = RunCommand(kSim + " --config " + kConfig + " --track " + plan + " --out " + out + " --world " + world +
+                            " --sensor depth --frames " + frames);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("sensor: 16 depth frames"), std::string::npos) << r.out;  // 0.5 s at 30 Hz, both ends
+  const std::string index = ReadAll(frames + "/frames.csv");
+  EXPECT_EQ(index.rfind("index,t,file,x,y,z,qw,qx,qy,qz\n", 0), 0u) << index;
+  EXPECT_EQ(CountLines(index), 17);
+  EXPECT_TRUE(fs::exists(frames + "/frame_000015.pcd"));
+  EXPECT_FALSE(fs::exists(frames + ".partial"));
+  // The first frame: its points, placed by its pose, on the wall at x = 2.5.
+  std::istringstream lines(index);
+  std::string line;
+  std::getline(lines, line);
+  std::getline(lines, line);
+  std::vector<double> pose;
+  std::stringstream cells(line);
+  std::string cell;
+  for (int c = 0; std::getline(cells, cell, ','); ++c) {
+    if (c >= 3) pose.push_back(std::stod(cell));
+  }
+  ASSERT_EQ(pose.size(), 7u);
+  const Pose sensor = MakePose(Vec3(pose[0], pose[1], pose[2]), Quat(pose[3], pose[4], pose[5], pose[6]).toRotationMatrix());
+  auto cloud = scene::LoadPcd(frames + "/frame_000000.pcd");
+  ASSERT_TRUE(cloud.ok()) << cloud.status().message();
+  ASSERT_GT(cloud->points.size(), 1000u);
+  // (Within 6 sigma of the depth noise there: 0.002 m at 1 m, times 2.5^2.)
+  for (const Vec3& p : cloud->points) EXPECT_NEAR((sensor * p).x(), 2.5, 0.08) << p.transpose();
+  // The folder is new: given again, it is refused, and nothing is written.
+  ExpectBadInput("--track " + plan + " --world " + world + " --sensor depth --frames " + frames, "exists already");
+  ExpectBadInput("--track " + plan + " --world " + world + " --sensor depth", "go together");
+  ExpectBadInput("--track " + plan + " --world " + world + " --sensor sonar --frames " + frames + "2", "--sensor");
+  ExpectBadInput("--track " + plan + " --world " + (dir_ / "missing.pcd").string() + " --sensor lidar --frames " +
+                     frames + "3",
+                 "missing.pcd");
+  EXPECT_FALSE(fs::exists(frames + "3"));
 }
 
 TEST_F(SimCliTest, WritesTheFigureEightPlan) {

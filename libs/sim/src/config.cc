@@ -167,7 +167,7 @@ Status ParseFaults(const Reader& f, FaultConfig* faults) {
 Status ParseInto(const YAML::Node& root, const std::string& base_dir, const std::string& source, SimConfig* c) {
   const Reader r(root, "", source);
   QUADHAND_RETURN_IF_ERROR(r.CheckKeys({"robot", "step", "gravity", "pcgc", "payload", "rotors", "linear_drag",
-                                        "servo", "controller", "noise", "faults", "failsafe"}));
+                                        "servo", "controller", "noise", "faults", "failsafe", "sensor"}));
   std::string robot;
   QUADHAND_RETURN_IF_ERROR(r.Get("robot", &robot));
   if (!robot.empty()) c->robot_path = core::ResolvePath(base_dir, robot);
@@ -234,6 +234,55 @@ Status ParseInto(const YAML::Node& root, const std::string& base_dir, const std:
     QUADHAND_RETURN_IF_ERROR(p.Get("velocity", &c->noise.velocity));
     QUADHAND_RETURN_IF_ERROR(p.Get("attitude", &c->noise.attitude));
     QUADHAND_RETURN_IF_ERROR(p.Get("body_rate", &c->noise.body_rate));
+  }
+  if (r.Has("sensor")) {
+    const Reader p = r.Child("sensor");
+    SensorConfig& sensor = c->sensor;
+    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"link", "mount", "splat_radius", "depth", "lidar"}));
+    QUADHAND_RETURN_IF_ERROR(p.Get("link", &sensor.link));
+    QUADHAND_RETURN_IF_ERROR(p.Get("splat_radius", &sensor.splat_radius));
+    if (p.Has("mount")) {
+      const Reader m = p.Child("mount");
+      QUADHAND_RETURN_IF_ERROR(m.CheckKeys({"position", "orientation"}));
+      Vec3 position = Vec3::Zero();
+      std::vector<double> q = {1.0, 0.0, 0.0, 0.0};
+      QUADHAND_RETURN_IF_ERROR(m.Get("position", &position));
+      QUADHAND_RETURN_IF_ERROR(m.Get("orientation", &q));
+      const Quat rotation(q.size() == 4 ? q[0] : 0.0, q.size() == 4 ? q[1] : 0.0, q.size() == 4 ? q[2] : 0.0,
+                          q.size() == 4 ? q[3] : 0.0);
+      if (q.size() != 4 || !(std::abs(rotation.norm() - 1.0) <= 1e-3)) {
+        return m.Invalid("orientation", "expected a unit quaternion [w, x, y, z]");
+      }
+      sensor.mount = MakePose(position, rotation.normalized().toRotationMatrix());
+      sensor.mount_given = true;
+    }
+    if (p.Has("depth")) {
+      const Reader d = p.Child("depth");
+      DepthCameraOptions& o = sensor.depth;
+      QUADHAND_RETURN_IF_ERROR(d.CheckKeys({"width", "height", "horizontal_fov_deg", "vertical_fov_deg", "min_range",
+                                            "max_range", "rate", "noise_at_1m"}));
+      QUADHAND_RETURN_IF_ERROR(d.Get("width", &o.width));
+      QUADHAND_RETURN_IF_ERROR(d.Get("height", &o.height));
+      QUADHAND_RETURN_IF_ERROR(d.Get("horizontal_fov_deg", &o.horizontal_fov_deg));
+      QUADHAND_RETURN_IF_ERROR(d.Get("vertical_fov_deg", &o.vertical_fov_deg));
+      QUADHAND_RETURN_IF_ERROR(d.Get("min_range", &o.min_range));
+      QUADHAND_RETURN_IF_ERROR(d.Get("max_range", &o.max_range));
+      QUADHAND_RETURN_IF_ERROR(d.Get("rate", &o.rate));
+      QUADHAND_RETURN_IF_ERROR(d.Get("noise_at_1m", &o.noise_at_1m));
+    }
+    if (p.Has("lidar")) {
+      const Reader l = p.Child("lidar");
+      LidarOptions& o = sensor.lidar;
+      QUADHAND_RETURN_IF_ERROR(l.CheckKeys({"channels", "vertical_fov_deg", "horizontal_resolution_deg", "min_range",
+                                            "max_range", "rate", "noise"}));
+      QUADHAND_RETURN_IF_ERROR(l.Get("channels", &o.channels));
+      QUADHAND_RETURN_IF_ERROR(l.Get("vertical_fov_deg", &o.vertical_fov_deg));
+      QUADHAND_RETURN_IF_ERROR(l.Get("horizontal_resolution_deg", &o.horizontal_resolution_deg));
+      QUADHAND_RETURN_IF_ERROR(l.Get("min_range", &o.min_range));
+      QUADHAND_RETURN_IF_ERROR(l.Get("max_range", &o.max_range));
+      QUADHAND_RETURN_IF_ERROR(l.Get("rate", &o.rate));
+      QUADHAND_RETURN_IF_ERROR(l.Get("noise", &o.noise));
+    }
   }
   if (r.Has("faults")) QUADHAND_RETURN_IF_ERROR(ParseFaults(r.Child("faults"), &c->faults));
   if (r.Has("failsafe")) {
@@ -318,6 +367,14 @@ bool SimConfig::IsValid(std::string* why) const {
   if (!in(failsafe.land_height, -1000.0, 1000.0)) return Fail(why, "failsafe.land_height must be in [-1000, 1000] m");
   // The joint count is the robot's: VehicleModel::Create checks the stalled
   // joint against it.
+  {
+    // Both sensors' options are checked: --sensor picks one of them.
+    SensorConfig depth = sensor, lidar = sensor;
+    depth.kind = SensorKind::kDepth;
+    lidar.kind = SensorKind::kLidar;
+    std::string sensor_why;
+    if (!depth.IsValid(&sensor_why) || !lidar.IsValid(&sensor_why)) return Fail(why, "sensor." + sensor_why);
+  }
   return faults.IsValid(1 << 20, why);
 }
 

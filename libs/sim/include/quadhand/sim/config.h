@@ -9,6 +9,7 @@
 #include "quadhand/core/status.h"
 #include "quadhand/core/types.h"
 #include "quadhand/sim/faults.h"
+#include "quadhand/sim/sensor.h"
 
 namespace quadhand::sim {
 
@@ -104,6 +105,7 @@ struct SimConfig {
   NoiseConfig noise;
   FaultConfig faults;  // faults.h; none by default
   FailsafeConfig failsafe;
+  SensorConfig sensor;  // sensor.h: what quadhand-sim --sensor renders
 
   // Checks ranges; `why` (optional) names the first bad key.
   bool IsValid(std::string* why) const;

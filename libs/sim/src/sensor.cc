@@ -1,0 +1,216 @@
+#include "quadhand/sim/sensor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "quadhand/core/text.h"
+#include "quadhand/scene/point_grid.h"
+
+namespace quadhand::sim {
+namespace {
+
+constexpr double kDegree = M_PI / 180.0;
+
+bool Fail(std::string* why, const std::string& message) {
+  if (why != nullptr) *why = message;
+  return false;
+}
+
+bool In(double x, double lo, double hi) { return std::isfinite(x) && x >= lo && x <= hi; }
+
+}  // namespace
+
+bool DepthCameraOptions::IsValid(std::string* why) const {
+  if (width < 1 || width > 8192 || height < 1 || height > 8192) {
+    return Fail(why, "depth.width and depth.height must be in [1, 8192] pixels");
+  }
+  if (!In(horizontal_fov_deg, 1.0, 170.0) || !In(vertical_fov_deg, 1.0, 170.0)) {
+    return Fail(why, "depth.horizontal_fov_deg and depth.vertical_fov_deg must be in [1, 170] degrees");
+  }
+  if (!In(min_range, 0.01, 1000.0) || !In(max_range, 0.01, 1000.0) || !(min_range < max_range)) {
+    return Fail(why, "depth.min_range and depth.max_range must be in [0.01, 1000] m, min below max");
+  }
+  if (!In(rate, 0.1, 1000.0)) return Fail(why, "depth.rate must be in [0.1, 1000] Hz");
+  if (!In(noise_at_1m, 0.0, 1.0)) return Fail(why, "depth.noise_at_1m must be in [0, 1] m");
+  return true;
+}
+
+bool LidarOptions::IsValid(std::string* why) const {
+  if (channels < 1 || channels > 1024) return Fail(why, "lidar.channels must be in [1, 1024]");
+  if (!In(vertical_fov_deg, 0.0, 180.0)) return Fail(why, "lidar.vertical_fov_deg must be in [0, 180] degrees");
+  if (channels > 1 && !(vertical_fov_deg > 0.0)) return Fail(why, "lidar.vertical_fov_deg must be positive with several channels");
+  if (!In(horizontal_resolution_deg, 0.01, 90.0)) {
+    return Fail(why, "lidar.horizontal_resolution_deg must be in [0.01, 90] degrees");
+  }
+  if (!In(min_range, 0.01, 1000.0) || !In(max_range, 0.01, 1000.0) || !(min_range < max_range)) {
+    return Fail(why, "lidar.min_range and lidar.max_range must be in [0.01, 1000] m, min below max");
+  }
+  if (!In(rate, 0.1, 1000.0)) return Fail(why, "lidar.rate must be in [0.1, 1000] Hz");
+  if (!In(noise, 0.0, 1.0)) return Fail(why, "lidar.noise must be in [0, 1] m");
+  return true;
+}
+
+bool SensorConfig::IsValid(std::string* why) const {
+  if (kind == SensorKind::kDepth && !depth.IsValid(why)) return false;
+  if (kind == SensorKind::kLidar && !lidar.IsValid(why)) return false;
+  if (link.empty()) return Fail(why, "link must name a link of the robot");
+  if (!mount.matrix().allFinite()) return Fail(why, "mount must be finite");
+  if (!In(splat_radius, 1e-4, 1.0)) return Fail(why, "splat_radius must be in [0.0001, 1] m");
+  return true;
+}
+
+Pose DefaultMount(SensorKind kind) {
+  Mat3 rotation = Mat3::Identity();
+  if (kind == SensorKind::kDepth) {
+    // Columns: the camera's x, y, z in the link's frame.
+    rotation << 0.0, 0.0, 1.0,  //
+        -1.0, 0.0, 0.0,         //
+        0.0, -1.0, 0.0;
+  }
+  return MakePose(Vec3(0.1, 0.0, 0.0), rotation);
+}
+
+core::Result<SensorKind> ParseSensorKind(const std::string& name) {
+  if (name == "depth") return SensorKind::kDepth;
+  if (name == "lidar") return SensorKind::kLidar;
+  return core::Status::InvalidArgument("sensor: expected depth or lidar, not '" + name + "'");
+}
+
+struct SensorRenderer::Impl {
+  SensorConfig config;
+  scene::PointGrid world;
+  std::mt19937_64 rng;
+  std::vector<float> nearest;  // per pixel or beam: the nearest return, m (infinity: none)
+  Impl(const std::vector<Vec3>& points, const SensorConfig& c, std::uint64_t seed)
+      : config(c), world(points, 0.25), rng(seed) {}
+
+  std::vector<Vec3> RenderDepth(const Pose& sensor_in_world);
+  std::vector<Vec3> RenderLidar(const Pose& sensor_in_world);
+};
+
+SensorRenderer::SensorRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+SensorRenderer::~SensorRenderer() = default;
+
+const SensorConfig& SensorRenderer::config() const { return impl_->config; }
+
+core::Result<std::unique_ptr<SensorRenderer>> SensorRenderer::Create(const std::vector<Vec3>& world,
+                                                                     const SensorConfig& config, std::uint64_t seed) {
+  if (std::string why; !config.IsValid(&why)) return core::Status::InvalidArgument("sensor: " + why);
+  if (world.empty()) return core::Status::InvalidArgument("sensor: the world has no points");
+  for (const Vec3& p : world) {
+    if (!p.allFinite()) return core::Status::InvalidArgument("sensor: the world has a non-finite point");
+  }
+  return std::unique_ptr<SensorRenderer>(new SensorRenderer(std::make_unique<Impl>(world, config, seed)));
+}
+
+std::vector<Vec3> SensorRenderer::Render(const Pose& sensor_in_world) {
+  return impl_->config.kind == SensorKind::kDepth ? impl_->RenderDepth(sensor_in_world)
+                                                  : impl_->RenderLidar(sensor_in_world);
+}
+
+std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world) {
+  const DepthCameraOptions& o = config.depth;
+  const double fx = 0.5 * o.width / std::tan(0.5 * o.horizontal_fov_deg * kDegree);
+  const double fy = 0.5 * o.height / std::tan(0.5 * o.vertical_fov_deg * kDegree);
+  const double cx = 0.5 * o.width, cy = 0.5 * o.height;
+  const float none = std::numeric_limits<float>::infinity();
+  nearest.assign(static_cast<size_t>(o.width) * o.height, none);
+  const Pose world_to_sensor = sensor_in_world.inverse();
+  const Vec3 reach = Vec3::Constant(o.max_range + config.splat_radius);
+  const double splat = config.splat_radius;
+  world.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
+    const Vec3 q = world_to_sensor * p;
+    const double z = q.z();
+    if (!(z >= o.min_range && z <= o.max_range)) return;
+    // The point's disc, facing the camera, covers a square of half-width r
+    // pixels about its projection (a circle: the corners are dropped).
+    const double u = cx + fx * q.x() / z, v = cy + fy * q.y() / z;
+    const double ru = fx * splat / z, rv = fy * splat / z;
+    const int u0 = std::max(0, static_cast<int>(std::floor(u - ru))), u1 = std::min(o.width - 1, static_cast<int>(std::floor(u + ru)));
+    const int v0 = std::max(0, static_cast<int>(std::floor(v - rv))), v1 = std::min(o.height - 1, static_cast<int>(std::floor(v + rv)));
+    for (int row = v0; row <= v1; ++row) {
+      const double dv = (row + 0.5 - v) / rv;
+      for (int col = u0; col <= u1; ++col) {
+        const double du = (col + 0.5 - u) / ru;
+        if (du * du + dv * dv > 1.0) continue;
+        float& depth = nearest[static_cast<size_t>(row) * o.width + col];
+        depth = std::min(depth, static_cast<float>(z));
+      }
+    }
+  });
+  std::normal_distribution<double> unit(0.0, 1.0);
+  std::vector<Vec3> points;
+  for (int row = 0; row < o.height; ++row) {
+    for (int col = 0; col < o.width; ++col) {
+      const float depth = nearest[static_cast<size_t>(row) * o.width + col];
+      if (depth == none) continue;
+      const double z = depth + o.noise_at_1m * depth * depth * unit(rng);
+      if (!(z > 0.0)) continue;
+      points.emplace_back((col + 0.5 - cx) / fx * z, (row + 0.5 - cy) / fy * z, z);
+    }
+  }
+  return points;
+}
+
+std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world) {
+  const LidarOptions& o = config.lidar;
+  const int columns = std::max(1, static_cast<int>(std::lround(360.0 / o.horizontal_resolution_deg)));
+  const double column_step = 2.0 * M_PI / columns;
+  const double low = -0.5 * o.vertical_fov_deg * kDegree;
+  const double channel_step = o.channels > 1 ? o.vertical_fov_deg * kDegree / (o.channels - 1) : 0.0;
+  const float none = std::numeric_limits<float>::infinity();
+  nearest.assign(static_cast<size_t>(o.channels) * columns, none);
+  const Pose world_to_sensor = sensor_in_world.inverse();
+  const Vec3 reach = Vec3::Constant(o.max_range + config.splat_radius);
+  world.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
+    const Vec3 q = world_to_sensor * p;
+    const double range = q.norm();
+    if (!(range >= o.min_range && range <= o.max_range)) return;
+    // The disc's angular radius about the point's direction: the beams
+    // within it hit it.
+    const double spread = std::asin(std::min(1.0, config.splat_radius / range));
+    const double azimuth = std::atan2(q.y(), q.x()), elevation = std::asin(q.z() / range);
+    int c0 = 0, c1 = 0;
+    if (o.channels > 1) {
+      c0 = std::max(0, static_cast<int>(std::ceil((elevation - spread - low) / channel_step)));
+      c1 = std::min(o.channels - 1, static_cast<int>(std::floor((elevation + spread - low) / channel_step)));
+    } else if (std::abs(elevation) > spread) {
+      return;
+    }
+    const double horizontal = std::min(M_PI, spread / std::max(1e-9, std::cos(elevation)));
+    const int a0 = static_cast<int>(std::ceil((azimuth - horizontal) / column_step));
+    const int a1 = static_cast<int>(std::floor((azimuth + horizontal) / column_step));
+    for (int channel = c0; channel <= c1; ++channel) {
+      const double beam_elevation = low + channel * channel_step;
+      for (int a = a0; a <= a1; ++a) {
+        const double beam_azimuth = a * column_step;
+        // The angle between the beam and the point's direction.
+        const Vec3 beam(std::cos(beam_elevation) * std::cos(beam_azimuth),
+                        std::cos(beam_elevation) * std::sin(beam_azimuth), std::sin(beam_elevation));
+        if (beam.dot(q) < range * std::cos(spread)) continue;
+        const int column = ((a % columns) + columns) % columns;
+        float& hit = nearest[static_cast<size_t>(channel) * columns + column];
+        hit = std::min(hit, static_cast<float>(range));
+      }
+    }
+  });
+  std::normal_distribution<double> unit(0.0, 1.0);
+  std::vector<Vec3> points;
+  for (int channel = 0; channel < o.channels; ++channel) {
+    const double elevation = low + channel * channel_step;
+    for (int column = 0; column < columns; ++column) {
+      const float hit = nearest[static_cast<size_t>(channel) * columns + column];
+      if (hit == none) continue;
+      const double range = hit + o.noise * unit(rng);
+      if (!(range > 0.0)) continue;
+      const double azimuth = column * column_step;
+      points.emplace_back(range * std::cos(elevation) * std::cos(azimuth),
+                          range * std::cos(elevation) * std::sin(azimuth), range * std::sin(elevation));
+    }
+  }
+  return points;
+}
+
+}  // namespace quadhand::sim
