@@ -1,0 +1,68 @@
+// The rolling map's costs (docs/perception.md, "The rolling map"): one
+// depth frame of 30,000 returns into the map (the target: <= 5 ms),
+// at two resolutions, and moving the window. The frame is a depth camera's
+// (87 x 58 degrees, returns 1-6 m away on a field of posts and a floor),
+// from an origin that moves 2 cm per frame as a flight's does.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+
+#include "quadhand/perception/rolling_map.h"
+
+namespace {
+
+using quadhand::Vec3;
+using quadhand::perception::RollingMap;
+using quadhand::perception::RollingMapOptions;
+
+// 30,000 returns: directions spread over the camera's view along +x, each
+// at a depth drawn in [1, 6] m (posts at random ranges), seeded.
+std::vector<Vec3> Frame(const Vec3& origin, std::mt19937_64* rng) {
+  std::uniform_real_distribution<double> azimuth(-43.5, 43.5), elevation(-29.0, 29.0), depth(1.0, 6.0);
+  std::vector<Vec3> points;
+  points.reserve(30000);
+  constexpr double kDegree = M_PI / 180.0;
+  for (int n = 0; n < 30000; ++n) {
+    const double a = azimuth(*rng) * kDegree, e = elevation(*rng) * kDegree, d = depth(*rng);
+    points.push_back(origin + d * Vec3(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e)));
+  }
+  return points;
+}
+
+void BM_InsertFrame(benchmark::State& state) {
+  RollingMapOptions options;
+  options.resolution = state.range(0) / 100.0;
+  auto map = RollingMap::Create(options);
+  std::mt19937_64 rng(1);
+  Vec3 origin(0.0, 0.0, 1.2);
+  std::vector<std::vector<Vec3>> frames;
+  for (int k = 0; k < 16; ++k) frames.push_back(Frame(origin + Vec3(0.02 * k, 0.0, 0.0), &rng));
+  int k = 0;
+  for (auto _ : state) {
+    const Vec3 at = origin + Vec3(0.02 * (k % 16), 0.0, 0.0);
+    benchmark::DoNotOptimize((*map)->Insert(frames[k % 16], at));
+    ++k;
+  }
+  state.counters["known_voxels"] = static_cast<double>((*map)->num_known_voxels());
+  state.counters["memory_MB"] = static_cast<double>((*map)->memory_bytes()) / 1e6;
+}
+BENCHMARK(BM_InsertFrame)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond);
+
+void BM_MoveWindow(benchmark::State& state) {
+  RollingMapOptions options;
+  auto map = RollingMap::Create(options);
+  std::mt19937_64 rng(2);
+  for (int k = 0; k < 30; ++k) (void)(*map)->Insert(Frame(Vec3(0.3 * k, 0.0, 1.2), &rng), Vec3(0.3 * k, 0.0, 1.2));
+  double x = 0.0;
+  for (auto _ : state) {
+    (*map)->MoveWindow(Vec3(x, 0.0, 1.2));
+    x += 0.01;
+  }
+  state.counters["known_voxels"] = static_cast<double>((*map)->num_known_voxels());
+}
+BENCHMARK(BM_MoveWindow)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
