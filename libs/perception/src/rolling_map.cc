@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <unordered_map>
-
-#include <octomap/OcTree.h>
 
 namespace quadhand::perception {
 namespace {
@@ -16,8 +16,15 @@ bool Fail(std::string* why, const std::string& message) {
 
 bool In(double x, double lo, double hi) { return std::isfinite(x) && x >= lo && x <= hi; }
 
-octomap::point3d ToOcto(const Vec3& p) {
-  return octomap::point3d(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+// Log-odds are kept as 8-bit integers of this many units per nat, clamped
+// as OctoMap clamps them (probabilities 0.1192 and 0.971: -2 and 3.5 nats),
+// so a voxel seen often changes its mind in a bounded number of frames.
+constexpr double kUnitsPerNat = 20.0;
+constexpr int kClampLow = -40, kClampHigh = 70;
+constexpr std::int8_t kUnknown = -128;
+
+int LogOddsUnits(double probability) {
+  return static_cast<int>(std::lround(std::log(probability / (1.0 - probability)) * kUnitsPerNat));
 }
 
 }  // namespace
@@ -28,38 +35,74 @@ bool RollingMapOptions::IsValid(std::string* why) const {
       (window_half_extent.array() > 1e4).any()) {
     return Fail(why, "window_half_extent must be in [resolution, 10000] m on every axis");
   }
-  if (!In(max_range, resolution, 1e4)) return Fail(why, "max_range must be in [resolution, 10000] m");
-  if (!In(probability_hit, 0.5, 1.0) || !(probability_hit < 1.0)) return Fail(why, "probability_hit must be in (0.5, 1)");
-  if (!In(probability_miss, 0.0, 0.5) || !(probability_miss > 0.0) || !(probability_miss < 0.5)) {
-    return Fail(why, "probability_miss must be in (0, 0.5)");
+  // The window is a dense ring of voxels: 2^28 of them at most (256 MB).
+  const Eigen::Array3d cells = (2.0 * window_half_extent.array() / resolution).ceil() + 1.0;
+  if (cells.prod() > static_cast<double>(1 << 28)) {
+    return Fail(why, "the window holds more than 2^28 voxels: raise resolution or shrink window_half_extent");
   }
-  if (!In(occupied_threshold, 0.0, 1.0) || !(occupied_threshold > 0.0 && occupied_threshold < 1.0)) {
-    return Fail(why, "occupied_threshold must be in (0, 1)");
+  if (!In(max_range, resolution, 1e4)) return Fail(why, "max_range must be in [resolution, 10000] m");
+  if (!(probability_hit > 0.5 && probability_hit < 0.99)) return Fail(why, "probability_hit must be in (0.5, 0.99)");
+  if (!(probability_miss > 0.01 && probability_miss < 0.5)) return Fail(why, "probability_miss must be in (0.01, 0.5)");
+  if (!(occupied_threshold > 0.12 && occupied_threshold < 0.97)) {
+    return Fail(why, "occupied_threshold must be in (0.12, 0.97)");
   }
   if (max_points_per_voxel < 1 || max_points_per_voxel > 1000) return Fail(why, "max_points_per_voxel must be in [1, 1000]");
   return true;
 }
 
+// The window is a dense ring of voxels over global voxel indices
+// [low, low + dims): voxel (i, j, k) lives in cell (i mod nx, j mod ny,
+// k mod nz), so moving the window clears only the slabs that leave it.
 struct RollingMap::Impl {
-  explicit Impl(const RollingMapOptions& o) : options(o), tree(o.resolution) {
-    tree.setProbHit(o.probability_hit);
-    tree.setProbMiss(o.probability_miss);
-    tree.setOccupancyThres(o.occupied_threshold);
+  explicit Impl(const RollingMapOptions& o) : options(o) {
+    for (int a = 0; a < 3; ++a) dims[a] = static_cast<int>(std::ceil(2.0 * o.window_half_extent[a] / o.resolution)) + 1;
+    cells.assign(static_cast<size_t>(dims.x()) * dims.y() * dims.z(), kUnknown);
+    marks.assign(cells.size(), 0);
+    hit = LogOddsUnits(o.probability_hit);
+    miss = LogOddsUnits(o.probability_miss);
+    threshold = LogOddsUnits(o.occupied_threshold);
+    low = LowFor(Vec3::Zero());
   }
-  bool InWindow(const Vec3& p) const {
-    return ((p - centre).cwiseAbs().array() <= options.window_half_extent.array()).all();
+
+  Eigen::Vector3i LowFor(const Vec3& c) const {
+    Eigen::Vector3i l;
+    for (int a = 0; a < 3; ++a) l[a] = static_cast<int>(std::floor(c[a] / options.resolution)) - dims[a] / 2;
+    return l;
   }
-  bool Occupied(const octomap::OcTreeKey& key) const {
-    const octomap::OcTreeNode* node = tree.search(key);
-    return node != nullptr && tree.isNodeOccupied(node);
+  Eigen::Vector3i VoxelOf(const Vec3& p) const {
+    return (p / options.resolution).array().floor().cast<int>().matrix();
+  }
+  bool Inside(const Eigen::Vector3i& v) const {
+    return ((v - low).array() >= 0).all() && ((v - low).array() < dims.array()).all();
+  }
+  static int Mod(int a, int n) { return ((a % n) + n) % n; }
+  size_t Cell(const Eigen::Vector3i& v) const {
+    return (static_cast<size_t>(Mod(v.x(), dims.x())) * dims.y() + Mod(v.y(), dims.y())) * dims.z() + Mod(v.z(), dims.z());
+  }
+  static std::int64_t Key(const Eigen::Vector3i& v) {
+    return (static_cast<std::int64_t>(v.x() & 0x1fffff) << 42) | (static_cast<std::int64_t>(v.y() & 0x1fffff) << 21) |
+           static_cast<std::int64_t>(v.z() & 0x1fffff);
+  }
+  bool Occupied(const Eigen::Vector3i& v) const {
+    if (!Inside(v)) return false;
+    const std::int8_t value = cells[Cell(v)];
+    return value != kUnknown && value > threshold;
+  }
+  void Update(size_t cell, int delta) {
+    const int before = cells[cell] == kUnknown ? 0 : cells[cell];
+    cells[cell] = static_cast<std::int8_t>(std::clamp(before + delta, kClampLow, kClampHigh));
   }
 
   RollingMapOptions options;
-  octomap::OcTree tree;
+  Eigen::Vector3i dims = Eigen::Vector3i::Ones(), low = Eigen::Vector3i::Zero();
   Vec3 centre = Vec3::Zero();
-  // The raw returns of each voxel a return ended in (occupied, or until a
-  // later frame frees it), at most max_points_per_voxel, the newest kept.
-  std::unordered_map<octomap::OcTreeKey, std::vector<Vec3>, octomap::OcTreeKey::KeyHash> raw;
+  std::vector<std::int8_t> cells;
+  // A frame's marks (1: an end voxel, 2: crossed), cleared after it: each
+  // voxel is updated once per frame, and an end voxel is never also missed.
+  std::vector<std::uint8_t> marks;
+  std::vector<size_t> touched;
+  int hit = 0, miss = 0, threshold = 0;
+  std::unordered_map<std::int64_t, std::vector<Vec3>> raw;  // by voxel key: the newest returns there
   long frames = 0;
   long dropped = 0;
 };
@@ -75,30 +118,89 @@ core::Result<std::unique_ptr<RollingMap>> RollingMap::Create(const RollingMapOpt
 core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& origin) {
   Impl& m = *impl_;
   if (!origin.allFinite()) return core::Status::InvalidArgument("rolling map: a frame's sensor origin is not finite");
-  octomap::Pointcloud cloud;
-  cloud.reserve(points.size());
-  std::vector<const Vec3*> near;
-  near.reserve(points.size());
+  const double res = m.options.resolution;
+  const size_t cap = static_cast<size_t>(m.options.max_points_per_voxel);
+  // End voxels first: each once, and never missed in this frame.
+  std::vector<std::pair<Vec3, bool>> rays;  // the ray's far end, and whether it ends in a return
+  rays.reserve(points.size());
   for (const Vec3& p : points) {
     if (!p.allFinite()) {
       ++m.dropped;
       continue;
     }
-    cloud.push_back(ToOcto(p));
-    if ((p - origin).norm() <= m.options.max_range) near.push_back(&p);
-  }
-  // discretize: one ray per end voxel (a frame's many returns per voxel
-  // would cast the same ray again and again).
-  m.tree.insertPointCloud(cloud, ToOcto(origin), m.options.max_range, /*lazy_eval=*/false, /*discretize=*/true);
-  const size_t cap = static_cast<size_t>(m.options.max_points_per_voxel);
-  for (const Vec3* p : near) {
-    std::vector<Vec3>& kept = m.raw[m.tree.coordToKey(ToOcto(*p))];
+    const double range = (p - origin).norm();
+    if (range > m.options.max_range) {
+      rays.emplace_back(origin + (p - origin) * (m.options.max_range / range), false);
+      continue;
+    }
+    const Eigen::Vector3i v = m.VoxelOf(p);
+    if (!m.Inside(v)) continue;
+    const size_t cell = m.Cell(v);
+    std::vector<Vec3>& kept = m.raw[Impl::Key(v)];
     if (kept.size() < cap) {
-      kept.push_back(*p);
+      kept.push_back(p);
     } else {
-      kept[static_cast<size_t>(m.frames) % cap] = *p;
+      kept[static_cast<size_t>(m.frames) % cap] = p;
+    }
+    if (m.marks[cell] == 1) continue;  // this voxel's ray is cast already
+    m.marks[cell] = 1;
+    m.touched.push_back(cell);
+    rays.emplace_back(p, true);
+  }
+  for (size_t cell : m.touched) m.Update(cell, m.hit);
+  // Each ray's voxels before its end, by a voxel walk (Amanatides and Woo).
+  for (const auto& [end, returned] : rays) {
+    Eigen::Vector3i v = m.VoxelOf(origin);
+    const Eigen::Vector3i last = m.VoxelOf(end);
+    const Vec3 d = end - origin;
+    Eigen::Vector3i step;
+    Vec3 t_max, t_delta;
+    for (int a = 0; a < 3; ++a) {
+      step[a] = d[a] > 0.0 ? 1 : (d[a] < 0.0 ? -1 : 0);
+      if (step[a] == 0) {
+        t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
+        continue;
+      }
+      const double boundary = (v[a] + (step[a] > 0 ? 1 : 0)) * res;
+      t_max[a] = (boundary - origin[a]) / d[a];
+      t_delta[a] = res / std::abs(d[a]);
+    }
+    // At most the voxels a straight line crosses between the two. The
+    // voxel's place in the window and in the ring move with it (no
+    // division per step).
+    const int limit = (last - v).cwiseAbs().sum() + 1;
+    Eigen::Vector3i rel = v - m.low, ring;
+    for (int a = 0; a < 3; ++a) ring[a] = Impl::Mod(v[a], m.dims[a]);
+    for (int n = 0; n < limit && v != last; ++n) {
+      if ((rel.array() >= 0).all() && (rel.array() < m.dims.array()).all()) {
+        const size_t cell = (static_cast<size_t>(ring.x()) * m.dims.y() + ring.y()) * m.dims.z() + ring.z();
+        if (m.marks[cell] == 0) {
+          m.marks[cell] = 2;
+          m.touched.push_back(cell);
+          m.Update(cell, m.miss);
+        }
+      }
+      int axis = 0;
+      if (t_max[1] < t_max[axis]) axis = 1;
+      if (t_max[2] < t_max[axis]) axis = 2;
+      v[axis] += step[axis];
+      rel[axis] += step[axis];
+      ring[axis] += step[axis];
+      if (ring[axis] == m.dims[axis]) ring[axis] = 0;
+      if (ring[axis] < 0) ring[axis] = m.dims[axis] - 1;
+      t_max[axis] += t_delta[axis];
+    }
+    if (!returned && m.Inside(last)) {  // a ray cut at max_range: its last voxel is crossed, not hit
+      const size_t cell = m.Cell(last);
+      if (m.marks[cell] == 0) {
+        m.marks[cell] = 2;
+        m.touched.push_back(cell);
+        m.Update(cell, m.miss);
+      }
     }
   }
+  for (size_t cell : m.touched) m.marks[cell] = 0;
+  m.touched.clear();
   ++m.frames;
   return core::Status::Ok();
 }
@@ -106,38 +208,34 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
 void RollingMap::MoveWindow(const Vec3& centre) {
   Impl& m = *impl_;
   if (!centre.allFinite()) return;
-  m.centre = centre;
-  // The tree is rebuilt from its leaves inside the window (their log-odds
-  // as they are; a pruned leaf, a cube of equal voxels, by its voxels
-  // inside): what left the window is gone, not merely hidden.
-  octomap::OcTree kept(m.options.resolution);
-  kept.setProbHit(m.options.probability_hit);
-  kept.setProbMiss(m.options.probability_miss);
-  kept.setOccupancyThres(m.options.occupied_threshold);
-  const unsigned max_depth = m.tree.getTreeDepth();
-  for (auto leaf = m.tree.begin_leafs(), end = m.tree.end_leafs(); leaf != end; ++leaf) {
-    const float log_odds = leaf->getLogOdds();
-    if (leaf.getDepth() == max_depth) {
-      const octomap::point3d c = leaf.getCoordinate();
-      if (m.InWindow(Vec3(c.x(), c.y(), c.z()))) kept.setNodeValue(leaf.getKey(), log_odds, /*lazy_eval=*/true);
-      continue;
-    }
-    const double half = 0.5 * leaf.getSize(), step = m.options.resolution;
-    const octomap::point3d c = leaf.getCoordinate();
-    for (double x = c.x() - half + 0.5 * step; x < c.x() + half; x += step) {
-      for (double y = c.y() - half + 0.5 * step; y < c.y() + half; y += step) {
-        for (double z = c.z() - half + 0.5 * step; z < c.z() + half; z += step) {
-          if (m.InWindow(Vec3(x, y, z))) kept.setNodeValue(ToOcto(Vec3(x, y, z)), log_odds, /*lazy_eval=*/true);
+  const Eigen::Vector3i low = m.LowFor(centre);
+  // The voxels of the old window outside the new one are cleared: slab by
+  // slab along each axis (all of it when the shift is the window's size).
+  for (int a = 0; a < 3; ++a) {
+    const int shift = low[a] - m.low[a];
+    if (shift == 0) continue;
+    const int count = std::min(std::abs(shift), m.dims[a]);
+    for (int s = 0; s < count; ++s) {
+      // The global index leaving along axis a.
+      const int leaving = shift > 0 ? m.low[a] + s : m.low[a] + m.dims[a] - 1 - s;
+      const int ring = Impl::Mod(leaving, m.dims[a]);
+      const int b = (a + 1) % 3, c = (a + 2) % 3;
+      for (int i = 0; i < m.dims[b]; ++i) {
+        for (int j = 0; j < m.dims[c]; ++j) {
+          Eigen::Vector3i idx;
+          idx[a] = ring;
+          idx[b] = i;
+          idx[c] = j;
+          m.cells[(static_cast<size_t>(idx.x()) * m.dims.y() + idx.y()) * m.dims.z() + idx.z()] = kUnknown;
         }
       }
     }
+    m.low[a] = low[a];
   }
-  kept.updateInnerOccupancy();
-  kept.prune();
-  m.tree.swapContent(kept);
+  m.centre = centre;
   for (auto it = m.raw.begin(); it != m.raw.end();) {
-    const octomap::point3d c = m.tree.keyToCoord(it->first);
-    if (!m.InWindow(Vec3(c.x(), c.y(), c.z())) || !m.Occupied(it->first)) {
+    const Eigen::Vector3i v = it->second.empty() ? Eigen::Vector3i::Zero() : m.VoxelOf(it->second.front());
+    if (it->second.empty() || !m.Occupied(v)) {
       it = m.raw.erase(it);
     } else {
       ++it;
@@ -147,20 +245,20 @@ void RollingMap::MoveWindow(const Vec3& centre) {
 
 VoxelState RollingMap::State(const Vec3& p) const {
   const Impl& m = *impl_;
-  if (!p.allFinite() || !m.InWindow(p)) return VoxelState::kUnknown;
-  const octomap::OcTreeNode* node = m.tree.search(ToOcto(p));
-  if (node == nullptr) return VoxelState::kUnknown;
-  return m.tree.isNodeOccupied(node) ? VoxelState::kOccupied : VoxelState::kFree;
+  if (!p.allFinite()) return VoxelState::kUnknown;
+  const Eigen::Vector3i v = m.VoxelOf(p);
+  if (!m.Inside(v)) return VoxelState::kUnknown;
+  const std::int8_t value = m.cells[m.Cell(v)];
+  if (value == kUnknown) return VoxelState::kUnknown;
+  return value > m.threshold ? VoxelState::kOccupied : VoxelState::kFree;
 }
 
 std::vector<Vec3> RollingMap::OccupiedPoints() const {
   const Impl& m = *impl_;
   std::vector<Vec3> points;
   for (const auto& [key, kept] : m.raw) {
-    if (!m.Occupied(key)) continue;
-    for (const Vec3& p : kept) {
-      if (m.InWindow(p)) points.push_back(p);
-    }
+    if (kept.empty() || !m.Occupied(m.VoxelOf(kept.front()))) continue;
+    points.insert(points.end(), kept.begin(), kept.end());
   }
   return points;
 }
@@ -169,20 +267,13 @@ std::vector<Vec3> RollingMap::UnknownVoxelCentres(const Vec3& lo, const Vec3& hi
   const Impl& m = *impl_;
   std::vector<Vec3> centres;
   if (!lo.allFinite() || !hi.allFinite()) return centres;
-  const Vec3 from = lo.cwiseMax(m.centre - m.options.window_half_extent);
-  const Vec3 to = hi.cwiseMin(m.centre + m.options.window_half_extent);
-  if ((from.array() > to.array()).any()) return centres;
-  const octomap::OcTreeKey first = m.tree.coordToKey(ToOcto(from)), last = m.tree.coordToKey(ToOcto(to));
-  octomap::OcTreeKey key;
-  for (unsigned i = first[0]; i <= last[0]; ++i) {
-    key[0] = static_cast<octomap::key_type>(i);
-    for (unsigned j = first[1]; j <= last[1]; ++j) {
-      key[1] = static_cast<octomap::key_type>(j);
-      for (unsigned k = first[2]; k <= last[2]; ++k) {
-        key[2] = static_cast<octomap::key_type>(k);
-        if (m.tree.search(key) != nullptr) continue;
-        const octomap::point3d c = m.tree.keyToCoord(key);
-        centres.emplace_back(c.x(), c.y(), c.z());
+  const Eigen::Vector3i first = m.VoxelOf(lo).cwiseMax(m.low), last = m.VoxelOf(hi).cwiseMin(m.low + m.dims - Eigen::Vector3i::Ones());
+  const double res = m.options.resolution;
+  for (int i = first.x(); i <= last.x(); ++i) {
+    for (int j = first.y(); j <= last.y(); ++j) {
+      for (int k = first.z(); k <= last.z(); ++k) {
+        const Eigen::Vector3i v(i, j, k);
+        if (m.cells[m.Cell(v)] == kUnknown) centres.push_back((v.cast<double>().array() + 0.5).matrix() * res);
       }
     }
   }
@@ -193,11 +284,15 @@ const RollingMapOptions& RollingMap::options() const { return impl_->options; }
 Vec3 RollingMap::window_centre() const { return impl_->centre; }
 long RollingMap::frames() const { return impl_->frames; }
 long RollingMap::dropped_points() const { return impl_->dropped; }
-size_t RollingMap::num_known_voxels() const { return impl_->tree.getNumLeafNodes(); }
+
+size_t RollingMap::num_known_voxels() const {
+  return static_cast<size_t>(std::count_if(impl_->cells.begin(), impl_->cells.end(),
+                                           [](std::int8_t value) { return value != kUnknown; }));
+}
 
 size_t RollingMap::memory_bytes() const {
   const Impl& m = *impl_;
-  size_t bytes = m.tree.memoryUsage();
+  size_t bytes = m.cells.size() * (sizeof(std::int8_t) + sizeof(std::uint8_t)) + m.touched.capacity() * sizeof(size_t);
   for (const auto& entry : m.raw) bytes += sizeof(entry) + entry.second.capacity() * sizeof(Vec3);
   return bytes;
 }
