@@ -24,7 +24,9 @@
 #include "quadhand/link/udp.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/robot_model.h"
+#include "quadhand/planner/task.h"
 #include "quadhand/scene/point_cloud.h"
+#include "quadhand/scene/scans.h"
 #include "quadhand/sim/sensor.h"
 #include "quadhand/sim/autopilot.h"
 #include "quadhand/sim/config.h"
@@ -103,7 +105,8 @@ int main(int argc, char** argv) {
   sim::FigureEightOptions eight;
   app.add_option("--track", track_path, "Plan file to fly (CSV, contracts.md)");
   std::string world_path, sensor_name, frames_dir;
-  app.add_option("--world", world_path, "--track: the hidden true scene a sensor sees (PCD or PLY, world frame)");
+  app.add_option("--world", world_path, "--track: the hidden true scene a sensor sees: a PCD or PLY cloud (world frame), "
+                                        "or a task file (YAML) whose scene: it is");
   app.add_option("--sensor", sensor_name, "--track with --world: depth or lidar (options: the configuration's sensor:)")
       ->check(CLI::IsMember({"depth", "lidar"}));
   app.add_option("--frames", frames_dir, "--track with --world: write the sensor's frames to this new folder "
@@ -324,10 +327,23 @@ int main(int argc, char** argv) {
     if (robot->LinkIndex(sensor.link) < 0) {
       return Fail(config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
     }
-    auto world = scene::LoadPointCloud(world_path);
-    if (!world.ok()) return Fail(world.status().message());
-    if (world->points.empty()) return Fail("--world " + world_path + ": no finite points");
-    auto made = sim::SensorRenderer::Create(world->points, sensor, seed ^ 0x73656e73ull);
+    std::vector<Vec3> world;
+    const std::string extension = std::filesystem::path(world_path).extension().string();
+    if (extension == ".yaml" || extension == ".yml") {
+      // A task's scene: its scans, each moved and cropped, before any voxel
+      // filter (the sensor sees the raw scene, not its centroids).
+      auto task = planner::LoadTask(world_path);
+      if (!task.ok()) return Fail(task.status().message());
+      auto scans = scene::LoadScans(task->scans);
+      if (!scans.ok()) return Fail(scans.status().message());
+      world = scans->unfiltered_points.empty() ? std::move(scans->points) : std::move(scans->unfiltered_points);
+    } else {
+      auto cloud = scene::LoadPointCloud(world_path);
+      if (!cloud.ok()) return Fail(cloud.status().message());
+      world = std::move(cloud->points);
+    }
+    if (world.empty()) return Fail("--world " + world_path + ": no finite points");
+    auto made = sim::SensorRenderer::Create(world, sensor, seed ^ 0x73656e73ull);
     if (!made.ok()) return Fail(config_path + ": " + made.status().message());
     renderer = std::move(*made);
   }

@@ -152,6 +152,23 @@ TEST_F(SimCliTest, WritesTheFramesASensorSeesAlongTheFlight) {
                      frames + "3",
                  "missing.pcd");
   EXPECT_FALSE(fs::exists(frames + "3"));
+
+  // A task file's scene is a world too: its scans as they are placed (the
+  // wall moved 0.5 m further away).
+  const std::string task = Write("task.yaml", "robot: " + std::string(QUADHAND_SOURCE_DIR) +
+                                                  "/meshes/quadhand/quadhand.urdf\nsdf_dir: " + dir_.string() +
+                                                  "\nscene:\n  - file: " + world +
+                                                  "\n    pose: {position: [0.5, 0, 0], orientation: [1, 0, 0, 0]}\n"
+                                                  "start: {position: [0, 0, 1], yaw: 0, joints: [0.3, 0.1, 0]}\n"
+                                                  "goal: {position: [0, 0, 1], yaw: 0, joints: [0.3, 0.1, 0]}\n");
+  const std::string moved = (dir_ / "moved").string();
+  const auto from_task = RunCommand(kSim + " -q --config " + kConfig + " --track " + plan + " --out " + out +
+                                    "2 --world " + task + " --sensor depth --frames " + moved);
+  ASSERT_EQ(from_task.exit_code, 0) << from_task.err;
+  auto seen = scene::LoadPcd(moved + "/frame_000000.pcd");
+  ASSERT_TRUE(seen.ok()) << seen.status().message();
+  ASSERT_GT(seen->points.size(), 1000u);
+  for (const Vec3& p : seen->points) EXPECT_NEAR((sensor * p).x(), 3.0, 0.1) << p.transpose();
 }
 
 TEST_F(SimCliTest, WritesTheFigureEightPlan) {
