@@ -56,8 +56,7 @@ bool RollingMapOptions::IsValid(std::string* why) const {
 struct RollingMap::Impl {
   explicit Impl(const RollingMapOptions& o) : options(o) {
     for (int a = 0; a < 3; ++a) dims[a] = static_cast<int>(std::ceil(2.0 * o.window_half_extent[a] / o.resolution)) + 1;
-    cells.assign(static_cast<size_t>(dims.x()) * dims.y() * dims.z(), kUnknown);
-    marks.assign(cells.size(), 0);
+    cells.assign(static_cast<size_t>(dims.x()) * dims.y() * dims.z(), Voxel{});
     hit = LogOddsUnits(o.probability_hit);
     miss = LogOddsUnits(o.probability_miss);
     threshold = LogOddsUnits(o.occupied_threshold);
@@ -76,8 +75,11 @@ struct RollingMap::Impl {
     return ((v - low).array() >= 0).all() && ((v - low).array() < dims.array()).all();
   }
   static int Mod(int a, int n) { return ((a % n) + n) % n; }
+  size_t CellOfRing(int x, int y, int z) const {
+    return (static_cast<size_t>(x) * dims.y() + y) * dims.z() + z;
+  }
   size_t Cell(const Eigen::Vector3i& v) const {
-    return (static_cast<size_t>(Mod(v.x(), dims.x())) * dims.y() + Mod(v.y(), dims.y())) * dims.z() + Mod(v.z(), dims.z());
+    return CellOfRing(Mod(v.x(), dims.x()), Mod(v.y(), dims.y()), Mod(v.z(), dims.z()));
   }
   static std::int64_t Key(const Eigen::Vector3i& v) {
     return (static_cast<std::int64_t>(v.x() & 0x1fffff) << 42) | (static_cast<std::int64_t>(v.y() & 0x1fffff) << 21) |
@@ -85,21 +87,26 @@ struct RollingMap::Impl {
   }
   bool Occupied(const Eigen::Vector3i& v) const {
     if (!Inside(v)) return false;
-    const std::int8_t value = cells[Cell(v)];
+    const std::int8_t value = cells[Cell(v)].value;
     return value != kUnknown && value > threshold;
   }
   void Update(size_t cell, int delta) {
-    const int before = cells[cell] == kUnknown ? 0 : cells[cell];
-    cells[cell] = static_cast<std::int8_t>(std::clamp(before + delta, kClampLow, kClampHigh));
+    const int before = cells[cell].value == kUnknown ? 0 : cells[cell].value;
+    cells[cell].value = static_cast<std::int8_t>(std::clamp(before + delta, kClampLow, kClampHigh));
   }
 
   RollingMapOptions options;
   Eigen::Vector3i dims = Eigen::Vector3i::Ones(), low = Eigen::Vector3i::Zero();
   Vec3 centre = Vec3::Zero();
-  std::vector<std::int8_t> cells;
-  // A frame's marks (1: an end voxel, 2: crossed), cleared after it: each
-  // voxel is updated once per frame, and an end voxel is never also missed.
-  std::vector<std::uint8_t> marks;
+  // A voxel's log-odds, and a frame's mark beside it (one cache line for
+  // both: the ray walk is bound by memory): 1, an end voxel; 2, crossed;
+  // cleared after the frame, so that each voxel is updated once per frame
+  // and an end voxel is never also missed.
+  struct Voxel {
+    std::int8_t value = kUnknown;
+    std::uint8_t mark = 0;
+  };
+  std::vector<Voxel> cells;
   std::vector<size_t> touched;
   int hit = 0, miss = 0, threshold = 0;
   std::unordered_map<std::int64_t, std::vector<Vec3>> raw;  // by voxel key: the newest returns there
@@ -142,64 +149,64 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
     } else {
       kept[static_cast<size_t>(m.frames) % cap] = p;
     }
-    if (m.marks[cell] == 1) continue;  // this voxel's ray is cast already
-    m.marks[cell] = 1;
+    if (m.cells[cell].mark == 1) continue;  // this voxel's ray is cast already
+    m.cells[cell].mark = 1;
     m.touched.push_back(cell);
     rays.emplace_back(p, true);
   }
   for (size_t cell : m.touched) m.Update(cell, m.hit);
-  // Each ray's voxels before its end, by a voxel walk (Amanatides and Woo).
+  // Each ray's voxels before its end, by a voxel walk (Amanatides and Woo),
+  // in plain integers: the voxel's place in the window (for the inside
+  // test) and in the ring (for its cell) move with it, no division a step.
+  const int nx = m.dims.x(), ny = m.dims.y(), nz = m.dims.z();
+  const Eigen::Vector3i start = m.VoxelOf(origin);
   for (const auto& [end, returned] : rays) {
-    Eigen::Vector3i v = m.VoxelOf(origin);
     const Eigen::Vector3i last = m.VoxelOf(end);
     const Vec3 d = end - origin;
-    Eigen::Vector3i step;
-    Vec3 t_max, t_delta;
+    int step[3], rel[3], ring[3];
+    double t_max[3], t_delta[3];
+    const int dims[3] = {nx, ny, nz};
     for (int a = 0; a < 3; ++a) {
       step[a] = d[a] > 0.0 ? 1 : (d[a] < 0.0 ? -1 : 0);
+      rel[a] = start[a] - m.low[a];
+      ring[a] = Impl::Mod(start[a], dims[a]);
       if (step[a] == 0) {
         t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
         continue;
       }
-      const double boundary = (v[a] + (step[a] > 0 ? 1 : 0)) * res;
+      const double boundary = (start[a] + (step[a] > 0 ? 1 : 0)) * res;
       t_max[a] = (boundary - origin[a]) / d[a];
       t_delta[a] = res / std::abs(d[a]);
     }
-    // At most the voxels a straight line crosses between the two. The
-    // voxel's place in the window and in the ring move with it (no
-    // division per step).
-    const int limit = (last - v).cwiseAbs().sum() + 1;
-    Eigen::Vector3i rel = v - m.low, ring;
-    for (int a = 0; a < 3; ++a) ring[a] = Impl::Mod(v[a], m.dims[a]);
-    for (int n = 0; n < limit && v != last; ++n) {
-      if ((rel.array() >= 0).all() && (rel.array() < m.dims.array()).all()) {
-        const size_t cell = (static_cast<size_t>(ring.x()) * m.dims.y() + ring.y()) * m.dims.z() + ring.z();
-        if (m.marks[cell] == 0) {
-          m.marks[cell] = 2;
+    // At most the voxels a straight line crosses between the two.
+    const int steps = std::abs(last.x() - start.x()) + std::abs(last.y() - start.y()) + std::abs(last.z() - start.z());
+    for (int n = 0; n < steps; ++n) {
+      if (static_cast<unsigned>(rel[0]) < static_cast<unsigned>(nx) && static_cast<unsigned>(rel[1]) < static_cast<unsigned>(ny) &&
+          static_cast<unsigned>(rel[2]) < static_cast<unsigned>(nz)) {
+        const size_t cell = m.CellOfRing(ring[0], ring[1], ring[2]);
+        if (m.cells[cell].mark == 0) {
+          m.cells[cell].mark = 2;
           m.touched.push_back(cell);
           m.Update(cell, m.miss);
         }
       }
-      int axis = 0;
-      if (t_max[1] < t_max[axis]) axis = 1;
-      if (t_max[2] < t_max[axis]) axis = 2;
-      v[axis] += step[axis];
+      const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
       rel[axis] += step[axis];
       ring[axis] += step[axis];
-      if (ring[axis] == m.dims[axis]) ring[axis] = 0;
-      if (ring[axis] < 0) ring[axis] = m.dims[axis] - 1;
+      if (ring[axis] == dims[axis]) ring[axis] = 0;
+      if (ring[axis] < 0) ring[axis] = dims[axis] - 1;
       t_max[axis] += t_delta[axis];
     }
     if (!returned && m.Inside(last)) {  // a ray cut at max_range: its last voxel is crossed, not hit
       const size_t cell = m.Cell(last);
-      if (m.marks[cell] == 0) {
-        m.marks[cell] = 2;
+      if (m.cells[cell].mark == 0) {
+        m.cells[cell].mark = 2;
         m.touched.push_back(cell);
         m.Update(cell, m.miss);
       }
     }
   }
-  for (size_t cell : m.touched) m.marks[cell] = 0;
+  for (size_t cell : m.touched) m.cells[cell].mark = 0;
   m.touched.clear();
   ++m.frames;
   return core::Status::Ok();
@@ -226,7 +233,7 @@ void RollingMap::MoveWindow(const Vec3& centre) {
           idx[a] = ring;
           idx[b] = i;
           idx[c] = j;
-          m.cells[(static_cast<size_t>(idx.x()) * m.dims.y() + idx.y()) * m.dims.z() + idx.z()] = kUnknown;
+          m.cells[m.CellOfRing(idx.x(), idx.y(), idx.z())].value = kUnknown;
         }
       }
     }
@@ -248,7 +255,7 @@ VoxelState RollingMap::State(const Vec3& p) const {
   if (!p.allFinite()) return VoxelState::kUnknown;
   const Eigen::Vector3i v = m.VoxelOf(p);
   if (!m.Inside(v)) return VoxelState::kUnknown;
-  const std::int8_t value = m.cells[m.Cell(v)];
+  const std::int8_t value = m.cells[m.Cell(v)].value;
   if (value == kUnknown) return VoxelState::kUnknown;
   return value > m.threshold ? VoxelState::kOccupied : VoxelState::kFree;
 }
@@ -273,7 +280,7 @@ std::vector<Vec3> RollingMap::UnknownVoxelCentres(const Vec3& lo, const Vec3& hi
     for (int j = first.y(); j <= last.y(); ++j) {
       for (int k = first.z(); k <= last.z(); ++k) {
         const Eigen::Vector3i v(i, j, k);
-        if (m.cells[m.Cell(v)] == kUnknown) centres.push_back((v.cast<double>().array() + 0.5).matrix() * res);
+        if (m.cells[m.Cell(v)].value == kUnknown) centres.push_back((v.cast<double>().array() + 0.5).matrix() * res);
       }
     }
   }
@@ -287,12 +294,12 @@ long RollingMap::dropped_points() const { return impl_->dropped; }
 
 size_t RollingMap::num_known_voxels() const {
   return static_cast<size_t>(std::count_if(impl_->cells.begin(), impl_->cells.end(),
-                                           [](std::int8_t value) { return value != kUnknown; }));
+                                           [](const Impl::Voxel& voxel) { return voxel.value != kUnknown; }));
 }
 
 size_t RollingMap::memory_bytes() const {
   const Impl& m = *impl_;
-  size_t bytes = m.cells.size() * (sizeof(std::int8_t) + sizeof(std::uint8_t)) + m.touched.capacity() * sizeof(size_t);
+  size_t bytes = m.cells.size() * sizeof(Impl::Voxel) + m.touched.capacity() * sizeof(size_t);
   for (const auto& entry : m.raw) bytes += sizeof(entry) + entry.second.capacity() * sizeof(Vec3);
   return bytes;
 }
