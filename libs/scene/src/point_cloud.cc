@@ -104,9 +104,11 @@ core::Status CheckCoordinateFields(const pcl::PCLPointCloud2& cloud, const std::
 // Every point's x, y, z converted from its stored type (float32 or 64,
 // signed or unsigned integers of 8 to 32 bits) to double; non-finite points
 // dropped and counted.
-core::Result<PointCloud> ExtractPoints(const pcl::PCLPointCloud2& cloud, const std::string& path, const char* format) {
+core::Result<PointCloud> ExtractPoints(const pcl::PCLPointCloud2& cloud, const std::string& path, const char* format,
+                                       EmptyCloud empty) {
   QUADHAND_RETURN_IF_ERROR(CheckCoordinateFields(cloud, path, format));
   const std::uint64_t count = static_cast<std::uint64_t>(cloud.width) * cloud.height;
+  if (count == 0 && empty == EmptyCloud::kAllow) return PointCloud{};
   if (count == 0) return core::Status::InvalidArgument(path + ": point cloud has no finite points (it is empty)");
   const std::uint64_t row_bytes = static_cast<std::uint64_t>(cloud.width) * cloud.point_step;
   const std::uint64_t row_step = cloud.row_step >= row_bytes ? cloud.row_step : row_bytes;
@@ -131,7 +133,7 @@ core::Result<PointCloud> ExtractPoints(const pcl::PCLPointCloud2& cloud, const s
       }
     }
   }
-  if (out.points.empty()) {
+  if (out.points.empty() && empty == EmptyCloud::kRefuse) {
     return core::Status::InvalidArgument(path + ": point cloud has no finite points (" +
                                          std::to_string(out.dropped_non_finite) + " non-finite)");
   }
@@ -502,7 +504,7 @@ std::string LowerExtension(const std::string& path) {
 
 }  // namespace
 
-core::Result<PointCloud> LoadPcd(const std::string& path) {
+core::Result<PointCloud> LoadPcd(const std::string& path, EmptyCloud empty) {
   SilencePcl();
   QUADHAND_RETURN_IF_ERROR(CheckRegularFile(path));
   if (const std::string problem = PcdHeaderProblem(path); !problem.empty()) {
@@ -527,6 +529,7 @@ core::Result<PointCloud> LoadPcd(const std::string& path) {
   }
   QUADHAND_RETURN_IF_ERROR(CheckCoordinateFields(blob, path, "PCD"));
   if (static_cast<std::uint64_t>(blob.width) * blob.height == 0) {
+    if (empty == EmptyCloud::kAllow) return PointCloud{};
     return core::Status::InvalidArgument(path + ": point cloud has no finite points (it is empty)");
   }
   QUADHAND_RETURN_IF_ERROR(CheckPcdData(path, blob, data_type, data_offset));
@@ -537,10 +540,10 @@ core::Result<PointCloud> LoadPcd(const std::string& path) {
     return core::Status::InvalidArgument(path + ": not a readable PCD file: " + e.what());
   }
   if (result < 0) return core::Status::InvalidArgument(path + ": not a readable PCD file (bad header or data)");
-  return ExtractPoints(blob, path, "PCD");
+  return ExtractPoints(blob, path, "PCD", empty);
 }
 
-core::Result<PointCloud> LoadPly(const std::string& path) {
+core::Result<PointCloud> LoadPly(const std::string& path, EmptyCloud empty) {
   SilencePcl();
   QUADHAND_RETURN_IF_ERROR(CheckRegularFile(path));
   {
@@ -564,13 +567,13 @@ core::Result<PointCloud> LoadPly(const std::string& path) {
     return core::Status::InvalidArgument(path + ": not a readable PLY file: " + e.what());
   }
   if (result < 0) return core::Status::InvalidArgument(path + ": not a readable PLY file (bad header or data)");
-  return ExtractPoints(blob, path, "PLY");
+  return ExtractPoints(blob, path, "PLY", empty);
 }
 
-core::Result<PointCloud> LoadPointCloud(const std::string& path) {
+core::Result<PointCloud> LoadPointCloud(const std::string& path, EmptyCloud empty) {
   const std::string extension = LowerExtension(path);
-  if (extension == ".ply") return LoadPly(path);
-  if (extension == ".pcd") return LoadPcd(path);
+  if (extension == ".ply") return LoadPly(path, empty);
+  if (extension == ".pcd") return LoadPcd(path, empty);
   QUADHAND_RETURN_IF_ERROR(CheckRegularFile(path));
   return core::Status::InvalidArgument(path + ": unknown point cloud format '" + extension +
                                        "' (expected .pcd or .ply)");

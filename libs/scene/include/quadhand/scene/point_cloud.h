@@ -22,14 +22,17 @@ struct PointCloud {
 // organised cloud's NaNs). Errors (naming the file): not a regular file,
 // unreadable, not a PCD, no x/y/z fields, a coordinate field with COUNT > 1,
 // less data than the header says, and no finite point left.
-core::Result<PointCloud> LoadPcd(const std::string& path);
+// A cloud without a finite point is an error for a scene; a sensor's frame
+// may be empty (it saw nothing in range), which kAllow reads as no points.
+enum class EmptyCloud { kRefuse, kAllow };
+core::Result<PointCloud> LoadPcd(const std::string& path, EmptyCloud empty = EmptyCloud::kRefuse);
 
 // The same for a PLY file (vertex x, y, z properties of any numeric type).
-core::Result<PointCloud> LoadPly(const std::string& path);
+core::Result<PointCloud> LoadPly(const std::string& path, EmptyCloud empty = EmptyCloud::kRefuse);
 
 // LoadPcd or LoadPly by the file's extension (.pcd, .ply, any case); other
 // extensions are errors.
-core::Result<PointCloud> LoadPointCloud(const std::string& path);
+core::Result<PointCloud> LoadPointCloud(const std::string& path, EmptyCloud empty = EmptyCloud::kRefuse);
 
 enum class PcdEncoding { kAscii, kBinary, kBinaryCompressed };
 

@@ -1,0 +1,172 @@
+// quadhand-map: builds the rolling map (perception/rolling_map.h) from a
+// folder of recorded sensor frames (perception/frames.h: quadhand-sim
+// --frames writes one), the window following the sensor, and writes what it
+// holds at the end: the raw returns of its occupied voxels (a scene
+// quadhand-plan reads) and, if asked, the centres of the unknown voxels of
+// a box. Prints the frames used and dropped (and why) and the map update's
+// cost per frame. docs/perception.md.
+//
+// Exit codes: 0 success; 2 bad input (one line on stderr naming the file).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "quadhand/core/log.h"
+#include "quadhand/core/text.h"
+#include "quadhand/perception/frames.h"
+#include "quadhand/perception/rolling_map.h"
+#include "quadhand/scene/point_cloud.h"
+
+namespace {
+
+using namespace quadhand;
+
+int Fail(const std::string& message) {
+  core::PrintError("quadhand-map", message);
+  return 2;
+}
+
+core::Result<std::vector<double>> Numbers(const std::string& text, size_t count, const std::string& option) {
+  std::vector<double> values;
+  std::string cell;
+  std::istringstream in(text);
+  while (std::getline(in, cell, ',')) {
+    char* end = nullptr;
+    const double value = std::strtod(cell.c_str(), &end);
+    if (cell.empty() || end != cell.c_str() + cell.size() || !std::isfinite(value)) {
+      return core::Status::InvalidArgument(option + ": '" + cell + "' is not a finite number");
+    }
+    values.push_back(value);
+  }
+  if (values.size() != count) {
+    return core::Status::InvalidArgument(option + core::Format(": expected %zu comma-separated numbers", count));
+  }
+  return values;
+}
+
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  return values[std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5))];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "quadhand-map: build the rolling map of a folder of sensor frames and write what it holds.\n"
+      "  quadhand-map FRAMES_DIR --out occupied.pcd [--unknown-out unknown.pcd --unknown-box x0,y0,z0,x1,y1,z1]\n"
+      "               [--resolution 0.1] [--window 15,15,5] [--max-range 6] [--json]\n"
+      "FRAMES_DIR: frames.csv and one cloud per frame (docs/sim.md, \"The frames folder\").\n"
+      "Exit codes: 0 success; 2 bad input."};
+  std::string dir, out_path, unknown_path, unknown_box_text, window_text;
+  perception::RollingMapOptions options;
+  bool json = false;
+  app.add_option("frames", dir, "Folder of frames (frames.csv and the clouds it names)")->required();
+  app.add_option("--out", out_path, "Write the occupied voxels' raw returns here (PCD, world frame)")->required();
+  app.add_option("--unknown-out", unknown_path, "Write the centres of the unknown voxels of --unknown-box here (PCD)");
+  app.add_option("--unknown-box", unknown_box_text, "x0,y0,z0,x1,y1,z1: the box for --unknown-out (world, m)");
+  app.add_option("--resolution", options.resolution, "Voxel edge, m")->capture_default_str();
+  app.add_option("--window", window_text, "Half-extents of the window about the sensor, m (x,y,z; default 15,15,5)");
+  app.add_option("--max-range", options.max_range, "Returns farther than this free their ray and occupy nothing, m")
+      ->capture_default_str();
+  app.add_flag("--json", json, "Print one JSON line instead of words");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    return Fail(e.what());
+  }
+  if (!window_text.empty()) {
+    auto window = Numbers(window_text, 3, "--window");
+    if (!window.ok()) return Fail(window.status().message());
+    options.window_half_extent = Vec3((*window)[0], (*window)[1], (*window)[2]);
+  }
+  if (std::string why; !options.IsValid(&why)) return Fail(why);
+  if (unknown_path.empty() != unknown_box_text.empty()) return Fail("--unknown-out and --unknown-box go together");
+  Vec3 box_lo = Vec3::Zero(), box_hi = Vec3::Zero();
+  if (!unknown_box_text.empty()) {
+    auto box = Numbers(unknown_box_text, 6, "--unknown-box");
+    if (!box.ok()) return Fail(box.status().message());
+    box_lo = Vec3((*box)[0], (*box)[1], (*box)[2]);
+    box_hi = Vec3((*box)[3], (*box)[4], (*box)[5]);
+    if (!(box_lo.array() < box_hi.array()).all()) return Fail("--unknown-box: min must be below max on every axis");
+  }
+  for (const std::string& path : {out_path, unknown_path}) {
+    if (path.empty()) continue;
+    const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+    std::error_code ec;
+    if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) return Fail(path + ": its folder does not exist");
+  }
+
+  auto index = perception::ReadFrameIndex(dir);
+  if (!index.ok()) return Fail(index.status().message());
+  auto map = perception::RollingMap::Create(options);
+  if (!map.ok()) return Fail(map.status().message());
+  long unreadable = 0, empty_frames = 0;
+  std::vector<double> update_ms;
+  for (const perception::FrameRecord& frame : index->frames) {
+    auto cloud = scene::LoadPointCloud(frame.path, scene::EmptyCloud::kAllow);
+    if (!cloud.ok()) {  // a frame missing, truncated or malformed: dropped and counted
+      ++unreadable;
+      continue;
+    }
+    if (cloud->points.empty()) {  // the sensor saw nothing in range: nothing learnt
+      ++empty_frames;
+      continue;
+    }
+    for (Vec3& p : cloud->points) p = frame.sensor_to_world * p;
+    const auto start = std::chrono::steady_clock::now();
+    (*map)->MoveWindow(frame.sensor_to_world.translation());
+    if (core::Status s = (*map)->Insert(cloud->points, frame.sensor_to_world.translation()); !s.ok()) {
+      return Fail(frame.path + ": " + s.message());
+    }
+    update_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  }
+  if (update_ms.empty()) {
+    return Fail(dir + ": no usable frame (" + std::to_string(index->dropped()) + " rows dropped, " +
+                std::to_string(unreadable) + " clouds unreadable, " + std::to_string(empty_frames) + " empty)");
+  }
+  const std::vector<Vec3> occupied = (*map)->OccupiedPoints();
+  if (occupied.empty()) return Fail(dir + ": the frames show no occupied voxel inside the last window");
+  if (core::Status s = scene::WritePcd(out_path, occupied); !s.ok()) return Fail(s.message());
+  long unknown = -1;
+  if (!unknown_path.empty()) {
+    const std::vector<Vec3> centres = (*map)->UnknownVoxelCentres(box_lo, box_hi);
+    unknown = static_cast<long>(centres.size());
+    if (!centres.empty()) {
+      if (core::Status s = scene::WritePcd(unknown_path, centres); !s.ok()) return Fail(s.message());
+    }
+  }
+  const double median = Percentile(update_ms, 0.5), p95 = Percentile(update_ms, 0.95);
+  const double worst = *std::max_element(update_ms.begin(), update_ms.end());
+  if (json) {
+    std::printf("{\"frames\": %zu, \"empty_frames\": %ld, \"rows_malformed\": %ld, \"rows_bad_pose\": %ld, \"rows_out_of_order\": %ld, "
+                "\"clouds_unreadable\": %ld, \"update_ms_median\": %.3f, \"update_ms_p95\": %.3f, "
+                "\"update_ms_max\": %.3f, \"known_voxels\": %zu, \"memory_mb\": %.2f, \"occupied_points\": %zu, "
+                "\"unknown_voxels\": %ld}\n",
+                update_ms.size(), empty_frames, index->malformed, index->bad_pose, index->out_of_order, unreadable,
+                median, p95, worst,
+                (*map)->num_known_voxels(), (*map)->memory_bytes() / 1e6, occupied.size(), unknown);
+  } else {
+    std::printf("%zu frames mapped, %ld empty (dropped: %ld malformed rows, %ld bad poses, %ld out of order, %ld "
+                "unreadable clouds)\n",
+                update_ms.size(), empty_frames, index->malformed, index->bad_pose, index->out_of_order, unreadable);
+    std::printf("map update per frame: median %.2f ms, p95 %.2f ms, max %.2f ms; %zu known voxels, %.1f MB\n", median,
+                p95, worst, (*map)->num_known_voxels(), (*map)->memory_bytes() / 1e6);
+    std::printf("occupied: %zu raw returns -> %s\n", occupied.size(), out_path.c_str());
+    if (unknown >= 0) {
+      std::printf("unknown: %ld voxel centres in the box%s\n", unknown,
+                  unknown > 0 ? (" -> " + unknown_path).c_str() : " (none: no file written)");
+    }
+  }
+  return 0;
+}

@@ -1,0 +1,39 @@
+// A folder of recorded sensor frames (docs/sim.md, "The frames folder"):
+// one point cloud per frame, in the sensor's frame, and frames.csv giving
+// each frame's time, file and sensor pose in the world. quadhand-sim
+// --frames writes it; a real sensor's recording in the same layout reads
+// the same way.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/core/types.h"
+
+namespace quadhand::perception {
+
+struct FrameRecord {
+  long index = 0;
+  double t = 0.0;        // s
+  std::string path;      // the frame's cloud, resolved against the folder
+  Pose sensor_to_world = Pose::Identity();
+};
+
+// The rows of DIR/frames.csv that can be used, in order, and the rows
+// dropped and why (each counted, never used): a row of the wrong width or
+// with a cell that is not a finite number ("malformed"), a pose whose
+// quaternion is not of unit length within 1e-3 ("bad pose"), a time not
+// after the previous kept row's ("out of order").
+struct FrameIndex {
+  std::vector<FrameRecord> frames;
+  long malformed = 0, bad_pose = 0, out_of_order = 0;
+  long dropped() const { return malformed + bad_pose + out_of_order; }
+};
+
+// InvalidArgument, naming the file, when frames.csv cannot be read or its
+// header lacks one of the columns index,t,file,x,y,z,qw,qx,qy,qz (any order,
+// other columns ignored).
+core::Result<FrameIndex> ReadFrameIndex(const std::string& dir);
+
+}  // namespace quadhand::perception

@@ -1,0 +1,96 @@
+#include "quadhand/perception/frames.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "quadhand/core/file_util.h"
+
+namespace quadhand::perception {
+namespace {
+
+std::string Trimmed(const std::string& text) {
+  const size_t first = text.find_first_not_of(" \t\r");
+  if (first == std::string::npos) return "";
+  return text.substr(first, text.find_last_not_of(" \t\r") - first + 1);
+}
+
+std::vector<std::string> Cells(const std::string& row) {
+  std::vector<std::string> cells;
+  std::string cell;
+  std::istringstream in(row);
+  while (std::getline(in, cell, ',')) cells.push_back(Trimmed(cell));
+  if (!row.empty() && row.back() == ',') cells.push_back("");
+  return cells;
+}
+
+bool Number(const std::string& text, double* value) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  *value = std::strtod(text.c_str(), &end);
+  return errno == 0 && end == text.c_str() + text.size() && std::isfinite(*value);
+}
+
+}  // namespace
+
+core::Result<FrameIndex> ReadFrameIndex(const std::string& dir) {
+  const std::string path = dir + "/frames.csv";
+  auto text = core::ReadFileToString(path);
+  if (!text.ok()) return core::Status::InvalidArgument(path + ": " + text.status().message());
+  std::istringstream in(*text);
+  std::string line;
+  std::vector<std::string> header;
+  while (header.empty() && std::getline(in, line)) {
+    if (!Trimmed(line).empty()) header = Cells(Trimmed(line));
+  }
+  std::map<std::string, size_t> column;
+  for (size_t c = 0; c < header.size(); ++c) column[header[c]] = c;
+  for (const char* name : {"index", "t", "file", "x", "y", "z", "qw", "qx", "qy", "qz"}) {
+    if (column.count(name) == 0) {
+      return core::Status::InvalidArgument(path + ": the header has no column '" + name +
+                                           "' (expected index,t,file,x,y,z,qw,qx,qy,qz)");
+    }
+  }
+  FrameIndex index;
+  double last_t = -std::numeric_limits<double>::infinity();
+  while (std::getline(in, line)) {
+    if (Trimmed(line).empty()) continue;
+    const std::vector<std::string> cells = Cells(Trimmed(line));
+    if (cells.size() != header.size()) {
+      ++index.malformed;
+      continue;
+    }
+    double numbers[9];
+    const char* names[9] = {"index", "t", "x", "y", "z", "qw", "qx", "qy", "qz"};
+    bool ok = !cells[column["file"]].empty();
+    for (int k = 0; k < 9 && ok; ++k) ok = Number(cells[column[names[k]]], &numbers[k]);
+    if (!ok) {
+      ++index.malformed;
+      continue;
+    }
+    const Quat q(numbers[5], numbers[6], numbers[7], numbers[8]);
+    if (!(std::abs(q.norm() - 1.0) <= 1e-3)) {
+      ++index.bad_pose;
+      continue;
+    }
+    if (!(numbers[1] > last_t)) {
+      ++index.out_of_order;
+      continue;
+    }
+    last_t = numbers[1];
+    FrameRecord record;
+    record.index = static_cast<long>(numbers[0]);
+    record.t = numbers[1];
+    const std::string& file = cells[column["file"]];
+    record.path = !file.empty() && file.front() == '/' ? file : dir + "/" + file;
+    record.sensor_to_world = MakePose(Vec3(numbers[2], numbers[3], numbers[4]), q.normalized().toRotationMatrix());
+    index.frames.push_back(std::move(record));
+  }
+  return index;
+}
+
+}  // namespace quadhand::perception

@@ -1,0 +1,107 @@
+// quadhand-map (docs/perception.md): a folder of frames into the rolling
+// map, the occupied voxels' raw returns and the unknown voxels written; the
+// bad rows and clouds of a recording dropped and counted; bad input exit 2.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "quadhand/core/text.h"
+#include "quadhand/scene/point_cloud.h"
+#include "support/run_command.h"
+
+namespace quadhand {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::RunCommand;
+
+const std::string kMap = std::string(QUADHAND_BIN_DIR) + "/quadhand-map";
+
+class MapCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("quadhand_map_" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "frames");
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path dir_;
+};
+
+// Frames of a wall 3 m ahead of a sensor at the origin (sensor frame = world,
+// identity pose), with every kind of bad row and cloud among them.
+TEST_F(MapCliTest, MapsTheFramesAndCountsWhatItDrops) {
+  std::vector<Vec3> wall;
+  for (double y = -1.0; y <= 1.0 + 1e-9; y += 0.05) {
+    for (double z = -1.0; z <= 1.0 + 1e-9; z += 0.05) wall.emplace_back(3.0, y, z);
+  }
+  const fs::path frames = dir_ / "frames";
+  ASSERT_TRUE(scene::WritePcd((frames / "a.pcd").string(), wall).ok());
+  ASSERT_TRUE(scene::WritePcd((frames / "b.pcd").string(), wall).ok());
+  ASSERT_TRUE(scene::WritePcd((frames / "empty.pcd").string(), {}).ok());
+  std::ofstream(frames / "truncated.pcd") << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+                                              "COUNT 1 1 1\nWIDTH 100\nHEIGHT 1\nPOINTS 100\nDATA binary\nabc";
+  std::ofstream(frames / "frames.csv") << "index,t,file,x,y,z,qw,qx,qy,qz\n"
+                                          "0,0.0,a.pcd,0,0,0,1,0,0,0\n"
+                                          "1,0.1,b.pcd,0,0,0,1,0,0,0\n"
+                                          "2,0.05,a.pcd,0,0,0,1,0,0,0\n"        // out of order
+                                          "3,0.2,a.pcd,0,0,nan,1,0,0,0\n"       // malformed (NaN)
+                                          "4,0.3,a.pcd,0,0,0,1,1,0,0\n"         // bad pose (not unit)
+                                          "5,0.4,a.pcd,0,0\n"                    // malformed (short)
+                                          "6,0.5,missing.pcd,0,0,0,1,0,0,0\n"   // unreadable
+                                          "7,0.6,truncated.pcd,0,0,0,1,0,0,0\n" // unreadable
+                                          "8,0.7,empty.pcd,0,0,0,1,0,0,0\n";    // empty: nothing seen
+  const std::string out = (dir_ / "occupied.pcd").string(), unknown = (dir_ / "unknown.pcd").string();
+  const auto r = RunCommand(kMap + " " + frames.string() + " --out " + out + " --unknown-out " + unknown +
+                            " --unknown-box 1.5,-0.2,-0.2,4,0.2,0.2 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["frames"].get<int>(), 2);
+  EXPECT_EQ(j["empty_frames"].get<int>(), 1);
+  EXPECT_EQ(j["rows_out_of_order"].get<int>(), 1);
+  EXPECT_EQ(j["rows_malformed"].get<int>(), 2);
+  EXPECT_EQ(j["rows_bad_pose"].get<int>(), 1);
+  EXPECT_EQ(j["clouds_unreadable"].get<int>(), 2);
+  auto occupied = scene::LoadPcd(out);
+  ASSERT_TRUE(occupied.ok()) << occupied.status().message();
+  ASSERT_FALSE(occupied->points.empty());
+  for (const Vec3& p : occupied->points) EXPECT_NEAR(p.x(), 3.0, 1e-6);
+  // Unknown: only behind the wall, in this box straight ahead.
+  auto behind = scene::LoadPcd(unknown);
+  ASSERT_TRUE(behind.ok()) << behind.status().message();
+  EXPECT_EQ(static_cast<long>(behind->points.size()), j["unknown_voxels"].get<long>());
+  for (const Vec3& c : behind->points) EXPECT_GT(c.x(), 3.0);
+}
+
+TEST_F(MapCliTest, BadInputIsOneLineAndNoOutput) {
+  const std::string out = (dir_ / "occupied.pcd").string();
+  auto expect_bad = [&](const std::string& args, const std::string& fragment) {
+    const auto r = RunCommand(kMap + " " + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.out << r.err;
+    EXPECT_EQ(testing::CountLines(r.err), 1) << r.err;
+    EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << args;
+  };
+  const std::string frames = (dir_ / "frames").string();
+  expect_bad(frames + " --out " + out, "frames.csv");  // no index at all
+  std::ofstream(dir_ / "frames" / "frames.csv") << "index,t,file,x,y,z,qw,qx,qy\n0,0,a.pcd,0,0,0,1,0,0\n";
+  expect_bad(frames + " --out " + out, "no column 'qz'");
+  std::ofstream(dir_ / "frames" / "frames.csv", std::ios::trunc) << "index,t,file,x,y,z,qw,qx,qy,qz\n0,0,gone.pcd,0,0,0,1,0,0,0\n";
+  expect_bad(frames + " --out " + out, "no usable frame");
+  expect_bad(frames + " --out " + out + " --resolution 0", "resolution");
+  expect_bad(frames + " --out " + out + " --unknown-box 0,0,0,1,1,1", "go together");
+  expect_bad(frames + " --out " + out + " --unknown-out u.pcd --unknown-box 0,0,0,1,1", "6 comma-separated");
+  expect_bad(frames + " --out " + (dir_ / "nowhere" / "o.pcd").string(), "folder does not exist");
+  const auto help = RunCommand(kMap + " --help");
+  EXPECT_EQ(help.exit_code, 0);
+  for (const char* option : {"--out", "--unknown-out", "--unknown-box", "--resolution", "--window", "--max-range", "--json"}) {
+    EXPECT_NE(help.out.find(option), std::string::npos) << option;
+  }
+}
+
+}  // namespace
+}  // namespace quadhand
