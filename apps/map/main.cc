@@ -12,7 +12,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -35,9 +34,7 @@ int Fail(const std::string& message) {
 
 core::Result<std::vector<double>> Numbers(const std::string& text, size_t count, const std::string& option) {
   std::vector<double> values;
-  std::string cell;
-  std::istringstream in(text);
-  while (std::getline(in, cell, ',')) {
+  for (const std::string& cell : core::SplitCommas(text)) {
     char* end = nullptr;
     const double value = std::strtod(cell.c_str(), &end);
     if (cell.empty() || end != cell.c_str() + cell.size() || !std::isfinite(value)) {

@@ -2,6 +2,7 @@
 
 #include <cstdarg>
 #include <cstdio>
+#include <sstream>
 
 namespace quadhand::core {
 
@@ -19,6 +20,27 @@ std::string Format(const char* format, ...) {
   }
   va_end(args);
   return text;
+}
+
+std::string Trimmed(const std::string& text) {
+  const size_t first = text.find_first_not_of(" \t\r");
+  if (first == std::string::npos) return "";
+  return text.substr(first, text.find_last_not_of(" \t\r") - first + 1);
+}
+
+std::vector<std::string> SplitCommas(const std::string& line) {
+  std::vector<std::string> fields;
+  std::string field;
+  std::istringstream in(line);
+  while (std::getline(in, field, ',')) fields.push_back(field);
+  if (!line.empty() && line.back() == ',') fields.emplace_back();
+  return fields;
+}
+
+std::vector<std::string> TrimmedFields(const std::string& line) {
+  std::vector<std::string> fields = SplitCommas(line);
+  for (std::string& field : fields) field = Trimmed(field);
+  return fields;
 }
 
 }  // namespace quadhand::core

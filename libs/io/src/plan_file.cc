@@ -10,28 +10,13 @@
 #include <sstream>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/text.h"
 
 namespace quadhand::io {
 namespace {
 
-std::vector<std::string> SplitCommas(const std::string& line) {
-  std::vector<std::string> fields;
-  std::string field;
-  std::istringstream in(line);
-  while (std::getline(in, field, ',')) fields.push_back(field);
-  if (!line.empty() && line.back() == ',') fields.emplace_back();
-  return fields;
-}
-
-std::string Trim(const std::string& s) {
-  const size_t a = s.find_first_not_of(" \t\r");
-  if (a == std::string::npos) return "";
-  const size_t b = s.find_last_not_of(" \t\r");
-  return s.substr(a, b - a + 1);
-}
-
 bool ParseNumber(const std::string& text, double* value) {
-  const std::string s = Trim(text);
+  const std::string s = core::Trimmed(text);
   if (s.empty()) return false;
   char* end = nullptr;
   errno = 0;
@@ -79,10 +64,12 @@ core::Result<PlanTable> ParsePlanFile(const std::string& text, const std::vector
   auto bad = [&](const std::string& what) { return core::Status::InvalidArgument(source + ": " + what); };
   std::istringstream in(text);
   std::string line;
-  if (!std::getline(in, line) || Trim(line).empty()) return bad("empty file (expected a plan CSV header)");
-  const std::vector<std::string> header = SplitCommas(line);
+  if (!std::getline(in, line) || core::Trimmed(line).empty()) {
+    return bad("empty file (expected a plan CSV header)");
+  }
+  const std::vector<std::string> header = core::SplitCommas(line);
   std::map<std::string, int> column;
-  for (size_t i = 0; i < header.size(); ++i) column.emplace(Trim(header[i]), static_cast<int>(i));
+  for (size_t i = 0; i < header.size(); ++i) column.emplace(core::Trimmed(header[i]), static_cast<int>(i));
   PlanTable table;
   table.columns = PlanColumns(joint_names);
   std::vector<int> index;
@@ -109,25 +96,26 @@ core::Result<PlanTable> ParsePlanFile(const std::string& text, const std::vector
   size_t rows = 0;
   while (std::getline(in, line)) {
     ++line_number;
-    if (Trim(line).empty()) continue;
-    const std::vector<std::string> fields = SplitCommas(line);
+    if (core::Trimmed(line).empty()) continue;
+    const std::vector<std::string> fields = core::SplitCommas(line);
     const std::string where = "line " + std::to_string(line_number) + ": ";
     if (fields.size() != header.size()) {
       return bad(where + std::to_string(fields.size()) + " fields, the header has " + std::to_string(header.size()));
     }
     for (size_t k = 0; k < width; ++k) {
-      if (may_be_blank[k] && Trim(fields[index[k]]).empty()) {
+      if (may_be_blank[k] && core::Trimmed(fields[index[k]]).empty()) {
         row[k] = std::numeric_limits<double>::quiet_NaN();
         continue;
       }
       if (!ParseNumber(fields[index[k]], &row[k])) {
-        return bad(where + "column '" + table.columns[k] + "': not a finite number: '" + Trim(fields[index[k]]) + "'");
+        return bad(where + "column '" + table.columns[k] + "': not a finite number: '" +
+                   core::Trimmed(fields[index[k]]) + "'");
       }
     }
     const double quaternion_norm = std::sqrt(row[10] * row[10] + row[11] * row[11] + row[12] * row[12] + row[13] * row[13]);
     if (std::abs(quaternion_norm - 1.0) > 1e-3) return bad(where + "the quaternion (qw, qx, qy, qz) is not of unit length");
     if (rows > 0 && !(row[0] > values[(rows - 1) * width])) {
-      return bad(where + "time " + Trim(fields[index[0]]) + " does not increase");
+      return bad(where + "time " + core::Trimmed(fields[index[0]]) + " does not increase");
     }
     values.insert(values.end(), row.begin(), row.end());
     ++rows;

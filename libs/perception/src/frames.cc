@@ -8,24 +8,10 @@
 #include <sstream>
 
 #include "quadhand/core/file_util.h"
+#include "quadhand/core/text.h"
 
 namespace quadhand::perception {
 namespace {
-
-std::string Trimmed(const std::string& text) {
-  const size_t first = text.find_first_not_of(" \t\r");
-  if (first == std::string::npos) return "";
-  return text.substr(first, text.find_last_not_of(" \t\r") - first + 1);
-}
-
-std::vector<std::string> Cells(const std::string& row) {
-  std::vector<std::string> cells;
-  std::string cell;
-  std::istringstream in(row);
-  while (std::getline(in, cell, ',')) cells.push_back(Trimmed(cell));
-  if (!row.empty() && row.back() == ',') cells.push_back("");
-  return cells;
-}
 
 bool Number(const std::string& text, double* value) {
   if (text.empty()) return false;
@@ -45,7 +31,7 @@ core::Result<FrameIndex> ReadFrameIndex(const std::string& dir) {
   std::string line;
   std::vector<std::string> header;
   while (header.empty() && std::getline(in, line)) {
-    if (!Trimmed(line).empty()) header = Cells(Trimmed(line));
+    if (!core::Trimmed(line).empty()) header = core::TrimmedFields(core::Trimmed(line));
   }
   std::map<std::string, size_t> column;
   for (size_t c = 0; c < header.size(); ++c) column[header[c]] = c;
@@ -58,8 +44,8 @@ core::Result<FrameIndex> ReadFrameIndex(const std::string& dir) {
   FrameIndex index;
   double last_t = -std::numeric_limits<double>::infinity();
   while (std::getline(in, line)) {
-    if (Trimmed(line).empty()) continue;
-    const std::vector<std::string> cells = Cells(Trimmed(line));
+    if (core::Trimmed(line).empty()) continue;
+    const std::vector<std::string> cells = core::TrimmedFields(core::Trimmed(line));
     if (cells.size() != header.size()) {
       ++index.malformed;
       continue;

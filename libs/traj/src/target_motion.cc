@@ -16,12 +16,6 @@ Vec3 AboutZ(const Vec3& r) { return Vec3(-r.y(), r.x(), 0.0); }
 
 Mat3 RotationAboutZ(double angle) { return Eigen::AngleAxisd(angle, Vec3::UnitZ()).toRotationMatrix(); }
 
-std::string Trimmed(const std::string& text) {
-  const size_t first = text.find_first_not_of(" \t\r");
-  if (first == std::string::npos) return "";
-  return text.substr(first, text.find_last_not_of(" \t\r") - first + 1);
-}
-
 // The tilt allowed between rows of a sampled path: 0.1 degree.
 constexpr double kMaxTilt = 0.1 * M_PI / 180.0;
 
@@ -159,18 +153,10 @@ core::Result<std::vector<TargetPathSample>> ParseTargetPath(const std::string& t
   std::istringstream in(text);
   std::string line;
   int line_number = 0;
-  auto split = [](const std::string& row) {
-    std::vector<std::string> cells;
-    std::string cell;
-    std::istringstream fields(row);
-    while (std::getline(fields, cell, ',')) cells.push_back(Trimmed(cell));
-    if (!row.empty() && row.back() == ',') cells.push_back("");
-    return cells;
-  };
   std::vector<std::string> header;
   while (header.empty() && std::getline(in, line)) {
     ++line_number;
-    if (!Trimmed(line).empty()) header = split(Trimmed(line));
+    if (!core::Trimmed(line).empty()) header = core::TrimmedFields(core::Trimmed(line));
   }
   if (header.empty()) return error(0, "empty target path (expected a header t,x,y,z,qw,qx,qy,qz and rows)");
   const char* names[] = {"t", "x", "y", "z", "qw", "qx", "qy", "qz"};
@@ -184,9 +170,9 @@ core::Result<std::vector<TargetPathSample>> ParseTargetPath(const std::string& t
   Quat first = Quat::Identity();
   while (std::getline(in, line)) {
     ++line_number;
-    const std::string row = Trimmed(line);
+    const std::string row = core::Trimmed(line);
     if (row.empty()) continue;
-    const std::vector<std::string> cells = split(row);
+    const std::vector<std::string> cells = core::TrimmedFields(row);
     if (cells.size() != header.size()) {
       return error(line_number, "expected " + std::to_string(header.size()) + " values, got " +
                                     std::to_string(cells.size()));
