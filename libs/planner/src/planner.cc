@@ -488,6 +488,9 @@ core::Result<bool> SolveInSections(const PlanningScene& scene, const Task& task,
   auto whole_guess = TrajectoryThrough(task.start, result->terminal, guess.position_waypoints, guess.aux_waypoints,
                                        guess.durations, options.cost.flatness);
   if (!whole_guess.ok()) return whole_guess.status();
+  // The guess's time at each piece boundary (at[k]: before piece k).
+  std::vector<double> at(pieces + 1, 0.0);
+  for (int k = 0; k < pieces; ++k) at[k + 1] = at[k] + guess.durations[k];
   std::optional<WholeBodyTrajectory> joined;
   BoundaryState from = task.start;
   result->sections = 0;
@@ -507,12 +510,11 @@ core::Result<bool> SolveInSections(const PlanningScene& scene, const Task& task,
       double best = -std::numeric_limits<double>::infinity();
       int best_reach = reach;
       for (int step = 0; step <= overlap / 2; ++step) {
-        for (int r : {reach + step, reach - step}) {
-          if (r <= last || r >= pieces) continue;
-          int link = -1;
+        for (int sign : {1, -1}) {
+          const int r = reach + sign * step;
+          if ((step == 0 && sign < 0) || r <= last || r >= pieces) continue;  // the nominal end once
           const double clearance =
-              StateClearance(scene, whole_guess->Sample(guess.durations.head(r).sum()).State(), options.cost.flatness,
-                             wanted + 0.01, &link);
+              StateClearance(scene, whole_guess->Sample(at[r]).State(), options.cost.flatness, wanted + 0.01, nullptr);
           if (clearance > best) {
             best = clearance;
             best_reach = r;
@@ -523,7 +525,6 @@ core::Result<bool> SolveInSections(const PlanningScene& scene, const Task& task,
       reach = best_reach;
     }
     const int count = reach - first;
-    const double guess_at = guess.durations.head(first).sum();
     ++result->sections;
     Task section = task;
     section.start = from;
@@ -534,7 +535,7 @@ core::Result<bool> SolveInSections(const PlanningScene& scene, const Task& task,
       part.insertion = result->insertion;
     } else {
       section.tool.reset();
-      part.terminal = whole_guess->Sample(guess.durations.head(reach).sum()).State();
+      part.terminal = whole_guess->Sample(at[reach]).State();
       section.terminal = part.terminal;
     }
     InitialGuess piece_guess;
@@ -552,7 +553,7 @@ core::Result<bool> SolveInSections(const PlanningScene& scene, const Task& task,
       result->success = false;
       result->status = part.status;
       result->message = core::Format("section %d (pieces %d to %d of %d, from %.2f s of the initial guess): ",
-                                     result->sections, first + 1, reach, pieces, guess_at) +
+                                     result->sections, first + 1, reach, pieces, at[first]) +
                         part.message;
       result->post_check = part.post_check;
       result->trajectory = std::move(joined);
@@ -564,19 +565,15 @@ core::Result<bool> SolveInSections(const PlanningScene& scene, const Task& task,
     if (final_section) {
       kept = std::move(part.trajectory);
     } else {
-      auto position = traj::Minco::Prefix(part.trajectory->position(), last - first);
-      if (!position.ok()) return position.status();
-      auto aux = traj::Minco::Prefix(part.trajectory->aux(), last - first);
-      if (!aux.ok()) return aux.status();
-      kept.emplace(std::move(*position), std::move(*aux), options.cost.flatness);
+      auto prefix = TrajectoryPrefix(*part.trajectory, last - first);
+      if (!prefix.ok()) return prefix.status();
+      kept = std::move(*prefix);
       from = kept->Sample(kept->duration()).State();
     }
     if (joined) {
-      auto position = traj::Minco::Joined(joined->position(), kept->position(), 0);
-      if (!position.ok()) return position.status();
-      auto aux = traj::Minco::Joined(joined->aux(), kept->aux(), 0);
-      if (!aux.ok()) return aux.status();
-      joined.emplace(std::move(*position), std::move(*aux), options.cost.flatness);
+      auto both = JoinedTrajectory(*joined, *kept);
+      if (!both.ok()) return both.status();
+      joined = std::move(*both);
     } else {
       joined = std::move(kept);
     }

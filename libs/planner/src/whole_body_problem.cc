@@ -561,4 +561,20 @@ core::Result<WholeBodyTrajectory> TrajectoryThrough(const BoundaryState& start, 
   return WholeBodyTrajectory(std::move(position), std::move(aux), flatness);
 }
 
+core::Result<WholeBodyTrajectory> JoinedTrajectory(const WholeBodyTrajectory& first, const WholeBodyTrajectory& second) {
+  auto position = traj::Minco::Joined(first.position(), second.position(), 0);
+  if (!position.ok()) return position.status();
+  auto aux = traj::Minco::Joined(first.aux(), second.aux(), 0);
+  if (!aux.ok()) return aux.status();
+  return WholeBodyTrajectory(std::move(*position), std::move(*aux), first.flatness());
+}
+
+core::Result<WholeBodyTrajectory> TrajectoryPrefix(const WholeBodyTrajectory& whole, int pieces) {
+  auto position = traj::Minco::Prefix(whole.position(), pieces);
+  if (!position.ok()) return position.status();
+  auto aux = traj::Minco::Prefix(whole.aux(), pieces);
+  if (!aux.ok()) return aux.status();
+  return WholeBodyTrajectory(std::move(*position), std::move(*aux), whole.flatness());
+}
+
 }  // namespace quadhand::planner

@@ -215,6 +215,13 @@ core::Result<WholeBodyTrajectory> TrajectoryThrough(const BoundaryState& start, 
                                                     const MatX& position_waypoints, const MatX& aux_waypoints,
                                                     const VecX& durations, const traj::FlatnessOptions& flatness);
 
+// The pieces of `first`, then those of `second`, in both curves
+// (traj::Minco::Joined), with `first`'s flatness: as smooth at the seam as
+// the caller made the two agree there.
+core::Result<WholeBodyTrajectory> JoinedTrajectory(const WholeBodyTrajectory& first, const WholeBodyTrajectory& second);
+// The first `pieces` pieces of both curves (traj::Minco::Prefix).
+core::Result<WholeBodyTrajectory> TrajectoryPrefix(const WholeBodyTrajectory& whole, int pieces);
+
 
 struct SampleScratch;  // one worker's buffers (whole_body_problem.cc)
 
