@@ -62,14 +62,6 @@ core::Result<WholeBodyTrajectory> RestToRestLeg(const BoundaryState& from, const
                          duration, flatness);
 }
 
-core::Result<WholeBodyTrajectory> Join(const WholeBodyTrajectory& first, const WholeBodyTrajectory& second) {
-  auto position = traj::Minco::Joined(first.position(), second.position(), 0);
-  if (!position.ok()) return position.status();
-  auto aux = traj::Minco::Joined(first.aux(), second.aux(), 0);
-  if (!aux.ok()) return aux.status();
-  return WholeBodyTrajectory(std::move(*position), std::move(*aux), first.flatness());
-}
-
 robot::CollisionGeometry ObjectGeometry(const ObjectShape& shape) {
   robot::CollisionGeometry g;
   switch (shape.kind) {
@@ -550,6 +542,10 @@ class MissionPlanner {
                                bool relaxed_object);
   // From a state moving with the target to rest, straight on (part of step i).
   core::Result<bool> BrakeLeg(size_t i);
+  // The post-check of a leg the mission makes itself (not optimised) from
+  // state_ to `end`, in `scene`; its time is added to the result's.
+  PostCheckReport LegPostCheck(const WholeBodyTrajectory& trajectory, const Task& leg_task, const BoundaryState& end,
+                               const InsertionGoal& line, const PlanningScene& scene);
   // The steps of the vias reach step `reach`'s leg passed (pending_vias_),
   // from the leg's start and the via check's times in it.
   void PassedVias(size_t reach, double leg_start, const std::vector<double>& via_times);
@@ -674,7 +670,7 @@ bool MissionPlanner::Fail(size_t i, PlanStatus status, const std::string& why) {
 core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory trajectory, const Task& leg_task,
                                                   const BoundaryState& end, const InsertionGoal& insertion,
                                                   bool relaxed_object, PostCheckReport report) {
-  const double start_s = whole_ ? whole_->duration() : 0.0;
+  const double start_s = Now();
   StepResult& step = result_.steps[i];
   // A step of two legs (a placing reach) adds the second to the first.
   const bool continuing = step.planned;
@@ -748,7 +744,7 @@ core::Result<bool> MissionPlanner::CheckAndAppend(size_t i, WholeBodyTrajectory 
   MergeReport(report, start_s, first_leg_, &result_.post_check);
   first_leg_ = false;
   if (whole_) {
-    auto joined = Join(*whole_, trajectory);
+    auto joined = JoinedTrajectory(*whole_, trajectory);
     if (!joined.ok()) return joined.status();
     whole_ = std::move(*joined);
   } else {
@@ -804,7 +800,7 @@ core::Result<bool> MissionPlanner::ReachLeg(size_t i, const Task& leg_task, bool
   }
   if (!leg.trajectory) return Fail(i, leg.status, leg.message);
   if (leg.insertion.enabled) last_insertion_ = leg.insertion.direction;
-  const double leg_start = whole_ ? whole_->duration() : 0.0;
+  const double leg_start = Now();
   auto appended = CheckAndAppend(i, std::move(*leg.trajectory), leg_task, leg.terminal, leg.insertion,
                                  relaxed_object, leg.post_check);
   if (appended.ok() && !leg_task.vias.empty()) PassedVias(i, leg_start, leg.post_check.via_times);
@@ -830,6 +826,17 @@ void MissionPlanner::PassedVias(size_t reach, double leg_start, const std::vecto
   pending_vias_.clear();
 }
 
+PostCheckReport MissionPlanner::LegPostCheck(const WholeBodyTrajectory& trajectory, const Task& leg_task,
+                                            const BoundaryState& end, const InsertionGoal& line,
+                                            const PlanningScene& scene) {
+  const auto check_start = std::chrono::steady_clock::now();
+  PostCheckReport report = PostCheck(trajectory, scene.robot, leg_task, end, line, scene.collision, scene.exact,
+                                     scene.self_collision, options_.post_check, scene.moving);
+  result_.post_check_ms +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_start).count();
+  return report;
+}
+
 core::Result<bool> MissionPlanner::RestLeg(size_t i, const Vec3& to_position, double duration,
                                            const InsertionGoal& line, bool relaxed_object) {
   auto trajectory = RestToRestLeg(state_, to_position, duration, options_.cost.flatness);
@@ -839,11 +846,7 @@ core::Result<bool> MissionPlanner::RestLeg(size_t i, const Vec3& to_position, do
   // The object is judged on its own (CheckAndAppend), so that its failures
   // are named held_object_clearance.
   const PlanningScene scene = Scene(true);
-  const auto check_start = std::chrono::steady_clock::now();
-  PostCheckReport report = PostCheck(*trajectory, scene.robot, leg_task, end, line, scene.collision, scene.exact,
-                                     scene.self_collision, options_.post_check, scene.moving);
-  result_.post_check_ms +=
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_start).count();
+  PostCheckReport report = LegPostCheck(*trajectory, leg_task, end, line, scene);
   return CheckAndAppend(i, std::move(*trajectory), leg_task, end, line, relaxed_object, std::move(report));
 }
 
@@ -873,9 +876,7 @@ core::Result<bool> MissionPlanner::FollowLeg(size_t i, double duration, const Ve
   if (!trajectory.ok()) return trajectory.status();
   const Task leg_task = LegTask();
   const PlanningScene scene = Scene(true, /*goal_moves=*/true);
-  const auto check_start = std::chrono::steady_clock::now();
-  PostCheckReport report = PostCheck(*trajectory, scene.robot, leg_task, end, line, scene.collision, scene.exact,
-                                     scene.self_collision, options_.post_check, scene.moving);
+  PostCheckReport report = LegPostCheck(*trajectory, leg_task, end, line, scene);
   if (!line.enabled) {
     // The tool holds its place on the target while the gripper closes: its
     // distance from there, in the target's frame, at the post-check's step.
@@ -904,8 +905,6 @@ core::Result<bool> MissionPlanner::FollowLeg(size_t i, double duration, const Ve
     report.passed = report.passed && follow.passed;
     report.certified = report.certified && follow.passed;
   }
-  result_.post_check_ms +=
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_start).count();
   return CheckAndAppend(i, std::move(*trajectory), leg_task, end, line, relaxed_object, std::move(report));
 }
 
@@ -923,11 +922,7 @@ core::Result<bool> MissionPlanner::BrakeLeg(size_t i) {
   if (!trajectory.ok()) return trajectory.status();
   const Task leg_task = LegTask();
   const PlanningScene scene = Scene(true);
-  const auto check_start = std::chrono::steady_clock::now();
-  PostCheckReport report = PostCheck(*trajectory, scene.robot, leg_task, end, InsertionGoal{}, scene.collision,
-                                     scene.exact, scene.self_collision, options_.post_check, scene.moving);
-  result_.post_check_ms +=
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - check_start).count();
+  PostCheckReport report = LegPostCheck(*trajectory, leg_task, end, InsertionGoal{}, scene);
   with_target_ = false;
   return CheckAndAppend(i, std::move(*trajectory), leg_task, end, InsertionGoal{}, false, std::move(report));
 }
