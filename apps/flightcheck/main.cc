@@ -126,10 +126,11 @@ int main(int argc, char** argv) {
   Pose task_target = Pose::Identity();
   if (const planner::ToolGoal* target = planner::MovingToolGoal(ctx.task())) {
     task_target = MakePose(target->position, target->orientation.toRotationMatrix());
-  } else if (ctx.task().tool) {
-    task_target = MakePose(ctx.task().tool->position, ctx.task().tool->orientation.toRotationMatrix());
   }
+  // The moving target's displacement from its pose in the task at a row
+  // (nothing moves without one).
   auto displacement_at = [&](const sim::PlanRow& row) {
+    if (moving == nullptr) return Pose(Pose::Identity());
     if (row.target) return Pose(*row.target * task_target.inverse());
     return record_has_target ? Pose::Identity() : moving->motion->Displacement(row.t);
   };
@@ -144,7 +145,7 @@ int main(int argc, char** argv) {
     const Pose base = MakePose(row.position, row.attitude.toRotationMatrix());
     if (replay && row.gripper >= 0 && row.gripper != gripper) {
       const core::Status changed =
-          row.gripper == 1 ? replay->GripperClosed(base, row.joints, moving != nullptr ? displacement_at(row) : Pose::Identity())
+          row.gripper == 1 ? replay->GripperClosed(base, row.joints, displacement_at(row))
                            : replay->GripperOpened(base, row.joints);
       if (!changed.ok()) return Fail(flown_path + core::Format(": t = %.3f s: ", row.t) + changed.message());
       gripper = row.gripper;
@@ -162,7 +163,7 @@ int main(int argc, char** argv) {
     double d = 0.0;
     if (replay) {
       const planner::MissionReplay::Clearances c =
-          replay->Measure(base, row.joints, 1.0, moving != nullptr ? displacement_at(row) : Pose::Identity());
+          replay->Measure(base, row.joints, 1.0, displacement_at(row));
       d = c.robot;
       link = c.robot_link;
       if (c.object < least_object) {
@@ -190,7 +191,7 @@ int main(int argc, char** argv) {
   const int tool = robot.LinkIndex(ctx.task().tool_link);
   if (ctx.task().tool && tool >= 0) {
     // A moving target is judged where it is at the last row's time.
-    const Vec3 goal = moving != nullptr ? displacement_at(*last) * ctx.task().tool->position : ctx.task().tool->position;
+    const Vec3 goal = displacement_at(*last) * ctx.task().tool->position;
     tool_error = (kinematics.link_poses[tool].translation() - goal).norm();
   }
   if (ctx.task().terminal) base_error = (last->position - ctx.task().terminal->position).norm();

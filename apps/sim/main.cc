@@ -52,11 +52,10 @@ int Fail(const std::string& message, int code = kExitBadInput) {
 // binary PCD of the returns in the sensor's frame, and DIR/frames.csv with
 // each frame's time, file and sensor pose in the world. The folder is made
 // by renaming a finished temporary one: it is all there or not at all.
-core::Status WriteFrames(const std::vector<sim::FlownSample>& samples, const robot::RobotModel& robot,
+// `link` is the robot's link the sensor is mounted on (sensor.link).
+core::Status WriteFrames(const std::vector<sim::FlownSample>& samples, const robot::RobotModel& robot, int link,
                          const sim::SensorConfig& sensor, sim::SensorRenderer* renderer, const std::string& dir,
                          int* frames) {
-  const int link = robot.LinkIndex(sensor.link);
-  if (link < 0) return core::Status::InvalidArgument("sensor.link: the robot has no link '" + sensor.link + "'");
   const std::string partial = dir + ".partial";
   std::error_code ec;
   std::filesystem::remove_all(partial, ec);
@@ -362,7 +361,9 @@ int main(int argc, char** argv) {
   }
   int frames = 0;
   if (renderer != nullptr) {
-    if (core::Status s = WriteFrames(result->samples, *robot, sensor, renderer.get(), frames_dir, &frames); !s.ok()) {
+    if (core::Status s = WriteFrames(result->samples, *robot, robot->LinkIndex(sensor.link), sensor, renderer.get(),
+                                     frames_dir, &frames);
+        !s.ok()) {
       return Fail(s.message());
     }
     if (!quiet) std::printf("sensor: %d %s frames of %s: %s\n", frames, sensor_name.c_str(), world_path.c_str(), frames_dir.c_str());

@@ -94,6 +94,13 @@ struct RollingMap::Impl {
     const int before = cells[cell].value == kUnknown ? 0 : cells[cell].value;
     cells[cell].value = static_cast<std::int8_t>(std::clamp(before + delta, kClampLow, kClampHigh));
   }
+  // A ray crossed the voxel: missed once this frame, unless it is an end voxel.
+  void Cross(size_t cell) {
+    if (cells[cell].mark != 0) return;
+    cells[cell].mark = 2;
+    touched.push_back(cell);
+    Update(cell, miss);
+  }
 
   RollingMapOptions options;
   Eigen::Vector3i dims = Eigen::Vector3i::Ones(), low = Eigen::Vector3i::Zero();
@@ -183,12 +190,7 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
     for (int n = 0; n < steps; ++n) {
       if (static_cast<unsigned>(rel[0]) < static_cast<unsigned>(nx) && static_cast<unsigned>(rel[1]) < static_cast<unsigned>(ny) &&
           static_cast<unsigned>(rel[2]) < static_cast<unsigned>(nz)) {
-        const size_t cell = m.CellOfRing(ring[0], ring[1], ring[2]);
-        if (m.cells[cell].mark == 0) {
-          m.cells[cell].mark = 2;
-          m.touched.push_back(cell);
-          m.Update(cell, m.miss);
-        }
+        m.Cross(m.CellOfRing(ring[0], ring[1], ring[2]));
       }
       const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
       rel[axis] += step[axis];
@@ -197,14 +199,7 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
       if (ring[axis] < 0) ring[axis] = dims[axis] - 1;
       t_max[axis] += t_delta[axis];
     }
-    if (!returned && m.Inside(last)) {  // a ray cut at max_range: its last voxel is crossed, not hit
-      const size_t cell = m.Cell(last);
-      if (m.cells[cell].mark == 0) {
-        m.cells[cell].mark = 2;
-        m.touched.push_back(cell);
-        m.Update(cell, m.miss);
-      }
-    }
+    if (!returned && m.Inside(last)) m.Cross(m.Cell(last));  // a ray cut at max_range: crossed, not hit
   }
   for (size_t cell : m.touched) m.cells[cell].mark = 0;
   m.touched.clear();

@@ -557,10 +557,10 @@ core::Result<FrontEndPath> FrontEndMap::FindPath(const Vec3& start, const Vec3& 
     for (int d = 0; d < 26; ++d) {
       const int ni = pi + offsets[d][0], nj = pj + offsets[d][1], nk = pk + offsets[d][2];
       if (OnBorder(ni, nj, nk)) continue;
+      // (The block and the place in it serve the scratch's cell too.)
       const long block = BlockOf(ni, nj, nk);
       const int in_block = InBlock(ni, nj, nk);
-      const int slot = block_slot_[block];
-      const unsigned char state = slot < 0 ? kFree : blocked_[static_cast<long>(slot) * kBlockVoxels + in_block];
+      const unsigned char state = StateIn(block, in_block);
       if (state == kBlocked) continue;
       const int node = static_cast<int>(top.node + deltas[d]);
       const long cell = scratch.Cell(node, block, in_block);

@@ -87,10 +87,12 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForMissionPhase(
   if (sdf_grids_ != nullptr) {
     for (size_t g = 0; g < sdf_links_.size(); ++g) given_sdfs.emplace_back(sdf_links_[g], (*sdf_grids_)[g]);
   }
-  if (moving_points == nullptr) moving_points = std::make_shared<const std::vector<Vec3>>(moving_points_);
-  if (moving_checked_points == nullptr) {
-    moving_checked_points = std::make_shared<const std::vector<Vec3>>(moving_checked_points_);
-  }
+  // This context's own (Build copies them into the phase's).
+  auto unowned = [](const std::vector<Vec3>& points) {
+    return std::shared_ptr<const std::vector<Vec3>>(&points, [](const std::vector<Vec3>*) {});
+  };
+  if (moving_points == nullptr) moving_points = unowned(moving_points_);
+  if (moving_checked_points == nullptr) moving_checked_points = unowned(moving_checked_points_);
   auto phase = Build(task_, std::move(robot), std::move(points), dropped_non_finite_, options_,
                      std::move(checked_points), std::move(given_sdfs), /*mission_phase=*/true,
                      std::move(moving_points), std::move(moving_checked_points));

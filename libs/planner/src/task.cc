@@ -502,6 +502,7 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
   if (goal && mission) return r.Error("mission", "a task has goal or mission, not both");
   if (!goal && !mission) return r.Error("goal", "missing (a goal, or a mission: a list of steps)");
   if (goal) QUADHAND_RETURN_IF_ERROR(ReadGoal(r, goal, "goal", &task.terminal, &task.tool));
+  std::optional<size_t> moving_reach;  // a longer mission's moving reach
   if (mission) {
     QUADHAND_RETURN_IF_ERROR(ReadMission(r, mission, &task.mission));
     // A mission of one reach is that goal (contracts.md).
@@ -511,7 +512,6 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
     } else {
       // A longer mission's moving target (docs/moving_targets.md, "In a
       // mission"): one, reached with nothing held, then grasped or the end.
-      std::optional<size_t> moving_reach;
       bool holding = false;
       const std::vector<MissionStep>& steps = task.mission;
       for (size_t i = 0; i < steps.size(); ++i) {
@@ -535,20 +535,15 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
           return r.Error(key, "a moving reach is followed by a grasp, or ends the mission; " +
                                   StepName(steps, i + 1) + " is not a grasp (docs/moving_targets.md)");
         }
-        if (i + 2 == steps.size()) {
-          return r.Error("mission[" + std::to_string(i + 1) + "]",
-                         "after the grasp of a moving target the vehicle moves with it: a move (a lift in the "
-                         "target's frame), a reach or a via must follow (docs/moving_targets.md)");
-        }
-        if (i + 2 < steps.size()) {
-          const StepKind after = steps[i + 2].kind;
-          if (after != StepKind::kMove && after != StepKind::kReach && after != StepKind::kVia) {
-            return r.Error("mission[" + std::to_string(i + 2) + "]",
-                           "after the grasp of a moving target the vehicle moves with it: the next step is a "
-                           "move (a lift in the target's frame), a reach or a via (docs/moving_targets.md)");
-          }
-        }
         if (i + 1 < steps.size()) {
+          // Named: the step after the grasp, or the grasp when nothing follows.
+          const size_t after = std::min(i + 2, steps.size() - 1);
+          const StepKind kind = steps[after].kind;
+          if (after == i + 1 || (kind != StepKind::kMove && kind != StepKind::kReach && kind != StepKind::kVia)) {
+            return r.Error("mission[" + std::to_string(after) + "]",
+                           "after the grasp of a moving target the vehicle moves with it: the step after the grasp "
+                           "is a move (a lift in the target's frame), a reach or a via (docs/moving_targets.md)");
+          }
           const MissionStep& grasp = steps[i + 1];
           const std::optional<TargetBox>& box = step.reach_tool->moving->moving_box;
           if (box && !box->Contains(grasp.object.pose.translation())) {
@@ -590,14 +585,8 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
   // terminal state follows the target, so it would break the limit.
   if (const ToolGoal* moving_tool = MovingToolGoal(task)) {
     const MovingTarget& moving = *moving_tool->moving;
-    std::string motion_key = "goal.tool.motion";
-    if (!task.tool) {
-      for (size_t i = 0; i < task.mission.size(); ++i) {
-        if (task.mission[i].reach_tool && &*task.mission[i].reach_tool == moving_tool) {
-          motion_key = "mission[" + std::to_string(i) + "].reach.tool.motion";
-        }
-      }
-    }
+    const std::string motion_key =
+        moving_reach ? "mission[" + std::to_string(*moving_reach) + "].reach.tool.motion" : "goal.tool.motion";
     const double horizon = moving.motion.sampled() ? 1e9 : 0.0;  // a path: every row; constant: at t = 0
     const double speed = moving.motion.MaxSpeed(0.0, horizon);
     if (speed > task.limits.v_max) {

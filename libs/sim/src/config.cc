@@ -248,11 +248,11 @@ Status ParseInto(const YAML::Node& root, const std::string& base_dir, const std:
       std::vector<double> q = {1.0, 0.0, 0.0, 0.0};
       QUADHAND_RETURN_IF_ERROR(m.Get("position", &position));
       QUADHAND_RETURN_IF_ERROR(m.Get("orientation", &q));
-      const Quat rotation(q.size() == 4 ? q[0] : 0.0, q.size() == 4 ? q[1] : 0.0, q.size() == 4 ? q[2] : 0.0,
-                          q.size() == 4 ? q[3] : 0.0);
-      if (q.size() != 4 || !(std::abs(rotation.norm() - 1.0) <= 1e-3)) {
-        return m.Invalid("orientation", "expected a unit quaternion [w, x, y, z]");
-      }
+      const auto unit = [](const std::vector<double>& v) {
+        return v.size() == 4 && std::abs(Quat(v[0], v[1], v[2], v[3]).norm() - 1.0) <= 1e-3;
+      };
+      if (!unit(q)) return m.Invalid("orientation", "expected a unit quaternion [w, x, y, z]");
+      const Quat rotation(q[0], q[1], q[2], q[3]);
       sensor.mount = MakePose(position, rotation.normalized().toRotationMatrix());
       sensor.mount_given = true;
     }

@@ -180,10 +180,13 @@ class FrontEndMap {
   bool OnBorder(int pi, int pj, int pk) const {
     return pi <= 0 || pj <= 0 || pk <= 0 || pi > dims_.x() || pj > dims_.y() || pk > dims_.z();
   }
+  // The search state of voxel `in_block` of `block` (not on the border).
+  unsigned char StateIn(long block, int in_block) const {
+    const int slot = block_slot_[block];
+    return slot < 0 ? kFree : blocked_[static_cast<long>(slot) * kBlockVoxels + in_block];
+  }
   unsigned char BlockedAt(int pi, int pj, int pk) const {
-    if (OnBorder(pi, pj, pk)) return kBlocked;
-    const int slot = block_slot_[BlockOf(pi, pj, pk)];
-    return slot < 0 ? kFree : blocked_[static_cast<long>(slot) * kBlockVoxels + InBlock(pi, pj, pk)];
+    return OnBorder(pi, pj, pk) ? kBlocked : StateIn(BlockOf(pi, pj, pk), InBlock(pi, pj, pk));
   }
   float DistanceAt(int pi, int pj, int pk) const {
     const int slot = block_slot_[BlockOf(pi, pj, pk)];
