@@ -129,7 +129,7 @@ core::Result<std::unique_ptr<RollingMap>> RollingMap::Create(const RollingMapOpt
   return std::unique_ptr<RollingMap>(new RollingMap(std::make_unique<Impl>(options)));
 }
 
-core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& origin) {
+core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& origin, const std::vector<Vec3>& misses) {
   Impl& m = *impl_;
   if (!origin.allFinite()) return core::Status::InvalidArgument("rolling map: a frame's sensor origin is not finite");
   const double res = m.options.resolution;
@@ -160,6 +160,14 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
     m.cells[cell].mark = 1;
     m.touched.push_back(cell);
     rays.emplace_back(p, true);
+  }
+  for (const Vec3& p : misses) {
+    if (!p.allFinite()) {
+      ++m.dropped;
+      continue;
+    }
+    const double range = (p - origin).norm();
+    rays.emplace_back(range > m.options.max_range ? origin + (p - origin) * (m.options.max_range / range) : p, false);
   }
   for (size_t cell : m.touched) m.Update(cell, m.hit);
   // Each ray's voxels before its end, by a voxel walk (Amanatides and Woo),
@@ -244,6 +252,82 @@ void RollingMap::MoveWindow(const Vec3& centre) {
     }
   }
 }
+
+void RollingMap::MarkFree(const Vec3& centre, double radius) {
+  Impl& m = *impl_;
+  if (!centre.allFinite() || !(radius > 0.0) || !std::isfinite(radius)) return;
+  const double res = m.options.resolution;
+  const Eigen::Vector3i first = m.VoxelOf(centre - Vec3::Constant(radius)).cwiseMax(m.low);
+  const Eigen::Vector3i last = m.VoxelOf(centre + Vec3::Constant(radius)).cwiseMin(m.low + m.dims - Eigen::Vector3i::Ones());
+  for (int i = first.x(); i <= last.x(); ++i) {
+    for (int j = first.y(); j <= last.y(); ++j) {
+      for (int k = first.z(); k <= last.z(); ++k) {
+        const Eigen::Vector3i v(i, j, k);
+        if (((v.cast<double>().array() + 0.5).matrix() * res - centre).norm() > radius) continue;
+        m.cells[m.Cell(v)].value = static_cast<std::int8_t>(kClampLow);
+        m.raw.erase(Impl::Key(v));
+      }
+    }
+  }
+}
+
+std::vector<Vec3> RollingMap::ObstacleBoundary(const Vec3& lo, const Vec3& hi) const {
+  const Impl& m = *impl_;
+  std::vector<Vec3> centres;
+  if (!lo.allFinite() || !hi.allFinite() || (hi.array() < lo.array()).any()) return centres;
+  const Eigen::Vector3i first = m.VoxelOf(lo), last = m.VoxelOf(hi);
+  const Eigen::Vector3i size = last - first + Eigen::Vector3i::Ones();
+  const double res = m.options.resolution;
+  auto centre = [res](const Eigen::Vector3i& v) { return Vec3((v.cast<double>().array() + 0.5).matrix() * res); };
+  auto in_box = [&](const Eigen::Vector3i& v) {
+    return ((v - first).array() >= 0).all() && ((v - first).array() < size.array()).all();
+  };
+  auto local = [&](const Eigen::Vector3i& v) {
+    const Eigen::Vector3i r = v - first;
+    return (static_cast<size_t>(r.x()) * size.y() + r.y()) * size.z() + r.z();
+  };
+  auto free = [&](const Eigen::Vector3i& v) {
+    if (!m.Inside(v)) return false;
+    const std::int8_t value = m.cells[m.Cell(v)].value;
+    return value != kUnknown && value <= m.threshold;
+  };
+  // Each voxel of the box once: whether it is free, and whether it is
+  // listed already (a voxel outside the box touches one box voxel by a face,
+  // so it is met once).
+  std::vector<std::uint8_t> state(static_cast<size_t>(size.x()) * size.y() * size.z(), 0);
+  constexpr std::uint8_t kIsFree = 1, kListed = 2;
+  for (int i = first.x(); i <= last.x(); ++i) {
+    for (int j = first.y(); j <= last.y(); ++j) {
+      for (int k = first.z(); k <= last.z(); ++k) {
+        const Eigen::Vector3i v(i, j, k);
+        if (free(v)) state[local(v)] = kIsFree;
+      }
+    }
+  }
+  static const int kFaces[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (int i = first.x(); i <= last.x(); ++i) {
+    for (int j = first.y(); j <= last.y(); ++j) {
+      for (int k = first.z(); k <= last.z(); ++k) {
+        const Eigen::Vector3i v(i, j, k);
+        if (!(state[local(v)] & kIsFree)) continue;
+        for (const auto& face : kFaces) {
+          const Eigen::Vector3i u = v + Eigen::Vector3i(face[0], face[1], face[2]);
+          if (!in_box(u)) {
+            centres.push_back(centre(u));
+            continue;
+          }
+          std::uint8_t& s = state[local(u)];
+          if (s & (kIsFree | kListed)) continue;
+          s |= kListed;
+          centres.push_back(centre(u));
+        }
+      }
+    }
+  }
+  return centres;
+}
+
+double RollingMap::BoundaryBallRadius() const { return 0.5 * std::sqrt(3.0) * impl_->options.resolution; }
 
 VoxelState RollingMap::State(const Vec3& p) const {
   const Impl& m = *impl_;

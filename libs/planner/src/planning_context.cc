@@ -100,6 +100,24 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForMissionPhase(
   return phase;
 }
 
+core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForLocalScene(
+    Task task, std::shared_ptr<const std::vector<Vec3>> points) const {
+  if (task.robot_path != task_.robot_path || task.sdf_dir != task_.sdf_dir) {
+    return core::Status::InvalidArgument("a local scene's task must have its context's robot and sdf_dir");
+  }
+  if (!task.mission.empty() || MovingToolGoal(task) != nullptr) {
+    return core::Status::InvalidArgument("a local scene's task may not have a mission or a moving target");
+  }
+  std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs;
+  if (sdf_grids_ != nullptr) {
+    for (size_t g = 0; g < sdf_links_.size(); ++g) given_sdfs.emplace_back(sdf_links_[g], (*sdf_grids_)[g]);
+  }
+  auto local = Build(std::move(task), robot_, std::move(points), 0, options_, nullptr, std::move(given_sdfs),
+                     /*mission_phase=*/true);
+  if (local.ok()) (*local)->scene_load_seconds_ = 0.0;
+  return local;
+}
+
 core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
     const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,

@@ -110,6 +110,42 @@ std::vector<Vec3> SensorRenderer::Render(const Pose& sensor_in_world) {
                                                   : impl_->RenderLidar(sensor_in_world);
 }
 
+std::vector<Vec3> SensorRenderer::LastMisses(int stride) const {
+  const Impl& m = *impl_;
+  stride = std::max(1, stride);
+  const float none = std::numeric_limits<float>::infinity();
+  std::vector<Vec3> ends;
+  if (m.config.kind == SensorKind::kDepth) {
+    const DepthCameraOptions& o = m.config.depth;
+    if (m.nearest.size() != static_cast<size_t>(o.width) * o.height) return ends;
+    const double fx = 0.5 * o.width / std::tan(0.5 * o.horizontal_fov_deg * kDegree);
+    const double fy = 0.5 * o.height / std::tan(0.5 * o.vertical_fov_deg * kDegree);
+    for (int row = stride / 2; row < o.height; row += stride) {
+      for (int col = stride / 2; col < o.width; col += stride) {
+        if (m.nearest[static_cast<size_t>(row) * o.width + col] != none) continue;
+        const double z = o.max_range;
+        ends.emplace_back((col + 0.5 - 0.5 * o.width) / fx * z, (row + 0.5 - 0.5 * o.height) / fy * z, z);
+      }
+    }
+    return ends;
+  }
+  const LidarOptions& o = m.config.lidar;
+  const int columns = std::max(1, static_cast<int>(std::lround(360.0 / o.horizontal_resolution_deg)));
+  if (m.nearest.size() != static_cast<size_t>(o.channels) * columns) return ends;
+  const double low = -0.5 * o.vertical_fov_deg * kDegree;
+  const double channel_step = o.channels > 1 ? o.vertical_fov_deg * kDegree / (o.channels - 1) : 0.0;
+  for (int channel = 0; channel < o.channels; ++channel) {
+    const double elevation = low + channel * channel_step;
+    for (int column = 0; column < columns; column += stride) {
+      if (m.nearest[static_cast<size_t>(channel) * columns + column] != none) continue;
+      const double azimuth = column * (2.0 * M_PI / columns);
+      ends.emplace_back(o.max_range * std::cos(elevation) * std::cos(azimuth),
+                        o.max_range * std::cos(elevation) * std::sin(azimuth), o.max_range * std::sin(elevation));
+    }
+  }
+  return ends;
+}
+
 std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world) {
   const DepthCameraOptions& o = config.depth;
   const double fx = 0.5 * o.width / std::tan(0.5 * o.horizontal_fov_deg * kDegree);
@@ -123,7 +159,11 @@ std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world)
   world.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
     const Vec3 q = world_to_sensor * p;
     const double z = q.z();
-    if (!(z >= o.min_range && z <= o.max_range)) return;
+    // A point too near to measure still covers its pixels: they return
+    // nothing (0 below), and are no misses, since it hides what is behind.
+    const bool too_near = z > 1e-6 && z < o.min_range;
+    if (!too_near && !(z >= o.min_range && z <= o.max_range)) return;
+    const float value = too_near ? 0.0f : static_cast<float>(z);
     // The point's disc, facing the camera, covers a square of half-width r
     // pixels about its projection (a circle: the corners are dropped).
     const double u = cx + fx * q.x() / z, v = cy + fy * q.y() / z;
@@ -136,7 +176,7 @@ std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world)
         const double du = (col + 0.5 - u) / ru;
         if (du * du + dv * dv > 1.0) continue;
         float& depth = nearest[static_cast<size_t>(row) * o.width + col];
-        depth = std::min(depth, static_cast<float>(z));
+        depth = std::min(depth, value);
       }
     }
   });
@@ -145,7 +185,7 @@ std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world)
   for (int row = 0; row < o.height; ++row) {
     for (int col = 0; col < o.width; ++col) {
       const float depth = nearest[static_cast<size_t>(row) * o.width + col];
-      if (depth == none) continue;
+      if (depth == none || depth == 0.0f) continue;
       const double z = depth + o.noise_at_1m * depth * depth * unit(rng);
       if (!(z > 0.0)) continue;
       points.emplace_back((col + 0.5 - cx) / fx * z, (row + 0.5 - cy) / fy * z, z);
@@ -167,7 +207,10 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
   world.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
     const Vec3 q = world_to_sensor * p;
     const double range = q.norm();
-    if (!(range >= o.min_range && range <= o.max_range)) return;
+    // As the camera's: a point too near still covers its beams (0 below).
+    const bool too_near = range > 1e-6 && range < o.min_range;
+    if (!too_near && !(range >= o.min_range && range <= o.max_range)) return;
+    const float value = too_near ? 0.0f : static_cast<float>(range);
     // The disc's angular radius about the point's direction: the beams
     // within it hit it.
     const double spread = std::asin(std::min(1.0, config.splat_radius / range));
@@ -192,7 +235,7 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
         if (beam.dot(q) < range * std::cos(spread)) continue;
         const int column = ((a % columns) + columns) % columns;
         float& hit = nearest[static_cast<size_t>(channel) * columns + column];
-        hit = std::min(hit, static_cast<float>(range));
+        hit = std::min(hit, value);
       }
     }
   });
@@ -202,7 +245,7 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
     const double elevation = low + channel * channel_step;
     for (int column = 0; column < columns; ++column) {
       const float hit = nearest[static_cast<size_t>(channel) * columns + column];
-      if (hit == none) continue;
+      if (hit == none || hit == 0.0f) continue;
       const double range = hit + o.noise * unit(rng);
       if (!(range > 0.0)) continue;
       const double azimuth = column * column_step;

@@ -51,9 +51,19 @@ class RollingMap {
   // One frame: its returns in the world frame, from the sensor at `origin`.
   // Non-finite returns are dropped and counted (dropped_points); a
   // non-finite origin is refused (InvalidArgument, nothing inserted).
-  core::Status Insert(const std::vector<Vec3>& points, const Vec3& origin);
+  // `misses` (world frame) are the far ends of the sensor's rays that
+  // returned nothing within its range: the voxels up to each end (at most
+  // max_range) are missed, and none is hit. Non-finite ones are dropped
+  // and counted too.
+  core::Status Insert(const std::vector<Vec3>& points, const Vec3& origin, const std::vector<Vec3>& misses = {});
   // Centres the window on `centre` and forgets what falls outside it.
   void MoveWindow(const Vec3& centre);
+  // Marks the voxels (inside the window) whose centres lie within `radius`
+  // of `centre` free, as often-missed voxels: space the caller knows to be
+  // empty, such as where the vehicle stands at take-off (its own body is
+  // there, and no sensor sees it). Nothing for a non-finite centre or a
+  // radius that is not positive.
+  void MarkFree(const Vec3& centre, double radius);
 
   // The state of the voxel holding `p`: unknown outside the window.
   VoxelState State(const Vec3& p) const;
@@ -62,6 +72,20 @@ class RollingMap {
   // The centres of the voxels inside [lo, hi] (and the window) that no ray
   // has seen: a plan treats each as an obstacle of the voxel's size.
   std::vector<Vec3> UnknownVoxelCentres(const Vec3& lo, const Vec3& hi) const;
+
+  // What a plan must keep away from, as voxel centres: every voxel that is
+  // not free (occupied, unknown, or outside the window) and shares a face
+  // with a free voxel of the box [lo, hi]; a voxel outside the box counts as
+  // not free. Why this is enough (docs/perception.md, "Planning from the
+  // map"): a body that starts inside the free voxels of the box and moves
+  // continuously can reach the rest of space only through such a voxel, and
+  // every point of a voxel lies within BoundaryBallRadius() of its centre.
+  // So a clearance of d + BoundaryBallRadius() to these centres certifies a
+  // clearance of d to everything not seen free.
+  std::vector<Vec3> ObstacleBoundary(const Vec3& lo, const Vec3& hi) const;
+  // Half a voxel's diagonal: the radius of the ball about a voxel centre
+  // that holds the whole voxel.
+  double BoundaryBallRadius() const;
 
   const RollingMapOptions& options() const;
   Vec3 window_centre() const;

@@ -89,6 +89,15 @@ class PlanningContext {
       std::shared_ptr<const std::vector<Vec3>> moving_points = nullptr,
       std::shared_ptr<const std::vector<Vec3>> moving_checked_points = nullptr) const;
 
+  // The context of another task for this context's robot (its loaded link
+  // SDFs reused, no file read again) on the scene `points`: a local plan of
+  // onboard perception (explore/local_planner.h), whose scene is what the
+  // sensor has shown and whose start and goal change at every replan. The
+  // task's robot and sdf_dir must be this context's; it may not have a
+  // mission or a moving target.
+  core::Result<std::unique_ptr<PlanningContext>> ForLocalScene(Task task,
+                                                               std::shared_ptr<const std::vector<Vec3>> points) const;
+
   const PlanningContextOptions& options() const { return options_; }
   const Task& task() const { return task_; }
   const robot::RobotModel& robot() const { return robot_; }

@@ -82,6 +82,14 @@ class SensorRenderer {
   // the sensor's frame, noisy (seeded: the same frames for the same seed
   // and sequence of calls).
   std::vector<Vec3> Render(const Pose& sensor_in_world);
+  // The last Render's pixels (or beams) that saw nothing within the
+  // sensor's range and nothing nearer than its minimum range (which would
+  // hide what is behind): the far end of each, in the sensor's frame, at
+  // max_range (a depth camera: at depth max_range). Every `stride`-th along
+  // each image axis (a LiDAR: along its columns), stride >= 1. What a map
+  // may mark free along the ray: true in this simulator; for a real sensor
+  // an assumption (a dark or shiny surface also returns nothing).
+  std::vector<Vec3> LastMisses(int stride) const;
 
   const SensorConfig& config() const;
 

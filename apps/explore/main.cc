@@ -1,0 +1,290 @@
+// quadhand-explore: a flight into a scene the planner has never seen,
+// simulated in lockstep (explore/exploration_flight.h): a simulated depth
+// camera or LiDAR renders the hidden world, the rolling map takes each frame,
+// and the local planner replans from the map alone. Writes the flown record
+// (the plan file's columns, as quadhand-sim writes it) and judges it against
+// the hidden world with the exact link meshes, as quadhand-flightcheck does.
+// docs/perception.md, "Flying on the sensor".
+//
+// Exit codes: 0 arrived and kept the safety distance (less --tolerance) at
+// every recorded state; 1 did not arrive (time limit, stuck) but kept it;
+// 6 lost the clearance; 3 the simulation diverged; 2 bad input.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "app_options.h"
+#include "quadhand/core/file_util.h"
+#include "quadhand/core/log.h"
+#include "quadhand/core/text.h"
+#include "quadhand/explore/exploration_flight.h"
+#include "quadhand/explore/local_planner.h"
+#include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/moving_scene.h"
+#include "quadhand/planner/planner_config.h"
+#include "quadhand/planner/planning_context.h"
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/scene/point_cloud.h"
+#include "quadhand/scene/scans.h"
+#include "quadhand/sim/config.h"
+#include "quadhand/sim/sensor.h"
+#include "quadhand/sim/simulator.h"
+#include "quadhand/solvers/builtin_solvers.h"
+
+namespace {
+
+using namespace quadhand;
+
+constexpr int kExitArrived = 0, kExitNotArrived = 1, kExitBadInput = 2, kExitDiverged = 3, kExitLost = 6;
+
+int Fail(const std::string& message) {
+  core::PrintError("quadhand-explore", message);
+  return kExitBadInput;
+}
+
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  return values[std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5))];
+}
+
+nlohmann::json Stats(const std::vector<double>& values) {
+  return {{"count", values.size()},
+          {"median", Percentile(values, 0.5)},
+          {"p95", Percentile(values, 0.95)},
+          {"max", values.empty() ? 0.0 : *std::max_element(values.begin(), values.end())}};
+}
+
+// The hidden world: a cloud, or a task's scans (moved and cropped, before
+// any voxel filter: the sensor sees the raw scene).
+core::Result<std::vector<Vec3>> LoadWorld(const std::string& path) {
+  const std::string extension = std::filesystem::path(path).extension().string();
+  if (extension == ".yaml" || extension == ".yml") {
+    auto task = planner::LoadTask(path);
+    if (!task.ok()) return task.status();
+    auto scans = scene::LoadScans(task->scans);
+    if (!scans.ok()) return scans.status();
+    return scans->unfiltered_points.empty() ? std::move(scans->points) : std::move(scans->unfiltered_points);
+  }
+  auto cloud = scene::LoadPointCloud(path);
+  if (!cloud.ok()) return cloud.status();
+  return std::move(cloud->points);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "quadhand-explore: fly a task into a scene the planner has never seen (simulated, lockstep).\n"
+      "  quadhand-explore TASK.yaml --out FLOWN.csv [--world FILE] [--sensor depth|lidar] [--report R.json]\n"
+      "The task's scene (or --world) is the hidden true world: only the simulated sensor sees it; the\n"
+      "planner plans from the rolling map of its frames, never through space it has not seen free.\n"
+      "Exit codes: 0 arrived and kept the safety distance (less --tolerance) against the true world;\n"
+      "1 did not arrive but kept it; 6 lost it; 3 the simulation diverged; 2 bad input."};
+  std::string task_path, out_path, report_path, world_path, sensor_name = "depth", config_path;
+  std::string sim_config_path = core::FindBundledFile("data/sim/quadhand_sim.yaml", QUADHAND_SOURCE_DIR);
+  std::string solver_name = "lbfgs";
+  std::vector<std::string> package_path;
+  unsigned seed = 1;
+  double tolerance = 0.002;
+  bool quiet = false;
+  explore::ExplorationOptions options;
+  explore::LocalPlannerOptions local;
+  app.add_option("task", task_path, "Task file (YAML): robot, start, goal at rest, safety distance; its scene is the hidden world")
+      ->required();
+  app.add_option("--out", out_path, "The flown record (CSV, the plan file's columns)")->required();
+  app.add_option("--report", report_path, "A JSON report: outcome, clearance, replans and their latency, map costs");
+  app.add_option("--world", world_path, "The hidden world instead of the task's scene: a PCD or PLY cloud, or a task file");
+  app.add_option("--sensor", sensor_name, "depth or lidar (options: the simulator configuration's sensor:)")
+      ->capture_default_str();
+  app.add_option("--sim-config", sim_config_path, "Simulator configuration (YAML, docs/sim.md)")->capture_default_str();
+  app.add_option("--config", config_path, "Planner configuration (YAML, docs/config.md; default: built-in)");
+  app.add_option("--solver", solver_name, "Optimiser back-end (docs/solvers.md)")->capture_default_str();
+  app.add_option("--seed", seed, "Seed of the simulator's and the sensor's noise")->capture_default_str();
+  app.add_option("--resolution", options.map.resolution, "Rolling map voxel edge, m")->capture_default_str();
+  app.add_option("--replan-period", options.replan_period, "Seconds of flight between replans")->capture_default_str();
+  app.add_option("--plan-ahead", options.plan_ahead, "A new plan starts this long after its request, s")
+      ->capture_default_str();
+  app.add_option("--horizon", local.horizon, "A local target lies within this of the start, m")->capture_default_str();
+  app.add_option("--start-free-radius", options.start_free_radius,
+                 "The space within this of the start is taken as free (the vehicle stands there), m")
+      ->capture_default_str();
+  app.add_option("--time-limit", options.time_limit, "Simulated seconds before giving up (0: from the distance)")
+      ->capture_default_str();
+  app.add_option("--tolerance", tolerance, "The verdict accepts the safety distance less this, m")->capture_default_str();
+  apps::AddPackagePathOption(&app, &package_path);
+  app.add_flag("--quiet", quiet, "Print only errors");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    return Fail(e.what());
+  }
+  if (!(std::isfinite(tolerance) && tolerance >= 0.0 && tolerance <= 0.1)) return Fail("--tolerance must be in [0, 0.1] m");
+  if (std::string why; !options.IsValid(&why)) return Fail(why);
+  if (std::string why; !local.IsValid(&why)) return Fail(why);
+  for (const auto& [option, path] : {std::pair<std::string, std::string>{"--out", out_path}, {"--report", report_path}}) {
+    if (path.empty()) continue;
+    if (core::Status s = core::CheckOutputPathAndFolder(path); !s.ok()) return Fail(option + ": " + s.message());
+    for (const std::string& input : {task_path, world_path, sim_config_path, config_path}) {
+      if (!input.empty() && core::SameFile(path, input)) return Fail(option + " " + path + ": is an input of this run");
+    }
+  }
+  if (!report_path.empty() && core::SameFile(out_path, report_path)) return Fail("--out and --report name the same file");
+  robot::PrependRosPackagePath(package_path);
+
+  auto config = planner::LoadPlannerConfigOrDefaults(config_path);
+  if (!config.ok()) return Fail(config->IsValid(nullptr) ? config.status().message() : config.status().message());
+  auto sim_config = sim::LoadSimConfig(sim_config_path);
+  if (!sim_config.ok()) return Fail(sim_config.status().message());
+  auto task = planner::LoadTask(task_path);
+  if (!task.ok()) return Fail(task.status().message());
+  if (world_path.empty()) world_path = task_path;
+  auto world = LoadWorld(world_path);
+  if (!world.ok()) return Fail(world.status().message());
+  if (world->empty()) return Fail(world_path + ": the world has no finite points");
+  auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
+  if (!robot.ok()) return Fail(robot.status().message());
+
+  // The judge: the exact model of the hidden world (never planned against).
+  auto judge = planner::PlanningContext::Create(*task, *robot, std::make_shared<const std::vector<Vec3>>(*world), 0,
+                                                planner::ContextOptions(*config, {}));
+  if (!judge.ok()) return Fail(task_path + ": " + judge.status().message());
+  // The planner's base context: the robot and its SDFs for the local plans.
+  // It never plans itself; its one point, far above the start, only makes
+  // a context (which needs a scene).
+  auto base = planner::PlanningContext::Create(
+      *task, *robot, std::make_shared<const std::vector<Vec3>>(1, task->start.position + Vec3(0.0, 0.0, 20.0)), 0,
+      planner::ContextOptions(*config, {"mrc_sdf"}));
+  if (!base.ok()) return Fail(task_path + ": " + base.status().message());
+  if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
+  auto solver = opt::CreateSolver(solver_name);
+  if (!solver.ok()) return Fail("--solver: " + solver.status().message());
+  const planner::PlannerOptions planner_options = planner::RunPlannerOptions(*config, 0.01, seed, false);
+  auto planner = explore::LocalPlanner::Create(**base, planner_options, **solver, local);
+  if (!planner.ok()) return Fail(planner.status().message());
+
+  sim::SensorConfig sensor = sim_config->sensor;
+  auto kind = sim::ParseSensorKind(sensor_name);
+  if (!kind.ok()) return Fail("--sensor: " + kind.status().message());
+  sensor.kind = *kind;
+  if (!sensor.mount_given) sensor.mount = sim::DefaultMount(sensor.kind);
+  if (robot->LinkIndex(sensor.link) < 0) return Fail(sim_config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
+  auto renderer = sim::SensorRenderer::Create(*world, sensor, seed ^ 0x73656e73ull);
+  if (!renderer.ok()) return Fail(sim_config_path + ": " + renderer.status().message());
+  sim_config->robot_path = task->robot_path;
+  auto model = sim::VehicleModel::Create(*robot, *sim_config);
+  if (!model.ok()) return Fail(sim_config_path + ": " + model.status().message());
+  sim::Simulator simulator(std::move(*model), seed);
+
+  const auto wall_start = std::chrono::steady_clock::now();
+  auto flown = explore::FlyExploration(
+      &simulator, sensor, renderer->get(), **planner, (*base)->task(), options, [&](const explore::ReplanRecord& r) {
+        if (quiet) return;
+        std::fprintf(stderr, "\r  t %6.2f s: replan %-15s %6.1f ms, %6zu boundary voxels   ", r.t,
+                     explore::LocalPlanStatusName(r.status), r.total_ms, r.scene_points);
+      });
+  if (!quiet) std::fprintf(stderr, "\n");
+  if (!flown.ok()) return Fail(task_path + ": " + flown.status().message());
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+
+  // The verdict on the vehicle's own (true) states, against the true world.
+  const robot::RobotModel& judged_robot = (*judge)->robot();
+  robot::KinematicsState kinematics;
+  double least = std::numeric_limits<double>::infinity(), least_t = 0.0;
+  std::string closest;
+  for (const sim::FlownSample& s : flown->samples) {
+    robot::ComputeKinematics(judged_robot, MakePose(s.flown.position, s.flown.attitude.toRotationMatrix()),
+                             s.flown.joints, &kinematics);
+    int link = -1;
+    const double d = planner::StillAndMovingClearance(kinematics, (*judge)->exact(), nullptr, Pose::Identity(), 1.0, &link);
+    if (d < least) {
+      least = d;
+      least_t = s.flown.t;
+      closest = link >= 0 ? judged_robot.link(link).name : "";
+    }
+  }
+  const double accepted = planner::AcceptedClearance(*task, tolerance);
+  const bool kept = least >= accepted;
+  const bool arrived = flown->outcome == explore::ExplorationOutcome::kArrived;
+
+  if (core::Status s = core::WriteFileAtomically(out_path, sim::FlownCsv(flown->samples, robot->ActuatedJointNames()));
+      !s.ok()) {
+    return Fail(s.message());
+  }
+  std::vector<double> latency, planned_latency, scene_points;
+  int certified = 0;
+  for (const explore::ReplanRecord& r : flown->replans) {
+    latency.push_back(r.total_ms);
+    scene_points.push_back(static_cast<double>(r.scene_points));
+    const bool ok = r.status == explore::LocalPlanStatus::kToGoal || r.status == explore::LocalPlanStatus::kToLocalTarget;
+    certified += ok ? 1 : 0;
+  }
+  if (!report_path.empty()) {
+    nlohmann::json report = {
+        {"task", task_path},
+        {"world", world_path},
+        {"sensor", sensor_name},
+        {"seed", seed},
+        {"outcome", explore::ExplorationOutcomeName(flown->outcome)},
+        {"arrived", arrived},
+        {"kept_clearance", kept},
+        {"success", arrived && kept},
+        {"flight_s", flown->flight_s},
+        {"goal_distance_m", flown->goal_distance},
+        {"min_clearance_m", least},
+        {"min_clearance_t", least_t},
+        {"min_clearance_link", closest},
+        {"accepted_clearance_m", accepted},
+        {"planned_safety_distance_m", task->safety_distance + 0.5 * std::sqrt(3.0) * options.map.resolution},
+        {"replans", flown->replans.size()},
+        {"replans_certified", certified},
+        {"replan_latency_ms", Stats(latency)},
+        {"boundary_voxels", Stats(scene_points)},
+        {"frames", flown->frames},
+        {"empty_frames", flown->empty_frames},
+        {"map_update_ms", Stats(flown->map_update_ms)},
+        {"peak_map_bytes", flown->peak_map_bytes},
+        {"wall_s", wall_s}};
+    nlohmann::json replans = nlohmann::json::array();
+    for (const explore::ReplanRecord& r : flown->replans) {
+      replans.push_back({{"t", r.t},
+                         {"status", explore::LocalPlanStatusName(r.status)},
+                         {"total_ms", r.total_ms},
+                         {"scene_ms", r.scene_ms},
+                         {"context_ms", r.context_ms},
+                         {"plan_ms", r.plan_ms},
+                         {"boundary_voxels", r.scene_points},
+                         {"targets_tried", r.targets_tried},
+                         {"message", r.message}});
+    }
+    report["replan_log"] = replans;
+    if (core::Status s = core::WriteFileAtomically(report_path, report.dump(2) + "\n"); !s.ok()) return Fail(s.message());
+  }
+  if (!quiet) {
+    std::printf(
+        "%s after %.2f s simulated (%.1f s wall), %.2f m from the goal\n"
+        "clearance against the true world: least %.4f m at t %.2f s (%s), accepted %.4f m: %s\n"
+        "replans: %zu, %d certified; latency median %.1f ms, p95 %.1f ms, max %.1f ms\n"
+        "map: %ld frames (%ld empty), update median %.2f ms, p95 %.2f ms; peak %.1f MB\n"
+        "out: %s\n",
+        explore::ExplorationOutcomeName(flown->outcome), flown->flight_s, wall_s, flown->goal_distance, least, least_t,
+        closest.c_str(), accepted, kept ? "kept" : "CLEARANCE LOST", flown->replans.size(), certified,
+        Percentile(latency, 0.5), Percentile(latency, 0.95),
+        latency.empty() ? 0.0 : *std::max_element(latency.begin(), latency.end()), flown->frames, flown->empty_frames,
+        Percentile(flown->map_update_ms, 0.5), Percentile(flown->map_update_ms, 0.95), flown->peak_map_bytes / 1e6,
+        out_path.c_str());
+  }
+  if (flown->outcome == explore::ExplorationOutcome::kDiverged) return kExitDiverged;
+  if (!kept) return kExitLost;
+  return arrived ? kExitArrived : kExitNotArrived;
+}

@@ -1,0 +1,89 @@
+// A flight into a scene the planner has never seen, simulated in lockstep
+// (docs/perception.md, "Flying on the sensor"): the simulator flies the
+// vehicle, a simulated sensor on it renders the hidden true scene, each
+// frame goes into the rolling map, and the local planner (local_planner.h)
+// replans from the map alone at a fixed period. Not real time: the
+// simulated clock waits while the planner works, and each new plan starts
+// plan_ahead seconds after the state it was asked from (on the plan being
+// flown), which the vehicle flies meanwhile; the planner's wall time per
+// replan is measured and reported beside it.
+//
+//   t = 0: at rest at the task's start; the space within start_free_radius
+//          is free (the vehicle stands there)
+//   every frame period: render, move the map's window to the sensor, insert
+//   every replan period (until a plan to the goal is held):
+//          plan from the flown plan's state at t + plan_ahead; a certified
+//          plan replaces the flown one there; a failed one leaves it
+//   arrived: the plan to the goal flown to its end, and the vehicle within
+//          goal_tolerance of the goal
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/explore/local_planner.h"
+#include "quadhand/perception/rolling_map.h"
+#include "quadhand/sim/sensor.h"
+#include "quadhand/sim/simulator.h"
+
+namespace quadhand::explore {
+
+struct ExplorationOptions {
+  perception::RollingMapOptions map;
+  double replan_period = 0.5;  // s of flight between replans
+  // s: a new plan starts this long after the state it plans from, the
+  // vehicle flying the current plan meanwhile (what a real planner's
+  // latency asks; the wall time per plan is reported beside it).
+  double plan_ahead = 0.2;
+  // The vehicle's own space at take-off is free (no sensor sees it), m.
+  double start_free_radius = 0.6;
+  // A pixel or beam that returns nothing frees its ray to the sensor's
+  // range (sim::SensorRenderer::LastMisses: every miss_stride-th along each
+  // axis); without it only rays that hit something free space, and open
+  // sky stays unknown.
+  bool free_misses = true;
+  int miss_stride = 4;
+  double goal_tolerance = 0.15;  // m
+  // The flight ends unarrived after this long (s; 0: 3x the straight
+  // line at v_max, plus 30 s), or after stuck_time with no new plan while
+  // the last one has ended.
+  double time_limit = 0.0;
+  double stuck_time = 15.0;
+  double record_period = 0.01;  // s between recorded states
+  bool IsValid(std::string* why) const;
+};
+
+enum class ExplorationOutcome { kArrived, kTimeLimit, kStuck, kDiverged };
+const char* ExplorationOutcomeName(ExplorationOutcome outcome);
+
+struct ReplanRecord {
+  double t = 0.0;  // simulated time it was asked at
+  LocalPlanStatus status = LocalPlanStatus::kFailed;
+  double total_ms = 0.0, scene_ms = 0.0, context_ms = 0.0, plan_ms = 0.0;
+  size_t scene_points = 0;
+  int targets_tried = 0;
+  std::string message;
+};
+
+struct ExplorationResult {
+  ExplorationOutcome outcome = ExplorationOutcome::kTimeLimit;
+  double flight_s = 0.0;  // simulated: to the arrival, or until it ended
+  std::vector<sim::FlownSample> samples;
+  std::vector<ReplanRecord> replans;
+  std::vector<double> map_update_ms;  // per frame, the window's move included
+  long frames = 0, empty_frames = 0;
+  size_t peak_map_bytes = 0;
+  double goal_distance = 0.0;  // at the end, m
+};
+
+// One flight. `simulator` is reset to the task's start; `renderer` renders
+// the hidden scene for `sensor`'s link and mount; `progress`, when set, is
+// called after each replan. Errors only for inconsistent input.
+core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const sim::SensorConfig& sensor,
+                                               sim::SensorRenderer* renderer, const LocalPlanner& planner,
+                                               const planner::Task& task, const ExplorationOptions& options,
+                                               const std::function<void(const ReplanRecord&)>& progress = nullptr);
+
+}  // namespace quadhand::explore

@@ -1,0 +1,108 @@
+// One receding-horizon plan of onboard perception (docs/perception.md,
+// "Planning from the map"): from a state of the vehicle, a whole-body plan
+// certified against what the rolling map has not seen free, to the task's
+// goal when the map shows it free and reachable, otherwise to a local target
+// in the seen free space nearest the goal.
+//
+// The scene of a local plan is the map's obstacle boundary in a box about
+// the start (perception::RollingMap::ObstacleBoundary): the centres of the
+// voxels that are not free (occupied, unknown, or outside the box) and touch
+// a free one. The plan keeps the task's safety distance plus the ball radius
+// of a voxel from those centres, which certifies the task's safety distance
+// from every point of every voxel not seen free: unknown space is never
+// certified free. Every plan ends at rest, so the vehicle always holds a
+// certified plan that stops inside seen free space.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "quadhand/core/status.h"
+#include "quadhand/core/types.h"
+#include "quadhand/opt/solver.h"
+#include "quadhand/perception/rolling_map.h"
+#include "quadhand/planner/planner.h"
+#include "quadhand/planner/planning_context.h"
+
+namespace quadhand::explore {
+
+struct LocalPlannerOptions {
+  // The scene box about the plan's start: its half extents, m. Beyond it
+  // everything counts as an obstacle, so the plan stays inside it.
+  Vec3 box_half_extent = Vec3(6.0, 6.0, 2.0);
+  // A local target lies within this distance of the start, m.
+  double horizon = 5.0;
+  // Local targets are tried from a lattice of this spacing, m, nearest the
+  // goal first; at most max_targets of them per plan, each at least
+  // target_separation from those tried before (a target next to one that
+  // failed fails alike).
+  double target_spacing = 0.25;
+  int max_targets = 3;
+  double target_separation = 1.0;
+  // A local target nearer the start than this is not worth a plan, m.
+  double min_progress = 0.3;
+  // The local targets' height stays within this of the goal's, m (the
+  // lattice covers the box otherwise).
+  double max_height_offset = 1.0;
+  // A local target is tried only where the robot hovering there (heading
+  // from the start, the goal's joints) clears the boundary by the planned
+  // safety distance plus this, m (exact meshes): room for the optimiser.
+  double target_clearance_margin = 0.05;
+  // At most this many targets are tested that way per plan.
+  int max_target_checks = 400;
+  bool IsValid(std::string* why) const;
+};
+
+enum class LocalPlanStatus {
+  kToGoal,         // certified, to the task's goal
+  kToLocalTarget,  // certified, to a local target
+  kNoTarget,       // no seen-free point of the box is a target
+  kFailed,         // every target tried failed its plan
+};
+const char* LocalPlanStatusName(LocalPlanStatus status);
+
+struct LocalPlanResult {
+  LocalPlanStatus status = LocalPlanStatus::kFailed;
+  planner::PlanResult plan;  // the certified plan (kToGoal, kToLocalTarget)
+  Vec3 target = Vec3::Zero();
+  int targets_tried = 0;
+  size_t scene_points = 0;
+  double scene_ms = 0.0;    // the obstacle boundary out of the map
+  double context_ms = 0.0;  // its representations and front-end map
+  double plan_ms = 0.0;     // the plans, every target tried
+  double total_ms = 0.0;
+  std::string message;      // why the last target failed, for people
+};
+
+class LocalPlanner {
+ public:
+  // `base` is the task's context (its robot, link SDFs and goal); it and
+  // `solver` must outlive the planner. InvalidArgument for bad options or a
+  // task that is not a goal at rest (a mission, a tool pose or a moving
+  // target are not flown under perception yet).
+  static core::Result<std::unique_ptr<LocalPlanner>> Create(const planner::PlanningContext& base,
+                                                            const planner::PlannerOptions& options,
+                                                            const opt::Solver& solver,
+                                                            const LocalPlannerOptions& local);
+
+  // A plan from `start` (world ENU; usually a state on the plan being flown)
+  // in what `map` has seen. Ordinary outcomes are statuses; errors only for
+  // inconsistent input (joint counts, non-finite states).
+  core::Result<LocalPlanResult> PlanFrom(const perception::RollingMap& map, const planner::BoundaryState& start) const;
+
+  const planner::BoundaryState& goal() const { return goal_; }
+  // The safety distance local plans keep from the boundary's centres.
+  double PlannedSafetyDistance(const perception::RollingMap& map) const;
+
+ private:
+  LocalPlanner(const planner::PlanningContext& base, const planner::PlannerOptions& options, const opt::Solver& solver,
+               const LocalPlannerOptions& local);
+  const planner::PlanningContext& base_;
+  planner::PlannerOptions options_;
+  const opt::Solver& solver_;
+  LocalPlannerOptions local_;
+  planner::BoundaryState goal_;
+};
+
+}  // namespace quadhand::explore

@@ -1,0 +1,214 @@
+#include "quadhand/explore/exploration_flight.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <optional>
+
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/traj/flatness.h"
+
+namespace quadhand::explore {
+namespace {
+
+bool Fail(std::string* why, const std::string& message) {
+  if (why != nullptr) *why = message;
+  return false;
+}
+
+sim::Setpoint SetpointOf(const planner::WholeBodySample& sample) {
+  sim::Setpoint s;
+  s.position = sample.position;
+  s.velocity = sample.velocity;
+  s.acceleration = sample.acceleration;
+  s.jerk = sample.jerk;
+  s.yaw = sample.yaw;
+  s.yaw_rate = sample.yaw_rate;
+  s.joints = sample.joints;
+  s.joint_rates = sample.joint_rates.size() == sample.joints.size() ? sample.joint_rates : VecX::Zero(sample.joints.size());
+  return s;
+}
+
+// A plan being flown: its trajectory from `t0` on the simulated clock.
+struct FlownPlan {
+  planner::WholeBodyTrajectory trajectory;
+  double t0 = 0.0;
+  bool to_goal = false;
+  planner::WholeBodySample At(double t) const { return trajectory.Sample(t - t0); }
+  bool Ended(double t) const { return t - t0 >= trajectory.duration(); }
+};
+
+}  // namespace
+
+bool ExplorationOptions::IsValid(std::string* why) const {
+  if (std::string map_why; !map.IsValid(&map_why)) return Fail(why, "map: " + map_why);
+  if (!(std::isfinite(replan_period) && replan_period >= 0.01 && replan_period <= 60.0)) {
+    return Fail(why, "replan_period must be in [0.01, 60] s");
+  }
+  if (!(std::isfinite(plan_ahead) && plan_ahead >= 0.0 && plan_ahead < replan_period)) {
+    return Fail(why, "plan_ahead must be in [0, replan_period) s");
+  }
+  if (!(std::isfinite(start_free_radius) && start_free_radius >= 0.0 && start_free_radius <= 10.0)) {
+    return Fail(why, "start_free_radius must be in [0, 10] m");
+  }
+  if (miss_stride < 1 || miss_stride > 64) return Fail(why, "miss_stride must be in [1, 64]");
+  if (!(std::isfinite(goal_tolerance) && goal_tolerance > 0.0 && goal_tolerance <= 10.0)) {
+    return Fail(why, "goal_tolerance must be in (0, 10] m");
+  }
+  if (!(std::isfinite(time_limit) && time_limit >= 0.0 && time_limit <= sim::kMaxSimulatedSeconds)) {
+    return Fail(why, "time_limit must be in [0, 3600] s");
+  }
+  if (!(std::isfinite(stuck_time) && stuck_time > 0.0)) return Fail(why, "stuck_time must be > 0 s");
+  if (!(std::isfinite(record_period) && record_period >= 1e-3 && record_period <= 1.0)) {
+    return Fail(why, "record_period must be in [0.001, 1] s");
+  }
+  return true;
+}
+
+const char* ExplorationOutcomeName(ExplorationOutcome outcome) {
+  switch (outcome) {
+    case ExplorationOutcome::kArrived: return "arrived";
+    case ExplorationOutcome::kTimeLimit: return "time_limit";
+    case ExplorationOutcome::kStuck: return "stuck";
+    case ExplorationOutcome::kDiverged: return "diverged";
+  }
+  return "unknown";
+}
+
+core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const sim::SensorConfig& sensor,
+                                               sim::SensorRenderer* renderer, const LocalPlanner& planner,
+                                               const planner::Task& task, const ExplorationOptions& options,
+                                               const std::function<void(const ReplanRecord&)>& progress) {
+  if (simulator == nullptr || renderer == nullptr) return core::Status::InvalidArgument("exploration: no simulator or sensor");
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("exploration: " + why);
+  const sim::VehicleModel& model = simulator->model();
+  const robot::RobotModel& robot = model.robot();
+  const int link = robot.LinkIndex(sensor.link);
+  if (link < 0) return core::Status::InvalidArgument("exploration: the robot has no link '" + sensor.link + "'");
+  if (task.start.joints.size() != static_cast<long>(robot.ActuatedJointNames().size())) {
+    return core::Status::InvalidArgument("exploration: the task's joints do not match the simulated robot's");
+  }
+  auto map = perception::RollingMap::Create(options.map);
+  if (!map.ok()) return map.status();
+
+  const planner::BoundaryState& goal = planner.goal();
+  const double straight = (goal.position - task.start.position).norm();
+  const double time_limit =
+      options.time_limit > 0.0 ? options.time_limit
+                               : std::min(sim::kMaxSimulatedSeconds, 3.0 * straight / task.limits.v_max + 30.0);
+
+  sim::VehicleState initial = sim::VehicleState::AtRest(model, task.start.position, task.start.joints);
+  initial.attitude = Quat(Eigen::AngleAxisd(task.start.yaw, Vec3::UnitZ()));
+  simulator->Reset(initial, 0.0);
+  (*map)->MoveWindow(task.start.position);
+  (*map)->MarkFree(task.start.position, options.start_free_radius);
+
+  planner::WholeBodySample hold_sample;
+  hold_sample.position = task.start.position;
+  hold_sample.velocity = hold_sample.acceleration = hold_sample.jerk = Vec3::Zero();
+  hold_sample.yaw = task.start.yaw;
+  hold_sample.joints = task.start.joints;
+  hold_sample.joint_rates = VecX::Zero(task.start.joints.size());
+
+  ExplorationResult result;
+  std::optional<FlownPlan> flying, pending;
+  const double frame_period = 1.0 / sensor.rate();
+  const double dt = simulator->step();
+  double next_frame = 0.0, next_replan = 0.0, next_record = 0.0, last_new_plan = 0.0;
+  while (true) {
+    const double t = simulator->time();
+    if (pending && t >= pending->t0 - 1e-9) {
+      flying = std::move(pending);
+      pending.reset();
+      last_new_plan = t;
+    }
+    const sim::VehicleState& state = simulator->state();
+    if (t >= next_frame - 1e-9) {
+      const Pose base = MakePose(state.position, state.attitude.toRotationMatrix());
+      const Pose sensor_pose = robot::LinkPose(robot, base, state.joints, link) * sensor.mount;
+      std::vector<Vec3> points = renderer->Render(sensor_pose);
+      for (Vec3& p : points) p = sensor_pose * p;
+      std::vector<Vec3> misses;
+      if (options.free_misses) misses = renderer->LastMisses(options.miss_stride);
+      for (Vec3& p : misses) p = sensor_pose * p;
+      const auto update_start = std::chrono::steady_clock::now();
+      (*map)->MoveWindow(sensor_pose.translation());
+      if (points.empty()) ++result.empty_frames;
+      QUADHAND_RETURN_IF_ERROR((*map)->Insert(points, sensor_pose.translation(), misses));
+      result.map_update_ms.push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - update_start).count());
+      result.peak_map_bytes = std::max(result.peak_map_bytes, (*map)->memory_bytes());
+      ++result.frames;
+      next_frame += frame_period;
+    }
+    const bool goal_held = (flying && flying->to_goal) || (pending && pending->to_goal);
+    if (!goal_held && !pending && t >= next_replan - 1e-9) {
+      const double t_start = t + options.plan_ahead;
+      const planner::BoundaryState start = flying ? flying->At(t_start).State() : hold_sample.State();
+      auto planned = planner.PlanFrom(**map, start);
+      if (!planned.ok()) return planned.status();
+      ReplanRecord record;
+      record.t = t;
+      record.status = planned->status;
+      record.total_ms = planned->total_ms;
+      record.scene_ms = planned->scene_ms;
+      record.context_ms = planned->context_ms;
+      record.plan_ms = planned->plan_ms;
+      record.scene_points = planned->scene_points;
+      record.targets_tried = planned->targets_tried;
+      record.message = planned->message;
+      result.replans.push_back(record);
+      if (progress) progress(record);
+      if (planned->status == LocalPlanStatus::kToGoal || planned->status == LocalPlanStatus::kToLocalTarget) {
+        pending = FlownPlan{std::move(*planned->plan.trajectory), t_start, planned->status == LocalPlanStatus::kToGoal};
+      }
+      next_replan = t + options.replan_period;
+    }
+
+    const double goal_distance = (state.position - goal.position).norm();
+    if (flying && flying->to_goal && flying->Ended(t) && goal_distance <= options.goal_tolerance) {
+      result.outcome = ExplorationOutcome::kArrived;
+      break;
+    }
+    if (t >= time_limit) {
+      result.outcome = ExplorationOutcome::kTimeLimit;
+      break;
+    }
+    if (t - last_new_plan > options.stuck_time && (!flying || flying->Ended(t)) && !pending) {
+      result.outcome = ExplorationOutcome::kStuck;
+      break;
+    }
+
+    const planner::WholeBodySample reference = flying ? flying->At(t) : hold_sample;
+    if (t >= next_record - 1e-9) {
+      sim::FlownSample f;
+      const sim::DynamicsInfo info = simulator->CurrentDynamics();
+      f.flown.t = t;
+      f.flown.position = state.position;
+      f.flown.velocity = state.velocity;
+      f.flown.acceleration = info.acceleration;
+      f.flown.attitude = state.attitude;
+      f.flown.yaw = traj::HopfYawOf(state.attitude);
+      f.flown.yaw_rate = traj::HopfYawRateOf(state.attitude, state.body_rate);
+      f.flown.joints = state.joints;
+      f.flown.joint_rates = state.joint_rates;
+      f.position_error = state.position - reference.position;
+      f.yaw_error = std::remainder(f.flown.yaw - reference.yaw, 2.0 * M_PI);
+      f.center_of_mass = model.MassPropertiesAt(state.joints).com;
+      f.arm_wrench = info.arm_wrench;
+      f.thrust = state.thrusts.sum();
+      result.samples.push_back(std::move(f));
+      next_record += options.record_period;
+    }
+    simulator->Step(SetpointOf(reference), dt);
+    if (!sim::PackState(simulator->state()).allFinite()) {
+      result.outcome = ExplorationOutcome::kDiverged;
+      break;
+    }
+  }
+  result.flight_s = simulator->time();
+  result.goal_distance = (simulator->state().position - goal.position).norm();
+  return result;
+}
+
+}  // namespace quadhand::explore

@@ -1,0 +1,201 @@
+#include "quadhand/explore/local_planner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "quadhand/core/text.h"
+#include "quadhand/planner/moving_scene.h"
+#include "quadhand/robot/kinematics.h"
+
+namespace quadhand::explore {
+namespace {
+
+bool Fail(std::string* why, const std::string& message) {
+  if (why != nullptr) *why = message;
+  return false;
+}
+
+bool Positive(double x, double hi) { return std::isfinite(x) && x > 0.0 && x <= hi; }
+
+double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+bool LocalPlannerOptions::IsValid(std::string* why) const {
+  if (!box_half_extent.allFinite() || (box_half_extent.array() < 0.5).any() || (box_half_extent.array() > 100.0).any()) {
+    return Fail(why, "box_half_extent must be in [0.5, 100] m on every axis");
+  }
+  if (!Positive(horizon, 100.0)) return Fail(why, "horizon must be in (0, 100] m");
+  if (!Positive(target_spacing, 10.0)) return Fail(why, "target_spacing must be in (0, 10] m");
+  if (max_targets < 1 || max_targets > 100) return Fail(why, "max_targets must be in [1, 100]");
+  if (!(std::isfinite(target_separation) && target_separation >= 0.0)) return Fail(why, "target_separation must be >= 0 m");
+  if (!(std::isfinite(min_progress) && min_progress >= 0.0 && min_progress < horizon)) {
+    return Fail(why, "min_progress must be in [0, horizon) m");
+  }
+  if (!(std::isfinite(max_height_offset) && max_height_offset >= 0.0)) return Fail(why, "max_height_offset must be >= 0 m");
+  if (!(std::isfinite(target_clearance_margin) && target_clearance_margin >= 0.0 && target_clearance_margin <= 1.0)) {
+    return Fail(why, "target_clearance_margin must be in [0, 1] m");
+  }
+  if (max_target_checks < 1) return Fail(why, "max_target_checks must be >= 1");
+  return true;
+}
+
+const char* LocalPlanStatusName(LocalPlanStatus status) {
+  switch (status) {
+    case LocalPlanStatus::kToGoal: return "to_goal";
+    case LocalPlanStatus::kToLocalTarget: return "to_local_target";
+    case LocalPlanStatus::kNoTarget: return "no_target";
+    case LocalPlanStatus::kFailed: return "failed";
+  }
+  return "unknown";
+}
+
+LocalPlanner::LocalPlanner(const planner::PlanningContext& base, const planner::PlannerOptions& options,
+                           const opt::Solver& solver, const LocalPlannerOptions& local)
+    : base_(base), options_(options), solver_(solver), local_(local) {}
+
+core::Result<std::unique_ptr<LocalPlanner>> LocalPlanner::Create(const planner::PlanningContext& base,
+                                                                  const planner::PlannerOptions& options,
+                                                                  const opt::Solver& solver,
+                                                                  const LocalPlannerOptions& local) {
+  if (std::string why; !local.IsValid(&why)) return core::Status::InvalidArgument("local planner: " + why);
+  if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("planner: " + why);
+  const planner::Task& task = base.task();
+  if (!planner::PlansAsGoal(task) || !task.mission.empty() || !task.terminal || task.tool) {
+    return core::Status::InvalidArgument(task.file +
+                                         ": under perception only a goal at rest is flown (goal.position, yaw, "
+                                         "joints); a mission or a tool pose is not yet");
+  }
+  std::unique_ptr<LocalPlanner> planner(new LocalPlanner(base, options, solver, local));
+  planner->goal_ = *task.terminal;
+  return planner;
+}
+
+double LocalPlanner::PlannedSafetyDistance(const perception::RollingMap& map) const {
+  return base_.task().safety_distance + map.BoundaryBallRadius();
+}
+
+core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMap& map,
+                                                     const planner::BoundaryState& start) const {
+  const auto begin = std::chrono::steady_clock::now();
+  const planner::Task& base_task = base_.task();
+  if (!start.position.allFinite() || !start.velocity.allFinite() || !start.acceleration.allFinite() ||
+      !start.jerk.allFinite() || !std::isfinite(start.yaw) || !std::isfinite(start.yaw_rate) ||
+      !start.joints.allFinite()) {
+    return core::Status::InvalidArgument("local plan: the start state is not finite");
+  }
+  if (start.joints.size() != goal_.joints.size()) {
+    return core::Status::InvalidArgument("local plan: the start has the wrong number of joints");
+  }
+  LocalPlanResult result;
+  const Vec3 lo = start.position - local_.box_half_extent, hi = start.position + local_.box_half_extent;
+  auto points = std::make_shared<std::vector<Vec3>>(map.ObstacleBoundary(lo, hi));
+  result.scene_points = points->size();
+  result.scene_ms = MsSince(begin);
+
+  planner::Task task = base_task;
+  task.scans.clear();
+  task.start = start;
+  task.safety_distance = PlannedSafetyDistance(map);
+  const bool goal_in_box = ((goal_.position - lo).array() >= 0.0).all() && ((hi - goal_.position).array() >= 0.0).all();
+  task.terminal = goal_;
+  if (!goal_in_box) task.terminal->position = start.position;  // only what the front-end map must cover
+  const auto context_start = std::chrono::steady_clock::now();
+  auto context = base_.ForLocalScene(task, points);
+  result.context_ms = MsSince(context_start);
+  if (!context.ok()) {
+    result.status = LocalPlanStatus::kFailed;
+    result.message = context.status().message();
+    result.total_ms = MsSince(begin);
+    return result;
+  }
+  const planner::FrontEndMap& front_end = (*context)->front_end();
+  auto usable = [&](const Vec3& p) {
+    return map.State(p) == perception::VoxelState::kFree && front_end.IsFree(p);
+  };
+
+  // The targets, best first: the goal when it is seen free and open to the
+  // front end, then the lattice's seen-free points nearest the goal.
+  std::vector<std::pair<double, Vec3>> candidates;
+  if (goal_in_box && usable(goal_.position)) candidates.emplace_back(-1.0, goal_.position);
+  const double s = local_.target_spacing;
+  const int n = static_cast<int>(std::floor(local_.horizon / s));
+  for (int i = -n; i <= n; ++i) {
+    for (int j = -n; j <= n; ++j) {
+      for (int k = -n; k <= n; ++k) {
+        const Vec3 offset(i * s, j * s, k * s);
+        const double reach = offset.norm();
+        if (reach > local_.horizon || reach < local_.min_progress) continue;
+        const Vec3 p = start.position + offset;
+        if (((p - lo).array() < 0.0).any() || ((hi - p).array() < 0.0).any()) continue;
+        if (std::abs(p.z() - goal_.position.z()) > local_.max_height_offset) continue;
+        if (!usable(p)) continue;
+        candidates.emplace_back((p - goal_.position).norm(), p);
+      }
+    }
+  }
+  std::sort(candidates.begin(), candidates.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  if (candidates.empty()) {
+    result.status = LocalPlanStatus::kNoTarget;
+    result.message = "no point of the box is seen free and open";
+    result.total_ms = MsSince(begin);
+    return result;
+  }
+
+  const planner::PlanningScene scene = (*context)->Scene(0);
+  const robot::RobotModel& robot = (*context)->robot();
+  robot::KinematicsState kinematics;
+  // The robot at rest at the target: clear of the boundary, or not tried.
+  auto hover_clears = [&](const planner::BoundaryState& terminal, double margin) {
+    robot::ComputeKinematics(robot, planner::HoverPose(terminal.position, terminal.yaw), terminal.joints, &kinematics);
+    const double needed = task.safety_distance + margin;
+    return planner::StillAndMovingClearance(kinematics, (*context)->exact(), nullptr, Pose::Identity(), needed + 0.01) >=
+           needed;
+  };
+  std::vector<Vec3> tried;
+  int checks = 0;
+  const auto plan_start = std::chrono::steady_clock::now();
+  for (const auto& [score, target] : candidates) {
+    if (static_cast<int>(tried.size()) >= local_.max_targets || checks >= local_.max_target_checks) break;
+    const bool is_goal = score < 0.0;
+    bool near_tried = false;
+    for (const Vec3& t : tried) near_tried = near_tried || (t - target).norm() < local_.target_separation;
+    if (near_tried) continue;
+    planner::Task leg = task;
+    leg.terminal = goal_;
+    if (!is_goal) {
+      leg.terminal->position = target;
+      const Vec3 heading = target - start.position;
+      leg.terminal->yaw = std::atan2(heading.y(), heading.x());
+    }
+    // The planner's yaw is continuous: the terminal yaw nearest the start's.
+    leg.terminal->yaw = start.yaw + std::remainder(leg.terminal->yaw - start.yaw, 2.0 * M_PI);
+    ++checks;
+    if (!hover_clears(*leg.terminal, is_goal ? 0.0 : local_.target_clearance_margin)) continue;
+    tried.push_back(target);
+    auto planned = planner::Plan(scene, leg, options_, solver_);
+    if (!planned.ok()) {
+      result.message = planned.status().message();
+      continue;
+    }
+    if (!planned->success) {
+      result.message = planned->message;
+      continue;
+    }
+    result.plan = std::move(*planned);
+    result.target = target;
+    result.status = is_goal ? LocalPlanStatus::kToGoal : LocalPlanStatus::kToLocalTarget;
+    break;
+  }
+  result.targets_tried = static_cast<int>(tried.size());
+  result.plan_ms = MsSince(plan_start);
+  if (result.status == LocalPlanStatus::kFailed && result.message.empty()) result.message = "no target planned";
+  result.total_ms = MsSince(begin);
+  return result;
+}
+
+}  // namespace quadhand::explore
