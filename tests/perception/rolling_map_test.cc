@@ -4,10 +4,13 @@
 // frames; the bad inputs.
 #include "quadhand/perception/rolling_map.h"
 
+#include "quadhand/geometry/primitives.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
+#include <random>
 
 namespace quadhand::perception {
 namespace {
@@ -121,6 +124,98 @@ TEST(RollingMapTest, BadReturnsAreDroppedAndBadInputRefused) {
   bad = RollingMapOptions{};
   bad.window_half_extent = Vec3(1.0, -1.0, 1.0);
   EXPECT_FALSE(RollingMap::Create(bad).ok());
+}
+
+// The certificate a local plan leans on: from any point of a free voxel of
+// the box, the distance to everything not seen free (the not-free voxels of
+// the box and all space outside it, measured exactly as boxes) is at least
+// the distance to the nearest boundary centre less the ball radius.
+TEST(RollingMapTest, TheObstacleBoundaryBoundsTheDistanceToEverythingNotSeenFree) {
+  RollingMapOptions options;
+  options.resolution = 0.1;
+  auto map = Map(options);
+  // A wall with a square hole seen from the origin: free before it and
+  // through the hole, occupied at it, unknown behind it and outside the view.
+  std::vector<Vec3> wall;
+  for (const Vec3& p : Wall(1.5, 1.0, 0.02)) {
+    if (std::abs(p.y()) > 0.25 || std::abs(p.z()) > 0.25) wall.push_back(p);
+  }
+  for (const Vec3& p : Wall(2.4, 0.4, 0.02)) wall.push_back(p);  // seen through the hole
+  ASSERT_TRUE(map->Insert(wall, Vec3::Zero()).ok());
+  const Vec3 lo(-0.45, -0.75, -0.55), hi(2.55, 0.75, 0.55);
+  const std::vector<Vec3> boundary = map->ObstacleBoundary(lo, hi);
+  ASSERT_FALSE(boundary.empty());
+  const double ball = map->BoundaryBallRadius();
+  EXPECT_DOUBLE_EQ(ball, 0.05 * std::sqrt(3.0));
+  // The box in whole voxels, as ObstacleBoundary takes it.
+  const double res = options.resolution;
+  const Eigen::Vector3i first = (lo / res).array().floor().cast<int>(), last = (hi / res).array().floor().cast<int>();
+  const Vec3 box_lo = first.cast<double>() * res, box_hi = (last + Eigen::Vector3i::Ones()).cast<double>() * res;
+  std::vector<geometry::Box> not_free;
+  for (int i = first.x(); i <= last.x(); ++i) {
+    for (int j = first.y(); j <= last.y(); ++j) {
+      for (int k = first.z(); k <= last.z(); ++k) {
+        const Vec3 c = (Eigen::Vector3i(i, j, k).cast<double>().array() + 0.5).matrix() * res;
+        if (map->State(c) == VoxelState::kFree) continue;
+        geometry::Box box;
+        box.pose = MakePose(c, Mat3::Identity());
+        box.size = Vec3::Constant(res);
+        not_free.push_back(box);
+      }
+    }
+  }
+  ASSERT_FALSE(not_free.empty());
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> x(box_lo.x(), box_hi.x()), y(box_lo.y(), box_hi.y()), z(box_lo.z(), box_hi.z());
+  int checked = 0, through_the_hole = 0;
+  for (int n = 0; n < 20000 && checked < 400; ++n) {
+    const Vec3 p(x(rng), y(rng), z(rng));
+    if (map->State(p) != VoxelState::kFree) continue;
+    ++checked;
+    if (p.x() > 1.5) ++through_the_hole;
+    // Exactly: to the nearest not-free voxel, and to the box's faces.
+    double exact = std::numeric_limits<double>::infinity();
+    for (const geometry::Box& box : not_free) exact = std::min(exact, geometry::SignedDistance(box, p));
+    for (int a = 0; a < 3; ++a) exact = std::min({exact, p[a] - box_lo[a], box_hi[a] - p[a]});
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Vec3& c : boundary) nearest = std::min(nearest, (c - p).norm());
+    EXPECT_GE(exact, nearest - ball - 1e-12) << p.transpose();
+    // And the bound is not loose by more than a voxel's diagonal.
+    EXPECT_LE(nearest - ball, exact + 1e-12) << p.transpose();
+    EXPECT_LE(exact, nearest + 1e-12) << p.transpose();
+  }
+  EXPECT_GE(checked, 300);
+  EXPECT_GT(through_the_hole, 0);
+  // Every centre is of a voxel that is not free, or outside the box.
+  int outside = 0;
+  for (const Vec3& c : boundary) {
+    if (((c - box_lo).array() < 0.0).any() || ((box_hi - c).array() < 0.0).any()) {
+      ++outside;
+      continue;
+    }
+    EXPECT_NE(map->State(c), VoxelState::kFree) << c.transpose();
+  }
+  EXPECT_GT(outside, 0);  // the free cone reaches the box's faces
+}
+
+TEST(RollingMapTest, MarkFreeFreesABallAndMissesFreeTheirRaysOccupyingNothing) {
+  auto map = Map();
+  map->MarkFree(Vec3(0.0, 0.0, 0.0), 0.35);
+  EXPECT_EQ(map->State(Vec3(0.2, 0.1, -0.1)), VoxelState::kFree);
+  EXPECT_EQ(map->State(Vec3(0.0, 0.0, 0.5)), VoxelState::kUnknown);
+  map->MarkFree(Vec3(std::nan(""), 0.0, 0.0), 1.0);  // nothing
+  map->MarkFree(Vec3(3.0, 0.0, 0.0), -1.0);           // nothing
+  EXPECT_EQ(map->State(Vec3(3.0, 0.0, 0.0)), VoxelState::kUnknown);
+
+  // A miss 4 m out: free along it, nothing occupied at its end; one beyond
+  // max_range frees only up to it.
+  ASSERT_TRUE(map->Insert({}, Vec3::Zero(), {Vec3(0.0, 4.0, 0.0), Vec3(0.0, -9.0, 0.0), Vec3(std::nan(""), 0, 0)}).ok());
+  for (double y : {1.0, 2.5, 3.85}) EXPECT_EQ(map->State(Vec3(0.05, y, 0.05)), VoxelState::kFree) << y;
+  EXPECT_NE(map->State(Vec3(0.05, 4.05, 0.05)), VoxelState::kOccupied);
+  EXPECT_EQ(map->State(Vec3(0.05, -5.5, 0.05)), VoxelState::kFree);
+  EXPECT_EQ(map->State(Vec3(0.05, -6.5, 0.05)), VoxelState::kUnknown);
+  EXPECT_TRUE(map->OccupiedPoints().empty());
+  EXPECT_EQ(map->dropped_points(), 1);
 }
 
 }  // namespace

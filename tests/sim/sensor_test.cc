@@ -88,6 +88,40 @@ TEST(SensorTest, NothingBeyondTheRangesOrBehindTheCamera) {
   EXPECT_TRUE((*near)->Render(CameraAlongX()).empty());
 }
 
+// A miss is a pixel that saw nothing in range: its far end lies on the
+// ray at the camera's range; a pixel a too-near point covers is no miss
+// (the point hides what is behind it), and neither is one with a return.
+TEST(SensorTest, MissesAreThePixelsThatSawNothingAndNotThoseANearPointHides) {
+  // A wall at 3 m filling the left half of the image (y > 0 in the world is
+  // the image's left: x to the right), and a post 0.1 m before the camera.
+  std::vector<Vec3> world;
+  for (const Vec3& p : Wall(3.0, 4.0, 0.01)) {
+    if (p.y() > 0.0) world.push_back(p);
+  }
+  for (double z = 0.5; z <= 1.5; z += 0.005) world.emplace_back(0.1, -0.02, z);
+  auto renderer = SensorRenderer::Create(world, Depth(), 1);
+  ASSERT_TRUE(renderer.ok());
+  const Pose camera = CameraAlongX();
+  const std::vector<Vec3> points = (*renderer)->Render(camera);
+  ASSERT_FALSE(points.empty());
+  for (const Vec3& p : points) EXPECT_NEAR(p.z(), 3.0, 1e-6);  // only the wall: the post is too near
+  const std::vector<Vec3> misses = (*renderer)->LastMisses(1);
+  const std::vector<Vec3> coarse = (*renderer)->LastMisses(4);
+  ASSERT_FALSE(misses.empty());
+  EXPECT_NEAR(static_cast<double>(coarse.size()), misses.size() / 16.0, misses.size() / 16.0 * 0.1 + 2.0);
+  for (const Vec3& m : misses) {
+    EXPECT_NEAR(m.z(), 6.0, 1e-9);       // at the camera's range
+    EXPECT_GT(m.x(), -1e-9) << m.transpose();  // the image's right half: no wall there
+    // Not behind the post: its pixels (0.12 m right of the axis at 0.1 m,
+    // 0.02 m wide with the splat) hide their rays.
+    const Vec3 at_post = m * (0.1 / m.z());
+    EXPECT_FALSE(std::abs(at_post.x() - 0.02) < 0.015 && std::abs(at_post.y()) < 0.03) << m.transpose();
+  }
+  // Every pixel is a return, a miss or hidden by the post.
+  EXPECT_LT(points.size() + misses.size(), 160u * 120u);
+  EXPECT_GT(points.size() + misses.size(), 160u * 120u * 7 / 10);
+}
+
 TEST(SensorTest, DepthNoiseIsSeededAndGrowsWithTheSquareOfTheDepth) {
   const std::vector<Vec3> wall = Wall(4.0, 4.0, 0.01);
   auto a = SensorRenderer::Create(wall, Depth(0.01), 7), b = SensorRenderer::Create(wall, Depth(0.01), 7);

@@ -1,0 +1,114 @@
+"""The perception benchmark (docs/perception.md, "Flying on the sensor"):
+flies N seeded worlds the planner has never seen with quadhand-explore
+(simulated in lockstep, not real time) and judges each flown record again
+with quadhand-flightcheck against the true world (an independent verdict).
+Reports, per world and in sum: arrived, kept the clearance, the least flown
+clearance against the true scene, time to goal, the replan latency (median,
+p95), the map update per frame, and the peak memory.
+
+Usage: python3 scripts/perception_bench.py [--kind forest|room] [--seeds 1-20] [--length 30]
+       [--sensor depth|lidar] [--build build] [--keep DIR] [-- extra quadhand-explore options]
+Worlds: scripts/make_forest.py (Poisson trunks, 0.15 per m^2, 8 m wide) or
+scripts/make_room.py (inner walls, each with a door or a window).
+Exit code 0 when every flight kept its clearance, 1 otherwise.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+
+def seeds_of(text):
+    out = []
+    for part in text.split(","):
+        if "-" in part:
+            lo, hi = part.split("-")
+            out.extend(range(int(lo), int(hi) + 1))
+        else:
+            out.append(int(part))
+    return out
+
+
+def run(argv):
+    """Runs argv; returns (exit code, peak resident KB, wall seconds, output)."""
+    start = time.monotonic()
+    child = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    out = child.stdout.read()
+    _, status, usage = os.wait4(child.pid, 0)
+    return os.waitstatus_to_exitcode(status), usage.ru_maxrss, time.monotonic() - start, out.decode(errors="replace")
+
+
+def main():
+    argv = sys.argv[1:]
+    extra = []
+    if "--" in argv:
+        extra = argv[argv.index("--") + 1:]
+        argv = argv[:argv.index("--")]
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--kind", choices=["forest", "room"], default="forest")
+    parser.add_argument("--seeds", default="1-20")
+    parser.add_argument("--length", type=float, default=None, help="m (default: 30 for a forest, 12 for a room)")
+    parser.add_argument("--sensor", default="depth")
+    parser.add_argument("--build", default="build")
+    parser.add_argument("--keep", default=None, help="keep worlds, records and reports in this folder")
+    args = parser.parse_args(argv)
+    explore = os.path.join(ROOT, args.build, "bin", "quadhand-explore")
+    check = os.path.join(ROOT, args.build, "bin", "quadhand-flightcheck")
+    for tool in (explore, check):
+        if not os.access(tool, os.X_OK):
+            sys.exit(f"perception_bench: {tool} is missing")
+    length = args.length if args.length is not None else (30.0 if args.kind == "forest" else 12.0)
+    print(f"| {args.kind} | seed | outcome | flightcheck (true world) | least clearance, m | time to goal, s "
+          "| replans (certified) | latency median / p95 / max, ms | map update median / p95, ms | peak memory, MB |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    rows = []
+    with tempfile.TemporaryDirectory() as scratch:
+        work = args.keep or scratch
+        os.makedirs(work, exist_ok=True)
+        for seed in seeds_of(args.seeds):
+            if args.kind == "forest":
+                subprocess.run([sys.executable, os.path.join(ROOT, "scripts", "make_forest.py"), "--length",
+                                f"{length:g}", "--seed", str(seed), "--out", work], check=True,
+                               stdout=subprocess.DEVNULL)
+                stem = os.path.join(work, f"forest_L{length:g}_s{seed}")
+            else:
+                subprocess.run([sys.executable, os.path.join(ROOT, "scripts", "make_room.py"), "--length",
+                                f"{length:g}", "--seed", str(seed), "--out", work], check=True,
+                               stdout=subprocess.DEVNULL)
+                stem = os.path.join(work, f"room_s{seed}")
+            record, report = stem + f"_{args.sensor}_flown.csv", stem + f"_{args.sensor}_explore.json"
+            code, peak_kb, wall, out = run([explore, stem + ".yaml", "--out", record, "--report", report,
+                                            "--sensor", args.sensor, "--seed", str(seed), "--quiet"] + extra)
+            if not os.path.exists(report):
+                print(f"| {length:g} m | {seed} | exit {code} | - | - | - | - | - | - | {peak_kb / 1024:.0f} |"
+                      f" {out.strip().splitlines()[-1][:160] if out.strip() else ''}")
+                rows.append(None)
+                continue
+            r = json.load(open(report))
+            check_code, _, _, check_out = run([check, stem + ".yaml", record])
+            verdict = {0: "kept", 6: "LOST"}.get(check_code, f"exit {check_code}")
+            lat, upd = r["replan_latency_ms"], r["map_update_ms"]
+            print(f"| {length:g} m | {seed} | {r['outcome']} | {verdict} | {r['min_clearance_m']:.4f} | "
+                  f"{r['flight_s']:.1f} | {r['replans']} ({r['replans_certified']}) | "
+                  f"{lat['median']:.0f} / {lat['p95']:.0f} / {lat['max']:.0f} | {upd['median']:.1f} / {upd['p95']:.1f} | "
+                  f"{peak_kb / 1024:.0f} |", flush=True)
+            rows.append((r, check_code))
+    done = [x for x in rows if x is not None]
+    arrived = sum(1 for r, c in done if r["arrived"] and c == 0)
+    lost = sum(1 for r, c in done if c != 0)
+    print(f"\n{len(rows)} worlds: {arrived} arrived with the clearance kept (quadhand-flightcheck), "
+          f"{lost} lost it or could not be judged, {len(rows) - len(done)} gave no report")
+    if done:
+        latencies = sorted(x for r, _ in done for x in [r["replan_latency_ms"]["p95"]])
+        print(f"least clearance over all: {min(r['min_clearance_m'] for r, _ in done):.4f} m; "
+              f"worst per-flight replan p95: {latencies[-1]:.0f} ms")
+    sys.exit(0 if lost == 0 and len(done) == len(rows) else 1)
+
+
+if __name__ == "__main__":
+    main()
