@@ -7,8 +7,8 @@
 // docs/perception.md, "Flying on the sensor".
 //
 // Exit codes: 0 arrived and kept the safety distance (less --tolerance) at
-// every recorded state; 1 did not arrive (time limit, stuck) but kept it;
-// 6 lost the clearance; 3 the simulation diverged; 2 bad input.
+// every recorded state; 1 did not arrive (time limit, stuck, the simulation
+// diverged) but kept it; 6 lost the clearance; 2 bad input.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -43,7 +43,7 @@ namespace {
 
 using namespace quadhand;
 
-constexpr int kExitArrived = 0, kExitNotArrived = 1, kExitBadInput = 2, kExitDiverged = 3, kExitLost = 6;
+constexpr int kExitArrived = 0, kExitNotArrived = 1, kExitBadInput = 2, kExitLost = 6;
 
 int Fail(const std::string& message) {
   core::PrintError("quadhand-explore", message);
@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
       "The task's scene (or --world) is the hidden true world: only the simulated sensor sees it; the\n"
       "planner plans from the rolling map of its frames, never through space it has not seen free.\n"
       "Exit codes: 0 arrived and kept the safety distance (less --tolerance) against the true world;\n"
-      "1 did not arrive but kept it; 6 lost it; 3 the simulation diverged; 2 bad input."};
+      "1 did not arrive (the report says why) but kept it; 6 lost it; 2 bad input."};
   std::string task_path, out_path, report_path, world_path, sensor_name = "depth", config_path;
   std::string sim_config_path = core::FindBundledFile("data/sim/quadhand_sim.yaml", QUADHAND_SOURCE_DIR);
   std::string solver_name = "lbfgs";
@@ -117,6 +117,9 @@ int main(int argc, char** argv) {
   app.add_option("--start-free-radius", options.start_free_radius,
                  "The space within this of the start is taken as free (the vehicle stands there), m")
       ->capture_default_str();
+  app.add_option("--miss-stride", options.miss_stride,
+                 "Rays with no return free the map along every this-many-th pixel of each image axis (1-64)")
+      ->capture_default_str();
   app.add_option("--time-limit", options.time_limit, "Simulated seconds before giving up (0: from the distance)")
       ->capture_default_str();
   app.add_option("--tolerance", tolerance, "The verdict accepts the safety distance less this, m")->capture_default_str();
@@ -143,7 +146,14 @@ int main(int argc, char** argv) {
   robot::PrependRosPackagePath(package_path);
 
   auto config = planner::LoadPlannerConfigOrDefaults(config_path);
-  if (!config.ok()) return Fail(config->IsValid(nullptr) ? config.status().message() : config.status().message());
+  if (!config.ok()) return Fail(config.status().message());
+  // The model is built at every replan over a box full of points: its far
+  // grid is 0.1 m and searched out to 1 m only (docs/configuration.md),
+  // unless a configuration file says otherwise.
+  if (config_path.empty()) {
+    config->representations.mrc_sdf.far_cell_size = 0.1;
+    config->representations.mrc_sdf.far_max_steps = 10;
+  }
   auto sim_config = sim::LoadSimConfig(sim_config_path);
   if (!sim_config.ok()) return Fail(sim_config.status().message());
   auto task = planner::LoadTask(task_path);
@@ -284,7 +294,6 @@ int main(int argc, char** argv) {
         Percentile(flown->map_update_ms, 0.5), Percentile(flown->map_update_ms, 0.95), flown->peak_map_bytes / 1e6,
         out_path.c_str());
   }
-  if (flown->outcome == explore::ExplorationOutcome::kDiverged) return kExitDiverged;
   if (!kept) return kExitLost;
   return arrived ? kExitArrived : kExitNotArrived;
 }

@@ -16,6 +16,10 @@ bool MrcSdfOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "mrc_sdf cell_size and far_cell_size must be positive numbers of metres";
     return false;
   }
+  if (far_max_steps < 1 || far_max_steps > 252) {
+    if (why != nullptr) *why = "mrc_sdf far_max_steps must be in [1, 252]";
+    return false;
+  }
   if (!(std::isfinite(far_padding) && far_padding >= 0.0)) {
     if (why != nullptr) *why = "mrc_sdf far_padding must be >= 0";
     return false;
@@ -70,7 +74,7 @@ void MrcSdfModel::BuildFarGrid(const std::vector<Vec3>& points, const MrcSdfOpti
     for (long dy = -1; dy <= 1; ++dy)
       for (long dx = -1; dx <= 1; ++dx)
         if (dx != 0 || dy != 0 || dz != 0) offsets.push_back(dx + nx * (dy + ny * dz));
-  for (int step = 1; step < kBorder && !frontier.empty(); ++step) {
+  for (int step = 1; step <= options.far_max_steps && !frontier.empty(); ++step) {
     next.clear();
     for (long index : frontier) {
       for (long offset : offsets) {
@@ -83,9 +87,10 @@ void MrcSdfModel::BuildFarGrid(const std::vector<Vec3>& points, const MrcSdfOpti
     }
     frontier.swap(next);
   }
-  // Cells never reached are at least kBorder - 1 cells away (saturated).
+  // Cells never reached are more than far_max_steps cells away (saturated).
+  const auto beyond = static_cast<unsigned char>(options.far_max_steps + 1);
   for (unsigned char& c : far_cells_) {
-    if (c == kUnvisited) c = kBorder - 1;
+    if (c == kUnvisited) c = beyond;
   }
 }
 

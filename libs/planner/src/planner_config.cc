@@ -148,6 +148,7 @@ void Visit(Config& c, Visitor&& v) {
   v("representations.mrc_sdf.cell_size", m.mrc_sdf.cell_size);
   v("representations.mrc_sdf.far_cell_size", m.mrc_sdf.far_cell_size);
   v("representations.mrc_sdf.far_padding", m.mrc_sdf.far_padding);
+  v("representations.mrc_sdf.far_max_steps", m.mrc_sdf.far_max_steps);
   v("representations.esdf.resolution", m.esdf.resolution);
   v("representations.esdf.max_distance", m.esdf.max_distance);
   v("representations.esdf.box_margin", m.esdf.box_margin);

@@ -24,6 +24,12 @@ struct MrcSdfOptions {
   // How far beyond the points' bounding box that grid extends, metres;
   // beyond it the distance to the bounding box is the bound.
   double far_padding = 0.5;
+  // The grid's distances are searched out to this many cells (1..252);
+  // beyond, a cell only knows it is farther (a link there is looked up in
+  // the index). A local plan of onboard perception builds its model at
+  // every replan over a box full of points, where the whole search would
+  // dominate the replan's time (docs/perception.md).
+  int far_max_steps = 252;
 
   bool IsValid(std::string* why) const;
 };

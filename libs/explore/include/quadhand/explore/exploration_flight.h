@@ -44,7 +44,7 @@ struct ExplorationOptions {
   // axis); without it only rays that hit something free space, and open
   // sky stays unknown.
   bool free_misses = true;
-  int miss_stride = 4;
+  int miss_stride = 8;
   double goal_tolerance = 0.15;  // m
   // The flight ends unarrived after this long (s; 0: 3x the straight
   // line at v_max, plus 30 s), or after stuck_time with no new plan while
