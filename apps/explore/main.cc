@@ -114,6 +114,11 @@ int main(int argc, char** argv) {
   app.add_option("--plan-ahead", options.plan_ahead, "A new plan starts this long after its request, s")
       ->capture_default_str();
   app.add_option("--horizon", local.horizon, "A local target lies within this of the start, m")->capture_default_str();
+  app.add_option("--max-speed", local.max_speed, "Local plans fly at most this fast (and the task's v_max), m/s")
+      ->capture_default_str();
+  app.add_option("--tracking-margin", local.tracking_margin,
+                 "Added to the planned safety distance for the tracking error, m")
+      ->capture_default_str();
   app.add_option("--start-free-radius", options.start_free_radius,
                  "The space within this of the start is taken as free (the vehicle stands there), m")
       ->capture_default_str();
@@ -255,7 +260,7 @@ int main(int argc, char** argv) {
         {"min_clearance_t", least_t},
         {"min_clearance_link", closest},
         {"accepted_clearance_m", accepted},
-        {"planned_safety_distance_m", task->safety_distance + 0.5 * std::sqrt(3.0) * options.map.resolution},
+        {"planned_safety_distance_m", (*planner)->PlannedSafetyDistance(options.map.resolution)},
         {"replans", flown->replans.size()},
         {"replans_certified", certified},
         {"replan_latency_ms", Stats(latency)},

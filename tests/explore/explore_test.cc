@@ -135,9 +135,11 @@ TEST_F(ExploreTest, PlansToALocalTargetBeforeAWallItCannotSeeBehind) {
   EXPECT_LT(trajectory.Sample(trajectory.duration()).velocity.norm(), 1e-6);  // ends at rest
   ExpectInSeenFreeSpace(trajectory, *map);
   EXPECT_GT(planned->scene_points, 1000u);
-  // Planned at the safety distance plus half a voxel's diagonal.
-  EXPECT_NEAR(p.local->PlannedSafetyDistance(*map), 0.03 + 0.05 * std::sqrt(3.0), 1e-12);
-  EXPECT_GE(planned->plan.post_check.min_clearance_exact, p.local->PlannedSafetyDistance(*map) - 1e-3);
+  // Planned at the safety distance plus the tracking margin plus half a
+  // voxel's diagonal.
+  const double planned_distance = p.local->PlannedSafetyDistance(map->options().resolution);
+  EXPECT_NEAR(planned_distance, 0.03 + 0.03 + 0.05 * std::sqrt(3.0), 1e-12);
+  EXPECT_GE(planned->plan.post_check.min_clearance_exact, planned_distance - 1e-3);
 }
 
 TEST_F(ExploreTest, PlansToTheGoalOnceItIsSeenFree) {

@@ -6,7 +6,6 @@
 #include <optional>
 
 #include "quadhand/robot/kinematics.h"
-#include "quadhand/traj/flatness.h"
 
 namespace quadhand::explore {
 namespace {
@@ -181,22 +180,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
 
     const planner::WholeBodySample reference = flying ? flying->At(t) : hold_sample;
     if (t >= next_record - 1e-9) {
-      sim::FlownSample f;
-      const sim::DynamicsInfo info = simulator->CurrentDynamics();
-      f.flown.t = t;
-      f.flown.position = state.position;
-      f.flown.velocity = state.velocity;
-      f.flown.acceleration = info.acceleration;
-      f.flown.attitude = state.attitude;
-      f.flown.yaw = traj::HopfYawOf(state.attitude);
-      f.flown.yaw_rate = traj::HopfYawRateOf(state.attitude, state.body_rate);
-      f.flown.joints = state.joints;
-      f.flown.joint_rates = state.joint_rates;
-      f.position_error = state.position - reference.position;
-      f.yaw_error = std::remainder(f.flown.yaw - reference.yaw, 2.0 * M_PI);
-      f.center_of_mass = model.MassPropertiesAt(state.joints).com;
-      f.arm_wrench = info.arm_wrench;
-      f.thrust = state.thrusts.sum();
+      sim::FlownSample f = sim::RecordFlown(*simulator, reference.position, reference.yaw);
       result.samples.push_back(std::move(f));
       next_record += options.record_period;
     }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "quadhand/core/text.h"
 #include "quadhand/planner/moving_scene.h"
@@ -40,6 +41,12 @@ bool LocalPlannerOptions::IsValid(std::string* why) const {
     return Fail(why, "target_clearance_margin must be in [0, 1] m");
   }
   if (max_target_checks < 1) return Fail(why, "max_target_checks must be >= 1");
+  if (!Positive(max_speed, 100.0)) return Fail(why, "max_speed must be in (0, 100] m/s");
+  if (!Positive(max_acceleration, 100.0)) return Fail(why, "max_acceleration must be in (0, 100] m/s^2");
+  if (!(std::isfinite(tracking_margin) && tracking_margin >= 0.0 && tracking_margin <= 1.0)) {
+    return Fail(why, "tracking_margin must be in [0, 1] m");
+  }
+  if (alternative_guesses < 0 || alternative_guesses > 3) return Fail(why, "alternative_guesses must be in [0, 3]");
   return true;
 }
 
@@ -69,13 +76,15 @@ core::Result<std::unique_ptr<LocalPlanner>> LocalPlanner::Create(const planner::
                                          ": under perception only a goal at rest is flown (goal.position, yaw, "
                                          "joints); a mission or a tool pose is not yet");
   }
-  std::unique_ptr<LocalPlanner> planner(new LocalPlanner(base, options, solver, local));
+  planner::PlannerOptions capped = options;
+  capped.alternative_guesses = std::min(options.alternative_guesses, local.alternative_guesses);
+  std::unique_ptr<LocalPlanner> planner(new LocalPlanner(base, capped, solver, local));
   planner->goal_ = *task.terminal;
   return planner;
 }
 
-double LocalPlanner::PlannedSafetyDistance(const perception::RollingMap& map) const {
-  return base_.task().safety_distance + map.BoundaryBallRadius();
+double LocalPlanner::PlannedSafetyDistance(double map_resolution) const {
+  return base_.task().safety_distance + local_.tracking_margin + 0.5 * std::sqrt(3.0) * map_resolution;
 }
 
 core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMap& map,
@@ -99,7 +108,9 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
   planner::Task task = base_task;
   task.scans.clear();
   task.start = start;
-  task.safety_distance = PlannedSafetyDistance(map);
+  task.safety_distance = PlannedSafetyDistance(map.options().resolution);
+  task.limits.v_max = std::min(task.limits.v_max, local_.max_speed);
+  task.limits.a_max = std::min(task.limits.a_max, local_.max_acceleration);
   const bool goal_in_box = ((goal_.position - lo).array() >= 0.0).all() && ((hi - goal_.position).array() >= 0.0).all();
   task.terminal = goal_;
   if (!goal_in_box) task.terminal->position = start.position;  // only what the front-end map must cover
@@ -156,28 +167,43 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
     return planner::StillAndMovingClearance(kinematics, (*context)->exact(), nullptr, Pose::Identity(), needed + 0.01) >=
            needed;
   };
+  // Attempt a takes the best target within horizon / 2^a of the start: when
+  // the far targets fail (a turn through a door the solve cannot make in
+  // one plan), a shorter hop towards them still moves the vehicle on.
   std::vector<Vec3> tried;
   int checks = 0;
   const auto plan_start = std::chrono::steady_clock::now();
-  for (const auto& [score, target] : candidates) {
-    if (static_cast<int>(tried.size()) >= local_.max_targets || checks >= local_.max_target_checks) break;
-    const bool is_goal = score < 0.0;
-    bool near_tried = false;
-    for (const Vec3& t : tried) near_tried = near_tried || (t - target).norm() < local_.target_separation;
-    if (near_tried) continue;
-    planner::Task leg = task;
-    leg.terminal = goal_;
-    if (!is_goal) {
-      leg.terminal->position = target;
-      const Vec3 heading = target - start.position;
-      leg.terminal->yaw = std::atan2(heading.y(), heading.x());
+  for (int attempt = 0; attempt < local_.max_targets && checks < local_.max_target_checks; ++attempt) {
+    const double reach = local_.horizon / static_cast<double>(1 << std::min(attempt, 20));
+    std::optional<planner::Task> leg;
+    bool is_goal = false;
+    Vec3 target = Vec3::Zero();
+    for (const auto& [score, candidate] : candidates) {
+      if (checks >= local_.max_target_checks) break;
+      if ((candidate - start.position).norm() > reach) continue;
+      bool near_tried = false;
+      for (const Vec3& t : tried) near_tried = near_tried || (t - candidate).norm() < local_.target_separation;
+      if (near_tried) continue;
+      planner::Task candidate_leg = task;
+      candidate_leg.terminal = goal_;
+      const bool candidate_is_goal = score < 0.0;
+      if (!candidate_is_goal) {
+        candidate_leg.terminal->position = candidate;
+        const Vec3 heading = candidate - start.position;
+        candidate_leg.terminal->yaw = std::atan2(heading.y(), heading.x());
+      }
+      // The planner's yaw is continuous: the terminal yaw nearest the start's.
+      candidate_leg.terminal->yaw = start.yaw + std::remainder(candidate_leg.terminal->yaw - start.yaw, 2.0 * M_PI);
+      ++checks;
+      if (!hover_clears(*candidate_leg.terminal, candidate_is_goal ? 0.0 : local_.target_clearance_margin)) continue;
+      leg = std::move(candidate_leg);
+      is_goal = candidate_is_goal;
+      target = candidate;
+      break;
     }
-    // The planner's yaw is continuous: the terminal yaw nearest the start's.
-    leg.terminal->yaw = start.yaw + std::remainder(leg.terminal->yaw - start.yaw, 2.0 * M_PI);
-    ++checks;
-    if (!hover_clears(*leg.terminal, is_goal ? 0.0 : local_.target_clearance_margin)) continue;
+    if (!leg) continue;
     tried.push_back(target);
-    auto planned = planner::Plan(scene, leg, options_, solver_);
+    auto planned = planner::Plan(scene, *leg, options_, solver_);
     if (!planned.ok()) {
       result.message = planned.status().message();
       continue;

@@ -193,6 +193,27 @@ TrackingErrorStats ComputeErrorStats(const std::vector<FlownSample>& samples) {
   return s;
 }
 
+FlownSample RecordFlown(const Simulator& simulator, const Vec3& planned_position, double planned_yaw) {
+  const VehicleState& s = simulator.state();
+  const DynamicsInfo info = simulator.CurrentDynamics();
+  FlownSample f;
+  f.flown.t = simulator.time();
+  f.flown.position = s.position;
+  f.flown.velocity = s.velocity;
+  f.flown.acceleration = info.acceleration;
+  f.flown.attitude = s.attitude;
+  f.flown.yaw = traj::HopfYawOf(s.attitude);
+  f.flown.yaw_rate = traj::HopfYawRateOf(s.attitude, s.body_rate);
+  f.flown.joints = s.joints;
+  f.flown.joint_rates = s.joint_rates;
+  f.position_error = s.position - planned_position;
+  f.yaw_error = std::remainder(f.flown.yaw - planned_yaw, 2.0 * M_PI);
+  f.center_of_mass = simulator.model().MassPropertiesAt(s.joints).com;
+  f.arm_wrench = info.arm_wrench;
+  f.thrust = s.thrusts.sum();
+  return f;
+}
+
 core::Result<TrackResult> TrackPlan(Simulator* sim, const Plan& plan, const TrackOptions& options) {
   const VehicleModel& model = sim->model();
   if (plan.joint_names != model.robot().ActuatedJointNames()) {
@@ -238,22 +259,8 @@ core::Result<TrackResult> TrackPlan(Simulator* sim, const Plan& plan, const Trac
     if (!PackState(s).allFinite()) {
       return core::Status::Infeasible("the simulation diverged before t = " + std::to_string(row.t) + " s");
     }
-    const DynamicsInfo info = sim->CurrentDynamics();
-    FlownSample f;
+    FlownSample f = RecordFlown(*sim, row.position, row.yaw);
     f.flown.t = row.t;
-    f.flown.position = s.position;
-    f.flown.velocity = s.velocity;
-    f.flown.acceleration = info.acceleration;
-    f.flown.attitude = s.attitude;
-    f.flown.yaw = traj::HopfYawOf(s.attitude);
-    f.flown.yaw_rate = traj::HopfYawRateOf(s.attitude, s.body_rate);
-    f.flown.joints = s.joints;
-    f.flown.joint_rates = s.joint_rates;
-    f.position_error = s.position - row.position;
-    f.yaw_error = std::remainder(f.flown.yaw - row.yaw, 2.0 * M_PI);
-    f.center_of_mass = model.MassPropertiesAt(s.joints).com;
-    f.arm_wrench = info.arm_wrench;
-    f.thrust = s.thrusts.sum();
     result.samples.push_back(std::move(f));
   }
   result.error = ComputeErrorStats(result.samples);

@@ -7,10 +7,10 @@
 // The scene of a local plan is the map's obstacle boundary in a box about
 // the start (perception::RollingMap::ObstacleBoundary): the centres of the
 // voxels that are not free (occupied, unknown, or outside the box) and touch
-// a free one. The plan keeps the task's safety distance plus the ball radius
-// of a voxel from those centres, which certifies the task's safety distance
-// from every point of every voxel not seen free: unknown space is never
-// certified free. Every plan ends at rest, so the vehicle always holds a
+// a free one. The plan keeps the task's safety distance plus a tracking
+// margin plus the ball radius of a voxel from those centres, which
+// certifies the task's safety distance plus the margin from every point of
+// every voxel not seen free: unknown space is never certified free. Every plan ends at rest, so the vehicle always holds a
 // certified plan that stops inside seen free space.
 #pragma once
 
@@ -34,9 +34,10 @@ struct LocalPlannerOptions {
   // A local target lies within this distance of the start, m.
   double horizon = 5.0;
   // Local targets are tried from a lattice of this spacing, m, nearest the
-  // goal first; at most max_targets of them per plan, each at least
-  // target_separation from those tried before (a target next to one that
-  // failed fails alike).
+  // goal first; at most max_targets of them per plan, the a-th (from 0)
+  // within horizon / 2^a of the start (a shorter hop when a far target
+  // fails), each at least target_separation from those tried before (a
+  // target next to one that failed fails alike).
   double target_spacing = 0.25;
   int max_targets = 3;
   double target_separation = 1.0;
@@ -51,6 +52,17 @@ struct LocalPlannerOptions {
   double target_clearance_margin = 0.05;
   // At most this many targets are tested that way per plan.
   int max_target_checks = 400;
+  // Local plans fly within these (and the task's limits), m/s and m/s^2:
+  // the controller tracks a gentle plan within about 3 cm, and an
+  // aggressive one through a door by 13 cm (docs/perception.md).
+  double max_speed = 1.5;
+  double max_acceleration = 2.0;
+  // Added to the planned safety distance for the vehicle's tracking error, m.
+  double tracking_margin = 0.03;
+  // Each target's plan tries at most this many other initial guesses
+  // (PlannerOptions::alternative_guesses, capped): a local plan that fails
+  // is retried at the next replan from a newer map, not at length now.
+  int alternative_guesses = 1;
   bool IsValid(std::string* why) const;
 };
 
@@ -92,8 +104,10 @@ class LocalPlanner {
   core::Result<LocalPlanResult> PlanFrom(const perception::RollingMap& map, const planner::BoundaryState& start) const;
 
   const planner::BoundaryState& goal() const { return goal_; }
-  // The safety distance local plans keep from the boundary's centres.
-  double PlannedSafetyDistance(const perception::RollingMap& map) const;
+  // The safety distance local plans keep from the boundary's centres: the
+  // task's, plus tracking_margin, plus the map's ball radius.
+  // (A map of voxels `map_resolution` m.)
+  double PlannedSafetyDistance(double map_resolution) const;
 
  private:
   LocalPlanner(const planner::PlanningContext& base, const planner::PlannerOptions& options, const opt::Solver& solver,

@@ -104,6 +104,10 @@ struct FlownSample {
   double thrust = 0.0;                  // sum of rotor thrusts, N
 };
 
+// The simulator's state now as a recorded sample, with its errors from the
+// planned position and yaw at this time.
+FlownSample RecordFlown(const Simulator& simulator, const Vec3& planned_position, double planned_yaw);
+
 struct TrackOptions {
   // Seconds of hovering at the plan's first setpoint (velocities zeroed)
   // before t0, not recorded, so integrators settle; meant for plans that start at rest.
