@@ -102,7 +102,7 @@ std::unique_ptr<perception::RollingMap> MapOf(const std::vector<Vec3>& seen, con
   auto map = perception::RollingMap::Create(perception::RollingMapOptions{});
   EXPECT_TRUE(map.ok());
   (*map)->MoveWindow(origin);
-  (*map)->MarkFree(origin, 0.6);
+  (*map)->MarkFree(origin, 0.8);  // the vehicle and its arm, with the margins
   EXPECT_TRUE((*map)->Insert(seen, origin).ok());
   return std::move(*map);
 }
