@@ -38,7 +38,7 @@ struct ExplorationOptions {
   // latency asks; the wall time per plan is reported beside it).
   double plan_ahead = 0.2;
   // The vehicle's own space at take-off is free (no sensor sees it), m.
-  double start_free_radius = 0.6;
+  double start_free_radius = 0.8;
   // A pixel or beam that returns nothing frees its ray to the sensor's
   // range (sim::SensorRenderer::LastMisses: every miss_stride-th along each
   // axis); without it only rays that hit something free space, and open
