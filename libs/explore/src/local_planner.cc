@@ -84,7 +84,7 @@ core::Result<std::unique_ptr<LocalPlanner>> LocalPlanner::Create(const planner::
 }
 
 double LocalPlanner::PlannedSafetyDistance(double map_resolution) const {
-  return base_.task().safety_distance + local_.tracking_margin + 0.5 * std::sqrt(3.0) * map_resolution;
+  return base_.task().safety_distance + local_.tracking_margin + perception::VoxelBallRadius(map_resolution);
 }
 
 core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMap& map,

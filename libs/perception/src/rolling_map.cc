@@ -327,7 +327,7 @@ std::vector<Vec3> RollingMap::ObstacleBoundary(const Vec3& lo, const Vec3& hi) c
   return centres;
 }
 
-double RollingMap::BoundaryBallRadius() const { return 0.5 * std::sqrt(3.0) * impl_->options.resolution; }
+double RollingMap::BoundaryBallRadius() const { return VoxelBallRadius(impl_->options.resolution); }
 
 VoxelState RollingMap::State(const Vec3& p) const {
   const Impl& m = *impl_;

@@ -42,6 +42,10 @@ struct RollingMapOptions {
 
 enum class VoxelState { kUnknown, kFree, kOccupied };
 
+// Half the diagonal of a voxel of edge `resolution`: the radius of the ball
+// about its centre that holds the whole voxel.
+inline double VoxelBallRadius(double resolution) { return 0.5 * 1.7320508075688772 * resolution; }
+
 class RollingMap {
  public:
   // InvalidArgument for bad options.
@@ -83,8 +87,7 @@ class RollingMap {
   // So a clearance of d + BoundaryBallRadius() to these centres certifies a
   // clearance of d to everything not seen free.
   std::vector<Vec3> ObstacleBoundary(const Vec3& lo, const Vec3& hi) const;
-  // Half a voxel's diagonal: the radius of the ball about a voxel centre
-  // that holds the whole voxel.
+  // VoxelBallRadius of this map's voxels.
   double BoundaryBallRadius() const;
 
   const RollingMapOptions& options() const;
