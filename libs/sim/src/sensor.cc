@@ -20,6 +20,36 @@ bool Fail(std::string* why, const std::string& message) {
 
 bool In(double x, double lo, double hi) { return std::isfinite(x) && x >= lo && x <= hi; }
 
+// The depth camera's pinhole: focal lengths and image centre, pixels.
+struct Pinhole {
+  explicit Pinhole(const DepthCameraOptions& o)
+      : fx(0.5 * o.width / std::tan(0.5 * o.horizontal_fov_deg * kDegree)),
+        fy(0.5 * o.height / std::tan(0.5 * o.vertical_fov_deg * kDegree)),
+        cx(0.5 * o.width),
+        cy(0.5 * o.height) {}
+  // The point at depth z on the ray through pixel (col, row)'s centre.
+  Vec3 PointAt(int col, int row, double z) const { return Vec3((col + 0.5 - cx) / fx * z, (row + 0.5 - cy) / fy * z, z); }
+  double fx, fy, cx, cy;
+};
+
+// The LiDAR's beams: channel c at elevation low + c * channel_step, column
+// a at azimuth a * column_step (a may run past a turn).
+struct BeamPattern {
+  explicit BeamPattern(const LidarOptions& o)
+      : columns(std::max(1, static_cast<int>(std::lround(360.0 / o.horizontal_resolution_deg)))),
+        column_step(2.0 * M_PI / columns),
+        low(-0.5 * o.vertical_fov_deg * kDegree),
+        channel_step(o.channels > 1 ? o.vertical_fov_deg * kDegree / (o.channels - 1) : 0.0) {}
+  // The point at `range` along beam (channel, column).
+  Vec3 PointAt(int channel, int column, double range) const {
+    const double elevation = low + channel * channel_step, azimuth = column * column_step;
+    return Vec3(range * std::cos(elevation) * std::cos(azimuth), range * std::cos(elevation) * std::sin(azimuth),
+                range * std::sin(elevation));
+  }
+  int columns;
+  double column_step, low, channel_step;
+};
+
 }  // namespace
 
 bool DepthCameraOptions::IsValid(std::string* why) const {
@@ -118,29 +148,22 @@ std::vector<Vec3> SensorRenderer::LastMisses(int stride) const {
   if (m.config.kind == SensorKind::kDepth) {
     const DepthCameraOptions& o = m.config.depth;
     if (m.nearest.size() != static_cast<size_t>(o.width) * o.height) return ends;
-    const double fx = 0.5 * o.width / std::tan(0.5 * o.horizontal_fov_deg * kDegree);
-    const double fy = 0.5 * o.height / std::tan(0.5 * o.vertical_fov_deg * kDegree);
+    const Pinhole camera(o);
     for (int row = stride / 2; row < o.height; row += stride) {
       for (int col = stride / 2; col < o.width; col += stride) {
-        if (m.nearest[static_cast<size_t>(row) * o.width + col] != none) continue;
-        const double z = o.max_range;
-        ends.emplace_back((col + 0.5 - 0.5 * o.width) / fx * z, (row + 0.5 - 0.5 * o.height) / fy * z, z);
+        if (m.nearest[static_cast<size_t>(row) * o.width + col] == none) ends.push_back(camera.PointAt(col, row, o.max_range));
       }
     }
     return ends;
   }
   const LidarOptions& o = m.config.lidar;
-  const int columns = std::max(1, static_cast<int>(std::lround(360.0 / o.horizontal_resolution_deg)));
-  if (m.nearest.size() != static_cast<size_t>(o.channels) * columns) return ends;
-  const double low = -0.5 * o.vertical_fov_deg * kDegree;
-  const double channel_step = o.channels > 1 ? o.vertical_fov_deg * kDegree / (o.channels - 1) : 0.0;
+  const BeamPattern beams(o);
+  if (m.nearest.size() != static_cast<size_t>(o.channels) * beams.columns) return ends;
   for (int channel = 0; channel < o.channels; ++channel) {
-    const double elevation = low + channel * channel_step;
-    for (int column = 0; column < columns; column += stride) {
-      if (m.nearest[static_cast<size_t>(channel) * columns + column] != none) continue;
-      const double azimuth = column * (2.0 * M_PI / columns);
-      ends.emplace_back(o.max_range * std::cos(elevation) * std::cos(azimuth),
-                        o.max_range * std::cos(elevation) * std::sin(azimuth), o.max_range * std::sin(elevation));
+    for (int column = 0; column < beams.columns; column += stride) {
+      if (m.nearest[static_cast<size_t>(channel) * beams.columns + column] == none) {
+        ends.push_back(beams.PointAt(channel, column, o.max_range));
+      }
     }
   }
   return ends;
@@ -148,9 +171,8 @@ std::vector<Vec3> SensorRenderer::LastMisses(int stride) const {
 
 std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world) {
   const DepthCameraOptions& o = config.depth;
-  const double fx = 0.5 * o.width / std::tan(0.5 * o.horizontal_fov_deg * kDegree);
-  const double fy = 0.5 * o.height / std::tan(0.5 * o.vertical_fov_deg * kDegree);
-  const double cx = 0.5 * o.width, cy = 0.5 * o.height;
+  const Pinhole camera(o);
+  const double fx = camera.fx, fy = camera.fy, cx = camera.cx, cy = camera.cy;
   const float none = std::numeric_limits<float>::infinity();
   nearest.assign(static_cast<size_t>(o.width) * o.height, none);
   const Pose world_to_sensor = sensor_in_world.inverse();
@@ -188,7 +210,7 @@ std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world)
       if (depth == none || depth == 0.0f) continue;
       const double z = depth + o.noise_at_1m * depth * depth * unit(rng);
       if (!(z > 0.0)) continue;
-      points.emplace_back((col + 0.5 - cx) / fx * z, (row + 0.5 - cy) / fy * z, z);
+      points.push_back(camera.PointAt(col, row, z));
     }
   }
   return points;
@@ -196,10 +218,9 @@ std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world)
 
 std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world) {
   const LidarOptions& o = config.lidar;
-  const int columns = std::max(1, static_cast<int>(std::lround(360.0 / o.horizontal_resolution_deg)));
-  const double column_step = 2.0 * M_PI / columns;
-  const double low = -0.5 * o.vertical_fov_deg * kDegree;
-  const double channel_step = o.channels > 1 ? o.vertical_fov_deg * kDegree / (o.channels - 1) : 0.0;
+  const BeamPattern beams(o);
+  const int columns = beams.columns;
+  const double column_step = beams.column_step, low = beams.low, channel_step = beams.channel_step;
   const float none = std::numeric_limits<float>::infinity();
   nearest.assign(static_cast<size_t>(o.channels) * columns, none);
   const Pose world_to_sensor = sensor_in_world.inverse();
@@ -226,12 +247,9 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
     const int a0 = static_cast<int>(std::ceil((azimuth - horizontal) / column_step));
     const int a1 = static_cast<int>(std::floor((azimuth + horizontal) / column_step));
     for (int channel = c0; channel <= c1; ++channel) {
-      const double beam_elevation = low + channel * channel_step;
       for (int a = a0; a <= a1; ++a) {
-        const double beam_azimuth = a * column_step;
         // The angle between the beam and the point's direction.
-        const Vec3 beam(std::cos(beam_elevation) * std::cos(beam_azimuth),
-                        std::cos(beam_elevation) * std::sin(beam_azimuth), std::sin(beam_elevation));
+        const Vec3 beam = beams.PointAt(channel, a, 1.0);
         if (beam.dot(q) < range * std::cos(spread)) continue;
         const int column = ((a % columns) + columns) % columns;
         float& hit = nearest[static_cast<size_t>(channel) * columns + column];
@@ -242,15 +260,12 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
   std::normal_distribution<double> unit(0.0, 1.0);
   std::vector<Vec3> points;
   for (int channel = 0; channel < o.channels; ++channel) {
-    const double elevation = low + channel * channel_step;
     for (int column = 0; column < columns; ++column) {
       const float hit = nearest[static_cast<size_t>(channel) * columns + column];
       if (hit == none || hit == 0.0f) continue;
       const double range = hit + o.noise * unit(rng);
       if (!(range > 0.0)) continue;
-      const double azimuth = column * column_step;
-      points.emplace_back(range * std::cos(elevation) * std::cos(azimuth),
-                          range * std::cos(elevation) * std::sin(azimuth), range * std::sin(elevation));
+      points.push_back(beams.PointAt(channel, column, range));
     }
   }
   return points;
