@@ -13,7 +13,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <limits>
 #include <string>
 #include <vector>
@@ -24,6 +23,7 @@
 #include "app_options.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
+#include "quadhand/core/statistics.h"
 #include "quadhand/core/text.h"
 #include "quadhand/explore/exploration_flight.h"
 #include "quadhand/explore/local_planner.h"
@@ -32,8 +32,6 @@
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/robot/kinematics.h"
-#include "quadhand/scene/point_cloud.h"
-#include "quadhand/scene/scans.h"
 #include "quadhand/sim/config.h"
 #include "quadhand/sim/sensor.h"
 #include "quadhand/sim/simulator.h"
@@ -50,33 +48,11 @@ int Fail(const std::string& message) {
   return kExitBadInput;
 }
 
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  return values[std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5))];
-}
-
 nlohmann::json Stats(const std::vector<double>& values) {
   return {{"count", values.size()},
-          {"median", Percentile(values, 0.5)},
-          {"p95", Percentile(values, 0.95)},
+          {"median", core::RankQuantile(values, 0.5)},
+          {"p95", core::RankQuantile(values, 0.95)},
           {"max", values.empty() ? 0.0 : *std::max_element(values.begin(), values.end())}};
-}
-
-// The hidden world: a cloud, or a task's scans (moved and cropped, before
-// any voxel filter: the sensor sees the raw scene).
-core::Result<std::vector<Vec3>> LoadWorld(const std::string& path) {
-  const std::string extension = std::filesystem::path(path).extension().string();
-  if (extension == ".yaml" || extension == ".yml") {
-    auto task = planner::LoadTask(path);
-    if (!task.ok()) return task.status();
-    auto scans = scene::LoadScans(task->scans);
-    if (!scans.ok()) return scans.status();
-    return scans->unfiltered_points.empty() ? std::move(scans->points) : std::move(scans->unfiltered_points);
-  }
-  auto cloud = scene::LoadPointCloud(path);
-  if (!cloud.ok()) return cloud.status();
-  return std::move(cloud->points);
 }
 
 }  // namespace
@@ -164,7 +140,7 @@ int main(int argc, char** argv) {
   auto task = planner::LoadTask(task_path);
   if (!task.ok()) return Fail(task.status().message());
   if (world_path.empty()) world_path = task_path;
-  auto world = LoadWorld(world_path);
+  auto world = planner::LoadWorldPoints(world_path);
   if (!world.ok()) return Fail(world.status().message());
   if (world->empty()) return Fail(world_path + ": the world has no finite points");
   auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
@@ -294,9 +270,9 @@ int main(int argc, char** argv) {
         "out: %s\n",
         explore::ExplorationOutcomeName(flown->outcome), flown->flight_s, wall_s, flown->goal_distance, least, least_t,
         closest.c_str(), accepted, kept ? "kept" : "CLEARANCE LOST", flown->replans.size(), certified,
-        Percentile(latency, 0.5), Percentile(latency, 0.95),
+        core::RankQuantile(latency, 0.5), core::RankQuantile(latency, 0.95),
         latency.empty() ? 0.0 : *std::max_element(latency.begin(), latency.end()), flown->frames, flown->empty_frames,
-        Percentile(flown->map_update_ms, 0.5), Percentile(flown->map_update_ms, 0.95), flown->peak_map_bytes / 1e6,
+        core::RankQuantile(flown->map_update_ms, 0.5), core::RankQuantile(flown->map_update_ms, 0.95), flown->peak_map_bytes / 1e6,
         out_path.c_str());
   }
   if (!kept) return kExitLost;

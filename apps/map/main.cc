@@ -18,6 +18,7 @@
 #include <CLI/CLI.hpp>
 
 #include "quadhand/core/log.h"
+#include "quadhand/core/statistics.h"
 #include "quadhand/core/text.h"
 #include "quadhand/perception/frames.h"
 #include "quadhand/perception/rolling_map.h"
@@ -46,12 +47,6 @@ core::Result<std::vector<double>> Numbers(const std::string& text, size_t count,
     return core::Status::InvalidArgument(option + core::Format(": expected %zu comma-separated numbers", count));
   }
   return values;
-}
-
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  return values[std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5))];
 }
 
 }  // namespace
@@ -143,7 +138,7 @@ int main(int argc, char** argv) {
       if (core::Status s = scene::WritePcd(unknown_path, centres); !s.ok()) return Fail(s.message());
     }
   }
-  const double median = Percentile(update_ms, 0.5), p95 = Percentile(update_ms, 0.95);
+  const double median = core::RankQuantile(update_ms, 0.5), p95 = core::RankQuantile(update_ms, 0.95);
   const double worst = *std::max_element(update_ms.begin(), update_ms.end());
   if (json) {
     std::printf("{\"frames\": %zu, \"empty_frames\": %ld, \"rows_malformed\": %ld, \"rows_bad_pose\": %ld, \"rows_out_of_order\": %ld, "

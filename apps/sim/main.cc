@@ -26,7 +26,6 @@
 #include "quadhand/robot/robot_model.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/scene/point_cloud.h"
-#include "quadhand/scene/scans.h"
 #include "quadhand/sim/sensor.h"
 #include "quadhand/sim/autopilot.h"
 #include "quadhand/sim/config.h"
@@ -326,23 +325,10 @@ int main(int argc, char** argv) {
     if (robot->LinkIndex(sensor.link) < 0) {
       return Fail(config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
     }
-    std::vector<Vec3> world;
-    const std::string extension = std::filesystem::path(world_path).extension().string();
-    if (extension == ".yaml" || extension == ".yml") {
-      // A task's scene: its scans, each moved and cropped, before any voxel
-      // filter (the sensor sees the raw scene, not its centroids).
-      auto task = planner::LoadTask(world_path);
-      if (!task.ok()) return Fail(task.status().message());
-      auto scans = scene::LoadScans(task->scans);
-      if (!scans.ok()) return Fail(scans.status().message());
-      world = scans->unfiltered_points.empty() ? std::move(scans->points) : std::move(scans->unfiltered_points);
-    } else {
-      auto cloud = scene::LoadPointCloud(world_path);
-      if (!cloud.ok()) return Fail(cloud.status().message());
-      world = std::move(cloud->points);
-    }
-    if (world.empty()) return Fail("--world " + world_path + ": no finite points");
-    auto made = sim::SensorRenderer::Create(world, sensor, seed ^ 0x73656e73ull);
+    auto world = planner::LoadWorldPoints(world_path);
+    if (!world.ok()) return Fail(world.status().message());
+    if (world->empty()) return Fail("--world " + world_path + ": no finite points");
+    auto made = sim::SensorRenderer::Create(*world, sensor, seed ^ 0x73656e73ull);
     if (!made.ok()) return Fail(config_path + ": " + made.status().message());
     renderer = std::move(*made);
   }

@@ -77,6 +77,11 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Create(
                std::move(checked_points), {}, /*mission_phase=*/false);
 }
 
+void PlanningContext::AppendLoadedSdfs(std::vector<std::pair<int, geometry::SdfGrid>>* sdfs) const {
+  if (sdf_grids_ == nullptr) return;
+  for (size_t g = 0; g < sdf_links_.size(); ++g) sdfs->emplace_back(sdf_links_[g], (*sdf_grids_)[g]);
+}
+
 core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForMissionPhase(
     robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points,
     std::shared_ptr<const std::vector<Vec3>> checked_points,
@@ -84,12 +89,10 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForMissionPhase(
     std::shared_ptr<const std::vector<Vec3>> moving_checked_points) const {
   // The grids this context loaded serve the phase too (its robot is this
   // one, plus perhaps a held object): no file is read again.
-  if (sdf_grids_ != nullptr) {
-    for (size_t g = 0; g < sdf_links_.size(); ++g) given_sdfs.emplace_back(sdf_links_[g], (*sdf_grids_)[g]);
-  }
+  AppendLoadedSdfs(&given_sdfs);
   // This context's own (Build copies them into the phase's).
-  auto unowned = [](const std::vector<Vec3>& points) {
-    return std::shared_ptr<const std::vector<Vec3>>(&points, [](const std::vector<Vec3>*) {});
+  auto unowned = [](const std::vector<Vec3>& cloud) {
+    return std::shared_ptr<const std::vector<Vec3>>(&cloud, [](const std::vector<Vec3>*) {});
   };
   if (moving_points == nullptr) moving_points = unowned(moving_points_);
   if (moving_checked_points == nullptr) moving_checked_points = unowned(moving_checked_points_);
@@ -109,9 +112,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForLocalScene(
     return core::Status::InvalidArgument("a local scene's task may not have a mission or a moving target");
   }
   std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs;
-  if (sdf_grids_ != nullptr) {
-    for (size_t g = 0; g < sdf_links_.size(); ++g) given_sdfs.emplace_back(sdf_links_[g], (*sdf_grids_)[g]);
-  }
+  AppendLoadedSdfs(&given_sdfs);
   auto local = Build(std::move(task), robot_, std::move(points), 0, options_, nullptr, std::move(given_sdfs),
                      /*mission_phase=*/true);
   if (local.ok()) (*local)->scene_load_seconds_ = 0.0;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <set>
@@ -11,6 +12,8 @@
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/text.h"
 #include "quadhand/core/yaml_text.h"
+#include "quadhand/scene/point_cloud.h"
+#include "quadhand/scene/scans.h"
 
 namespace quadhand::planner {
 namespace {
@@ -723,6 +726,20 @@ core::Status ApplyRobot(const robot::RobotModel& robot, Task* task) {
     }
   }
   return core::Status::Ok();
+}
+
+core::Result<std::vector<Vec3>> LoadWorldPoints(const std::string& path) {
+  const std::string extension = std::filesystem::path(path).extension().string();
+  if (extension == ".yaml" || extension == ".yml") {
+    auto task = LoadTask(path);
+    if (!task.ok()) return task.status();
+    auto scans = scene::LoadScans(task->scans);
+    if (!scans.ok()) return scans.status();
+    return scans->unfiltered_points.empty() ? std::move(scans->points) : std::move(scans->unfiltered_points);
+  }
+  auto cloud = scene::LoadPointCloud(path);
+  if (!cloud.ok()) return cloud.status();
+  return std::move(cloud->points);
 }
 
 }  // namespace quadhand::planner

@@ -144,6 +144,9 @@ class PlanningContext {
   PlanningContext(Task task, robot::RobotModel robot) : task_(std::move(task)), robot_(std::move(robot)) {}
   // A moving target's points out of the cloud (their models: MovingSceneFor).
   core::Status SplitMovingPoints();
+  // The link SDFs this context loaded, by robot link index, appended to
+  // *sdfs: another context of the same robot takes them instead of files.
+  void AppendLoadedSdfs(std::vector<std::pair<int, geometry::SdfGrid>>* sdfs) const;
   static core::Result<std::unique_ptr<PlanningContext>> Build(
       Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
       const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,

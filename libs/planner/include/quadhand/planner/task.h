@@ -75,6 +75,13 @@ inline const ToolGoal* MovingToolGoal(const Task& task) {
 // the key ("task.yaml: start.joints: expected a list of numbers").
 core::Result<Task> LoadTask(const std::string& path);
 
+// The points of a world a simulated sensor sees (quadhand-sim --world,
+// quadhand-explore): a PCD or PLY cloud, or a task file's (.yaml, .yml)
+// scene - its scans placed and cropped as planning does, before any voxel
+// filter (a sensor sees the raw scene, not its centroids). Errors name the
+// file.
+core::Result<std::vector<Vec3>> LoadWorldPoints(const std::string& path);
+
 // What the caller gives itself instead of the task's keys: with robot_given
 // the keys robot and sdf_dir may be left out, with scene_given the key scene.
 struct TaskSources {
