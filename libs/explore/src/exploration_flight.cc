@@ -146,18 +146,8 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       const planner::BoundaryState start = flying ? flying->At(t_start).State() : hold_sample.State();
       auto planned = planner.PlanFrom(**map, start);
       if (!planned.ok()) return planned.status();
-      ReplanRecord record;
-      record.t = t;
-      record.status = planned->status;
-      record.total_ms = planned->total_ms;
-      record.scene_ms = planned->scene_ms;
-      record.context_ms = planned->context_ms;
-      record.plan_ms = planned->plan_ms;
-      record.scene_points = planned->scene_points;
-      record.targets_tried = planned->targets_tried;
-      record.message = planned->message;
-      result.replans.push_back(record);
-      if (progress) progress(record);
+      result.replans.push_back(ReplanRecord{{static_cast<const LocalPlanSummary&>(*planned)}, t});
+      if (progress) progress(result.replans.back());
       if (planned->status == LocalPlanStatus::kToGoal || planned->status == LocalPlanStatus::kToLocalTarget) {
         pending = FlownPlan{std::move(*planned->plan.trajectory), t_start, planned->status == LocalPlanStatus::kToGoal};
       }

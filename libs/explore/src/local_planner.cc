@@ -111,7 +111,8 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
   task.safety_distance = PlannedSafetyDistance(map.options().resolution);
   task.limits.v_max = std::min(task.limits.v_max, local_.max_speed);
   task.limits.a_max = std::min(task.limits.a_max, local_.max_acceleration);
-  const bool goal_in_box = ((goal_.position - lo).array() >= 0.0).all() && ((hi - goal_.position).array() >= 0.0).all();
+  auto in_box = [&](const Vec3& p) { return ((p - lo).array() >= 0.0).all() && ((hi - p).array() >= 0.0).all(); };
+  const bool goal_in_box = in_box(goal_.position);
   task.terminal = goal_;
   if (!goal_in_box) task.terminal->position = start.position;  // only what the front-end map must cover
   const auto context_start = std::chrono::steady_clock::now();
@@ -141,7 +142,7 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
         const double reach = offset.norm();
         if (reach > local_.horizon || reach < local_.min_progress) continue;
         const Vec3 p = start.position + offset;
-        if (((p - lo).array() < 0.0).any() || ((hi - p).array() < 0.0).any()) continue;
+        if (!in_box(p)) continue;
         if (std::abs(p.z() - goal_.position.z()) > local_.max_height_offset) continue;
         if (!usable(p)) continue;
         candidates.emplace_back((p - goal_.position).norm(), p);

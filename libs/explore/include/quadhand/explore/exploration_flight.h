@@ -58,13 +58,8 @@ struct ExplorationOptions {
 enum class ExplorationOutcome { kArrived, kTimeLimit, kStuck, kDiverged };
 const char* ExplorationOutcomeName(ExplorationOutcome outcome);
 
-struct ReplanRecord {
+struct ReplanRecord : LocalPlanSummary {
   double t = 0.0;  // simulated time it was asked at
-  LocalPlanStatus status = LocalPlanStatus::kFailed;
-  double total_ms = 0.0, scene_ms = 0.0, context_ms = 0.0, plan_ms = 0.0;
-  size_t scene_points = 0;
-  int targets_tried = 0;
-  std::string message;
 };
 
 struct ExplorationResult {

@@ -74,10 +74,9 @@ enum class LocalPlanStatus {
 };
 const char* LocalPlanStatusName(LocalPlanStatus status);
 
-struct LocalPlanResult {
+// What a local plan came to and cost: what a flight logs of each replan.
+struct LocalPlanSummary {
   LocalPlanStatus status = LocalPlanStatus::kFailed;
-  planner::PlanResult plan;  // the certified plan (kToGoal, kToLocalTarget)
-  Vec3 target = Vec3::Zero();
   int targets_tried = 0;
   size_t scene_points = 0;
   double scene_ms = 0.0;    // the obstacle boundary out of the map
@@ -85,6 +84,11 @@ struct LocalPlanResult {
   double plan_ms = 0.0;     // the plans, every target tried
   double total_ms = 0.0;
   std::string message;      // why the last target failed, for people
+};
+
+struct LocalPlanResult : LocalPlanSummary {
+  planner::PlanResult plan;  // the certified plan (kToGoal, kToLocalTarget)
+  Vec3 target = Vec3::Zero();
 };
 
 class LocalPlanner {
