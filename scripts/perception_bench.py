@@ -107,6 +107,21 @@ def main():
         latencies = sorted(x for r, _ in done for x in [r["replan_latency_ms"]["p95"]])
         print(f"least clearance over all: {min(r['min_clearance_m'] for r, _ in done):.4f} m; "
               f"worst per-flight replan p95: {latencies[-1]:.0f} ms")
+        # Faults (--silence, --bad-frames): what was injected and what the gate and the map dropped.
+        injected, dropped = {}, {}
+        for r, _ in done:
+            for k, v in r.get("faults_injected", {}).items():
+                injected[k] = injected.get(k, 0) + v
+            for k, v in r.get("frames_dropped", {}).items():
+                dropped[k] = dropped.get(k, 0) + v
+        silences = [s for r, _ in done for s in r.get("silences", []) if s["brake_s"] > 0]
+        if any(injected.values()):
+            print(f"faults injected: {injected}; frames dropped: {dropped}; "
+                  f"returns dropped: {sum(r.get('returns_dropped', 0) for r, _ in done)}; "
+                  f"silences braked from flight: {len(silences)}"
+                  + (f" (from up to {max(s['braked_from_speed'] for s in silences):.2f} m/s, "
+                     f"brakes {min(s['brake_s'] for s in silences):.2f}-{max(s['brake_s'] for s in silences):.2f} s)"
+                     if silences else ""))
     sys.exit(0 if lost == 0 and len(done) == len(rows) else 1)
 
 

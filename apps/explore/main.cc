@@ -74,6 +74,7 @@ int main(int argc, char** argv) {
   bool quiet = false;
   explore::ExplorationOptions options;
   explore::LocalPlannerOptions local;
+  std::vector<std::string> silences;
   app.add_option("task", task_path, "Task file (YAML): robot, start, goal at rest, safety distance; its scene is the hidden world")
       ->required();
   app.add_option("--out", out_path, "The flown record (CSV, the plan file's columns)")->required();
@@ -103,6 +104,17 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--time-limit", options.time_limit, "Simulated seconds before giving up (0: from the distance)")
       ->capture_default_str();
+  app.add_option("--sensor-timeout", options.sensor_timeout,
+                 "Seconds without a good frame before the vehicle brakes along its plan and holds")
+      ->capture_default_str();
+  app.add_option("--max-frame-age", options.frame_gate.max_age, "A frame older than this on arrival is dropped, s")
+      ->capture_default_str();
+  app.add_option("--silence", silences,
+                 "Fault: no frame arrives from FROM to TO s of the flight (FROM-TO; repeatable)");
+  app.add_option("--bad-frames", options.sensor_faults.bad_frame_probability,
+                 "Fault: each frame is spoiled with this probability (NaN pose, unnormalised attitude, stamp 1 s "
+                 "ahead, delivered late, or a tenth of its returns NaN)")
+      ->capture_default_str();
   app.add_option("--tolerance", tolerance, "The verdict accepts the safety distance less this, m")->capture_default_str();
   apps::AddPackagePathOption(&app, &package_path);
   app.add_flag("--quiet", quiet, "Print only errors");
@@ -114,6 +126,12 @@ int main(int argc, char** argv) {
     return Fail(e.what());
   }
   if (!(std::isfinite(tolerance) && tolerance >= 0.0 && tolerance <= 0.1)) return Fail("--tolerance must be in [0, 0.1] m");
+  for (const std::string& text : silences) {
+    explore::SensorFaultOptions::Window window;
+    if (!explore::ParseSilence(text, &window)) return Fail("--silence " + text + ": expected FROM-TO in s, 0 <= FROM < TO");
+    options.sensor_faults.silences.push_back(window);
+  }
+  options.fault_seed = seed ^ 0x6661756c74ull;
   if (std::string why; !options.IsValid(&why)) return Fail(why);
   if (std::string why; !local.IsValid(&why)) return Fail(why);
   for (const auto& [option, path] : {std::pair<std::string, std::string>{"--out", out_path}, {"--report", report_path}}) {
@@ -220,6 +238,21 @@ int main(int argc, char** argv) {
     const bool ok = r.status == explore::LocalPlanStatus::kToGoal || r.status == explore::LocalPlanStatus::kToLocalTarget;
     certified += ok ? 1 : 0;
   }
+  const perception::FrameCounts& counts = flown->frame_counts;
+  const nlohmann::json frames_dropped = {{"malformed", counts.malformed},
+                                         {"bad_pose", counts.bad_pose},
+                                         {"from_the_future", counts.from_the_future},
+                                         {"out_of_order", counts.out_of_order},
+                                         {"stale", counts.stale}};
+  nlohmann::json injected = {{"silenced", flown->injected.silenced}};
+  for (int k = 0; k < explore::kNumSensorFaultKinds; ++k) {
+    injected[explore::SensorFaultKindName(static_cast<explore::SensorFaultKind>(k))] = flown->injected.spoiled[k];
+  }
+  nlohmann::json silence_log = nlohmann::json::array();
+  for (const explore::SilenceRecord& r : flown->silences) {
+    silence_log.push_back(
+        {{"from", r.from}, {"to", r.to}, {"ended", r.ended}, {"braked_from_speed", r.speed}, {"brake_s", r.brake_s}});
+  }
   if (!report_path.empty()) {
     nlohmann::json report = {
         {"task", task_path},
@@ -245,6 +278,10 @@ int main(int argc, char** argv) {
         {"empty_frames", flown->empty_frames},
         {"map_update_ms", Stats(flown->map_update_ms)},
         {"peak_map_bytes", flown->peak_map_bytes},
+        {"frames_dropped", frames_dropped},
+        {"returns_dropped", flown->dropped_points},
+        {"faults_injected", injected},
+        {"silences", silence_log},
         {"wall_s", wall_s}};
     nlohmann::json replans = nlohmann::json::array();
     for (const explore::ReplanRecord& r : flown->replans) {
@@ -267,13 +304,16 @@ int main(int argc, char** argv) {
         "clearance against the true world: least %.4f m at t %.2f s (%s), accepted %.4f m: %s\n"
         "replans: %zu, %d certified; latency median %.1f ms, p95 %.1f ms, max %.1f ms\n"
         "map: %ld frames (%ld empty), update median %.2f ms, p95 %.2f ms; peak %.1f MB\n"
+        "frames dropped: %ld (malformed %ld, bad pose %ld, from the future %ld, out of order %ld, stale %ld); "
+        "returns dropped: %ld; sensor silences (braked and held): %zu\n"
         "out: %s\n",
         explore::ExplorationOutcomeName(flown->outcome), flown->flight_s, wall_s, flown->goal_distance, least, least_t,
         closest.c_str(), accepted, kept ? "kept" : "CLEARANCE LOST", flown->replans.size(), certified,
         core::RankQuantile(latency, 0.5), core::RankQuantile(latency, 0.95),
         latency.empty() ? 0.0 : *std::max_element(latency.begin(), latency.end()), flown->frames, flown->empty_frames,
         core::RankQuantile(flown->map_update_ms, 0.5), core::RankQuantile(flown->map_update_ms, 0.95), flown->peak_map_bytes / 1e6,
-        out_path.c_str());
+        counts.dropped(), counts.malformed, counts.bad_pose, counts.from_the_future, counts.out_of_order, counts.stale,
+        flown->dropped_points, flown->silences.size(), out_path.c_str());
   }
   if (!kept) return kExitLost;
   return arrived ? kExitArrived : kExitNotArrived;

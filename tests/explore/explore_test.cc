@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +16,7 @@
 
 #include "quadhand/core/text.h"
 #include "quadhand/explore/local_planner.h"
+#include "quadhand/explore/sensor_faults.h"
 #include "quadhand/opt/solver_registry.h"
 #include "quadhand/perception/rolling_map.h"
 #include "quadhand/planner/planner_config.h"
@@ -203,6 +205,111 @@ TEST_F(ExploreTest, FliesPastPostsItHasNeverSeenAndKeepsTheClearance) {
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
+// Frames faulted on their way: a silence (the vehicle brakes along its plan
+// and holds, then goes on when frames return) and spoiled frames (each
+// dropped by the gate for its reason, or its NaN returns by the map), and
+// the flight still arrives with its clearance.
+TEST_F(ExploreTest, BrakesAndHoldsWhileTheSensorIsSilentAndDropsBadFrames) {
+  const std::string task = WriteTask(Posts(), Vec3(8.0, 0.0, 1.2));
+  const std::string flown = (dir_ / "flown.csv").string(), report = (dir_ / "report.json").string();
+  const auto r = RunCommand(kExplore + " " + task + " --out " + flown + " --report " + report +
+                            " --silence 1.5-3.5 --bad-frames 0.3 --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const nlohmann::json j = nlohmann::json::parse(testing::ReadAll(report));
+  EXPECT_TRUE(j["success"].get<bool>());
+  EXPECT_GE(j["min_clearance_m"].get<double>(), 0.028);
+
+  const nlohmann::json& dropped = j["frames_dropped"];
+  const nlohmann::json& injected = j["faults_injected"];
+  EXPECT_GT(injected["silenced"].get<int>(), 50);  // 2 s at 30 Hz
+  for (const char* kind : {"nan_pose", "unnormalised_attitude", "future_stamp", "late", "nan_points"}) {
+    EXPECT_GT(injected[kind].get<int>(), 0) << kind;
+  }
+  EXPECT_EQ(dropped["malformed"], injected["nan_pose"]);
+  EXPECT_EQ(dropped["bad_pose"], injected["unnormalised_attitude"]);
+  EXPECT_EQ(dropped["from_the_future"], injected["future_stamp"]);
+  // A late frame behind one already taken; not when the next was late too.
+  EXPECT_GT(dropped["out_of_order"].get<int>(), 0);
+  EXPECT_LE(dropped["out_of_order"].get<int>(), injected["late"].get<int>());
+  EXPECT_GT(j["returns_dropped"].get<long>(), 0);
+
+  // The silence: timed out sensor_timeout after the last frame, braked from
+  // flight, ended at the first good frame after it.
+  const nlohmann::json* silence = nullptr;
+  for (const nlohmann::json& s : j["silences"]) {
+    if (s["from"].get<double>() >= 1.5 && s["from"].get<double>() <= 1.5 + 0.3 + 0.05) silence = &s;
+  }
+  ASSERT_NE(silence, nullptr) << j["silences"].dump();
+  EXPECT_TRUE((*silence)["ended"].get<bool>());
+  // (The first frames after it may be spoiled too.)
+  EXPECT_GE((*silence)["to"].get<double>(), 3.5 - 1e-6);
+  EXPECT_LT((*silence)["to"].get<double>(), 3.5 + 0.25);
+  EXPECT_GT((*silence)["braked_from_speed"].get<double>(), 0.1);
+  const double stopped = (*silence)["from"].get<double>() + (*silence)["brake_s"].get<double>();
+  ASSERT_LT(stopped, 3.0);
+  // Held: from half a second after the brake ends until frames return, the
+  // vehicle's own states barely move.
+  std::ifstream csv(flown);
+  std::string line;
+  std::getline(csv, line);
+  const std::vector<std::string> header = core::TrimmedFields(line);
+  const auto column = [&](const std::string& name) {
+    return static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  const size_t t_col = column("t"), vx = column("vx"), vy = column("vy"), vz = column("vz");
+  ASSERT_LT(vz, header.size());
+  int held = 0;
+  while (std::getline(csv, line)) {
+    const std::vector<std::string> cells = core::TrimmedFields(line);
+    const double t = std::stod(cells[t_col]);
+    if (t < stopped + 0.5 || t > 3.5) continue;
+    const Vec3 v(std::stod(cells[vx]), std::stod(cells[vy]), std::stod(cells[vz]));
+    EXPECT_LT(v.norm(), 0.1) << "t " << t;
+    ++held;
+  }
+  EXPECT_GT(held, 20);
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+}
+
+// The fault injector itself: silences stop everything; a late frame comes
+// after the next one.
+TEST(SensorFaultsTest, SilencesStopFramesAndLateFramesComeAfterTheNext) {
+  explore::SensorFaultOptions options;
+  options.silences = {{1.0, 2.0}};
+  explore::SensorFaults silent(options, 1);
+  perception::SensorFrame frame;
+  frame.t = 1.5;
+  EXPECT_TRUE(silent.Pass(frame, 1.5).empty());
+  frame.t = 2.0;
+  EXPECT_EQ(silent.Pass(frame, 2.0).size(), 1u);
+  EXPECT_EQ(silent.counts().silenced, 1);
+
+  options.silences.clear();
+  options.bad_frame_probability = 1.0;
+  explore::SensorFaults spoiling(options, 7);
+  long late = 0, arrived = 0;
+  for (int k = 0; k < 200; ++k) {
+    frame.t = 0.1 * k;
+    frame.position = Vec3::Zero();
+    frame.attitude = Eigen::Vector4d(1.0, 0.0, 0.0, 0.0);
+    frame.points = std::vector<Vec3>(20, Vec3(1.0, 0.0, 0.0));
+    const std::vector<perception::SensorFrame> out = spoiling.Pass(frame, frame.t);
+    arrived += static_cast<long>(out.size());
+    for (size_t i = 1; i < out.size(); ++i) EXPECT_LT(out[i].t, out[0].t);  // held back ones come after
+  }
+  for (int k = 0; k < explore::kNumSensorFaultKinds; ++k) EXPECT_GT(spoiling.counts().spoiled[k], 10) << k;
+  late = spoiling.counts().spoiled[static_cast<int>(explore::SensorFaultKind::kLate)];
+  EXPECT_GE(arrived, 200 - 1);  // all but perhaps the last, held at the end
+  EXPECT_GT(late, 0);
+
+  explore::SensorFaultOptions::Window window;
+  EXPECT_TRUE(explore::ParseSilence("2.5-4", &window));
+  EXPECT_DOUBLE_EQ(window.from, 2.5);
+  EXPECT_DOUBLE_EQ(window.to, 4.0);
+  for (const char* bad : {"4-2", "x-3", "3", "-1-2", "1-", "1-nan"}) EXPECT_FALSE(explore::ParseSilence(bad, &window)) << bad;
+}
+
 TEST_F(ExploreTest, BadInputIsOneLineAndExitTwoWithNoOutput) {
   const std::string task = WriteTask(Posts(), Vec3(8.0, 0.0, 1.2));
   const std::string flown = (dir_ / "flown.csv").string();
@@ -221,6 +328,9 @@ TEST_F(ExploreTest, BadInputIsOneLineAndExitTwoWithNoOutput) {
            {task + " --out " + flown + " --world " + empty, "empty.pcd"},
            {task + " --out " + task, "input"},
            {mission + " --out " + flown, "goal at rest"},
+           {task + " --out " + flown + " --silence 3-1", "--silence"},
+           {task + " --out " + flown + " --bad-frames 1.5", "bad-frame probability"},
+           {task + " --out " + flown + " --sensor-timeout 0", "sensor_timeout"},
        }) {
     const auto r = RunCommand(kExplore + " " + c.args + " --quiet");
     EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.out << r.err;

@@ -28,13 +28,66 @@ sim::Setpoint SetpointOf(const planner::WholeBodySample& sample) {
   return s;
 }
 
-// A plan being flown: its trajectory from `t0` on the simulated clock.
+// A plan being flown: its trajectory from `t0` on the simulated clock. A
+// brake slows the plan's own clock to a stop (rate 1 - smoothstep over
+// brake_s), so the vehicle passes through the plan's configurations only,
+// more slowly, and holds at the one where the clock stops.
 struct FlownPlan {
   planner::WholeBodyTrajectory trajectory;
   double t0 = 0.0;
   bool to_goal = false;
-  planner::WholeBodySample At(double t) const { return trajectory.Sample(t - t0); }
-  bool Ended(double t) const { return t - t0 >= trajectory.duration(); }
+  bool braked = false;
+  double brake_t = 0.0, brake_tau = 0.0, brake_s = 0.0;
+
+  // Plan time at t, and its rate and the rate's first two derivatives.
+  double PlanTime(double t, double* rate, double* rate_dot, double* rate_ddot) const {
+    *rate = 1.0;
+    *rate_dot = *rate_ddot = 0.0;
+    if (!braked) return t - t0;
+    const double u = std::clamp((t - brake_t) / brake_s, 0.0, 1.0);
+    if (u >= 1.0) {
+      *rate = 0.0;
+      return brake_tau + 0.5 * brake_s;
+    }
+    *rate = 1.0 - 3.0 * u * u + 2.0 * u * u * u;
+    *rate_dot = (-6.0 * u + 6.0 * u * u) / brake_s;
+    *rate_ddot = (-6.0 + 12.0 * u) / (brake_s * brake_s);
+    return brake_tau + brake_s * (u - u * u * u + 0.5 * u * u * u * u);
+  }
+  planner::WholeBodySample At(double t) const {
+    double r = 1.0, r1 = 0.0, r2 = 0.0;
+    const double tau = std::min(PlanTime(t, &r, &r1, &r2), trajectory.duration());
+    planner::WholeBodySample s = trajectory.Sample(tau);
+    if (!braked) return s;
+    // Chain rule through the slowed clock (past the plan's end it stands still).
+    if (tau >= trajectory.duration()) r = r1 = r2 = 0.0;
+    const Vec3 v = s.velocity, a = s.acceleration;
+    s.velocity = v * r;
+    s.acceleration = a * r * r + v * r1;
+    s.jerk = s.jerk * r * r * r + 3.0 * a * r * r1 + v * r2;
+    s.yaw_rate *= r;
+    s.joint_rates *= r;
+    return s;
+  }
+  bool Ended(double t) const {
+    double r, r1, r2;
+    return PlanTime(t, &r, &r1, &r2) >= trajectory.duration();
+  }
+  // At rest for good: ended, or braked to its stop.
+  bool Stopped(double t) const { return Ended(t) || (braked && t >= brake_t + brake_s); }
+  // Brakes from t: over max(0.5 s, 3 v / a_max), v the plan's speed there,
+  // so the clock's slowing asks at most a_max / 2 on the path's tangent.
+  // Returns the speed braked from (nothing to brake: 0, when ended).
+  double Brake(double t, double a_max) {
+    if (braked || Ended(t)) return 0.0;
+    const double tau = t - t0;
+    const double speed = trajectory.Sample(tau).velocity.norm();
+    braked = true;
+    brake_t = t;
+    brake_tau = tau;
+    brake_s = std::max(0.5, 3.0 * speed / a_max);
+    return speed;
+  }
 };
 
 }  // namespace
@@ -58,6 +111,11 @@ bool ExplorationOptions::IsValid(std::string* why) const {
     return Fail(why, "time_limit must be in [0, 3600] s");
   }
   if (!(std::isfinite(stuck_time) && stuck_time > 0.0)) return Fail(why, "stuck_time must be > 0 s");
+  if (std::string gate_why; !frame_gate.IsValid(&gate_why)) return Fail(why, "frame gate: " + gate_why);
+  if (!(std::isfinite(sensor_timeout) && sensor_timeout > 0.0 && sensor_timeout <= 60.0)) {
+    return Fail(why, "sensor_timeout must be in (0, 60] s");
+  }
+  if (std::string faults_why; !sensor_faults.IsValid(&faults_why)) return Fail(why, faults_why);
   if (!(std::isfinite(record_period) && record_period >= 1e-3 && record_period <= 1.0)) {
     return Fail(why, "record_period must be in [0.001, 1] s");
   }
@@ -111,6 +169,9 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
 
   ExplorationResult result;
   std::optional<FlownPlan> flying, pending;
+  SensorFaults faults(options.sensor_faults, options.fault_seed);
+  perception::FrameGate gate(options.frame_gate);
+  std::optional<SilenceRecord> silence;
   const double frame_period = 1.0 / sensor.rate();
   const double dt = simulator->step();
   double next_frame = 0.0, next_replan = 0.0, next_record = 0.0, last_new_plan = 0.0;
@@ -125,23 +186,51 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
     if (t >= next_frame - 1e-9) {
       const Pose base = MakePose(state.position, state.attitude.toRotationMatrix());
       const Pose sensor_pose = robot::LinkPose(robot, base, state.joints, link) * sensor.mount;
-      std::vector<Vec3> points = renderer->Render(sensor_pose);
-      for (Vec3& p : points) p = sensor_pose * p;
-      std::vector<Vec3> misses;
-      if (options.free_misses) misses = renderer->LastMisses(options.miss_stride);
-      for (Vec3& p : misses) p = sensor_pose * p;
-      const auto update_start = std::chrono::steady_clock::now();
-      (*map)->MoveWindow(sensor_pose.translation());
-      if (points.empty()) ++result.empty_frames;
-      QUADHAND_RETURN_IF_ERROR((*map)->Insert(points, sensor_pose.translation(), misses));
-      result.map_update_ms.push_back(
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - update_start).count());
-      result.peak_map_bytes = std::max(result.peak_map_bytes, (*map)->memory_bytes());
-      ++result.frames;
+      perception::SensorFrame sent;
+      sent.t = t;
+      sent.position = sensor_pose.translation();
+      const Quat q(sensor_pose.rotation());
+      sent.attitude = Eigen::Vector4d(q.w(), q.x(), q.y(), q.z());
+      sent.points = renderer->Render(sensor_pose);
+      if (options.free_misses) sent.misses = renderer->LastMisses(options.miss_stride);
+      for (perception::SensorFrame& frame : faults.Pass(std::move(sent), t)) {
+        if (gate.Admit(frame, t) != perception::FrameDrop::kNone) continue;
+        const Pose pose = perception::SensorPose(frame);
+        for (Vec3& p : frame.points) p = pose * p;
+        for (Vec3& p : frame.misses) p = pose * p;
+        const auto update_start = std::chrono::steady_clock::now();
+        (*map)->MoveWindow(pose.translation());
+        if (frame.points.empty()) ++result.empty_frames;
+        QUADHAND_RETURN_IF_ERROR((*map)->Insert(frame.points, pose.translation(), frame.misses));
+        result.map_update_ms.push_back(
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - update_start).count());
+        result.peak_map_bytes = std::max(result.peak_map_bytes, (*map)->memory_bytes());
+        ++result.frames;
+      }
       next_frame += frame_period;
     }
-    const bool goal_held = (flying && flying->to_goal) || (pending && pending->to_goal);
-    if (!goal_held && !pending && t >= next_replan - 1e-9) {
+    // The sensor's silence: brake, hold, and plan nothing until it speaks.
+    // (Counted from take-off until the first frame is taken.)
+    const bool silent = t - std::max(gate.last_taken(), 0.0) > options.sensor_timeout;
+    if (silent && !silence) {
+      SilenceRecord record;
+      record.from = t;
+      pending.reset();
+      if (flying) {
+        record.speed = flying->Brake(t, task.limits.a_max);
+        if (flying->braked) record.brake_s = flying->brake_s;
+      }
+      silence = record;
+    } else if (!silent && silence) {
+      silence->to = t;
+      silence->ended = true;
+      result.silences.push_back(*silence);
+      silence.reset();
+      next_replan = t;
+      last_new_plan = t;
+    }
+    const bool goal_held = (flying && flying->to_goal && !flying->braked) || (pending && pending->to_goal);
+    if (!silence && !goal_held && !pending && t >= next_replan - 1e-9) {
       const double t_start = t + options.plan_ahead;
       const planner::BoundaryState start = flying ? flying->At(t_start).State() : hold_sample.State();
       auto planned = planner.PlanFrom(**map, start);
@@ -163,7 +252,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       result.outcome = ExplorationOutcome::kTimeLimit;
       break;
     }
-    if (t - last_new_plan > options.stuck_time && (!flying || flying->Ended(t)) && !pending) {
+    if (!silence && t - last_new_plan > options.stuck_time && (!flying || flying->Stopped(t)) && !pending) {
       result.outcome = ExplorationOutcome::kStuck;
       break;
     }
@@ -181,6 +270,13 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
     }
   }
   result.flight_s = simulator->time();
+  if (silence) {
+    silence->to = result.flight_s;
+    result.silences.push_back(*silence);
+  }
+  result.frame_counts = gate.counts();
+  result.dropped_points = (*map)->dropped_points();
+  result.injected = faults.counts();
   result.goal_distance = (simulator->state().position - goal.position).norm();
   return result;
 }

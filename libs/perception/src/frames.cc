@@ -9,6 +9,7 @@
 
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/text.h"
+#include "quadhand/perception/sensor_frame.h"
 
 namespace quadhand::perception {
 namespace {
@@ -59,7 +60,8 @@ core::Result<FrameIndex> ReadFrameIndex(const std::string& dir) {
       continue;
     }
     const Quat q(numbers[5], numbers[6], numbers[7], numbers[8]);
-    if (!(std::abs(q.norm() - 1.0) <= 1e-3)) {
+    if (CheckPose(Vec3(numbers[2], numbers[3], numbers[4]), Eigen::Vector4d(q.w(), q.x(), q.y(), q.z()),
+                  FrameGateOptions().quaternion_tolerance) != FrameDrop::kNone) {
       ++index.bad_pose;
       continue;
     }

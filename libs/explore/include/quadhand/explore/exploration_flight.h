@@ -16,6 +16,13 @@
 //          plan replaces the flown one there; a failed one leaves it
 //   arrived: the plan to the goal flown to its end, and the vehicle within
 //          goal_tolerance of the goal
+//
+// Each frame passes a gate (perception/sensor_frame.h) before the map takes
+// it. When no frame has been taken for sensor_timeout, the sensor is silent:
+// the plan waiting to be flown is dropped, the plan being flown brakes along
+// its own path (its clock slows to a stop, so the vehicle passes only
+// through configurations that plan certified) and holds there, and nothing
+// is planned until frames are taken again.
 #pragma once
 
 #include <functional>
@@ -24,7 +31,9 @@
 
 #include "quadhand/core/status.h"
 #include "quadhand/explore/local_planner.h"
+#include "quadhand/explore/sensor_faults.h"
 #include "quadhand/perception/rolling_map.h"
+#include "quadhand/perception/sensor_frame.h"
 #include "quadhand/sim/sensor.h"
 #include "quadhand/sim/simulator.h"
 
@@ -46,6 +55,12 @@ struct ExplorationOptions {
   bool free_misses = true;
   int miss_stride = 8;
   double goal_tolerance = 0.15;  // m
+  perception::FrameGateOptions frame_gate;
+  // s without a frame taken before the vehicle brakes and holds.
+  double sensor_timeout = 0.3;
+  // Faults injected into the simulated sensor's stream, and their seed.
+  SensorFaultOptions sensor_faults;
+  uint64_t fault_seed = 1;
   // The flight ends unarrived after this long (s; 0: 3x the straight
   // line at v_max, plus 30 s), or after stuck_time with no new plan while
   // the last one has ended.
@@ -62,13 +77,26 @@ struct ReplanRecord : LocalPlanSummary {
   double t = 0.0;  // simulated time it was asked at
 };
 
+// A time the sensor was silent, and the brake it caused.
+struct SilenceRecord {
+  double from = 0.0;  // s: when the timeout ran out (the last frame taken was sensor_timeout earlier)
+  double to = 0.0;    // s: the next frame taken (the flight's end if none)
+  bool ended = false; // a frame was taken again
+  double speed = 0.0; // m/s: the plan's speed where it braked (0: it was at rest)
+  double brake_s = 0.0; // s: the brake's duration (0: nothing to brake)
+};
+
 struct ExplorationResult {
   ExplorationOutcome outcome = ExplorationOutcome::kTimeLimit;
   double flight_s = 0.0;  // simulated: to the arrival, or until it ended
   std::vector<sim::FlownSample> samples;
   std::vector<ReplanRecord> replans;
   std::vector<double> map_update_ms;  // per frame, the window's move included
-  long frames = 0, empty_frames = 0;
+  long frames = 0, empty_frames = 0;  // taken by the map, and those with no return
+  perception::FrameCounts frame_counts;  // the gate's: taken and dropped, by reason
+  long dropped_points = 0;               // non-finite returns of frames taken
+  SensorFaultCounts injected;            // the faults injected (SensorFaultOptions)
+  std::vector<SilenceRecord> silences;
   size_t peak_map_bytes = 0;
   double goal_distance = 0.0;  // at the end, m
 };
