@@ -75,6 +75,8 @@ int main(int argc, char** argv) {
   explore::ExplorationOptions options;
   explore::LocalPlannerOptions local;
   std::vector<std::string> silences;
+  std::string appear_path;
+  double appear_at = 0.0;
   app.add_option("task", task_path, "Task file (YAML): robot, start, goal at rest, safety distance; its scene is the hidden world")
       ->required();
   app.add_option("--out", out_path, "The flown record (CSV, the plan file's columns)")->required();
@@ -92,6 +94,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--horizon", local.horizon, "A local target lies within this of the start, m")->capture_default_str();
   app.add_option("--max-speed", local.max_speed, "Local plans fly at most this fast (and the task's v_max), m/s")
+      ->capture_default_str();
+  app.add_option("--max-acceleration", local.max_acceleration,
+                 "Local plans accelerate at most this much (and the task's a_max), m/s^2; a brake asks half")
       ->capture_default_str();
   app.add_option("--tracking-margin", local.tracking_margin,
                  "Added to the planned safety distance for the tracking error, m")
@@ -111,6 +116,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--silence", silences,
                  "Fault: no frame arrives from FROM to TO s of the flight (FROM-TO; repeatable)");
+  app.add_option("--appear", appear_path,
+                 "Fault: these points (a PCD or PLY cloud, or a task file) join the hidden world at --appear-at");
+  app.add_option("--appear-at", appear_at, "When --appear's points appear, s")->capture_default_str();
   app.add_option("--bad-frames", options.sensor_faults.bad_frame_probability,
                  "Fault: each frame is spoiled with this probability (NaN pose, unnormalised attitude, stamp 1 s "
                  "ahead, delivered late, or a tenth of its returns NaN)")
@@ -132,12 +140,13 @@ int main(int argc, char** argv) {
     options.sensor_faults.silences.push_back(window);
   }
   options.fault_seed = seed ^ 0x6661756c74ull;
+  if (!(std::isfinite(appear_at) && appear_at >= 0.0)) return Fail("--appear-at must be a time >= 0 s");
   if (std::string why; !options.IsValid(&why)) return Fail(why);
   if (std::string why; !local.IsValid(&why)) return Fail(why);
   for (const auto& [option, path] : {std::pair<std::string, std::string>{"--out", out_path}, {"--report", report_path}}) {
     if (path.empty()) continue;
     if (core::Status s = core::CheckOutputPathAndFolder(path); !s.ok()) return Fail(option + ": " + s.message());
-    for (const std::string& input : {task_path, world_path, sim_config_path, config_path}) {
+    for (const std::string& input : {task_path, world_path, sim_config_path, config_path, appear_path}) {
       if (!input.empty() && core::SameFile(path, input)) return Fail(option + " " + path + ": is an input of this run");
     }
   }
@@ -164,10 +173,27 @@ int main(int argc, char** argv) {
   auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
   if (!robot.ok()) return Fail(robot.status().message());
 
+  // What appears later: the world with it (rendered and judged from then on).
+  std::vector<Vec3> changed_world;
+  if (!appear_path.empty()) {
+    auto appearing = planner::LoadWorldPoints(appear_path);
+    if (!appearing.ok()) return Fail(appearing.status().message());
+    if (appearing->empty()) return Fail(appear_path + ": no finite points to appear");
+    changed_world = *world;
+    changed_world.insert(changed_world.end(), appearing->begin(), appearing->end());
+  }
+
   // The judge: the exact model of the hidden world (never planned against).
   auto judge = planner::PlanningContext::Create(*task, *robot, std::make_shared<const std::vector<Vec3>>(*world), 0,
                                                 planner::ContextOptions(*config, {}));
   if (!judge.ok()) return Fail(task_path + ": " + judge.status().message());
+  core::Result<std::unique_ptr<planner::PlanningContext>> judge_after(nullptr);
+  if (!changed_world.empty()) {
+    judge_after = planner::PlanningContext::Create(*task, *robot,
+                                                   std::make_shared<const std::vector<Vec3>>(changed_world), 0,
+                                                   planner::ContextOptions(*config, {}));
+    if (!judge_after.ok()) return Fail(appear_path + ": " + judge_after.status().message());
+  }
   // The planner's base context: the robot and its SDFs for the local plans.
   // It never plans itself; its one point, far above the start, only makes
   // a context (which needs a scene).
@@ -190,6 +216,13 @@ int main(int argc, char** argv) {
   if (robot->LinkIndex(sensor.link) < 0) return Fail(sim_config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
   auto renderer = sim::SensorRenderer::Create(*world, sensor, seed ^ 0x73656e73ull);
   if (!renderer.ok()) return Fail(sim_config_path + ": " + renderer.status().message());
+  explore::HiddenWorld hidden{renderer->get(), {}};
+  core::Result<std::unique_ptr<sim::SensorRenderer>> changed_renderer(nullptr);
+  if (!changed_world.empty()) {
+    changed_renderer = sim::SensorRenderer::Create(changed_world, sensor, seed ^ 0x73656e73ull);
+    if (!changed_renderer.ok()) return Fail(sim_config_path + ": " + changed_renderer.status().message());
+    hidden.changes.emplace_back(appear_at, changed_renderer->get());
+  }
   sim_config->robot_path = task->robot_path;
   auto model = sim::VehicleModel::Create(*robot, *sim_config);
   if (!model.ok()) return Fail(sim_config_path + ": " + model.status().message());
@@ -197,7 +230,7 @@ int main(int argc, char** argv) {
 
   const auto wall_start = std::chrono::steady_clock::now();
   auto flown = explore::FlyExploration(
-      &simulator, sensor, renderer->get(), **planner, (*base)->task(), options, [&](const explore::ReplanRecord& r) {
+      &simulator, sensor, hidden, **planner, (*base)->task(), options, [&](const explore::ReplanRecord& r) {
         if (quiet) return;
         std::fprintf(stderr, "\r  t %6.2f s: replan %-15s %6.1f ms, %6zu boundary voxels   ", r.t,
                      explore::LocalPlanStatusName(r.status), r.total_ms, r.scene_points);
@@ -215,7 +248,9 @@ int main(int argc, char** argv) {
     robot::ComputeKinematics(judged_robot, MakePose(s.flown.position, s.flown.attitude.toRotationMatrix()),
                              s.flown.joints, &kinematics);
     int link = -1;
-    const double d = planner::StillAndMovingClearance(kinematics, (*judge)->exact(), nullptr, Pose::Identity(), 1.0, &link);
+    const planner::PlanningContext& judged =
+        !changed_world.empty() && s.flown.t >= appear_at ? **judge_after : **judge;
+    const double d = planner::StillAndMovingClearance(kinematics, judged.exact(), nullptr, Pose::Identity(), 1.0, &link);
     if (d < least) {
       least = d;
       least_t = s.flown.t;
@@ -253,6 +288,14 @@ int main(int argc, char** argv) {
     silence_log.push_back(
         {{"from", r.from}, {"to", r.to}, {"ended", r.ended}, {"braked_from_speed", r.speed}, {"brake_s", r.brake_s}});
   }
+  nlohmann::json invalidation_log = nlohmann::json::array();
+  for (const explore::InvalidationRecord& r : flown->invalidations) {
+    invalidation_log.push_back({{"t", r.t},
+                                {"flown_plan", r.flown},
+                                {"conflict_in_s", r.conflict_in},
+                                {"stop_margin_s", r.stop_margin},
+                                {"new_obstacle_voxels", r.new_obstacles}});
+  }
   if (!report_path.empty()) {
     nlohmann::json report = {
         {"task", task_path},
@@ -282,6 +325,7 @@ int main(int argc, char** argv) {
         {"returns_dropped", flown->dropped_points},
         {"faults_injected", injected},
         {"silences", silence_log},
+        {"invalidations", invalidation_log},
         {"wall_s", wall_s}};
     nlohmann::json replans = nlohmann::json::array();
     for (const explore::ReplanRecord& r : flown->replans) {
@@ -305,7 +349,7 @@ int main(int argc, char** argv) {
         "replans: %zu, %d certified; latency median %.1f ms, p95 %.1f ms, max %.1f ms\n"
         "map: %ld frames (%ld empty), update median %.2f ms, p95 %.2f ms; peak %.1f MB\n"
         "frames dropped: %ld (malformed %ld, bad pose %ld, from the future %ld, out of order %ld, stale %ld); "
-        "returns dropped: %ld; sensor silences (braked and held): %zu\n"
+        "returns dropped: %ld; sensor silences (braked and held): %zu; plans crossed by new obstacles: %zu\n"
         "out: %s\n",
         explore::ExplorationOutcomeName(flown->outcome), flown->flight_s, wall_s, flown->goal_distance, least, least_t,
         closest.c_str(), accepted, kept ? "kept" : "CLEARANCE LOST", flown->replans.size(), certified,
@@ -313,7 +357,7 @@ int main(int argc, char** argv) {
         latency.empty() ? 0.0 : *std::max_element(latency.begin(), latency.end()), flown->frames, flown->empty_frames,
         core::RankQuantile(flown->map_update_ms, 0.5), core::RankQuantile(flown->map_update_ms, 0.95), flown->peak_map_bytes / 1e6,
         counts.dropped(), counts.malformed, counts.bad_pose, counts.from_the_future, counts.out_of_order, counts.stale,
-        flown->dropped_points, flown->silences.size(), out_path.c_str());
+        flown->dropped_points, flown->silences.size(), flown->invalidations.size(), out_path.c_str());
   }
   if (!kept) return kExitLost;
   return arrived ? kExitArrived : kExitNotArrived;

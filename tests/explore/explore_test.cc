@@ -3,7 +3,8 @@
 // seen free (to a local target before a wall it cannot see behind, to the
 // goal once it is seen free, nothing when nothing is seen), and a whole
 // lockstep flight through an unseen row of posts judged against the true
-// world; quadhand-explore's bad input.
+// world; the same with a silent sensor and bad frames, and with an obstacle
+// that appears across the plan; quadhand-explore's bad input.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -155,6 +156,28 @@ TEST_F(ExploreTest, PlansToTheGoalOnceItIsSeenFree) {
   const planner::WholeBodyTrajectory& trajectory = *planned->plan.trajectory;
   EXPECT_LT((trajectory.Sample(trajectory.duration()).position - goal).norm(), 1e-6);
   ExpectInSeenFreeSpace(trajectory, *map);
+
+  // FirstConflict against points at known distances from the base's frame
+  // origin on the plan (the base link's mesh lies within 0.5 m of it): a
+  // point where the base will be conflicts by then; one 3 m above the path
+  // never does; one the plan has passed, looked for from later, neither.
+  const double half = 0.5 * trajectory.duration();
+  const Vec3 there = trajectory.Sample(half).position;
+  const auto conflict = p.local->FirstConflict(trajectory, 0.0, {there}, 0.1);
+  ASSERT_TRUE(conflict.has_value());
+  EXPECT_LE(*conflict, half + 1e-9);
+  EXPECT_GT(*conflict, 0.0);
+  // Exact: no sample before the conflict comes within the distance.
+  const auto nearer = p.local->FirstConflict(trajectory, 0.0, {there}, 1e-3);
+  ASSERT_TRUE(nearer.has_value());
+  EXPECT_GE(*nearer, *conflict);
+  EXPECT_FALSE(p.local->FirstConflict(trajectory, 0.0, {there + Vec3(0.0, 0.0, 3.0)}, 0.1).has_value());
+  EXPECT_FALSE(p.local->FirstConflict(trajectory, 0.0, {}, 0.1).has_value());
+  const Vec3 start_point = trajectory.Sample(0.0).position;
+  EXPECT_TRUE(p.local->FirstConflict(trajectory, 0.0, {start_point}, 0.1).has_value());
+  if ((trajectory.Sample(trajectory.duration()).position - start_point).norm() > 2.0) {
+    EXPECT_FALSE(p.local->FirstConflict(trajectory, trajectory.duration(), {start_point}, 0.1).has_value());
+  }
 }
 
 TEST_F(ExploreTest, NothingSeenGivesNoPlan) {
@@ -272,6 +295,40 @@ TEST_F(ExploreTest, BrakesAndHoldsWhileTheSensorIsSilentAndDropsBadFrames) {
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
+// An obstacle appears across the way, in space the map had seen free, while
+// the vehicle flies a plan through it and no periodic replan is due for
+// seconds: the frames that see it turn its voxels occupied, the plan ahead
+// is found crossing them, the vehicle brakes along its plan and replans at
+// once around it. (Without the check it flies into the patch.)
+TEST_F(ExploreTest, APlanCrossedByANewObstacleBrakesAndReplansAroundIt) {
+  const std::string task = WriteTask(Posts(), Vec3(8.0, 0.0, 1.2));
+  std::vector<Vec3> patch;
+  for (double y = -1.6; y <= 1.6 + 1e-9; y += 0.04) {
+    for (double z = 0.3; z <= 2.1 + 1e-9; z += 0.04) patch.emplace_back(2.5, y, z);
+  }
+  const std::string appear = (dir_ / "patch.pcd").string();
+  ASSERT_TRUE(scene::WritePcd(appear, patch).ok());
+  const std::string flown = (dir_ / "flown.csv").string(), report = (dir_ / "report.json").string();
+  const auto r = RunCommand(kExplore + " " + task + " --out " + flown + " --report " + report + " --appear " + appear +
+                            " --appear-at 0.5 --replan-period 4 --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const nlohmann::json j = nlohmann::json::parse(testing::ReadAll(report));
+  EXPECT_TRUE(j["success"].get<bool>());
+  ASSERT_FALSE(j["invalidations"].empty());
+  const nlohmann::json& first = j["invalidations"][0];
+  EXPECT_TRUE(first["flown_plan"].get<bool>());
+  EXPECT_GE(first["t"].get<double>(), 0.5);
+  EXPECT_LT(first["t"].get<double>(), 0.5 + 0.3);  // a few frames to change a free voxel's mind
+  EXPECT_GT(first["stop_margin_s"].get<double>(), 0.0);  // it stopped before the conflict
+  EXPECT_GT(first["new_obstacle_voxels"].get<int>(), 10);
+  // The judge after the patch appeared: the world with it.
+  std::vector<Vec3> with_patch = Posts();
+  with_patch.insert(with_patch.end(), patch.begin(), patch.end());
+  const std::string judged = WriteTask(with_patch, Vec3(8.0, 0.0, 1.2), "with_patch");
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + judged + " " + flown);
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+}
+
 // The fault injector itself: silences stop everything; a late frame comes
 // after the next one.
 TEST(SensorFaultsTest, SilencesStopFramesAndLateFramesComeAfterTheNext) {
@@ -331,6 +388,9 @@ TEST_F(ExploreTest, BadInputIsOneLineAndExitTwoWithNoOutput) {
            {task + " --out " + flown + " --silence 3-1", "--silence"},
            {task + " --out " + flown + " --bad-frames 1.5", "bad-frame probability"},
            {task + " --out " + flown + " --sensor-timeout 0", "sensor_timeout"},
+           {task + " --out " + flown + " --appear " + (dir_ / "none.pcd").string(), "none.pcd"},
+           {task + " --out " + flown + " --appear " + empty, "empty.pcd"},
+           {task + " --out " + flown + " --appear-at -1", "--appear-at"},
        }) {
     const auto r = RunCommand(kExplore + " " + c.args + " --quiet");
     EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.out << r.err;

@@ -47,6 +47,33 @@ TEST(RollingMapTest, AWallIsOccupiedTheSpaceBeforeItFreeAndBehindItUnknown) {
   EXPECT_EQ(map->frames(), 1);
 }
 
+// A new obstacle in space seen free is reported once, by the frame that
+// turns its voxels occupied; one where nothing had been seen is not (it was
+// an obstacle to every plan already), nor one seen again.
+TEST(RollingMapTest, NewlyBlockedAreTheVoxelsThatTurnFromFreeToOccupied) {
+  auto map = Map();
+  for (int k = 0; k < 5; ++k) ASSERT_TRUE(map->Insert(Wall(3.0), Vec3::Zero()).ok());
+  EXPECT_TRUE(map->NewlyBlocked().empty());  // the wall was unknown before its first frame
+  ASSERT_EQ(map->State(Vec3(1.55, 0.05, 0.05)), VoxelState::kFree);
+  // A post appears at x = 1.55 where the rays had passed: free until enough
+  // frames hit it, then occupied, and reported by that frame alone.
+  const std::vector<Vec3> post = {Vec3(1.55, 0.05, 0.05), Vec3(1.55, 0.07, 0.02)};
+  std::vector<Vec3> seen = Wall(3.0);
+  seen.insert(seen.end(), post.begin(), post.end());
+  int reported_at = -1;
+  for (int k = 0; k < 10; ++k) {
+    ASSERT_TRUE(map->Insert(seen, Vec3::Zero()).ok());
+    if (map->NewlyBlocked().empty()) continue;
+    EXPECT_EQ(reported_at, -1) << "reported twice";
+    reported_at = k;
+    ASSERT_EQ(map->NewlyBlocked().size(), 1u);  // the two returns share a voxel
+    const Vec3 centre = map->NewlyBlocked()[0];
+    EXPECT_NEAR((centre - Vec3(1.55, 0.05, 0.05)).norm(), 0.0, 0.5 * std::sqrt(3.0) * 0.1 + 1e-12);
+    EXPECT_EQ(map->State(centre), VoxelState::kOccupied);
+  }
+  EXPECT_GE(reported_at, 1);  // a free voxel changes its mind in a few frames, not one
+}
+
 TEST(RollingMapTest, UnknownVoxelsAreTheOnesNoRayCrossed) {
   auto map = Map();
   ASSERT_TRUE(map->Insert(Wall(3.0), Vec3::Zero()).ok());

@@ -30,8 +30,11 @@ sim::Setpoint SetpointOf(const planner::WholeBodySample& sample) {
 
 // A plan being flown: its trajectory from `t0` on the simulated clock. A
 // brake slows the plan's own clock to a stop (rate 1 - smoothstep over
-// brake_s), so the vehicle passes through the plan's configurations only,
-// more slowly, and holds at the one where the clock stops.
+// brake_s): the vehicle passes through the plan's positions, yaws and
+// joints only, more slowly, and holds at the one where the clock stops.
+// Its tilt is not the plan's: the deceleration tilts it back (by at most
+// atan(a / 2g), a the limit braked with), which the plan's tracking margin
+// has to absorb.
 struct FlownPlan {
   planner::WholeBodyTrajectory trajectory;
   double t0 = 0.0;
@@ -76,7 +79,7 @@ struct FlownPlan {
   // At rest for good: ended, or braked to its stop.
   bool Stopped(double t) const { return Ended(t) || (braked && t >= brake_t + brake_s); }
   // Brakes from t: over max(0.5 s, 3 v / a_max), v the plan's speed there,
-  // so the clock's slowing asks at most a_max / 2 on the path's tangent.
+  // so the clock's slowing asks at most a_max / 2 along the path.
   // Returns the speed braked from (nothing to brake: 0, when ended).
   double Brake(double t, double a_max) {
     if (braked || Ended(t)) return 0.0;
@@ -132,11 +135,26 @@ const char* ExplorationOutcomeName(ExplorationOutcome outcome) {
   return "unknown";
 }
 
+sim::SensorRenderer* HiddenWorld::At(double t) const {
+  sim::SensorRenderer* now = renderer;
+  for (const auto& [from, changed] : changes) {
+    if (t >= from) now = changed;
+  }
+  return now;
+}
+
 core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const sim::SensorConfig& sensor,
-                                               sim::SensorRenderer* renderer, const LocalPlanner& planner,
+                                               const HiddenWorld& world, const LocalPlanner& planner,
                                                const planner::Task& task, const ExplorationOptions& options,
                                                const std::function<void(const ReplanRecord&)>& progress) {
-  if (simulator == nullptr || renderer == nullptr) return core::Status::InvalidArgument("exploration: no simulator or sensor");
+  if (simulator == nullptr || world.renderer == nullptr) {
+    return core::Status::InvalidArgument("exploration: no simulator or sensor");
+  }
+  for (const auto& change : world.changes) {
+    if (change.second == nullptr || !std::isfinite(change.first)) {
+      return core::Status::InvalidArgument("exploration: a change of the hidden world without a renderer or a time");
+    }
+  }
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument("exploration: " + why);
   const sim::VehicleModel& model = simulator->model();
   const robot::RobotModel& robot = model.robot();
@@ -170,6 +188,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   ExplorationResult result;
   std::optional<FlownPlan> flying, pending;
   SensorFaults faults(options.sensor_faults, options.fault_seed);
+  const double planned_distance = planner.PlannedSafetyDistance(options.map.resolution);
   perception::FrameGate gate(options.frame_gate);
   std::optional<SilenceRecord> silence;
   const double frame_period = 1.0 / sensor.rate();
@@ -191,8 +210,10 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       sent.position = sensor_pose.translation();
       const Quat q(sensor_pose.rotation());
       sent.attitude = Eigen::Vector4d(q.w(), q.x(), q.y(), q.z());
+      sim::SensorRenderer* renderer = world.At(t);
       sent.points = renderer->Render(sensor_pose);
       if (options.free_misses) sent.misses = renderer->LastMisses(options.miss_stride);
+      std::vector<Vec3> new_obstacles;
       for (perception::SensorFrame& frame : faults.Pass(std::move(sent), t)) {
         if (gate.Admit(frame, t) != perception::FrameDrop::kNone) continue;
         const Pose pose = perception::SensorPose(frame);
@@ -206,8 +227,38 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - update_start).count());
         result.peak_map_bytes = std::max(result.peak_map_bytes, (*map)->memory_bytes());
         ++result.frames;
+        const std::vector<Vec3>& blocked = (*map)->NewlyBlocked();
+        new_obstacles.insert(new_obstacles.end(), blocked.begin(), blocked.end());
       }
       next_frame += frame_period;
+      // The plans ahead were certified against a map that saw these voxels
+      // free: each is checked again against them.
+      if (!new_obstacles.empty() && (flying || pending)) {
+        InvalidationRecord record;
+        record.t = t;
+        record.new_obstacles = new_obstacles.size();
+        bool invalid = false;
+        if (pending && planner.FirstConflict(pending->trajectory, 0.0, new_obstacles, planned_distance)) {
+          pending.reset();
+          invalid = true;
+        }
+        if (flying && !flying->Stopped(t)) {
+          double r, r1, r2;
+          const double tau = flying->PlanTime(t, &r, &r1, &r2);
+          if (const auto conflict = planner.FirstConflict(flying->trajectory, tau, new_obstacles, planned_distance)) {
+            record.flown = true;
+            record.conflict_in = *conflict - tau;
+            flying->Brake(t, planner.AccelerationLimit());
+            record.stop_margin = *conflict - flying->PlanTime(flying->brake_t + flying->brake_s, &r, &r1, &r2);
+            pending.reset();
+            invalid = true;
+          }
+        }
+        if (invalid) {
+          next_replan = t;
+          result.invalidations.push_back(record);
+        }
+      }
     }
     // The sensor's silence: brake, hold, and plan nothing until it speaks.
     // (Counted from take-off until the first frame is taken.)
@@ -217,7 +268,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       record.from = t;
       pending.reset();
       if (flying) {
-        record.speed = flying->Brake(t, task.limits.a_max);
+        record.speed = flying->Brake(t, planner.AccelerationLimit());
         if (flying->braked) record.brake_s = flying->brake_s;
       }
       silence = record;

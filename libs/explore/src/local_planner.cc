@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "quadhand/core/text.h"
+#include "quadhand/env/exact_mesh_model.h"
 #include "quadhand/planner/moving_scene.h"
 #include "quadhand/robot/kinematics.h"
 
@@ -87,6 +88,43 @@ double LocalPlanner::PlannedSafetyDistance(double map_resolution) const {
   return base_.task().safety_distance + local_.tracking_margin + perception::VoxelBallRadius(map_resolution);
 }
 
+std::optional<double> LocalPlanner::FirstConflict(const planner::WholeBodyTrajectory& trajectory, double from,
+                                                  const std::vector<Vec3>& obstacles, double distance,
+                                                  double step) const {
+  if (obstacles.empty() || !(step > 0.0)) return std::nullopt;
+  const robot::RobotModel& robot = base_.robot();
+  const env::ExactMeshModel& exact = base_.exact();
+  // Each link's elements inside a ball about its frame's origin: a point
+  // farther than that ball's radius plus `distance` needs no mesh query.
+  std::vector<double> reach(static_cast<size_t>(robot.num_links()), 0.0);
+  for (int link : exact.links()) {
+    Vec3 lo, hi;
+    exact.LinkBox(link, &lo, &hi);
+    reach[static_cast<size_t>(link)] = lo.cwiseAbs().cwiseMax(hi.cwiseAbs()).norm();
+  }
+  robot::KinematicsState kinematics;
+  const double end = trajectory.duration();
+  for (double tau = std::max(0.0, from);; tau = std::min(end, tau + step)) {
+    const planner::WholeBodySample s = trajectory.Sample(tau);
+    robot::ComputeKinematics(robot, s.BasePose(), s.joints, &kinematics);
+    for (int link : exact.links()) {
+      const Pose& X_WL = kinematics.link_poses[static_cast<size_t>(link)];
+      const Pose X_LW = X_WL.inverse();
+      const double ball = reach[static_cast<size_t>(link)] + distance;
+      for (const Vec3& p : obstacles) {
+        if ((p - X_WL.translation()).squaredNorm() > ball * ball) continue;
+        if (exact.LinkSignedDistance(link, X_LW * p) < distance) return tau;
+      }
+    }
+    if (tau >= end) break;
+  }
+  return std::nullopt;
+}
+
+double LocalPlanner::AccelerationLimit() const {
+  return std::min(base_.task().limits.a_max, local_.max_acceleration);
+}
+
 core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMap& map,
                                                      const planner::BoundaryState& start) const {
   const auto begin = std::chrono::steady_clock::now();
@@ -110,7 +148,7 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
   task.start = start;
   task.safety_distance = PlannedSafetyDistance(map.options().resolution);
   task.limits.v_max = std::min(task.limits.v_max, local_.max_speed);
-  task.limits.a_max = std::min(task.limits.a_max, local_.max_acceleration);
+  task.limits.a_max = AccelerationLimit();
   auto in_box = [&](const Vec3& p) { return ((p - lo).array() >= 0.0).all() && ((hi - p).array() >= 0.0).all(); };
   const bool goal_in_box = in_box(goal_.position);
   task.terminal = goal_;

@@ -115,6 +115,8 @@ struct RollingMap::Impl {
   };
   std::vector<Voxel> cells;
   std::vector<size_t> touched;
+  std::vector<Eigen::Vector3i> end_voxels;  // the end voxels of touched's first entries, this frame
+  std::vector<Vec3> newly_blocked;          // NewlyBlocked()
   int hit = 0, miss = 0, threshold = 0;
   std::unordered_map<std::int64_t, std::vector<Vec3>> raw;  // by voxel key: the newest returns there
   long frames = 0;
@@ -159,6 +161,7 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
     if (m.cells[cell].mark == 1) continue;  // this voxel's ray is cast already
     m.cells[cell].mark = 1;
     m.touched.push_back(cell);
+    m.end_voxels.push_back(v);
     rays.emplace_back(p, true);
   }
   for (const Vec3& p : misses) {
@@ -169,7 +172,16 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
     const double range = (p - origin).norm();
     rays.emplace_back(range > m.options.max_range ? origin + (p - origin) * (m.options.max_range / range) : p, false);
   }
-  for (size_t cell : m.touched) m.Update(cell, m.hit);
+  m.newly_blocked.clear();
+  for (size_t i = 0; i < m.touched.size(); ++i) {
+    const size_t cell = m.touched[i];
+    const std::int8_t before = m.cells[cell].value;
+    m.Update(cell, m.hit);
+    if (before != kUnknown && before <= m.threshold && m.cells[cell].value > m.threshold) {
+      m.newly_blocked.push_back((m.end_voxels[i].cast<double>().array() + 0.5).matrix() * res);
+    }
+  }
+  m.end_voxels.clear();
   // Each ray's voxels before its end, by a voxel walk (Amanatides and Woo),
   // in plain integers: the voxel's place in the window (for the inside
   // test) and in the ring (for its cell) move with it, no division a step.
@@ -369,6 +381,8 @@ std::vector<Vec3> RollingMap::UnknownVoxelCentres(const Vec3& lo, const Vec3& hi
 const RollingMapOptions& RollingMap::options() const { return impl_->options; }
 Vec3 RollingMap::window_centre() const { return impl_->centre; }
 long RollingMap::frames() const { return impl_->frames; }
+const std::vector<Vec3>& RollingMap::NewlyBlocked() const { return impl_->newly_blocked; }
+
 long RollingMap::dropped_points() const { return impl_->dropped; }
 
 size_t RollingMap::num_known_voxels() const {

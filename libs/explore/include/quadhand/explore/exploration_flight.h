@@ -11,6 +11,8 @@
 //   t = 0: at rest at the task's start; the space within start_free_radius
 //          is free (the vehicle stands there)
 //   every frame period: render, move the map's window to the sensor, insert
+//          (voxels a frame turns from free to occupied within the planned
+//          safety distance of the plan ahead: brake, and replan at once)
 //   every replan period (until a plan to the goal is held):
 //          plan from the flown plan's state at t + plan_ahead; a certified
 //          plan replaces the flown one there; a failed one leaves it
@@ -20,13 +22,14 @@
 // Each frame passes a gate (perception/sensor_frame.h) before the map takes
 // it. When no frame has been taken for sensor_timeout, the sensor is silent:
 // the plan waiting to be flown is dropped, the plan being flown brakes along
-// its own path (its clock slows to a stop, so the vehicle passes only
-// through configurations that plan certified) and holds there, and nothing
-// is planned until frames are taken again.
+// its own path (its clock slows to a stop: the plan's positions, yaws and
+// joints, not its tilts) and holds there, and nothing is planned until
+// frames are taken again.
 #pragma once
 
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "quadhand/core/status.h"
@@ -77,6 +80,27 @@ struct ReplanRecord : LocalPlanSummary {
   double t = 0.0;  // simulated time it was asked at
 };
 
+// The hidden world the simulated sensor renders: `renderer` from the start,
+// and each of `changes` (in time order) from its time on, such as the same
+// world with an obstacle that appears.
+struct HiddenWorld {
+  sim::SensorRenderer* renderer = nullptr;
+  std::vector<std::pair<double, sim::SensorRenderer*>> changes;
+  sim::SensorRenderer* At(double t) const;
+};
+
+// A plan found crossing a new obstacle: voxels a frame turned from free to
+// occupied (RollingMap::NewlyBlocked) within the planned safety distance of
+// the plan ahead. The plan being flown brakes along its path and a replan
+// is asked at once; a waiting plan is dropped.
+struct InvalidationRecord {
+  double t = 0.0;             // s
+  bool flown = false;         // the plan being flown (else only the waiting one)
+  double conflict_in = 0.0;   // s of the plan's own time until the conflict (the flown plan)
+  double stop_margin = 0.0;   // s of plan time between the brake's stop and the conflict (negative: past it)
+  size_t new_obstacles = 0;   // voxels
+};
+
 // A time the sensor was silent, and the brake it caused.
 struct SilenceRecord {
   double from = 0.0;  // s: when the timeout ran out (the last frame taken was sensor_timeout earlier)
@@ -97,15 +121,16 @@ struct ExplorationResult {
   long dropped_points = 0;               // non-finite returns of frames taken
   SensorFaultCounts injected;            // the faults injected (SensorFaultOptions)
   std::vector<SilenceRecord> silences;
+  std::vector<InvalidationRecord> invalidations;
   size_t peak_map_bytes = 0;
   double goal_distance = 0.0;  // at the end, m
 };
 
-// One flight. `simulator` is reset to the task's start; `renderer` renders
+// One flight. `simulator` is reset to the task's start; `world` renders
 // the hidden scene for `sensor`'s link and mount; `progress`, when set, is
 // called after each replan. Errors only for inconsistent input.
 core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const sim::SensorConfig& sensor,
-                                               sim::SensorRenderer* renderer, const LocalPlanner& planner,
+                                               const HiddenWorld& world, const LocalPlanner& planner,
                                                const planner::Task& task, const ExplorationOptions& options,
                                                const std::function<void(const ReplanRecord&)>& progress = nullptr);
 

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -108,6 +109,17 @@ class LocalPlanner {
   core::Result<LocalPlanResult> PlanFrom(const perception::RollingMap& map, const planner::BoundaryState& start) const;
 
   const planner::BoundaryState& goal() const { return goal_; }
+  const LocalPlannerOptions& options() const { return local_; }
+  // The first plan time in [from, the plan's end] (sampled every `step` s,
+  // and the end) at which the robot on `trajectory` comes nearer than
+  // `distance` to one of `obstacles` (exact link meshes against points);
+  // none when it never does. For a plan certified against an older map and
+  // the obstacles a newer frame found in space that map had seen free
+  // (RollingMap::NewlyBlocked), with PlannedSafetyDistance as the distance.
+  std::optional<double> FirstConflict(const planner::WholeBodyTrajectory& trajectory, double from,
+                                      const std::vector<Vec3>& obstacles, double distance, double step = 0.02) const;
+  // The acceleration local plans keep within (the task's, and max_acceleration).
+  double AccelerationLimit() const;
   // The safety distance local plans keep from the boundary's centres: the
   // task's, plus tracking_margin, plus the map's ball radius.
   // (A map of voxels `map_resolution` m.)

@@ -89,6 +89,11 @@ class RollingMap {
   std::vector<Vec3> ObstacleBoundary(const Vec3& lo, const Vec3& hi) const;
   // VoxelBallRadius of this map's voxels.
   double BoundaryBallRadius() const;
+  // The centres of the voxels the last Insert turned from free to occupied:
+  // a new obstacle in space that was seen free, which a plan certified
+  // against the map before may cross (an unknown voxel turned occupied was
+  // an obstacle to the plans already).
+  const std::vector<Vec3>& NewlyBlocked() const;
 
   const RollingMapOptions& options() const;
   Vec3 window_centre() const;
