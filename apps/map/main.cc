@@ -1,6 +1,8 @@
 // quadhand-map: builds the rolling map (perception/rolling_map.h) from a
 // folder of recorded sensor frames (perception/frames.h: quadhand-sim
-// --frames writes one), the window following the sensor, and writes what it
+// --frames writes one), or from frames arriving on UDP (--listen;
+// link/sensor_stream.h: quadhand-sim --udp --frames-to sends them), the
+// window following the sensor, and writes what it
 // holds at the end: the raw returns of its occupied voxels (a scene
 // quadhand-plan reads) and, if asked, the centres of the unknown voxels of
 // a box. Prints the frames used and dropped (and why) and the map update's
@@ -9,9 +11,11 @@
 // Exit codes: 0 success; 2 bad input (one line on stderr naming the file).
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -20,13 +24,19 @@
 #include "quadhand/core/log.h"
 #include "quadhand/core/statistics.h"
 #include "quadhand/core/text.h"
+#include "quadhand/link/sensor_stream.h"
+#include "quadhand/link/udp.h"
 #include "quadhand/perception/frames.h"
 #include "quadhand/perception/rolling_map.h"
+#include "quadhand/perception/sensor_frame.h"
 #include "quadhand/scene/point_cloud.h"
 
 namespace {
 
 using namespace quadhand;
+
+volatile std::sig_atomic_t g_stop = 0;
+extern "C" void OnSignal(int) { g_stop = 1; }
 
 int Fail(const std::string& message) {
   core::PrintError("quadhand-map", message);
@@ -53,15 +63,24 @@ core::Result<std::vector<double>> Numbers(const std::string& text, size_t count,
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "quadhand-map: build the rolling map of a folder of sensor frames and write what it holds.\n"
+      "quadhand-map: build the rolling map of sensor frames and write what it holds.\n"
       "  quadhand-map FRAMES_DIR --out occupied.pcd [--unknown-out unknown.pcd --unknown-box x0,y0,z0,x1,y1,z1]\n"
       "               [--resolution 0.1] [--window 15,15,5] [--max-range 6] [--json]\n"
+      "  quadhand-map --listen udp://ADDR:PORT --out occupied.pcd [--idle 2] [--max-duration S] [...]\n"
       "FRAMES_DIR: frames.csv and one cloud per frame (docs/sim.md, \"The frames folder\").\n"
+      "--listen: frames on UDP (docs/link.md, \"Sensor frames on UDP\"), until --idle s without a datagram\n"
+      "after the first frame, --max-duration, or SIGINT/SIGTERM.\n"
       "Exit codes: 0 success; 2 bad input."};
-  std::string dir, out_path, unknown_path, unknown_box_text, window_text;
+  std::string dir, out_path, unknown_path, unknown_box_text, window_text, listen_url;
+  double idle = 2.0, max_duration = 0.0;
   perception::RollingMapOptions options;
   bool json = false;
-  app.add_option("frames", dir, "Folder of frames (frames.csv and the clouds it names)")->required();
+  app.add_option("frames", dir, "Folder of frames (frames.csv and the clouds it names)");
+  app.add_option("--listen", listen_url, "Receive frames on this local address instead (udp://ADDR:PORT)");
+  app.add_option("--idle", idle, "--listen: stop after this many seconds without a datagram, once a frame is mapped")
+      ->capture_default_str();
+  app.add_option("--max-duration", max_duration, "--listen: stop after this many seconds (0: no limit)")
+      ->capture_default_str();
   app.add_option("--out", out_path, "Write the occupied voxels' raw returns here (PCD, world frame)")->required();
   app.add_option("--unknown-out", unknown_path, "Write the centres of the unknown voxels of --unknown-box here (PCD)");
   app.add_option("--unknown-box", unknown_box_text, "x0,y0,z0,x1,y1,z1: the box for --unknown-out (world, m)");
@@ -77,6 +96,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return Fail(e.what());
   }
+  if (dir.empty() == listen_url.empty()) return Fail("give a frames folder or --listen udp://ADDR:PORT (one of them)");
+  if (!(std::isfinite(idle) && idle > 0.0 && idle <= 3600.0)) return Fail("--idle must be in (0, 3600] s");
+  if (!(std::isfinite(max_duration) && max_duration >= 0.0)) return Fail("--max-duration must be >= 0 s");
   if (!window_text.empty()) {
     auto window = Numbers(window_text, 3, "--window");
     if (!window.ok()) return Fail(window.status().message());
@@ -99,36 +121,97 @@ int main(int argc, char** argv) {
     if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) return Fail(path + ": its folder does not exist");
   }
 
-  auto index = perception::ReadFrameIndex(dir);
-  if (!index.ok()) return Fail(index.status().message());
   auto map = perception::RollingMap::Create(options);
   if (!map.ok()) return Fail(map.status().message());
   long unreadable = 0, empty_frames = 0;
   std::vector<double> update_ms;
-  for (const perception::FrameRecord& frame : index->frames) {
-    auto cloud = scene::LoadPointCloud(frame.path, scene::EmptyCloud::kAllow);
-    if (!cloud.ok()) {  // a frame missing, truncated or malformed: dropped and counted
-      ++unreadable;
-      continue;
-    }
-    if (cloud->points.empty()) {  // the sensor saw nothing in range: nothing learnt
-      ++empty_frames;
-      continue;
-    }
-    for (Vec3& p : cloud->points) p = frame.sensor_to_world * p;
+  // One frame into the map, in the world frame.
+  auto map_frame = [&](const std::vector<Vec3>& points, const Pose& sensor_to_world,
+                       const std::vector<Vec3>& misses) -> core::Status {
     const auto start = std::chrono::steady_clock::now();
-    (*map)->MoveWindow(frame.sensor_to_world.translation());
-    if (core::Status s = (*map)->Insert(cloud->points, frame.sensor_to_world.translation()); !s.ok()) {
-      return Fail(frame.path + ": " + s.message());
-    }
+    (*map)->MoveWindow(sensor_to_world.translation());
+    QUADHAND_RETURN_IF_ERROR((*map)->Insert(points, sensor_to_world.translation(), misses));
     update_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    return core::Status::Ok();
+  };
+
+  perception::FrameIndex index;
+  std::string source = dir;
+  link::SensorFrameAssembler assembler;
+  // The frames' stamps are the sender's clock, which this program does not
+  // know: the gate judges their poses and order, not their age.
+  perception::FrameGateOptions gate_options;
+  gate_options.max_age = std::numeric_limits<double>::infinity();
+  perception::FrameGate gate(gate_options);
+  if (listen_url.empty()) {
+    auto read = perception::ReadFrameIndex(dir);
+    if (!read.ok()) return Fail(read.status().message());
+    index = std::move(*read);
+    for (const perception::FrameRecord& frame : index.frames) {
+      auto cloud = scene::LoadPointCloud(frame.path, scene::EmptyCloud::kAllow);
+      if (!cloud.ok()) {  // a frame missing, truncated or malformed: dropped and counted
+        ++unreadable;
+        continue;
+      }
+      if (cloud->points.empty()) {  // the sensor saw nothing in range: nothing learnt
+        ++empty_frames;
+        continue;
+      }
+      for (Vec3& p : cloud->points) p = frame.sensor_to_world * p;
+      if (core::Status s = map_frame(cloud->points, frame.sensor_to_world, {}); !s.ok()) {
+        return Fail(frame.path + ": " + s.message());
+      }
+    }
+  } else {
+    source = listen_url;
+    auto bind = link::ParseUdpUrl(listen_url, true);
+    if (!bind.ok()) return Fail("--listen " + bind.status().message());
+    auto socket = link::UdpSocket::Bind(*bind);
+    if (!socket.ok()) return Fail("--listen " + listen_url + ": " + socket.status().message());
+    socket->SetReceiveBuffer(16u << 20);
+    std::signal(SIGINT, OnSignal);
+    std::signal(SIGTERM, OnSignal);
+    if (!json) std::fprintf(stderr, "quadhand-map: listening on udp://%s:%u\n", bind->host.c_str(), socket->local_port());
+    const auto begin = std::chrono::steady_clock::now();
+    auto last_datagram = begin;
+    auto seconds_since = [](std::chrono::steady_clock::time_point t) {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    };
+    while (!g_stop) {
+      if (max_duration > 0.0 && seconds_since(begin) >= max_duration) break;
+      if (!update_ms.empty() && seconds_since(last_datagram) >= idle) break;
+      if (!socket->WaitReadable(0.05)) continue;
+      while (auto datagram = socket->Receive()) {
+        last_datagram = std::chrono::steady_clock::now();
+        auto frame = assembler.Add(datagram->bytes.data(), datagram->bytes.size());
+        if (!frame || gate.Admit(*frame, frame->t) != perception::FrameDrop::kNone) continue;
+        if (frame->points.empty()) {
+          ++empty_frames;
+          continue;
+        }
+        const Pose pose = perception::SensorPose(*frame);
+        for (Vec3& p : frame->points) p = pose * p;
+        for (Vec3& p : frame->misses) p = pose * p;
+        if (core::Status s = map_frame(frame->points, pose, frame->misses); !s.ok()) {
+          return Fail(listen_url + ": " + s.message());
+        }
+      }
+    }
+    assembler.Flush();
   }
+  const link::SensorStreamCounts& stream = assembler.counts();
+  const perception::FrameCounts& gated = gate.counts();
   if (update_ms.empty()) {
-    return Fail(dir + ": no usable frame (" + std::to_string(index->dropped()) + " rows dropped, " +
+    if (!listen_url.empty()) {
+      return Fail(listen_url + core::Format(": no usable frame (%ld datagrams, %ld frames, %ld dropped by the gate, "
+                                            "%ld empty)",
+                                            stream.datagrams, stream.frames, gated.dropped(), empty_frames));
+    }
+    return Fail(dir + ": no usable frame (" + std::to_string(index.dropped()) + " rows dropped, " +
                 std::to_string(unreadable) + " clouds unreadable, " + std::to_string(empty_frames) + " empty)");
   }
   const std::vector<Vec3> occupied = (*map)->OccupiedPoints();
-  if (occupied.empty()) return Fail(dir + ": the frames show no occupied voxel inside the last window");
+  if (occupied.empty()) return Fail(source + ": the frames show no occupied voxel inside the last window");
   if (core::Status s = scene::WritePcd(out_path, occupied); !s.ok()) return Fail(s.message());
   long unknown = -1;
   if (!unknown_path.empty()) {
@@ -140,18 +223,37 @@ int main(int argc, char** argv) {
   }
   const double median = core::RankQuantile(update_ms, 0.5), p95 = core::RankQuantile(update_ms, 0.95);
   const double worst = *std::max_element(update_ms.begin(), update_ms.end());
+  const std::string stream_json =
+      listen_url.empty()
+          ? std::string()
+          : core::Format(", \"datagrams\": %ld, \"frames_received\": %ld, \"datagrams_malformed\": %ld, "
+                         "\"datagrams_truncated\": %ld, \"datagrams_corrupted\": %ld, \"datagrams_inconsistent\": %ld, "
+                         "\"datagrams_duplicate\": %ld, \"frames_incomplete\": %ld, \"frames_malformed\": %ld, "
+                         "\"frames_bad_pose\": %ld, \"frames_out_of_order\": %ld",
+                         stream.datagrams, stream.frames, stream.malformed, stream.truncated, stream.corrupted,
+                         stream.inconsistent, stream.duplicates, stream.incomplete_frames, gated.malformed,
+                         gated.bad_pose, gated.out_of_order);
   if (json) {
     std::printf("{\"frames\": %zu, \"empty_frames\": %ld, \"rows_malformed\": %ld, \"rows_bad_pose\": %ld, \"rows_out_of_order\": %ld, "
                 "\"clouds_unreadable\": %ld, \"update_ms_median\": %.3f, \"update_ms_p95\": %.3f, "
                 "\"update_ms_max\": %.3f, \"known_voxels\": %zu, \"memory_mb\": %.2f, \"occupied_points\": %zu, "
-                "\"unknown_voxels\": %ld}\n",
-                update_ms.size(), empty_frames, index->malformed, index->bad_pose, index->out_of_order, unreadable,
+                "\"unknown_voxels\": %ld%s}\n",
+                update_ms.size(), empty_frames, index.malformed, index.bad_pose, index.out_of_order, unreadable,
                 median, p95, worst,
-                (*map)->num_known_voxels(), (*map)->memory_bytes() / 1e6, occupied.size(), unknown);
+                (*map)->num_known_voxels(), (*map)->memory_bytes() / 1e6, occupied.size(), unknown, stream_json.c_str());
   } else {
-    std::printf("%zu frames mapped, %ld empty (dropped: %ld malformed rows, %ld bad poses, %ld out of order, %ld "
-                "unreadable clouds)\n",
-                update_ms.size(), empty_frames, index->malformed, index->bad_pose, index->out_of_order, unreadable);
+    if (!listen_url.empty()) {
+      std::printf("%zu frames mapped, %ld empty, from %ld datagrams and %ld frames received (dropped: datagrams %ld "
+                  "malformed, %ld truncated, %ld corrupted, %ld inconsistent, %ld duplicate; frames %ld incomplete, "
+                  "%ld malformed, %ld bad poses, %ld out of order)\n",
+                  update_ms.size(), empty_frames, stream.datagrams, stream.frames, stream.malformed, stream.truncated,
+                  stream.corrupted, stream.inconsistent, stream.duplicates, stream.incomplete_frames, gated.malformed,
+                  gated.bad_pose, gated.out_of_order);
+    } else {
+      std::printf("%zu frames mapped, %ld empty (dropped: %ld malformed rows, %ld bad poses, %ld out of order, %ld "
+                  "unreadable clouds)\n",
+                  update_ms.size(), empty_frames, index.malformed, index.bad_pose, index.out_of_order, unreadable);
+    }
     std::printf("map update per frame: median %.2f ms, p95 %.2f ms, max %.2f ms; %zu known voxels, %.1f MB\n", median,
                 p95, worst, (*map)->num_known_voxels(), (*map)->memory_bytes() / 1e6);
     std::printf("occupied: %zu raw returns -> %s\n", occupied.size(), out_path.c_str());

@@ -6,6 +6,9 @@
 //   --figure8 --out plan.csv           write the paper's figure-eight plan
 //   --udp udp://ADDR:PORT              behave like a PX4 autopilot over MAVLink
 //                                      (udp_mode.h, sim/autopilot.h)
+//     [--world FILE --sensor depth|lidar --frames-to udp://HOST:PORT]   and
+//                                      stream a sensor's frames beside it
+//                                      (link/sensor_stream.h)
 // Exit codes: 0 success, 1 the simulation diverged, 2 bad input (one line on stderr).
 #include <chrono>
 #include <cmath>
@@ -21,6 +24,7 @@
 #include "quadhand/core/log.h"
 #include "quadhand/core/text.h"
 #include "quadhand/link/frame.h"
+#include "quadhand/link/sensor_stream.h"
 #include "quadhand/link/udp.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/robot_model.h"
@@ -102,14 +106,20 @@ int main(int argc, char** argv) {
   uint64_t seed = 0;
   sim::FigureEightOptions eight;
   app.add_option("--track", track_path, "Plan file to fly (CSV, contracts.md)");
-  std::string world_path, sensor_name, frames_dir;
-  app.add_option("--world", world_path, "--track: the hidden true scene a sensor sees: a PCD or PLY cloud (world frame), "
+  std::string world_path, sensor_name, frames_dir, frames_to_url;
+  size_t frame_datagram = link::kDefaultSensorDatagramBytes;
+  app.add_option("--world", world_path, "--track, --udp: the hidden true scene a sensor sees: a PCD or PLY cloud (world frame), "
                                         "or a task file (YAML) whose scene: it is");
-  app.add_option("--sensor", sensor_name, "--track with --world: depth or lidar (options: the configuration's sensor:)")
+  app.add_option("--sensor", sensor_name, "--track, --udp with --world: depth or lidar (options: the configuration's sensor:)")
       ->check(CLI::IsMember({"depth", "lidar"}));
   app.add_option("--frames", frames_dir, "--track with --world: write the sensor's frames to this new folder "
                                          "(PCD per frame and frames.csv; docs/sim.md, Sensors)");
   app.add_flag("--figure8", figure8, "Write the figure-eight plan of the paper's experiment to --out instead");
+  app.add_option("--frames-to", frames_to_url,
+                 "--udp with --world: send the sensor's frames to this address (udp://HOST:PORT; docs/link.md, "
+                 "Sensor frames on UDP), rendered from the true state at the sensor's rate");
+  app.add_option("--frame-datagram", frame_datagram, "--frames-to: bytes per datagram at most (110 to 65507)")
+      ->capture_default_str();
   app.add_option("--out", out_path, "Output file (CSV): the flown states, or the figure-eight plan (not with --udp)");
   app.add_option("--config", config_path, "Simulator configuration (YAML, docs/sim.md)")->capture_default_str();
   app.add_option("--pcgc", pcgc, "Passive CoG compensation: on (battery on its mimic joint) or off (battery locked)")
@@ -184,9 +194,13 @@ int main(int argc, char** argv) {
   }
   if (udp && !out_path.empty()) return Fail("--out is not used with --udp (use --log for the flown states)");
   if (udp && app.count("--settle") > 0) return Fail("--settle is only used with --track");
-  const int sensing = int{!world_path.empty()} + int{!sensor_name.empty()} + int{!frames_dir.empty()};
-  if (sensing > 0 && track_path.empty()) return Fail("--world, --sensor and --frames are only used with --track");
-  if (sensing > 0 && sensing < 3) return Fail("--world, --sensor and --frames go together");
+  const int sensing = int{!world_path.empty()} + int{!sensor_name.empty()} + int{!frames_dir.empty()} +
+                      int{!frames_to_url.empty()};
+  if (!frames_dir.empty() && track_path.empty()) return Fail("--frames is only used with --track (--udp: --frames-to)");
+  if (!frames_to_url.empty() && !udp) return Fail("--frames-to is only used with --udp (--track: --frames)");
+  if (sensing > 0 && (figure8 || sensing < 3)) {
+    return Fail("--world, --sensor and --frames (--track) or --frames-to (--udp) go together");
+  }
   if (!frames_dir.empty()) {
     std::error_code ec;
     if (std::filesystem::exists(frames_dir, ec)) return Fail("--frames " + frames_dir + ": exists already (give a new folder)");
@@ -245,8 +259,38 @@ int main(int argc, char** argv) {
   if (!model.ok()) return Fail(config_path + ": " + model.status().message());
   const bool pcgc_acts = model->pcgc();
 
+  std::unique_ptr<sim::SensorRenderer> renderer;
+  sim::SensorConfig sensor = config->sensor;
+  if (!world_path.empty()) {
+    auto kind = sim::ParseSensorKind(sensor_name);
+    if (!kind.ok()) return Fail("--sensor: " + kind.status().message());
+    sensor.kind = *kind;
+    if (!sensor.mount_given) sensor.mount = sim::DefaultMount(sensor.kind);
+    if (robot->LinkIndex(sensor.link) < 0) {
+      return Fail(config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
+    }
+    auto world = planner::LoadWorldPoints(world_path);
+    if (!world.ok()) return Fail(world.status().message());
+    if (world->empty()) return Fail("--world " + world_path + ": no finite points");
+    auto made = sim::SensorRenderer::Create(*world, sensor, seed ^ 0x73656e73ull);
+    if (!made.ok()) return Fail(config_path + ": " + made.status().message());
+    renderer = std::move(*made);
+  }
+
   if (udp) {
     sim_app::UdpModeOptions options;
+    if (renderer != nullptr) {
+      auto to = link::ParseUdpUrl(frames_to_url);
+      if (!to.ok()) return Fail("--frames-to " + to.status().message());
+      if (frame_datagram < 110 || frame_datagram > link::kMaxSensorDatagramBytes) {
+        return Fail("--frame-datagram must be in [110, 65507] bytes");
+      }
+      options.frames_to = *to;
+      options.renderer = renderer.get();
+      options.sensor = sensor;
+      options.robot = &*robot;
+      options.frame_datagram = frame_datagram;
+    }
     auto bind = link::ParseUdpUrl(udp_url);
     if (!bind.ok()) return Fail("--udp " + bind.status().message());
     options.bind = *bind;
@@ -315,23 +359,6 @@ int main(int argc, char** argv) {
 
   auto plan = sim::LoadPlanCsv(track_path, joints);
   if (!plan.ok()) return Fail(plan.status().message());
-  std::unique_ptr<sim::SensorRenderer> renderer;
-  sim::SensorConfig sensor = config->sensor;
-  if (!world_path.empty()) {
-    auto kind = sim::ParseSensorKind(sensor_name);
-    if (!kind.ok()) return Fail("--sensor: " + kind.status().message());
-    sensor.kind = *kind;
-    if (!sensor.mount_given) sensor.mount = sim::DefaultMount(sensor.kind);
-    if (robot->LinkIndex(sensor.link) < 0) {
-      return Fail(config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
-    }
-    auto world = planner::LoadWorldPoints(world_path);
-    if (!world.ok()) return Fail(world.status().message());
-    if (world->empty()) return Fail("--world " + world_path + ": no finite points");
-    auto made = sim::SensorRenderer::Create(*world, sensor, seed ^ 0x73656e73ull);
-    if (!made.ok()) return Fail(config_path + ": " + made.status().message());
-    renderer = std::move(*made);
-  }
   const auto start = std::chrono::steady_clock::now();
   sim::Simulator simulator(std::move(*model), seed);
   sim::TrackOptions options;

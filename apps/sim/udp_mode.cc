@@ -12,6 +12,8 @@
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/link/connection.h"
+#include "quadhand/link/sensor_stream.h"
+#include "quadhand/robot/kinematics.h"
 #include "quadhand/sim/plan_io.h"
 
 namespace quadhand::sim_app {
@@ -70,11 +72,6 @@ int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const st
     out.clear();
   };
   const double end = options.duration > 0.0 ? options.duration : std::numeric_limits<double>::infinity();
-  auto advance = [&](double t) -> core::Status {
-    core::Status s = autopilot.AdvanceTo(std::min(t, end), &out);
-    flush();
-    return s;
-  };
 
   // The flown record as it grows (core::GrowingFile): every second of
   // simulated time the rows since, so that a killed simulator leaves all but
@@ -91,6 +88,50 @@ int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const st
     flown_log->Append(text);
   };
   if (!options.log_path.empty()) flown_log.emplace(options.log_path);
+
+  // The sensor's frames, on their own socket (not the MAVLink one).
+  std::optional<link::UdpSocket> frame_socket;
+  int sensor_link = -1;
+  double next_frame = 0.0;
+  uint32_t frame_sequence = 0;
+  uint64_t frames_sent = 0, frame_send_failures = 0;
+  if (options.renderer != nullptr) {
+    auto bound = link::UdpSocket::Bind({"0.0.0.0", 0});
+    if (!bound.ok()) return Fail("--frames-to: " + bound.status().message(), 2);
+    frame_socket.emplace(std::move(*bound));
+    sensor_link = options.robot->LinkIndex(options.sensor.link);
+  }
+  auto send_frame = [&]() {
+    const sim::VehicleState& state = autopilot.state();
+    const Pose base = MakePose(state.position, state.attitude.toRotationMatrix());
+    const Pose pose = robot::LinkPose(*options.robot, base, state.joints, sensor_link) * options.sensor.mount;
+    perception::SensorFrame frame;
+    frame.t = autopilot.time();
+    frame.position = pose.translation();
+    const Quat q(pose.rotation());
+    frame.attitude = Eigen::Vector4d(q.w(), q.x(), q.y(), q.z());
+    frame.points = options.renderer->Render(pose);
+    frame.misses = options.renderer->LastMisses(options.miss_stride);
+    bool sent = true;
+    for (const std::vector<uint8_t>& chunk : link::EncodeSensorFrame(frame, frame_sequence++, options.frame_datagram)) {
+      if (!frame_socket->SendTo(chunk, options.frames_to).ok()) sent = false;
+    }
+    ++(sent ? frames_sent : frame_send_failures);
+  };
+  // Simulates up to t, stopping at each sensor frame's time to render it
+  // there (a lockstep or idle step may span several frames).
+  auto advance = [&](double t) -> core::Status {
+    t = std::min(t, end);
+    while (frame_socket && next_frame <= t) {
+      QUADHAND_RETURN_IF_ERROR(autopilot.AdvanceTo(next_frame, &out));
+      flush();
+      send_frame();
+      next_frame += 1.0 / options.sensor.rate();
+    }
+    core::Status s = autopilot.AdvanceTo(t, &out);
+    flush();
+    return s;
+  };
 
   const Clock::time_point wall_start = Clock::now();
   Clock::time_point last_advance = wall_start;
@@ -134,6 +175,11 @@ int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const st
     if (core::Status s = flown_log->Finish(); !s.ok()) return Fail(s.message(), 2);
   }
   if (!status.ok()) return Fail(status.message(), 1);
+  if (!options.quiet && frame_socket) {
+    std::fprintf(stderr, "quadhand-sim: %llu sensor frames sent to %s (%llu could not be sent)\n",
+                 static_cast<unsigned long long>(frames_sent), options.frames_to.ToString().c_str(),
+                 static_cast<unsigned long long>(frame_send_failures));
+  }
   if (!options.quiet) {
     const link::ParserStats& st = connection.stats();
     std::fprintf(stderr,

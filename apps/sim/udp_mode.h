@@ -8,7 +8,9 @@
 
 #include "quadhand/link/frame.h"
 #include "quadhand/link/udp.h"
+#include "quadhand/robot/robot_model.h"
 #include "quadhand/sim/autopilot.h"
+#include "quadhand/sim/sensor.h"
 
 namespace quadhand::sim_app {
 
@@ -27,6 +29,16 @@ struct UdpModeOptions {
   // without one, simulated time follows the wall clock.
   double lockstep_period = 0.02;
   double lockstep_idle = 0.1;
+  // A sensor on the vehicle (sim/sensor.h): every 1 / rate s of simulated
+  // time a frame rendered from the true state goes to `frames_to` as
+  // sensor-stream chunks (link/sensor_stream.h), stamped with the vehicle's
+  // clock. None without a renderer.
+  sim::SensorRenderer* renderer = nullptr;
+  sim::SensorConfig sensor;
+  const robot::RobotModel* robot = nullptr;  // for the sensor link's pose
+  link::UdpEndpoint frames_to;
+  int miss_stride = 8;              // every this-many-th pixel's miss along each axis goes too
+  size_t frame_datagram = 60000;    // bytes per chunk at most
 };
 
 // Runs until the duration is reached or a signal arrives; returns the exit

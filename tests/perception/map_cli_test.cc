@@ -96,9 +96,16 @@ TEST_F(MapCliTest, BadInputIsOneLineAndNoOutput) {
   expect_bad(frames + " --out " + out + " --unknown-box 0,0,0,1,1,1", "go together");
   expect_bad(frames + " --out " + out + " --unknown-out u.pcd --unknown-box 0,0,0,1,1", "6 comma-separated");
   expect_bad(frames + " --out " + (dir_ / "nowhere" / "o.pcd").string(), "folder does not exist");
+  expect_bad("--out " + out, "one of them");
+  expect_bad(frames + " --listen udp://127.0.0.1:0 --out " + out, "one of them");
+  expect_bad("--listen tcp://127.0.0.1:5 --out " + out, "--listen");
+  expect_bad("--listen udp://127.0.0.1:0 --idle 0 --out " + out, "--idle");
+  // Nothing arrives: no map, one line, no file.
+  expect_bad("--listen udp://127.0.0.1:0 --max-duration 0.3 --json --out " + out, "no usable frame");
   const auto help = RunCommand(kMap + " --help");
   EXPECT_EQ(help.exit_code, 0);
-  for (const char* option : {"--out", "--unknown-out", "--unknown-box", "--resolution", "--window", "--max-range", "--json"}) {
+  for (const char* option : {"--out", "--unknown-out", "--unknown-box", "--resolution", "--window", "--max-range", "--json",
+                             "--listen", "--idle", "--max-duration"}) {
     EXPECT_NE(help.out.find(option), std::string::npos) << option;
   }
 }

@@ -2,7 +2,8 @@
 // link::Connection the way quadhand-online drives PX4: heartbeat, arming and
 // mode commands acknowledged, telemetry streamed, setpoints followed (in
 // lockstep: each setpoint advances 20 ms of simulated time), signing, the
-// flown log, a clean exit on SIGTERM; and the --udp options' bad input.
+// flown log, a clean exit on SIGTERM; a sensor's frames streamed beside the
+// link (and quadhand-map listening to them); and the --udp options' bad input.
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -15,9 +16,12 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "quadhand/link/connection.h"
 #include "quadhand/link/frames.h"
+#include "quadhand/link/sensor_stream.h"
+#include "quadhand/scene/point_cloud.h"
 #include "support/run_command.h"
 
 namespace quadhand {
@@ -66,15 +70,15 @@ class SimProcess {
   }
   int Wait(double timeout_s) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (std::chrono::steady_clock::now() < deadline) {
+    while (true) {  // (once at least: Wait(0) asks without waiting)
       int status = 0;
       if (waitpid(pid_, &status, WNOHANG) == pid_) {
         exited_ = true;
         return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
       }
+      if (std::chrono::steady_clock::now() >= deadline) return -1;
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
-    return -1;
   }
 
  private:
@@ -189,6 +193,107 @@ class SimUdpTest : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
   fs::path dir_;
 };
+
+// A wall across the way: x = 3 m, |y| <= 2 m, 0 <= z <= 3 m, every 2 cm.
+std::string WriteWall(const fs::path& dir) {
+  std::vector<Vec3> wall;
+  for (double y = -2.0; y <= 2.0 + 1e-9; y += 0.02) {
+    for (double z = 0.0; z <= 3.0 + 1e-9; z += 0.02) wall.emplace_back(3.0, y, z);
+  }
+  const std::string path = (dir / "wall.pcd").string();
+  EXPECT_TRUE(scene::WritePcd(path, wall).ok());
+  return path;
+}
+
+// With --world --sensor --frames-to, the hovering vehicle's depth camera
+// streams frames beside the MAVLink link: whole, in order, stamped with the
+// vehicle's clock at the sensor's rate, posed where the vehicle is, and
+// showing the wall where it stands.
+TEST_F(SimUdpTest, StreamsTheSensorsFramesBesideTheLink) {
+  const std::string wall = WriteWall(dir_);
+  auto receiver = link::UdpSocket::Bind({"127.0.0.1", 0});
+  ASSERT_TRUE(receiver.ok());
+  receiver->SetReceiveBuffer(16u << 20);
+  const uint16_t port = FreePort();
+  SimProcess sim({"--config", kConfig, "--udp", "udp://127.0.0.1:" + std::to_string(port), "--start", "0,0,1.2",
+                  "--duration", "2", "--world", wall, "--sensor", "depth", "--frames-to",
+                  "udp://127.0.0.1:" + std::to_string(receiver->local_port()), "-q"},
+                 (dir_ / "stderr.txt").string());
+  link::SensorFrameAssembler assembler;
+  std::vector<perception::SensorFrame> frames;
+  int exit_code = -1;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < deadline) {
+    receiver->WaitReadable(0.02);
+    while (auto d = receiver->Receive()) {
+      if (auto f = assembler.Add(d->bytes.data(), d->bytes.size())) frames.push_back(std::move(*f));
+    }
+    if (exit_code < 0) exit_code = sim.Wait(0.0);
+    if (exit_code >= 0 && !receiver->WaitReadable(0.2)) break;
+  }
+  ASSERT_EQ(exit_code, 0) << ReadAll((dir_ / "stderr.txt").string());
+  const link::SensorStreamCounts& c = assembler.counts();
+  EXPECT_EQ(c.malformed + c.truncated + c.corrupted + c.inconsistent + c.duplicates, 0);
+  ASSERT_GE(frames.size(), 40u) << "2 s at 30 Hz";  // (60 less any lost at start-up)
+  std::vector<double> gaps;
+  size_t with_misses = 0;
+  for (size_t k = 0; k < frames.size(); ++k) {
+    const perception::SensorFrame& f = frames[k];
+    if (k > 0) gaps.push_back(f.t - frames[k - 1].t);
+    EXPECT_EQ(perception::CheckPose(f.position, f.attitude, 1e-6), perception::FrameDrop::kNone);
+    EXPECT_LT((f.position - Vec3(0.0, 0.0, 1.2)).norm(), 0.5) << "the camera rides on the hovering vehicle";
+    ASSERT_GT(f.points.size(), 1000u);
+    const Pose pose = perception::SensorPose(f);
+    size_t on_wall = 0;
+    for (const Vec3& p : f.points) on_wall += std::abs((pose * p).x() - 3.0) < 0.1 ? 1 : 0;
+    EXPECT_GT(on_wall, 0.99 * f.points.size()) << "frame " << k;
+    with_misses += f.misses.empty() ? 0 : 1;
+  }
+  for (double gap : gaps) EXPECT_GT(gap, 0.0);  // in order
+  std::sort(gaps.begin(), gaps.end());
+  EXPECT_NEAR(gaps[gaps.size() / 2], 1.0 / 30.0, 0.005);
+  EXPECT_EQ(with_misses, frames.size()) << "the camera sees past the wall's ends";
+}
+
+// quadhand-map --listen maps the live stream, and drops and counts the
+// datagrams that are not good chunks.
+TEST_F(SimUdpTest, QuadhandMapListensToTheStreamAndCountsBadDatagrams) {
+  const std::string wall = WriteWall(dir_);
+  const uint16_t map_port = FreePort(), port = FreePort();
+  const std::string out = (dir_ / "occupied.pcd").string();
+  SimProcess sim({"--config", kConfig, "--udp", "udp://127.0.0.1:" + std::to_string(port), "--start", "0,0,1.2",
+                  "--duration", "3", "--world", wall, "--sensor", "depth", "--frames-to",
+                  "udp://127.0.0.1:" + std::to_string(map_port), "-q"},
+                 (dir_ / "stderr.txt").string());
+  // Bad datagrams, while the map listens: garbage, a chunk cut short, a
+  // chunk with a flipped bit.
+  std::thread spoiler([&]() {
+    std::this_thread::sleep_for(std::chrono::milliseconds(700));
+    auto socket = link::UdpSocket::Bind({"127.0.0.1", 0});
+    if (!socket.ok()) return;
+    perception::SensorFrame frame;
+    frame.points.assign(500, Vec3(1.0, 0.0, 0.0));
+    const std::vector<uint8_t> chunk = link::EncodeSensorFrame(frame, 1u << 30)[0];
+    std::vector<uint8_t> cut(chunk.begin(), chunk.begin() + 200), flipped = chunk;
+    flipped[300] ^= 0x01;
+    const link::UdpEndpoint to{"127.0.0.1", map_port};
+    for (const auto& d : {std::vector<uint8_t>{'h', 'e', 'l', 'l', 'o'}, cut, flipped}) (void)socket->SendTo(d, to);
+  });
+  const auto r = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-map --listen udp://127.0.0.1:" +
+                            std::to_string(map_port) + " --idle 1 --max-duration 30 --json --out " + out);
+  spoiler.join();
+  EXPECT_EQ(sim.Wait(10.0), 0);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_GE(j["frames"].get<int>(), 40) << r.out;
+  EXPECT_EQ(j["datagrams_malformed"].get<int>(), 1) << r.out;
+  EXPECT_EQ(j["datagrams_truncated"].get<int>(), 1) << r.out;
+  EXPECT_EQ(j["datagrams_corrupted"].get<int>(), 1) << r.out;
+  auto occupied = scene::LoadPointCloud(out);
+  ASSERT_TRUE(occupied.ok());
+  ASSERT_FALSE(occupied->points.empty());
+  for (const Vec3& p : occupied->points) ASSERT_LT(std::abs(p.x() - 3.0), 0.1) << p.transpose();
+}
 
 TEST_F(SimUdpTest, BehavesLikeAnAutopilotInLockstep) {
   const uint16_t port = FreePort();

@@ -116,6 +116,20 @@ UdpSocket::~UdpSocket() {
   if (fd_ >= 0) close(fd_);
 }
 
+size_t UdpSocket::SetReceiveBuffer(size_t bytes) {
+  if (fd_ < 0) return 0;
+  const int wanted = static_cast<int>(std::min<size_t>(bytes, 1u << 30));
+  // SO_RCVBUFFORCE passes net.core.rmem_max where the process may
+  // (CAP_NET_ADMIN); SO_RCVBUF is capped by it.
+  if (setsockopt(fd_, SOL_SOCKET, SO_RCVBUFFORCE, &wanted, sizeof wanted) != 0) {
+    setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &wanted, sizeof wanted);
+  }
+  int got = 0;
+  socklen_t length = sizeof got;
+  if (getsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &got, &length) != 0) return 0;
+  return static_cast<size_t>(std::max(got, 0));
+}
+
 core::Status UdpSocket::SendTo(const std::vector<uint8_t>& bytes, const UdpEndpoint& to) {
   if (fd_ < 0) return core::Status::Internal("send on a closed socket");
   core::Result<sockaddr_in> address = Resolve(to);

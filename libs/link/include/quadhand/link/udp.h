@@ -37,6 +37,10 @@ class UdpSocket {
   ~UdpSocket();
 
   uint16_t local_port() const { return local_port_; }
+  // Asks the kernel for a receive buffer of `bytes` (a burst of large
+  // datagrams, such as a sensor frame's chunks, overflows the default);
+  // returns what it granted (the system's limit may cap it), 0 on failure.
+  size_t SetReceiveBuffer(size_t bytes);
   core::Status SendTo(const std::vector<uint8_t>& bytes, const UdpEndpoint& to);
   // Next waiting datagram, or nullopt when none is waiting (never blocks).
   std::optional<Datagram> Receive();
