@@ -13,6 +13,7 @@
 #include "quadhand/core/log.h"
 #include "quadhand/link/connection.h"
 #include "quadhand/link/sensor_stream.h"
+#include "quadhand/perception/sensor_frame.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/sim/plan_io.h"
 
@@ -107,9 +108,7 @@ int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const st
     const Pose pose = robot::LinkPose(*options.robot, base, state.joints, sensor_link) * options.sensor.mount;
     perception::SensorFrame frame;
     frame.t = autopilot.time();
-    frame.position = pose.translation();
-    const Quat q(pose.rotation());
-    frame.attitude = Eigen::Vector4d(q.w(), q.x(), q.y(), q.z());
+    perception::SetSensorPose(pose, &frame);
     frame.points = options.renderer->Render(pose);
     frame.misses = options.renderer->LastMisses(options.miss_stride);
     bool sent = true;

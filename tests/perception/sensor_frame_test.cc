@@ -68,6 +68,16 @@ TEST(FrameGateTest, DropsEachKindOfBadFrameAndCountsItsReason) {
   EXPECT_NEAR((pose.translation() - f.position).norm(), 0.0, 1e-15);
 }
 
+TEST(FrameGateTest, SetSensorPoseAndSensorPoseRoundTrip) {
+  const Pose pose = MakePose(Vec3(-1.5, 2.0, 0.25), Quat(Eigen::AngleAxisd(2.5, Vec3(0.3, 0.4, -1.0).normalized()))
+                                                        .toRotationMatrix());
+  perception::SensorFrame frame;
+  perception::SetSensorPose(pose, &frame);
+  EXPECT_EQ(perception::CheckPose(frame.position, frame.attitude, 1e-12), FrameDrop::kNone);
+  const Pose back = perception::SensorPose(frame);
+  EXPECT_NEAR((back.matrix() - pose.matrix()).norm(), 0.0, 1e-12);
+}
+
 TEST(FrameGateTest, OptionsAreValidated) {
   perception::FrameGateOptions options;
   std::string why;

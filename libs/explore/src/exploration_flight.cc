@@ -207,9 +207,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       const Pose sensor_pose = robot::LinkPose(robot, base, state.joints, link) * sensor.mount;
       perception::SensorFrame sent;
       sent.t = t;
-      sent.position = sensor_pose.translation();
-      const Quat q(sensor_pose.rotation());
-      sent.attitude = Eigen::Vector4d(q.w(), q.x(), q.y(), q.z());
+      perception::SetSensorPose(sensor_pose, &sent);
       sim::SensorRenderer* renderer = world.At(t);
       sent.points = renderer->Render(sensor_pose);
       if (options.free_misses) sent.misses = renderer->LastMisses(options.miss_stride);
@@ -225,7 +223,8 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
         QUADHAND_RETURN_IF_ERROR((*map)->Insert(frame.points, pose.translation(), frame.misses));
         result.map_update_ms.push_back(
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - update_start).count());
-        result.peak_map_bytes = std::max(result.peak_map_bytes, (*map)->memory_bytes());
+        // (Sampled once a second: memory_bytes walks the kept returns.)
+        if (result.frames % 30 == 0) result.peak_map_bytes = std::max(result.peak_map_bytes, (*map)->memory_bytes());
         ++result.frames;
         const std::vector<Vec3>& blocked = (*map)->NewlyBlocked();
         new_obstacles.insert(new_obstacles.end(), blocked.begin(), blocked.end());
@@ -325,6 +324,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
     silence->to = result.flight_s;
     result.silences.push_back(*silence);
   }
+  result.peak_map_bytes = std::max(result.peak_map_bytes, (*map)->memory_bytes());
   result.frame_counts = gate.counts();
   result.dropped_points = (*map)->dropped_points();
   result.injected = faults.counts();

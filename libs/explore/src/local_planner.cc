@@ -9,9 +9,13 @@
 #include "quadhand/env/exact_mesh_model.h"
 #include "quadhand/planner/moving_scene.h"
 #include "quadhand/robot/kinematics.h"
+#include "quadhand/traj/flatness.h"
 
 namespace quadhand::explore {
 namespace {
+
+// m: a start inside the tracking margin plans with this less than it has.
+constexpr double kStartSlack = 1e-3;
 
 bool Fail(std::string* why, const std::string& message) {
   if (why != nullptr) *why = message;
@@ -162,6 +166,24 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
     result.total_ms = MsSince(begin);
     return result;
   }
+  // A start inside the tracking margin: a brake that could not stop short
+  // of a new obstacle leaves the vehicle there, and refusing every plan
+  // from it would hold the vehicle there for good. The tracking margin is
+  // slack, not part of the certificate (the task's distance plus the ball
+  // radius is), so it shrinks to what the start has, never below that.
+  {
+    const traj::FlatState flat = traj::FlatForward(start.velocity, start.acceleration, start.jerk, start.yaw,
+                                                   start.yaw_rate, options_.cost.flatness);
+    robot::KinematicsState at_start;
+    robot::ComputeKinematics((*context)->robot(), MakePose(start.position, flat.rotation()), start.joints, &at_start);
+    const double start_clearance = env::WholeBodyClearance(at_start, (*context)->exact(),
+                                                           planner::ClearanceSearchReach(task), {}, nullptr);
+    const double floor = base_task.safety_distance + perception::VoxelBallRadius(map.options().resolution);
+    if (start_clearance < task.safety_distance && start_clearance - kStartSlack >= floor) {
+      task.safety_distance = start_clearance - kStartSlack;
+    }
+  }
+  result.safety_distance = task.safety_distance;
   const planner::FrontEndMap& front_end = (*context)->front_end();
   auto usable = [&](const Vec3& p) {
     return map.State(p) == perception::VoxelState::kFree && front_end.IsFree(p);

@@ -61,6 +61,7 @@ struct RollingMap::Impl {
     miss = LogOddsUnits(o.probability_miss);
     threshold = LogOddsUnits(o.occupied_threshold);
     low = LowFor(Vec3::Zero());
+    swept_low = low;
   }
 
   Eigen::Vector3i LowFor(const Vec3& c) const {
@@ -119,6 +120,8 @@ struct RollingMap::Impl {
   std::vector<Vec3> newly_blocked;          // NewlyBlocked()
   int hit = 0, miss = 0, threshold = 0;
   std::unordered_map<std::int64_t, std::vector<Vec3>> raw;  // by voxel key: the newest returns there
+  size_t swept_size = 1024;  // raw's size after its last sweep (MoveWindow),
+  Eigen::Vector3i swept_low = Eigen::Vector3i::Zero();  // and the window's low then
   long frames = 0;
   long dropped = 0;
 };
@@ -255,6 +258,14 @@ void RollingMap::MoveWindow(const Vec3& centre) {
     m.low[a] = low[a];
   }
   m.centre = centre;
+  // The kept returns of voxels no longer occupied (freed, or left behind)
+  // are dropped here to bound the memory. OccupiedPoints checks each voxel
+  // anyway, so a sweep is needed only once the table has grown by half or
+  // the window has moved a quarter of its size: a sweep walks the whole
+  // table, and every frame moves the window.
+  const bool moved_far = ((m.low - m.swept_low).cwiseAbs().array() * 4 >= m.dims.array()).any();
+  if (!moved_far && m.raw.size() <= m.swept_size + m.swept_size / 2) return;
+  m.swept_low = m.low;
   for (auto it = m.raw.begin(); it != m.raw.end();) {
     const Eigen::Vector3i v = it->second.empty() ? Eigen::Vector3i::Zero() : m.VoxelOf(it->second.front());
     if (it->second.empty() || !m.Occupied(v)) {
@@ -263,6 +274,7 @@ void RollingMap::MoveWindow(const Vec3& centre) {
       ++it;
     }
   }
+  m.swept_size = std::max<size_t>(m.raw.size(), 1024);
 }
 
 void RollingMap::MarkFree(const Vec3& centre, double radius) {

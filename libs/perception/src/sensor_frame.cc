@@ -66,4 +66,10 @@ Pose SensorPose(const SensorFrame& frame) {
   return MakePose(frame.position, q.normalized().toRotationMatrix());
 }
 
+void SetSensorPose(const Pose& sensor_to_world, SensorFrame* frame) {
+  frame->position = sensor_to_world.translation();
+  const Quat q(sensor_to_world.rotation());
+  frame->attitude = Eigen::Vector4d(q.w(), q.x(), q.y(), q.z());
+}
+
 }  // namespace quadhand::perception

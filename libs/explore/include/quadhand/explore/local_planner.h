@@ -84,6 +84,10 @@ struct LocalPlanSummary {
   double context_ms = 0.0;  // its representations and front-end map
   double plan_ms = 0.0;     // the plans, every target tried
   double total_ms = 0.0;
+  // The distance planned with: PlannedSafetyDistance, or less when the
+  // start was nearer the boundary than that (never less than the task's
+  // distance plus the map's ball radius, which the certificate needs).
+  double safety_distance = 0.0;
   std::string message;      // why the last target failed, for people
 };
 

@@ -78,5 +78,8 @@ class FrameGate {
 // The sensor's pose of a frame whose pose CheckPose accepted (its attitude
 // normalised).
 Pose SensorPose(const SensorFrame& frame);
+// Sets a frame's position and attitude from the sensor's pose (what a sender
+// does; SensorPose reads it back).
+void SetSensorPose(const Pose& sensor_to_world, SensorFrame* frame);
 
 }  // namespace quadhand::perception
