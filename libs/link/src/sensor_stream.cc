@@ -23,28 +23,26 @@ uint64_t GetUnsigned(const uint8_t* in, int bytes) {
   for (int i = 0; i < bytes; ++i) value |= static_cast<uint64_t>(in[i]) << (8 * i);
   return value;
 }
-void PutDouble(uint8_t* out, double value) {
-  uint64_t bits;
+// An f64 or f32 by its bits.
+template <typename Real, typename Bits>
+void PutReal(uint8_t* out, Real value) {
+  static_assert(sizeof(Real) == sizeof(Bits));
+  Bits bits;
   std::memcpy(&bits, &value, sizeof bits);
-  PutUnsigned(out, bits, 8);
+  PutUnsigned(out, bits, static_cast<int>(sizeof bits));
 }
-double GetDouble(const uint8_t* in) {
-  const uint64_t bits = GetUnsigned(in, 8);
-  double value;
+template <typename Real, typename Bits>
+Real GetReal(const uint8_t* in) {
+  static_assert(sizeof(Real) == sizeof(Bits));
+  const Bits bits = static_cast<Bits>(GetUnsigned(in, static_cast<int>(sizeof(Bits))));
+  Real value;
   std::memcpy(&value, &bits, sizeof value);
   return value;
 }
-void PutFloat(uint8_t* out, float value) {
-  uint32_t bits;
-  std::memcpy(&bits, &value, sizeof bits);
-  PutUnsigned(out, bits, 4);
-}
-float GetFloat(const uint8_t* in) {
-  const uint32_t bits = static_cast<uint32_t>(GetUnsigned(in, 4));
-  float value;
-  std::memcpy(&value, &bits, sizeof value);
-  return value;
-}
+void PutDouble(uint8_t* out, double value) { PutReal<double, uint64_t>(out, value); }
+double GetDouble(const uint8_t* in) { return GetReal<double, uint64_t>(in); }
+void PutFloat(uint8_t* out, float value) { PutReal<float, uint32_t>(out, value); }
+float GetFloat(const uint8_t* in) { return GetReal<float, uint32_t>(in); }
 
 // The header bytes every chunk of a frame shares: all but the chunk's
 // index (12-13) and its count (28-31).
