@@ -9,7 +9,6 @@
 #include "quadhand/env/exact_mesh_model.h"
 #include "quadhand/planner/moving_scene.h"
 #include "quadhand/robot/kinematics.h"
-#include "quadhand/traj/flatness.h"
 
 namespace quadhand::explore {
 namespace {
@@ -171,13 +170,10 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
   // from it would hold the vehicle there for good. The tracking margin is
   // slack, not part of the certificate (the task's distance plus the ball
   // radius is), so it shrinks to what the start has, never below that.
+  const planner::PlanningScene scene = (*context)->Scene(0);
   {
-    const traj::FlatState flat = traj::FlatForward(start.velocity, start.acceleration, start.jerk, start.yaw,
-                                                   start.yaw_rate, options_.cost.flatness);
-    robot::KinematicsState at_start;
-    robot::ComputeKinematics((*context)->robot(), MakePose(start.position, flat.rotation()), start.joints, &at_start);
-    const double start_clearance = env::WholeBodyClearance(at_start, (*context)->exact(),
-                                                           planner::ClearanceSearchReach(task), {}, nullptr);
+    const double start_clearance =
+        planner::StateClearance(scene, start, options_.cost.flatness, planner::ClearanceSearchReach(task));
     const double floor = base_task.safety_distance + perception::VoxelBallRadius(map.options().resolution);
     if (start_clearance < task.safety_distance && start_clearance - kStartSlack >= floor) {
       task.safety_distance = start_clearance - kStartSlack;
@@ -218,7 +214,6 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
     return result;
   }
 
-  const planner::PlanningScene scene = (*context)->Scene(0);
   const robot::RobotModel& robot = (*context)->robot();
   robot::KinematicsState kinematics;
   // The robot at rest at the target: clear of the boundary, or not tried.

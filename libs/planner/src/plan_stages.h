@@ -12,15 +12,6 @@
 
 namespace quadhand::planner {
 
-// Exact clearance (link meshes vs the scene's points) of `state`, searching
-// `reach` metres; `link` gets the closest link. The base's attitude is the one
-// its trajectory would start with (differential flatness of its velocity,
-// acceleration, jerk and yaw): level only when it does not accelerate. A
-// check at a level attitude would judge a braking or turning vehicle at a
-// pose it is not in, and disagree with the post-check's first sample.
-double StateClearance(const PlanningScene& scene, const BoundaryState& state, const traj::FlatnessOptions& flatness,
-                      double reach, int* link);
-
 // The initial guess of an optimisation: MINCO waypoints and piece durations.
 struct InitialGuess {
   MatX position_waypoints;  // 3 x (pieces - 1)

@@ -246,6 +246,16 @@ struct PlanningScene {
   const MovingScene* moving = nullptr;
 };
 
+// Exact clearance (link meshes vs the scene's points) of `state`, searching
+// `reach` metres; `link` (optional) gets the closest link. The base's
+// attitude is the one its trajectory would start with (differential
+// flatness of its velocity, acceleration, jerk and yaw): level only when it
+// does not accelerate. A check at a level attitude would judge a braking or
+// turning vehicle at a pose it is not in, and disagree with the
+// post-check's first sample. Plan() checks its end points with it.
+double StateClearance(const PlanningScene& scene, const BoundaryState& state, const traj::FlatnessOptions& flatness,
+                      double reach, int* link = nullptr);
+
 // The cost options a plan for `task` is optimised with: options.cost with the
 // collision thresholds set from the task's safety distance plus
 // options.collision_margin (transit) and options.insertion_collision_margin
