@@ -42,20 +42,26 @@ struct FlownPlan {
   bool braked = false;
   double brake_t = 0.0, brake_tau = 0.0, brake_s = 0.0;
 
-  // Plan time at t, and its rate and the rate's first two derivatives.
-  double PlanTime(double t, double* rate, double* rate_dot, double* rate_ddot) const {
-    *rate = 1.0;
-    *rate_dot = *rate_ddot = 0.0;
-    if (!braked) return t - t0;
-    const double u = std::clamp((t - brake_t) / brake_s, 0.0, 1.0);
-    if (u >= 1.0) {
-      *rate = 0.0;
-      return brake_tau + 0.5 * brake_s;
+  // Plan time at t, and (when asked) its rate and the rate's first two
+  // derivatives.
+  double PlanTime(double t, double* rate = nullptr, double* rate_dot = nullptr, double* rate_ddot = nullptr) const {
+    double r = 1.0, r1 = 0.0, r2 = 0.0, tau = t - t0;
+    if (braked) {
+      const double u = std::clamp((t - brake_t) / brake_s, 0.0, 1.0);
+      if (u >= 1.0) {
+        r = 0.0;
+        tau = brake_tau + 0.5 * brake_s;
+      } else {
+        r = 1.0 - 3.0 * u * u + 2.0 * u * u * u;
+        r1 = (-6.0 * u + 6.0 * u * u) / brake_s;
+        r2 = (-6.0 + 12.0 * u) / (brake_s * brake_s);
+        tau = brake_tau + brake_s * (u - u * u * u + 0.5 * u * u * u * u);
+      }
     }
-    *rate = 1.0 - 3.0 * u * u + 2.0 * u * u * u;
-    *rate_dot = (-6.0 * u + 6.0 * u * u) / brake_s;
-    *rate_ddot = (-6.0 + 12.0 * u) / (brake_s * brake_s);
-    return brake_tau + brake_s * (u - u * u * u + 0.5 * u * u * u * u);
+    if (rate != nullptr) *rate = r;
+    if (rate_dot != nullptr) *rate_dot = r1;
+    if (rate_ddot != nullptr) *rate_ddot = r2;
+    return tau;
   }
   planner::WholeBodySample At(double t) const {
     double r = 1.0, r1 = 0.0, r2 = 0.0;
@@ -72,10 +78,7 @@ struct FlownPlan {
     s.joint_rates *= r;
     return s;
   }
-  bool Ended(double t) const {
-    double r, r1, r2;
-    return PlanTime(t, &r, &r1, &r2) >= trajectory.duration();
-  }
+  bool Ended(double t) const { return PlanTime(t) >= trajectory.duration(); }
   // At rest for good: ended, or braked to its stop.
   bool Stopped(double t) const { return Ended(t) || (braked && t >= brake_t + brake_s); }
   // Brakes from t: over max(0.5 s, 3 v / a_max), v the plan's speed there,
@@ -242,13 +245,12 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
           invalid = true;
         }
         if (flying && !flying->Stopped(t)) {
-          double r, r1, r2;
-          const double tau = flying->PlanTime(t, &r, &r1, &r2);
+          const double tau = flying->PlanTime(t);
           if (const auto conflict = planner.FirstConflict(flying->trajectory, tau, new_obstacles, planned_distance)) {
             record.flown = true;
             record.conflict_in = *conflict - tau;
             flying->Brake(t, planner.AccelerationLimit());
-            record.stop_margin = *conflict - flying->PlanTime(flying->brake_t + flying->brake_s, &r, &r1, &r2);
+            record.stop_margin = *conflict - flying->PlanTime(flying->brake_t + flying->brake_s);
             pending.reset();
             invalid = true;
           }
