@@ -155,16 +155,8 @@ int main(int argc, char** argv) {
 
   auto config = planner::LoadPlannerConfigOrDefaults(config_path);
   if (!config.ok()) return Fail(config.status().message());
-  // The model and the front end's map are built at every replan over a box
-  // full of boundary voxels, which lie on the rolling map's 0.1 m lattice:
-  // MRC-SDF's far grid is 0.1 m and searched out to 1 m only, and the
-  // front end's voxels are 0.1 m (docs/configuration.md), unless a
-  // configuration file says otherwise.
-  if (config_path.empty()) {
-    config->representations.mrc_sdf.far_cell_size = 0.1;
-    config->representations.mrc_sdf.far_max_steps = 10;
-    config->front_end.voxel_size = 0.1;
-  }
+  // (explore::UseLocalPlanningDefaults, unless a configuration file is given.)
+  if (config_path.empty()) explore::UseLocalPlanningDefaults(&*config);
   auto sim_config = sim::LoadSimConfig(sim_config_path);
   if (!sim_config.ok()) return Fail(sim_config.status().message());
   auto task = planner::LoadTask(task_path);

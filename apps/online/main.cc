@@ -33,6 +33,9 @@
 #include "quadhand/core/text.h"
 #include "quadhand/link/connection.h"
 #include "quadhand/link/frames.h"
+#include "quadhand/link/sensor_stream.h"
+#include "quadhand/link/udp.h"
+#include "quadhand/explore/local_planner.h"
 #include "quadhand/online/controller.h"
 #include "quadhand/online/flight_log.h"
 #include "quadhand/online/mavlink_bridge.h"
@@ -60,6 +63,21 @@ constexpr int kExitAborted = 7;
 
 std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }
+
+// --perception: the task's robot, goal and limits, its scene not read. A
+// context needs points: one far above the start stands for them, and only
+// the robot's models and the goal are used (explore::LocalPlanner).
+core::Result<std::unique_ptr<planner::PlanningContext>> LoadContextWithoutScene(const std::string& task_path,
+                                                                                const planner::PlannerConfig& config) {
+  auto task = planner::LoadTask(task_path);
+  if (!task.ok()) return task.status();
+  auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
+  if (!robot.ok()) return robot.status();
+  const Vec3 far_above = task->start.position + Vec3(0.0, 0.0, 20.0);
+  return planner::PlanningContext::Create(std::move(*task), std::move(*robot),
+                                          std::make_shared<const std::vector<Vec3>>(1, far_above), 0,
+                                          planner::ContextOptions(config, {"mrc_sdf"}));
+}
 
 int Fail(const std::string& message) {
   core::PrintError("quadhand-online", message);
@@ -327,6 +345,30 @@ int main(int argc, char** argv) {
   app.add_option("--system-id", system_id, "Our MAVLink system id")->capture_default_str();
   app.add_option("--component-id", component_id, "Our MAVLink component id (191: MAV_COMP_ID_ONBOARD_COMPUTER)")
       ->capture_default_str();
+  // Flying on a sensor (docs/perception.md, "Flying online on the sensor").
+  bool perception_mode = false;
+  std::string frames_url = "udp://127.0.0.1:14600";
+  online::PerceptionSetup perception;
+  explore::LocalPlannerOptions local_options;
+  app.add_flag("--perception", perception_mode,
+               "Plan only from the sensor frames arriving on --frames (the task's scene is neither read nor planned "
+               "against; the flight is judged against what the sensor saw)");
+  app.add_option("--frames", frames_url, "--perception: receive sensor frames here (docs/link.md), udp://ADDR:PORT")
+      ->capture_default_str();
+  app.add_option("--map-resolution", perception.map.resolution, "--perception: the rolling map's voxel edge, m")
+      ->capture_default_str();
+  app.add_option("--sensor-timeout", perception.sensor_timeout,
+                 "--perception: s without a frame taken before the vehicle brakes and holds")
+      ->capture_default_str();
+  app.add_option("--max-frame-age", perception.gate.max_age, "--perception: a frame older than this on arrival is dropped, s")
+      ->capture_default_str();
+  app.add_option("--local-replan-period", perception.replan_period, "--perception: s between local replans")
+      ->capture_default_str();
+  app.add_option("--stuck-time", perception.stuck_time,
+                 "--perception: s without a new plan while holding before the flight ends holding")
+      ->capture_default_str();
+  app.add_option("--local-max-speed", local_options.max_speed, "--perception: local plans fly at most this fast, m/s")
+      ->capture_default_str();
   std::vector<std::string> package_path;
   quadhand::apps::AddPackagePathOption(&app, &package_path);
   app.add_flag("-q,--quiet", quiet, "Print only the final summary (and errors)");
@@ -423,6 +465,17 @@ int main(int argc, char** argv) {
   if (!in_range(options.clearance_tolerance, 0.0, 0.05, false)) return Fail("--clearance-tolerance must be in [0, 0.05] m");
   if (!in_range(options.max_judged_gap, 0.0, 5.0, true)) return Fail("--max-judged-gap must be in (0, 5] s");
   if (!in_range(options.innovation_gate, 0.0, 1.0, true)) return Fail("--innovation-gate must be in (0, 1] m");
+  if (perception_mode) {
+    if (std::string why; !perception.IsValid(&why)) return Fail("--perception: " + why);
+    if (std::string why; !local_options.IsValid(&why)) return Fail("--perception: " + why);
+    if (dry_run) return Fail("--perception: --dry-run plans against the task's scene, which --perception never reads");
+  }
+  std::optional<link::UdpEndpoint> frames_bind;
+  if (perception_mode) {
+    auto parsed = link::ParseUdpUrl(frames_url, /*allow_port_zero=*/true);
+    if (!parsed.ok()) return Fail("--frames " + parsed.status().message());
+    frames_bind = *parsed;
+  }
   if (require_signing && key_path.empty()) return Fail("--require-signing needs --signing-key FILE");
   if (dry_run && !log_path.empty()) return Fail("--log: --dry-run streams nothing, so there is no flight to log");
   if (!dry_run && vehicle_url.empty()) return Fail("--vehicle udp://HOST:PORT is required (or --dry-run)");
@@ -451,8 +504,10 @@ int main(int argc, char** argv) {
   auto config = planner::LoadPlannerConfigOrDefaults(planner_config_path);
   if (!config.ok()) return Fail(config.status().message());
   if (threads >= 0) planner::SetWorkerThreads(threads, &*config);
+  if (perception_mode && planner_config_path.empty()) explore::UseLocalPlanningDefaults(&*config);
   robot::PrependRosPackagePath(package_path);
-  auto context = planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
+  auto context = perception_mode ? LoadContextWithoutScene(task_path, *config)
+                                 : planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;
   options.target_tracker.acceleration_noise = target_acceleration_noise;
@@ -473,7 +528,7 @@ int main(int argc, char** argv) {
   for (const std::string& caution : planner::TaskCautions(ctx.task())) {
     std::fprintf(stderr, "quadhand-online: caution: %s\n", caution.c_str());
   }
-  online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config->planner, config->replan, solver->get()};
+  online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config->planner, config->replan, solver->get(), nullptr, nullptr, {}};
   setup.plan_options.collision_margin += options.flight_margin;
   // A mission of more than one step (docs/missions.md): planned as a whole,
   // flown without replans, the gripper commanded at its grasps and releases.
@@ -482,6 +537,14 @@ int main(int argc, char** argv) {
   setup.context = &ctx;
   setup.mission_phases = &mission_phases;
   if (dry_run) return DryRun(ctx, setup, rate, options.hold_time);
+  std::unique_ptr<explore::LocalPlanner> local_planner;
+  if (perception_mode) {
+    auto created = explore::LocalPlanner::Create(ctx, setup.plan_options, *solver->get(), local_options);
+    if (!created.ok()) return Fail(task_path + ": --perception: " + created.status().message());
+    local_planner = std::move(*created);
+    perception.planner = local_planner.get();
+    setup.perception = perception;
+  }
 
   options.replanning = !no_replan && !mission;
   options.require_clock_sync = !no_timesync;
@@ -499,6 +562,14 @@ int main(int argc, char** argv) {
   parser.signing_key = key;
   parser.require_signing = require_signing;
   link::Connection connection(std::move(*socket), encoder, parser, vehicle);
+  std::optional<link::UdpSocket> frames_socket;
+  link::SensorFrameAssembler assembler;
+  if (perception_mode) {
+    auto opened = link::UdpSocket::Bind(*frames_bind);
+    if (!opened.ok()) return Fail("--frames " + frames_url + ": " + opened.status().message());
+    frames_socket.emplace(std::move(*opened));
+    frames_socket->SetReceiveBuffer(16u << 20);  // a frame's burst of chunks
+  }
   const online::LinkTargets targets{static_cast<uint8_t>(target_system), static_cast<uint8_t>(target_component)};
 
   std::signal(SIGINT, OnSignal);
@@ -534,6 +605,13 @@ int main(int argc, char** argv) {
         const online::MeasuredState measured = controller.measured();
         log.Record(measured, controller.last_setpoint(), controller.phase(), controller.TargetPoseAt(measured.time),
                    controller.last_setpoint_shift());
+      }
+    }
+    if (frames_socket) {
+      while (auto datagram = frames_socket->Receive()) {
+        if (auto frame = assembler.Add(datagram->bytes.data(), datagram->bytes.size())) {
+          controller.OnSensorFrame(now(), std::move(*frame));
+        }
       }
     }
     const double t = now();
@@ -599,6 +677,21 @@ int main(int argc, char** argv) {
   // and was seen all along.
   std::optional<online::FlightMetrics> metrics;
   std::string judgement;
+  // --perception: judged against everything the sensor saw occupied.
+  std::unique_ptr<planner::PlanningContext> seen_judge;
+  size_t seen_points = 0;
+  if (perception_mode && controller.current_plan()) {
+    std::vector<Vec3> seen = controller.SeenPoints();
+    seen_points = seen.size();
+    if (seen.empty()) seen.push_back(ctx.task().start.position + Vec3(0.0, 0.0, 20.0));  // nothing seen: nothing near
+    auto judge = planner::PlanningContext::Create(ctx.task(), ctx.robot(),
+                                                  std::make_shared<const std::vector<Vec3>>(std::move(seen)), 0,
+                                                  planner::ContextOptions(*config, {}));
+    if (!judge.ok()) return Fail("the points the sensor saw: " + judge.status().message());
+    seen_judge = std::move(*judge);
+  }
+  const env::ExactMeshModel& judged_against = seen_judge ? seen_judge->exact() : ctx.exact();
+  const char* scene_words = seen_judge ? "what the sensor saw" : "the scene";
   if (controller.current_plan()) {
     // A flight that ended on its own is judged up to its last tick: a vehicle
     // silent at the end was not seen arriving.
@@ -612,7 +705,7 @@ int main(int argc, char** argv) {
     metrics = mission ? online::EvaluateMissionFlight(log.samples(), flown_plan, controller.plan_clock(),
                                                       ctx.task(), options.clearance_tolerance, 0.3, end_time,
                                                       controller.failed_plan_time())
-                      : online::EvaluateFlight(log.samples(), ctx.robot(), ctx.exact(), ctx.task(),
+                      : online::EvaluateFlight(log.samples(), ctx.robot(), judged_against, ctx.task(),
                                                terminal, 0.3, end_time, moving_judge);
     const double required = planner::AcceptedClearance(ctx.task(), options.clearance_tolerance);
     if (metrics->held_object_margin < 0.0) {
@@ -625,10 +718,9 @@ int main(int argc, char** argv) {
     } else if (metrics->min_clearance < required) {
       code = kExitClearanceLost;
       outcome = "CLEARANCE LOST";
-      judgement = core::Format("the flown path came within %.4f m of the scene (link %s, t = %.2f s); the safety "
-                               "distance less the tolerance is %.4f m",
-                               metrics->min_clearance, metrics->closest_link.c_str(), metrics->min_clearance_time,
-                               required);
+      judgement = core::Format("the flown path came within %.4f m of ", metrics->min_clearance) + scene_words +
+                  core::Format(" (link %s, t = %.2f s); the safety distance less the tolerance is %.4f m",
+                               metrics->closest_link.c_str(), metrics->min_clearance_time, required);
     } else if (code == kExitSuccess && !options.shift_setpoints_on_jump &&
                metrics->min_clearance - controller.stats().estimate_jump_sum < required) {
       code = kExitClearanceLost;
@@ -711,6 +803,38 @@ int main(int argc, char** argv) {
       std::printf("  gripper at %s: the flown tool %.4f m from the planned one\n",
                   planner::StepName(ctx.task().mission, step).c_str(), error);
     }
+  }
+  if (perception_mode) {
+    const online::PerceptionStats& p = stats.perception;
+    assembler.Flush();
+    const link::SensorStreamCounts& stream = assembler.counts();
+    std::printf("  frames: %ld datagrams, %ld frames assembled; dropped datagrams: %ld malformed, %ld truncated, %ld "
+                "corrupted, %ld inconsistent, %ld duplicates; %ld incomplete frames\n",
+                stream.datagrams, stream.frames, stream.malformed, stream.truncated, stream.corrupted,
+                stream.inconsistent, stream.duplicates, stream.incomplete_frames);
+    std::printf("  sensor: %ld frames taken (%ld empty); dropped by the gate: %ld malformed, %ld bad pose, %ld from the "
+                "future, %ld out of order, %ld stale; map update median %.1f ms, p95 %.1f ms; map %.1f MB at most\n",
+                p.frames.taken, p.empty_frames, p.frames.malformed, p.frames.bad_pose, p.frames.from_the_future,
+                p.frames.out_of_order, p.frames.stale, p.map_update_ms.empty() ? 0.0 : Quantile(p.map_update_ms, 0.5),
+                p.map_update_ms.empty() ? 0.0 : Quantile(p.map_update_ms, 0.95), p.peak_map_bytes / 1e6);
+    int to_goal = 0, to_target = 0, not_planned = 0;
+    std::vector<double> local_ms;
+    for (const online::PlanRecord& r : stats.plans) {
+      if (r.local_status < 0) continue;
+      local_ms.push_back(r.latency_ms);
+      const auto status = static_cast<explore::LocalPlanStatus>(r.local_status);
+      to_goal += status == explore::LocalPlanStatus::kToGoal;
+      to_target += status == explore::LocalPlanStatus::kToLocalTarget;
+      not_planned += !r.success;
+    }
+    std::printf("  local plans: %zu (%d to the goal, %d to local targets, %d without a plan), latency median %.1f ms, "
+                "p95 %.1f ms (the map's snapshot included); %d late (dropped)\n",
+                local_ms.size(), to_goal, to_target, not_planned, local_ms.empty() ? 0.0 : Quantile(local_ms, 0.5),
+                local_ms.empty() ? 0.0 : Quantile(local_ms, 0.95), p.late_plans);
+    std::printf("  new obstacles across a plan: %d (%d across the plan flown); sensor silences: %d; brakes for the "
+                "sensor: %d; judged against %zu points the sensor saw (one per %.0f mm cube)\n",
+                p.conflicts, p.flown_conflicts, p.silences, p.sensor_brakes, seen_points,
+                perception.seen_resolution * 1e3);
   }
   const online::ClockSync& clock = controller.clock_sync();
   if (clock.synced()) {

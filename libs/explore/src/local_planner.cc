@@ -87,6 +87,12 @@ core::Result<std::unique_ptr<LocalPlanner>> LocalPlanner::Create(const planner::
   return planner;
 }
 
+void UseLocalPlanningDefaults(planner::PlannerConfig* config) {
+  config->representations.mrc_sdf.far_cell_size = 0.1;
+  config->representations.mrc_sdf.far_max_steps = 10;
+  config->front_end.voxel_size = 0.1;
+}
+
 double LocalPlanner::PlannedSafetyDistance(double map_resolution) const {
   return base_.task().safety_distance + local_.tracking_margin + perception::VoxelBallRadius(map_resolution);
 }
@@ -130,6 +136,45 @@ double LocalPlanner::AccelerationLimit() const {
 
 core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMap& map,
                                                      const planner::BoundaryState& start) const {
+  if (!start.position.allFinite()) return core::Status::InvalidArgument("local plan: the start state is not finite");
+  return PlanIn(Snapshot(map, start.position), start);
+}
+
+LocalMapSnapshot LocalPlanner::Snapshot(const perception::RollingMap& map, const Vec3& start) const {
+  const auto begin = std::chrono::steady_clock::now();
+  LocalMapSnapshot snapshot;
+  snapshot.start = start;
+  snapshot.lo = start - local_.box_half_extent;
+  snapshot.hi = start + local_.box_half_extent;
+  snapshot.resolution = map.options().resolution;
+  snapshot.boundary = std::make_shared<const std::vector<Vec3>>(map.ObstacleBoundary(snapshot.lo, snapshot.hi));
+  auto in_box = [&](const Vec3& p) {
+    return ((p - snapshot.lo).array() >= 0.0).all() && ((snapshot.hi - p).array() >= 0.0).all();
+  };
+  auto seen_free = [&](const Vec3& p) { return map.State(p) == perception::VoxelState::kFree; };
+  snapshot.goal_seen_free = in_box(goal_.position) && seen_free(goal_.position);
+  const double s = local_.target_spacing;
+  const int n = static_cast<int>(std::floor(local_.horizon / s));
+  for (int i = -n; i <= n; ++i) {
+    for (int j = -n; j <= n; ++j) {
+      for (int k = -n; k <= n; ++k) {
+        const Vec3 offset(i * s, j * s, k * s);
+        const double reach = offset.norm();
+        if (reach > local_.horizon || reach < local_.min_progress) continue;
+        const Vec3 p = start + offset;
+        if (!in_box(p)) continue;
+        if (std::abs(p.z() - goal_.position.z()) > local_.max_height_offset) continue;
+        if (!seen_free(p)) continue;
+        snapshot.seen_free.push_back(p);
+      }
+    }
+  }
+  snapshot.ms = MsSince(begin);
+  return snapshot;
+}
+
+core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snapshot,
+                                                   const planner::BoundaryState& start, double v_max) const {
   const auto begin = std::chrono::steady_clock::now();
   const planner::Task& base_task = base_.task();
   if (!start.position.allFinite() || !start.velocity.allFinite() || !start.acceleration.allFinite() ||
@@ -140,29 +185,32 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
   if (start.joints.size() != goal_.joints.size()) {
     return core::Status::InvalidArgument("local plan: the start has the wrong number of joints");
   }
+  if (snapshot.boundary == nullptr || (snapshot.start - start.position).norm() > 1e-9) {
+    return core::Status::InvalidArgument("local plan: the map's snapshot was taken about another start");
+  }
   LocalPlanResult result;
-  const Vec3 lo = start.position - local_.box_half_extent, hi = start.position + local_.box_half_extent;
-  auto points = std::make_shared<std::vector<Vec3>>(map.ObstacleBoundary(lo, hi));
-  result.scene_points = points->size();
-  result.scene_ms = MsSince(begin);
+  const Vec3 lo = snapshot.lo, hi = snapshot.hi;
+  result.scene_points = snapshot.boundary->size();
+  result.scene_ms = snapshot.ms;
 
   planner::Task task = base_task;
   task.scans.clear();
   task.start = start;
-  task.safety_distance = PlannedSafetyDistance(map.options().resolution);
+  task.safety_distance = PlannedSafetyDistance(snapshot.resolution);
   task.limits.v_max = std::min(task.limits.v_max, local_.max_speed);
+  if (v_max > 0.0) task.limits.v_max = std::min(task.limits.v_max, v_max);
   task.limits.a_max = AccelerationLimit();
   auto in_box = [&](const Vec3& p) { return ((p - lo).array() >= 0.0).all() && ((hi - p).array() >= 0.0).all(); };
   const bool goal_in_box = in_box(goal_.position);
   task.terminal = goal_;
   if (!goal_in_box) task.terminal->position = start.position;  // only what the front-end map must cover
   const auto context_start = std::chrono::steady_clock::now();
-  auto context = base_.ForLocalScene(task, points);
+  auto context = base_.ForLocalScene(task, snapshot.boundary);
   result.context_ms = MsSince(context_start);
   if (!context.ok()) {
     result.status = LocalPlanStatus::kFailed;
     result.message = context.status().message();
-    result.total_ms = MsSince(begin);
+    result.total_ms = MsSince(begin) + snapshot.ms;
     return result;
   }
   // A start inside the tracking margin: a brake that could not stop short
@@ -174,43 +222,27 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
   {
     const double start_clearance =
         planner::StateClearance(scene, start, options_.cost.flatness, planner::ClearanceSearchReach(task));
-    const double floor = base_task.safety_distance + perception::VoxelBallRadius(map.options().resolution);
+    const double floor = base_task.safety_distance + perception::VoxelBallRadius(snapshot.resolution);
     if (start_clearance < task.safety_distance && start_clearance - kStartSlack >= floor) {
       task.safety_distance = start_clearance - kStartSlack;
     }
   }
   result.safety_distance = task.safety_distance;
   const planner::FrontEndMap& front_end = (*context)->front_end();
-  auto usable = [&](const Vec3& p) {
-    return map.State(p) == perception::VoxelState::kFree && front_end.IsFree(p);
-  };
 
   // The targets, best first: the goal when it is seen free and open to the
   // front end, then the lattice's seen-free points nearest the goal.
   std::vector<std::pair<double, Vec3>> candidates;
-  if (goal_in_box && usable(goal_.position)) candidates.emplace_back(-1.0, goal_.position);
-  const double s = local_.target_spacing;
-  const int n = static_cast<int>(std::floor(local_.horizon / s));
-  for (int i = -n; i <= n; ++i) {
-    for (int j = -n; j <= n; ++j) {
-      for (int k = -n; k <= n; ++k) {
-        const Vec3 offset(i * s, j * s, k * s);
-        const double reach = offset.norm();
-        if (reach > local_.horizon || reach < local_.min_progress) continue;
-        const Vec3 p = start.position + offset;
-        if (!in_box(p)) continue;
-        if (std::abs(p.z() - goal_.position.z()) > local_.max_height_offset) continue;
-        if (!usable(p)) continue;
-        candidates.emplace_back((p - goal_.position).norm(), p);
-      }
-    }
+  if (snapshot.goal_seen_free && front_end.IsFree(goal_.position)) candidates.emplace_back(-1.0, goal_.position);
+  for (const Vec3& p : snapshot.seen_free) {
+    if (front_end.IsFree(p)) candidates.emplace_back((p - goal_.position).norm(), p);
   }
   std::sort(candidates.begin(), candidates.end(),
             [](const auto& a, const auto& b) { return a.first < b.first; });
   if (candidates.empty()) {
     result.status = LocalPlanStatus::kNoTarget;
     result.message = "no point of the box is seen free and open";
-    result.total_ms = MsSince(begin);
+    result.total_ms = MsSince(begin) + snapshot.ms;
     return result;
   }
 
@@ -276,7 +308,7 @@ core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMa
   result.targets_tried = static_cast<int>(tried.size());
   result.plan_ms = MsSince(plan_start);
   if (result.status == LocalPlanStatus::kFailed && result.message.empty()) result.message = "no target planned";
-  result.total_ms = MsSince(begin);
+  result.total_ms = MsSince(begin) + snapshot.ms;
   return result;
 }
 

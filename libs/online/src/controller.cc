@@ -169,8 +169,11 @@ class OnlineController::Worker {
     // OnlineOptions::target_settle: plan to the insertion's start (no
     // insertion), or the insertion from above the target.
     bool pre_grasp = false, from_settled = false;
+    // Perception: a local plan in this snapshot of the map (v_max applies).
+    std::shared_ptr<const explore::LocalMapSnapshot> local;
   };
   struct Done {
+    bool to_local_target = false;  // a local plan to a local target
     PlanRecord record;
     std::shared_ptr<const planner::PlanResult> plan;  // set when it succeeded
     std::shared_ptr<const planner::MovingSceneModels> target;  // a moving target's prediction
@@ -250,6 +253,7 @@ class OnlineController::Worker {
     done.record.pre_grasp = job.pre_grasp;
     done.record.from_settled = job.from_settled;
     done.record.speed_limit = job.v_max > 0.0 ? std::min(job.v_max, setup_.task->limits.v_max) : setup_.task->limits.v_max;
+    if (job.local) return ExecuteLocal(job, std::move(done));
     const auto begin = std::chrono::steady_clock::now();
     // The link's speed limit, when it is lower than the task's: a plan
     // from rest is made at the task's limits and slowed down as a whole (the
@@ -344,6 +348,39 @@ class OnlineController::Worker {
     return done;
   }
 
+  // A local plan (PerceptionSetup): certified by the local planner's own
+  // post-check against the snapshot's boundary, at the link's speed limit.
+  Done ExecuteLocal(const Job& job, Done done) const {
+    const auto begin = std::chrono::steady_clock::now();
+    core::Result<explore::LocalPlanResult> result =
+        setup_.perception.planner->PlanIn(*job.local, job.start, job.v_max > 0.0 ? job.v_max : 0.0);
+    done.record.latency_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count() + job.local->ms;
+    done.record.snapshot_ms = job.local->ms;
+    if (!result.ok()) {
+      done.record.status = planner::PlanStatus::kInvalidInput;
+      done.record.message = result.status().message();
+      return done;
+    }
+    done.record.local_status = static_cast<int>(result->status);
+    done.record.scene_points = result->scene_points;
+    const bool planned = result->status == explore::LocalPlanStatus::kToGoal ||
+                         result->status == explore::LocalPlanStatus::kToLocalTarget;
+    done.record.message = planned ? std::string() : std::string(explore::LocalPlanStatusName(result->status)) +
+                                                        (result->message.empty() ? "" : ": " + result->message);
+    if (!planned) {
+      done.record.status = planner::PlanStatus::kSolverFailed;
+      return done;
+    }
+    done.record.success = true;
+    done.record.status = result->plan.status;
+    done.record.solve_ms = result->plan.solve_ms;
+    done.record.iterations = result->plan.iterations;
+    done.to_local_target = result->status == explore::LocalPlanStatus::kToLocalTarget;
+    done.plan = std::make_shared<const planner::PlanResult>(std::move(result->plan));
+    return done;
+  }
+
   PlanningSetup setup_;
   bool cold_fallback_;
   mutable std::mutex mutex_;
@@ -370,6 +407,14 @@ core::Result<std::unique_ptr<OnlineController>> OnlineController::Create(const P
                                          ": a mission with a moving reach is planned and certified by quadhand-plan; "
                                          "the online mode does not fly one yet (docs/moving_targets.md)");
   }
+  if (setup.perception.planner != nullptr) {
+    if (std::string why; !setup.perception.IsValid(&why)) return core::Status::InvalidArgument("perception: " + why);
+    if (!planner::PlansAsGoal(*setup.task) || setup.task->tool) {
+      return core::Status::InvalidArgument(setup.task->file +
+                                           ": flying on the sensor takes a goal at rest (no mission, tool pose or "
+                                           "moving target yet)");
+    }
+  }
   if (setup.task->tool && setup.task->tool->moving && setup.context == nullptr) {
     return core::Status::InvalidArgument("a moving target needs the planning context (its moving points' models)");
   }
@@ -383,6 +428,11 @@ OnlineController::OnlineController(const PlanningSetup& setup, const OnlineOptio
       clock_(options.clock_sync),
       planned_speed_limit_(setup.task->limits.v_max),
       tool_link_(setup.scene.robot.LinkIndex(setup.task->tool_link)) {
+  if (perceiving()) {
+    // Options validated in Create, so the map can be made.
+    map_ = std::move(*perception::RollingMap::Create(setup.perception.map));
+    gate_ = std::make_unique<perception::FrameGate>(setup.perception.gate);
+  }
   if (setup.task->tool && setup.task->tool->moving) {
     tracker_ = std::make_unique<TargetTracker>(options.target_tracker);
     task_target_ = MakePose(setup.task->tool->position, setup.task->tool->orientation.toRotationMatrix());
@@ -984,6 +1034,49 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   const planner::WholeBodyTrajectory& trajectory = *flown.plan->trajectory;
   const double t_splice = t + options_.replan_lead;
   const double plan_time = t_splice - flown.start;
+  if (perceiving()) {
+    // A local plan from the flown plan's own state (periodic: spliced there
+    // exactly), or from the measured state predicted (off track: blended).
+    if (periodic && (!flown.to_local_target || tail_pending || worker_->busy())) return;
+    if (worker_->busy()) return;
+    Worker::Job job;
+    if (periodic) {
+      job.start = trajectory.Sample(std::min(plan_time, trajectory.duration())).State();
+    } else {
+      const double followed = position_time_ - UplinkLatency();
+      const planner::WholeBodySample now =
+          trajectory.Sample(std::clamp(followed - flown.start, 0.0, trajectory.duration()));
+      const planner::WholeBodySample then = trajectory.Sample(std::min(plan_time, trajectory.duration()));
+      const planner::BoundaryState measured = MeasuredBoundaryState();
+      job.start = then.State();
+      job.start.position = measured.position + (then.position - now.position);
+      job.start.velocity = measured.velocity + (then.velocity - now.velocity);
+      job.start.yaw = measured.yaw + (then.yaw - now.yaw);
+      job.start.joints = measured.joints + (then.joints - now.joints);
+    }
+    job.local = SnapshotAbout(job.start.position);
+    job.replan = true;
+    job.requested_at = t;
+    job.periodic = true;  // a failure keeps the flown plan (certified, ending at rest)
+    job.v_max = planned_speed_limit_;
+    blocked_since_asked_.clear();
+    last_local_request_ = t;
+    worker_->Submit(std::move(job));
+    replan_pending_ = true;
+    pending_resume_ = false;
+    pending_splice_time_ = t_splice;
+    pending_exact_ = periodic;
+    pending_keep_from_ = false;
+    last_trigger_ = t;
+    ++stats_.replans_triggered;
+    if (periodic) {
+      ++stats_.periodic_replans;
+    } else {
+      Event(Format("tracking error %.3f m > %.3f m: a local plan from the measured state", error,
+                   options_.replan_threshold));
+    }
+    return;
+  }
   // Not in (or right before) the insertion piece: Replan would refuse. A
   // moving target's insertion is replanned as one that has begun, while a
   // piece's worth of it is left.
@@ -1178,13 +1271,25 @@ void OnlineController::CollectPlan(double t) {
   if (!record.replan && pending_resume_) {
     pending_resume_ = false;
     if (phase_ != Phase::kFlying) return;
+    if (perceiving() && done->plan && CrossesSeenSinceAsked(*done->plan)) {
+      ++stats_.perception.conflicts;
+      Event("the fresh plan crosses obstacles seen since it was asked: dropped, holding");
+      return;
+    }
+    if (!done->plan && perceiving()) {
+      // The hold goes on; CheckSensor asks again from a newer map.
+      Event(FailedPlanWords("no fresh plan from what the sensor has seen", record) + "; holding");
+      return;
+    }
     if (!done->plan) {
       Fail(Phase::kHoldingAfterFailure,
            FailedPlanWords("the plan to resume after the link hold failed", record),
            HoldCause::kPlanFailed);
       return;
     }
-    to_ = {done->plan, done->target ? prediction_zero_ : t, done->target};
+    to_ = {done->plan, done->target ? prediction_zero_ : t, done->target, done->to_local_target};
+    perception_hold_ = false;
+    last_progress_ = t;
     from_ = ActivePlan{};
     blending_ = false;
     link_hold_ = false;
@@ -1224,6 +1329,15 @@ void OnlineController::CollectPlan(double t) {
     return;
   }
   if (!record.replan) {
+    if (perceiving() && (!done->plan || CrossesSeenSinceAsked(*done->plan))) {
+      // Asked again from a newer map (RequestFirstPlan), until stuck_time.
+      first_plan_requested_ = false;
+      if (done->plan) ++stats_.perception.conflicts;
+      Event(done->plan ? std::string("the first plan crosses obstacles seen since it was asked: planning again")
+                       : FailedPlanWords("no first plan from what the sensor has seen", record) + "; trying again");
+      return;
+    }
+    first_local_ = done->to_local_target;
     if (!done->plan) {
       Fail(Phase::kHoldingAfterFailure,
            FailedPlanWords("the plan failed", record),
@@ -1243,13 +1357,22 @@ void OnlineController::CollectPlan(double t) {
   replan_pending_ = false;
   if (phase_ != Phase::kFlying) return;  // arrived or failed meanwhile: nothing to splice into
   if (link_hold_) return;  // braking for the link: a fresh plan follows when it is good again
-  if (done->plan) {
+  if (done->plan && perceiving() && CrossesSeenSinceAsked(*done->plan)) {
+    ++stats_.perception.conflicts;
+    Event("the new local plan crosses obstacles seen since it was asked: dropped");
+  } else if (done->plan && perceiving() && pending_exact_ && t > pending_splice_time_) {
+    // It starts on the flown plan's state at the splice, which is past:
+    // a blend between the two would be certified by neither.
+    ++stats_.perception.late_plans;
+    Event(Format("the local plan came %.0f ms after its start: dropped", 1e3 * (t - pending_splice_time_)));
+  } else if (done->plan) {
     planned_speed_limit_ = record.speed_limit;
     // A tail replan starts on the plan itself: spliced at its start with
     // no blend, unless it came too late for that.
     const bool late = t > pending_splice_time_;
     if (!pending_keep_from_) from_ = to_;
-    to_ = {done->plan, pending_splice_time_, done->target};
+    to_ = {done->plan, pending_splice_time_, done->target, done->to_local_target};
+    if (perceiving()) last_progress_ = t;
     blending_ = true;
     blend_start_ = std::max(t, pending_splice_time_);
     splice_window_ = pending_exact_ && !late ? 0.0 : options_.blend_window;
@@ -1347,6 +1470,9 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
     HoldMission(t, out);
     return;
   }
+  // A brake for the sensor resumes in CheckSensor; so does one for the
+  // link while the sensor is silent.
+  if (perception_hold_ || (perceiving() && SensorSilent(t))) return;
   if (pending_resume_ || replan_pending_ || worker_->busy()) return;
   if (t - link_hold_start_ < link_brake_duration_ + options_.clock_sync.window) return;
   if (!LinkGoodOverWindow(t)) return;
@@ -1382,9 +1508,32 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
     if (!PredictTarget(prediction_zero_, &job.target_motion, &job.target_placement)) return;
   }
   job.pre_grasp = PlansToPreGrasp();
+  if (perceiving()) {
+    job.local = SnapshotAbout(job.start.position);
+    blocked_since_asked_.clear();
+    last_local_request_ = t;
+  }
   worker_->Submit(std::move(job));
   pending_resume_ = true;
   Event(Format("link good again (%.2f m/s allowed): planning afresh from the measured state", limit));
+}
+
+void OnlineController::RequestFreshLocalPlan(double t) {
+  Worker::Job job;
+  job.start = MeasuredBoundaryState();
+  job.start.velocity.setZero();
+  job.start.acceleration.setZero();
+  job.start.jerk.setZero();
+  job.start.yaw_rate = 0.0;
+  job.start.joint_rates.setZero();
+  job.requested_at = t;
+  job.v_max = PlanningSpeedLimit();
+  job.from_rest = true;
+  job.local = SnapshotAbout(job.start.position);
+  blocked_since_asked_.clear();
+  last_local_request_ = t;
+  worker_->Submit(std::move(job));
+  pending_resume_ = true;
 }
 
 void OnlineController::HoldForLink(double t, double speed) {
@@ -1723,8 +1872,9 @@ void OnlineController::CheckTracking(double t) {
   position_checked_ = true;
   if (last_error_ > options_.replan_threshold) {
     MaybeReplan(t, false, last_error_);
-  } else if (options_.replan_period > 0.0 && tracker_ == nullptr &&
-             t - std::max(last_trigger_, to_.start) >= options_.replan_period) {
+  } else if (perceiving() ? t - std::max(last_trigger_, to_.start) >= PerceptionReplanPeriod()
+                          : options_.replan_period > 0.0 && tracker_ == nullptr &&
+                                t - std::max(last_trigger_, to_.start) >= options_.replan_period) {
     MaybeReplan(t, true, last_error_);
   }
 }
@@ -1753,6 +1903,15 @@ void OnlineController::RequestFirstPlan(double t) {
       target_wait_noted_ = true;
       return;
     }
+  }
+  if (perceiving()) {
+    if (gate_->counts().taken < setup_.perception.min_frames || SensorSilent(t) ||
+        t - last_local_request_ < PerceptionReplanPeriod() || worker_->busy()) {
+      return;
+    }
+    job.local = SnapshotAbout(hold_.position);
+    last_local_request_ = t;
+    blocked_since_asked_.clear();
   }
   job.start.position = hold_.position;
   job.start.yaw = hold_.yaw;
@@ -2070,6 +2229,12 @@ ControllerOutput OnlineController::Tick(double t) {
         hold_ = HoldAtMeasuredPose();
         hold_start_ = t;
         phase_ = Phase::kStreamingHold;
+        if (perceiving()) {
+          // No sensor sees the vehicle's own space.
+          map_->MoveWindow(position_);
+          map_->MarkFree(position_, setup_.perception.start_free_radius);
+          last_progress_ = t;
+        }
         Event(Format("vehicle state received: holding at (%.3f, ", position_.x()) +
               Format("%.3f, %.3f)", position_.y(), position_.z()));
       }
@@ -2089,7 +2254,9 @@ ControllerOutput OnlineController::Tick(double t) {
     RequestFirstPlan(t);
   }
 
-  if (phase_ == Phase::kWaitingForPlan && first_plan_ && (tracker_ == nullptr || t >= prediction_zero_)) {
+  if (perceiving()) CheckSensor(t);
+  if (phase_ == Phase::kWaitingForPlan && first_plan_ && (tracker_ == nullptr || t >= prediction_zero_) &&
+      !(perceiving() && SensorSilent(t))) {
     const double offset = (position_ - hold_.position).norm();
     const bool settled = offset <= options_.start_tolerance;
     const bool may_start = settled || t - confirmed_time_ >= options_.settle_timeout;
@@ -2103,8 +2270,9 @@ ControllerOutput OnlineController::Tick(double t) {
                       : "the vehicle has not settled at the hold by the plan's start: planning again");
     } else if (may_start) {
       const double start = tracker_ != nullptr ? prediction_zero_ : t;
-      to_ = {first_plan_, start, first_target_};
+      to_ = {first_plan_, start, first_target_, first_local_};
       plan_clock_ = PlanClock{start, {}};
+      last_progress_ = t;
       phase_ = Phase::kFlying;
       Event(settled ? Format("flying the plan (%.3f m from the start)", offset)
                     : Format("flying the plan although the vehicle is still %.3f m from the start", offset));
@@ -2135,7 +2303,7 @@ ControllerOutput OnlineController::Tick(double t) {
     }
     if (phase_ == Phase::kFlying && target_stage_ == TargetStage::kSettling) Settle(t);
     if (phase_ == Phase::kFlying && !blending_ && !retreating_ && target_stage_ != TargetStage::kSettling &&
-        t - to_.start >= to_.plan->trajectory->duration()) {
+        !to_.to_local_target && t - to_.start >= to_.plan->trajectory->duration()) {
       phase_ = Phase::kArrived;
       arrival_time_ = t;
       if (tracker_ != nullptr) {

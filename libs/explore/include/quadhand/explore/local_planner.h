@@ -24,6 +24,7 @@
 #include "quadhand/opt/solver.h"
 #include "quadhand/perception/rolling_map.h"
 #include "quadhand/planner/planner.h"
+#include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 
 namespace quadhand::explore {
@@ -67,6 +68,13 @@ struct LocalPlannerOptions {
   bool IsValid(std::string* why) const;
 };
 
+// The configuration local plans use when the user gives none: the model
+// and the front end's map are built at every replan over a box full of
+// boundary voxels, which lie on the rolling map's 0.1 m lattice, so
+// MRC-SDF's far grid is 0.1 m, searched out to 1 m only, and the front
+// end's voxels are 0.1 m (docs/configuration.md).
+void UseLocalPlanningDefaults(planner::PlannerConfig* config);
+
 enum class LocalPlanStatus {
   kToGoal,         // certified, to the task's goal
   kToLocalTarget,  // certified, to a local target
@@ -91,6 +99,20 @@ struct LocalPlanSummary {
   std::string message;      // why the last target failed, for people
 };
 
+// What a local plan from one start needs of the rolling map, taken at once:
+// a planner in another thread than the map's plans from this while the map
+// takes new frames (quadhand-online --perception). The map's boundary in the
+// box about the start, and the lattice points the map had seen free.
+struct LocalMapSnapshot {
+  Vec3 start = Vec3::Zero();  // the position it was taken about
+  Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();
+  std::shared_ptr<const std::vector<Vec3>> boundary;
+  double resolution = 0.1;           // the map's voxel edge, m
+  bool goal_seen_free = false;       // the goal in the box and seen free
+  std::vector<Vec3> seen_free;       // target lattice points seen free, in lattice order
+  double ms = 0.0;                   // taking it
+};
+
 struct LocalPlanResult : LocalPlanSummary {
   planner::PlanResult plan;  // the certified plan (kToGoal, kToLocalTarget)
   Vec3 target = Vec3::Zero();
@@ -111,6 +133,12 @@ class LocalPlanner {
   // in what `map` has seen. Ordinary outcomes are statuses; errors only for
   // inconsistent input (joint counts, non-finite states).
   core::Result<LocalPlanResult> PlanFrom(const perception::RollingMap& map, const planner::BoundaryState& start) const;
+  // PlanFrom in two steps: the map's part (a few ms), and the plan from it
+  // (no map needed, so in any thread). Snapshot needs only the start's
+  // position. `v_max` > 0 lowers the speed limit further (a slow link).
+  LocalMapSnapshot Snapshot(const perception::RollingMap& map, const Vec3& start) const;
+  core::Result<LocalPlanResult> PlanIn(const LocalMapSnapshot& snapshot, const planner::BoundaryState& start,
+                                       double v_max = 0.0) const;
 
   const planner::BoundaryState& goal() const { return goal_; }
   const LocalPlannerOptions& options() const { return local_; }

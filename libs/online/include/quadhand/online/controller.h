@@ -67,15 +67,19 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
 #include "quadhand/core/status.h"
 #include "quadhand/core/types.h"
+#include "quadhand/explore/local_planner.h"
 #include "quadhand/opt/solver.h"
 #include "quadhand/online/clock_sync.h"
 #include "quadhand/online/setpoint.h"
 #include "quadhand/online/target_tracker.h"
+#include "quadhand/perception/rolling_map.h"
+#include "quadhand/perception/sensor_frame.h"
 #include "quadhand/planner/planner.h"
 #include "quadhand/planner/mission_plan.h"
 #include "quadhand/planner/planning_context.h"
@@ -421,6 +425,50 @@ double MeasuredClearance(const robot::RobotModel& robot, const env::ExactMeshMod
                          const env::ExactMeshModel* moving, const Pose& task_target, const std::optional<Pose>& target,
                          const MeasuredState& state, double reach, int* link = nullptr);
 
+// Flying on a sensor (quadhand-online --perception; docs/perception.md,
+// "Flying online on the sensor"): every plan is a local plan
+// (explore/local_planner.h) from a rolling map of the frames OnSensorFrame
+// is given, never from the setup's scene.
+//   - Frames pass the gate (perception/sensor_frame.h) on the controller's
+//     clock (their vehicle stamps mapped by the clock sync) and go into the
+//     map at once.
+//   - The first plan waits for min_frames frames; a first plan that fails
+//     is asked again every replan_period.
+//   - Every replan_period while flying a plan to a local target (not once a
+//     plan to the goal is flown), a local plan from the flown plan's own
+//     state replan_lead ahead, spliced there exactly when it comes in time
+//     (a late one is dropped). One that fails keeps the flown plan, which
+//     ends at rest inside seen free space; at its end the vehicle holds and
+//     the replans go on from there. A plan to a local target ending is not
+//     an arrival.
+//   - The voxels a frame turns from free to occupied are checked against
+//     the plan flown (and the first plan, and a plan coming from the
+//     worker, against those since it was asked) at the planned safety
+//     distance (LocalPlanner::FirstConflict): a flown plan crossing them
+//     brakes along its path (the link hold's brake) and a fresh plan is
+//     made from the measured state at rest; the others are dropped.
+//   - No frame taken for sensor_timeout: the same brake, and no plan until
+//     frames are taken again.
+//   - No plan begun for stuck_time while the vehicle holds: the flight
+//     ends holding (HoldCause::kPlanFailed).
+// The flight's verdict is against what the sensor saw (SeenPoints()):
+// in simulation quadhand-flightcheck judges it against the true world.
+struct PerceptionSetup {
+  const explore::LocalPlanner* planner = nullptr;  // null: no perception (the setup's scene)
+  perception::RollingMapOptions map;
+  perception::FrameGateOptions gate;
+  double sensor_timeout = 0.3;     // s
+  double start_free_radius = 0.8;  // m of free space about the vehicle when it is first held
+  int min_frames = 3;
+  double replan_period = 0.5;      // s
+  double stuck_time = 15.0;        // s
+  // SeenPoints(): the map's occupied returns merged every seen_period s,
+  // one per seen_resolution m cube.
+  double seen_resolution = 0.01;
+  double seen_period = 1.0;
+  bool IsValid(std::string* why) const;
+};
+
 // What the planner needs; the scene, task and solver must outlive the controller.
 struct PlanningSetup {
   planner::PlanningScene scene;
@@ -433,6 +481,8 @@ struct PlanningSetup {
   // flown without replans, its gripper commanded at each grasp and release.
   const planner::PlanningContext* context = nullptr;
   planner::MissionPhaseCache* mission_phases = nullptr;
+  // Flying on a sensor; the LocalPlanner must outlive the controller.
+  PerceptionSetup perception;
 };
 
 // One planning run, as the worker reports it.
@@ -463,6 +513,26 @@ struct PlanRecord {
   // this is the first (to the insertion's start), or the second (the
   // insertion, from above the target).
   bool pre_grasp = false, from_settled = false;
+  // A local plan (PerceptionSetup): its explore::LocalPlanStatus (-1: not a
+  // local plan), the boundary planned against and the map snapshot's ms
+  // (in latency_ms).
+  int local_status = -1;
+  size_t scene_points = 0;
+  double snapshot_ms = 0.0;
+};
+
+// Flying on a sensor (PerceptionSetup).
+struct PerceptionStats {
+  perception::FrameCounts frames;     // the gate's: taken, and dropped by reason
+  long empty_frames = 0;
+  std::vector<double> map_update_ms;  // per frame taken (the window's move included)
+  size_t peak_map_bytes = 0;          // sampled every 30 frames
+  int silences = 0;                   // times the sensor went silent
+  int sensor_brakes = 0;              // brakes for a silence or a conflict while flying
+  int conflicts = 0;                  // new obstacles across a plan (flown, first, or coming)
+  int flown_conflicts = 0;            // of them, across the plan flown (it braked)
+  int late_plans = 0;                 // local replans that came after their splice (dropped)
+  size_t seen_points = 0;             // SeenPoints() at the last merge
 };
 
 struct OnlineStats {
@@ -515,6 +585,7 @@ struct OnlineStats {
   // following it after (m; NaN before the arrival / without a target).
   double arrival_target_error = std::numeric_limits<double>::quiet_NaN();
   double max_follow_target_error = std::numeric_limits<double>::quiet_NaN();
+  PerceptionStats perception;
 };
 
 // Controller time -> plan time of a mission flown with the waits at its
@@ -584,6 +655,16 @@ class OnlineController {
   // The tracker's estimate of the target at t as the pose of the task's
   // tool goal (where the tool must be); none before it has one.
   std::optional<Pose> TargetPoseAt(double t) const;
+  // A sensor frame (PerceptionSetup) received at controller time t,
+  // stamped frame.t on the vehicle's clock, its points and misses in the
+  // sensor's frame. Ignored without perception.
+  void OnSensorFrame(double t, perception::SensorFrame frame);
+  bool perceiving() const { return setup_.perception.planner != nullptr; }
+  // Everything the sensor saw occupied over the flight, one point per
+  // PerceptionSetup::seen_resolution cube (the map's occupied returns,
+  // merged every seen_period s and now): what a perception flight is judged
+  // against.
+  std::vector<Vec3> SeenPoints();
   // The vehicle's heartbeat: armed flag and whether it is in OFFBOARD.
   void OnHeartbeat(double t, bool armed, bool offboard);
   // The mode the same heartbeat gives: each change is an event, so that
@@ -659,7 +740,23 @@ class OnlineController {
     // A moving target: the prediction it was planned against (its motion's
     // clock is the plan's); the plan's setpoints after its end follow it.
     std::shared_ptr<const planner::MovingSceneModels> target;
+    // Perception: a plan to a local target, whose end is not an arrival.
+    bool to_local_target = false;
   };
+  // Perception (controller_perception.cc): a snapshot of the map about
+  // `position` for a job; the sensor's silence, the resume after a brake
+  // for the sensor and the stuck flight (each tick); the plans a frame's
+  // new obstacles cross; whether a new plan crosses what was seen since it
+  // was asked; the occupied returns merged into the seen points.
+  std::shared_ptr<const explore::LocalMapSnapshot> SnapshotAbout(const Vec3& position) const;
+  void CheckSensor(double t);
+  bool SensorSilent(double t) const;
+  void CheckNewObstacles(double t, const std::vector<Vec3>& blocked);
+  bool CrossesSeenSinceAsked(const planner::PlanResult& plan) const;
+  void MergeSeen();
+  double PerceptionReplanPeriod() const;
+  // After a brake for the sensor: a local plan from the measured state at rest.
+  void RequestFreshLocalPlan(double t);
   // The setpoint of `plan` at controller time t (after a moving target's
   // plan has ended: its end state following the prediction).
   static Setpoint SampleActive(const ActivePlan& plan, double t);
@@ -989,6 +1086,19 @@ class OnlineController {
   // While settling: whether the vehicle has settled above the target, and
   // the request of the insertion's plan from there.
   void Settle(double t);
+
+  // Perception (PerceptionSetup).
+  std::unique_ptr<perception::RollingMap> map_;
+  std::unique_ptr<perception::FrameGate> gate_;
+  bool perception_hold_ = false;  // the brake was for the sensor, not the link
+  bool sensor_silent_ = false;
+  bool first_local_ = false;      // first_plan_ goes to a local target
+  double last_progress_ = 0.0;    // a plan was flown or begun then
+  double last_local_request_ = -1e300;
+  double last_seen_merge_ = -1e300;
+  std::vector<Vec3> blocked_since_asked_;  // new obstacles since the worker's job was asked
+  std::vector<Vec3> seen_points_;
+  std::unordered_set<int64_t> seen_keys_;
 
   OnlineStats stats_;
 };

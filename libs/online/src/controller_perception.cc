@@ -1,0 +1,215 @@
+// OnlineController flying on a sensor (controller.h, PerceptionSetup;
+// docs/perception.md, "Flying online on the sensor"): the frames into the
+// rolling map, the plans their new obstacles cross, the sensor's silence,
+// the fresh plan after a brake for the sensor, and the points the flight is
+// judged against.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "quadhand/core/text.h"
+#include "quadhand/online/controller.h"
+
+namespace quadhand::online {
+namespace {
+
+using core::Format;
+
+bool Fail(std::string* why, const std::string& message) {
+  if (why != nullptr) *why = message;
+  return false;
+}
+
+// A vehicle slower than this holds: a fresh plan is made from rest there
+// (as after a hold for the link).
+constexpr double kHoldingSpeed = 0.05;  // m/s
+
+// The key of the seen_resolution cube holding p (21 bits per axis about the
+// origin: +-10 km at 1 cm); none beyond.
+bool CubeKey(const Vec3& p, double resolution, int64_t* key) {
+  constexpr int64_t kHalf = int64_t{1} << 20;
+  int64_t packed = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double cell = std::floor(p[axis] / resolution);
+    if (!(cell >= -static_cast<double>(kHalf) && cell < static_cast<double>(kHalf))) return false;
+    packed = (packed << 21) | (static_cast<int64_t>(cell) + kHalf);
+  }
+  *key = packed;
+  return true;
+}
+
+}  // namespace
+
+bool PerceptionSetup::IsValid(std::string* why) const {
+  if (std::string map_why; !map.IsValid(&map_why)) return Fail(why, "map: " + map_why);
+  if (std::string gate_why; !gate.IsValid(&gate_why)) return Fail(why, "frame gate: " + gate_why);
+  auto in = [](double x, double lo, double hi) { return std::isfinite(x) && x > lo && x <= hi; };
+  if (!in(sensor_timeout, 0.0, 60.0)) return Fail(why, "sensor_timeout must be in (0, 60] s");
+  if (!(std::isfinite(start_free_radius) && start_free_radius >= 0.0 && start_free_radius <= 10.0)) {
+    return Fail(why, "start_free_radius must be in [0, 10] m");
+  }
+  if (min_frames < 1 || min_frames > 1000) return Fail(why, "min_frames must be in [1, 1000]");
+  if (!in(replan_period, 0.0, 60.0) || replan_period < 0.01) return Fail(why, "replan_period must be in [0.01, 60] s");
+  if (!in(stuck_time, 0.0, 3600.0)) return Fail(why, "stuck_time must be in (0, 3600] s");
+  if (!in(seen_resolution, 0.0, 1.0) || seen_resolution < 1e-3) {
+    return Fail(why, "seen_resolution must be in [0.001, 1] m");
+  }
+  if (!in(seen_period, 0.0, 60.0)) return Fail(why, "seen_period must be in (0, 60] s");
+  return true;
+}
+
+double OnlineController::PerceptionReplanPeriod() const { return setup_.perception.replan_period; }
+
+std::shared_ptr<const explore::LocalMapSnapshot> OnlineController::SnapshotAbout(const Vec3& position) const {
+  return std::make_shared<const explore::LocalMapSnapshot>(setup_.perception.planner->Snapshot(*map_, position));
+}
+
+bool OnlineController::SensorSilent(double t) const {
+  // Counted from the vehicle's first hold until the first frame is taken.
+  const double last = std::max(gate_->last_taken(), hold_start_);
+  return t - last > setup_.perception.sensor_timeout;
+}
+
+void OnlineController::OnSensorFrame(double t, perception::SensorFrame frame) {
+  if (!perceiving()) return;
+  // Judged on the vehicle's stamp on our clock, never later than its arrival.
+  frame.t = MeasurementTime(t, frame.t);
+  const perception::FrameDrop drop = gate_->Admit(frame, t);
+  PerceptionStats& stats = stats_.perception;
+  stats.frames = gate_->counts();
+  if (drop != perception::FrameDrop::kNone) return;
+  const Pose pose = perception::SensorPose(frame);
+  for (Vec3& p : frame.points) p = pose * p;
+  for (Vec3& p : frame.misses) p = pose * p;
+  const auto begin = std::chrono::steady_clock::now();
+  map_->MoveWindow(pose.translation());
+  if (frame.points.empty()) ++stats.empty_frames;
+  // The gate refused a non-finite pose, the map's only error.
+  if (!map_->Insert(frame.points, pose.translation(), frame.misses).ok()) return;
+  stats.map_update_ms.push_back(
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
+  // (memory_bytes walks the kept returns: sampled, not every frame.)
+  if (stats.map_update_ms.size() % 30 == 1) stats.peak_map_bytes = std::max(stats.peak_map_bytes, map_->memory_bytes());
+  CheckNewObstacles(t, map_->NewlyBlocked());
+  if (t - last_seen_merge_ >= setup_.perception.seen_period) {
+    MergeSeen();
+    last_seen_merge_ = t;
+  }
+}
+
+void OnlineController::CheckNewObstacles(double t, const std::vector<Vec3>& blocked) {
+  if (blocked.empty()) return;
+  const explore::LocalPlanner& planner = *setup_.perception.planner;
+  const double distance = planner.PlannedSafetyDistance(setup_.perception.map.resolution);
+  // A plan being made was certified against a map without them.
+  if (planning() || replan_pending_ || pending_resume_) {
+    blocked_since_asked_.insert(blocked_since_asked_.end(), blocked.begin(), blocked.end());
+  }
+  PerceptionStats& stats = stats_.perception;
+  const bool before_flight = phase_ == Phase::kStreamingHold || phase_ == Phase::kRequestingOffboard ||
+                             phase_ == Phase::kArming || phase_ == Phase::kWaitingForPlan;
+  if (before_flight && first_plan_ && planner.FirstConflict(*first_plan_->trajectory, 0.0, blocked, distance)) {
+    first_plan_.reset();
+    first_plan_requested_ = false;
+    ++stats.conflicts;
+    Event(Format("the first plan crosses %zu voxels a frame found occupied: planning again", blocked.size()));
+    return;
+  }
+  if (phase_ != Phase::kFlying || link_hold_ || retreating_ || !to_.plan) return;
+  std::optional<double> conflict;
+  const ActivePlan* crossed = nullptr;
+  if (blending_ && t < blend_start_ && from_.plan) {
+    conflict = planner.FirstConflict(*from_.plan->trajectory, std::max(0.0, t - from_.start), blocked, distance);
+    if (conflict) crossed = &from_;
+  }
+  if (!conflict) {
+    conflict = planner.FirstConflict(*to_.plan->trajectory, std::max(0.0, t - to_.start), blocked, distance);
+    if (conflict) crossed = &to_;
+  }
+  if (!conflict) return;
+  const std::optional<Setpoint> reference = Reference(t);
+  const double speed = reference ? reference->velocity.norm() : 0.0;
+  BrakeAlongPlan(t, speed);
+  perception_hold_ = true;
+  ++stats.conflicts;
+  ++stats.flown_conflicts;
+  ++stats.sensor_brakes;
+  Event(Format("%zu voxels a frame found occupied cross the plan flown ", blocked.size()) +
+        Format("%.2f s ahead: braking along it from %.2f m/s, then a fresh plan",
+               crossed->start + *conflict - t, speed));
+}
+
+bool OnlineController::CrossesSeenSinceAsked(const planner::PlanResult& plan) const {
+  if (blocked_since_asked_.empty() || !plan.trajectory) return false;
+  const explore::LocalPlanner& planner = *setup_.perception.planner;
+  return planner
+      .FirstConflict(*plan.trajectory, 0.0, blocked_since_asked_,
+                     planner.PlannedSafetyDistance(setup_.perception.map.resolution))
+      .has_value();
+}
+
+void OnlineController::CheckSensor(double t) {
+  PerceptionStats& stats = stats_.perception;
+  const PerceptionSetup& perception = setup_.perception;
+  const bool silent = SensorSilent(t);
+  if (silent && !sensor_silent_) {
+    sensor_silent_ = true;
+    ++stats.silences;
+    if (phase_ == Phase::kFlying && !link_hold_ && !retreating_) {
+      const std::optional<Setpoint> reference = Reference(t);
+      const double speed = reference ? reference->velocity.norm() : 0.0;
+      BrakeAlongPlan(t, speed);
+      perception_hold_ = true;
+      ++stats.sensor_brakes;
+      Event(Format("no sensor frame taken for %.2f s: braking along the plan from %.2f m/s and holding until frames "
+                   "come again",
+                   perception.sensor_timeout, speed));
+    } else {
+      Event(Format("no sensor frame taken for %.2f s: no plan until frames come", perception.sensor_timeout));
+    }
+  } else if (!silent && sensor_silent_) {
+    sensor_silent_ = false;
+    last_progress_ = t;
+    Event("sensor frames again");
+  }
+  // Not stuck while the sensor is silent, nor while flying a plan.
+  if (silent) last_progress_ = t;
+  if (phase_ == Phase::kFlying && !link_hold_ && to_.plan && t - to_.start < to_.plan->trajectory->duration()) {
+    last_progress_ = t;
+  }
+
+  // After a brake for the sensor: a fresh plan from the measured state at rest.
+  if (phase_ == Phase::kFlying && link_hold_ && perception_hold_ && !silent && !pending_resume_ &&
+      !replan_pending_ && !planning() && t - link_hold_start_ >= link_brake_duration_ &&
+      velocity_.norm() <= kHoldingSpeed && t - last_local_request_ >= perception.replan_period) {
+    RequestFreshLocalPlan(t);
+  }
+
+  const bool no_frames_yet = gate_->counts().taken == 0 && have_position_;
+  if ((phase_ == Phase::kFlying || phase_ == Phase::kWaitingForPlan) && !finished() &&
+      t - last_progress_ > perception.stuck_time) {
+    Fail(Phase::kHoldingAfterFailure,
+         Format("no plan from what the sensor has seen for %.0f s", perception.stuck_time), HoldCause::kPlanFailed);
+  } else if (no_frames_yet && phase_ != Phase::kWaitingForVehicle && phase_ != Phase::kHoldingAfterFailure &&
+             !finished() && t - hold_start_ > perception.stuck_time) {
+    Fail(Phase::kHoldingAfterFailure, Format("no sensor frame taken in %.0f s", perception.stuck_time),
+         HoldCause::kPlanFailed);
+  }
+}
+
+void OnlineController::MergeSeen() {
+  if (!perceiving()) return;
+  const double resolution = setup_.perception.seen_resolution;
+  for (const Vec3& p : map_->OccupiedPoints()) {
+    int64_t key = 0;
+    if (CubeKey(p, resolution, &key) && seen_keys_.insert(key).second) seen_points_.push_back(p);
+  }
+  stats_.perception.seen_points = seen_points_.size();
+}
+
+std::vector<Vec3> OnlineController::SeenPoints() {
+  MergeSeen();
+  return seen_points_;
+}
+
+}  // namespace quadhand::online
