@@ -528,7 +528,7 @@ int main(int argc, char** argv) {
   for (const std::string& caution : planner::TaskCautions(ctx.task())) {
     std::fprintf(stderr, "quadhand-online: caution: %s\n", caution.c_str());
   }
-  online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config->planner, config->replan, solver->get(), nullptr, nullptr, {}};
+  online::PlanningSetup setup{ctx.Scene(), &ctx.task(), config->planner, config->replan, solver->get()};
   setup.plan_options.collision_margin += options.flight_margin;
   // A mission of more than one step (docs/missions.md): planned as a whole,
   // flown without replans, the gripper commanded at its grasps and releases.
@@ -680,8 +680,9 @@ int main(int argc, char** argv) {
   // --perception: judged against everything the sensor saw occupied.
   std::unique_ptr<planner::PlanningContext> seen_judge;
   size_t seen_points = 0;
+  std::vector<Vec3> seen;
+  if (perception_mode) seen = controller.SeenPoints();  // also the map's figures, into stats()
   if (perception_mode && controller.current_plan()) {
-    std::vector<Vec3> seen = controller.SeenPoints();
     seen_points = seen.size();
     if (seen.empty()) seen.push_back(ctx.task().start.position + Vec3(0.0, 0.0, 20.0));  // nothing seen: nothing near
     auto judge = planner::PlanningContext::Create(ctx.task(), ctx.robot(),
@@ -813,9 +814,10 @@ int main(int argc, char** argv) {
                 stream.datagrams, stream.frames, stream.malformed, stream.truncated, stream.corrupted,
                 stream.inconsistent, stream.duplicates, stream.incomplete_frames);
     std::printf("  sensor: %ld frames taken (%ld empty); dropped by the gate: %ld malformed, %ld bad pose, %ld from the "
-                "future, %ld out of order, %ld stale; map update median %.1f ms, p95 %.1f ms; map %.1f MB at most\n",
+                "future, %ld out of order, %ld stale; %ld dropped waiting for the map; map update median %.1f ms, p95 %.1f "
+                "ms; map %.1f MB at most\n",
                 p.frames.taken, p.empty_frames, p.frames.malformed, p.frames.bad_pose, p.frames.from_the_future,
-                p.frames.out_of_order, p.frames.stale, p.map_update_ms.empty() ? 0.0 : Quantile(p.map_update_ms, 0.5),
+                p.frames.out_of_order, p.frames.stale, p.map_overrun, p.map_update_ms.empty() ? 0.0 : Quantile(p.map_update_ms, 0.5),
                 p.map_update_ms.empty() ? 0.0 : Quantile(p.map_update_ms, 0.95), p.peak_map_bytes / 1e6);
     int to_goal = 0, to_target = 0, not_planned = 0;
     std::vector<double> local_ms;

@@ -87,9 +87,12 @@ inline sim::Setpoint ToSim(const Setpoint& s) {
 // move or silence the vehicle.
 class DirectFlight {
  public:
-  explicit DirectFlight(OnlineController* controller, const sim::FaultConfig& faults = {})
+  // From `start`'s start state (the default task's when null; its robot's
+  // joints must be the bundled robot's).
+  explicit DirectFlight(OnlineController* controller, const sim::FaultConfig& faults = {},
+                        const planner::Task* start = nullptr)
       : controller_(controller), sim_(VehicleModel(faults), 11) {
-    const planner::Task& task = WindowCup().task;
+    const planner::Task& task = start != nullptr ? *start : WindowCup().task;
     sim::VehicleState state = sim::VehicleState::AtRest(sim_.model(), task.start.position, task.start.joints);
     state.attitude = Quat(Eigen::AngleAxisd(task.start.yaw, Vec3::UnitZ()));
     sim_.Reset(state, 0.0);

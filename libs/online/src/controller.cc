@@ -1,4 +1,6 @@
 #include "quadhand/online/controller.h"
+
+#include "perception_map.h"
 #include "quadhand/core/text.h"
 #include "quadhand/planner/time_scale.h"
 #include "quadhand/robot/kinematics.h"
@@ -169,8 +171,9 @@ class OnlineController::Worker {
     // OnlineOptions::target_settle: plan to the insertion's start (no
     // insertion), or the insertion from above the target.
     bool pre_grasp = false, from_settled = false;
-    // Perception: a local plan in this snapshot of the map (v_max applies).
-    std::shared_ptr<const explore::LocalMapSnapshot> local;
+    // Perception: a local plan in `map` (its snapshot about the start taken
+    // when the job runs; v_max applies).
+    std::shared_ptr<PerceptionMap> map;
   };
   struct Done {
     bool to_local_target = false;  // a local plan to a local target
@@ -253,7 +256,7 @@ class OnlineController::Worker {
     done.record.pre_grasp = job.pre_grasp;
     done.record.from_settled = job.from_settled;
     done.record.speed_limit = job.v_max > 0.0 ? std::min(job.v_max, setup_.task->limits.v_max) : setup_.task->limits.v_max;
-    if (job.local) return ExecuteLocal(job, std::move(done));
+    if (job.map) return ExecuteLocal(job, std::move(done));
     const auto begin = std::chrono::steady_clock::now();
     // The link's speed limit, when it is lower than the task's: a plan
     // from rest is made at the task's limits and slowed down as a whole (the
@@ -352,11 +355,11 @@ class OnlineController::Worker {
   // post-check against the snapshot's boundary, at the link's speed limit.
   Done ExecuteLocal(const Job& job, Done done) const {
     const auto begin = std::chrono::steady_clock::now();
-    core::Result<explore::LocalPlanResult> result =
-        setup_.perception.planner->PlanIn(*job.local, job.start, job.v_max > 0.0 ? job.v_max : 0.0);
-    done.record.latency_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count() + job.local->ms;
-    done.record.snapshot_ms = job.local->ms;
+    const explore::LocalPlanner& planner = *setup_.perception.planner;
+    const explore::LocalMapSnapshot snapshot = job.map->Snapshot(planner, job.start.position);
+    core::Result<explore::LocalPlanResult> result = planner.PlanIn(snapshot, job.start, job.v_max > 0.0 ? job.v_max : 0.0);
+    done.record.latency_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
+    done.record.snapshot_ms = snapshot.ms;
     if (!result.ok()) {
       done.record.status = planner::PlanStatus::kInvalidInput;
       done.record.message = result.status().message();
@@ -430,7 +433,7 @@ OnlineController::OnlineController(const PlanningSetup& setup, const OnlineOptio
       tool_link_(setup.scene.robot.LinkIndex(setup.task->tool_link)) {
   if (perceiving()) {
     // Options validated in Create, so the map can be made.
-    map_ = std::move(*perception::RollingMap::Create(setup.perception.map));
+    map_ = std::make_shared<PerceptionMap>(setup.perception);
     gate_ = std::make_unique<perception::FrameGate>(setup.perception.gate);
   }
   if (setup.task->tool && setup.task->tool->moving) {
@@ -1035,46 +1038,8 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   const double t_splice = t + options_.replan_lead;
   const double plan_time = t_splice - flown.start;
   if (perceiving()) {
-    // A local plan from the flown plan's own state (periodic: spliced there
-    // exactly), or from the measured state predicted (off track: blended).
-    if (periodic && (!flown.to_local_target || tail_pending || worker_->busy())) return;
-    if (worker_->busy()) return;
-    Worker::Job job;
-    if (periodic) {
-      job.start = trajectory.Sample(std::min(plan_time, trajectory.duration())).State();
-    } else {
-      const double followed = position_time_ - UplinkLatency();
-      const planner::WholeBodySample now =
-          trajectory.Sample(std::clamp(followed - flown.start, 0.0, trajectory.duration()));
-      const planner::WholeBodySample then = trajectory.Sample(std::min(plan_time, trajectory.duration()));
-      const planner::BoundaryState measured = MeasuredBoundaryState();
-      job.start = then.State();
-      job.start.position = measured.position + (then.position - now.position);
-      job.start.velocity = measured.velocity + (then.velocity - now.velocity);
-      job.start.yaw = measured.yaw + (then.yaw - now.yaw);
-      job.start.joints = measured.joints + (then.joints - now.joints);
-    }
-    job.local = SnapshotAbout(job.start.position);
-    job.replan = true;
-    job.requested_at = t;
-    job.periodic = true;  // a failure keeps the flown plan (certified, ending at rest)
-    job.v_max = planned_speed_limit_;
-    blocked_since_asked_.clear();
-    last_local_request_ = t;
-    worker_->Submit(std::move(job));
-    replan_pending_ = true;
-    pending_resume_ = false;
-    pending_splice_time_ = t_splice;
-    pending_exact_ = periodic;
-    pending_keep_from_ = false;
-    last_trigger_ = t;
-    ++stats_.replans_triggered;
-    if (periodic) {
-      ++stats_.periodic_replans;
-    } else {
-      Event(Format("tracking error %.3f m > %.3f m: a local plan from the measured state", error,
-                   options_.replan_threshold));
-    }
+    if (periodic && (!flown.to_local_target || tail_pending)) return;
+    RequestLocalReplan(t, periodic, error);
     return;
   }
   // Not in (or right before) the insertion piece: Replan would refuse. A
@@ -1125,6 +1090,52 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
     Event(Format("periodic replan (tracking error %.3f m)", error));
   } else {
     Event(Format("tracking error %.3f m > %.3f m: replanning from the measured state", error, options_.replan_threshold));
+  }
+}
+
+void OnlineController::RequestLocalReplan(double t, bool exact, double error) {
+  // A local plan from the flown plan's own state (exact: spliced there), or
+  // from the measured state predicted (off track: blended).
+  if (worker_->busy()) return;
+  const ActivePlan& flown = to_;
+  const planner::WholeBodyTrajectory& trajectory = *flown.plan->trajectory;
+  const double t_splice = t + options_.replan_lead;
+  const double plan_time = t_splice - flown.start;
+  Worker::Job job;
+  if (exact) {
+    job.start = trajectory.Sample(std::min(plan_time, trajectory.duration())).State();
+  } else {
+    const double followed = position_time_ - UplinkLatency();
+    const planner::WholeBodySample now =
+        trajectory.Sample(std::clamp(followed - flown.start, 0.0, trajectory.duration()));
+    const planner::WholeBodySample then = trajectory.Sample(std::min(plan_time, trajectory.duration()));
+    const planner::BoundaryState measured = MeasuredBoundaryState();
+    job.start = then.State();
+    job.start.position = measured.position + (then.position - now.position);
+    job.start.velocity = measured.velocity + (then.velocity - now.velocity);
+    job.start.yaw = measured.yaw + (then.yaw - now.yaw);
+    job.start.joints = measured.joints + (then.joints - now.joints);
+  }
+  job.map = map_;
+  job.replan = true;
+  job.requested_at = t;
+  job.periodic = true;  // a failure keeps the flown plan (certified, ending at rest)
+  job.v_max = planned_speed_limit_;
+  blocked_since_asked_.clear();
+  last_local_request_ = t;
+  worker_->Submit(std::move(job));
+  replan_pending_ = true;
+  pending_resume_ = false;
+  pending_splice_time_ = t_splice;
+  pending_exact_ = exact;
+  pending_keep_from_ = false;
+  last_trigger_ = t;
+  ++stats_.replans_triggered;
+  if (exact) {
+    ++stats_.periodic_replans;
+  } else {
+    Event(Format("tracking error %.3f m > %.3f m: a local plan from the measured state", error,
+                 options_.replan_threshold));
   }
 }
 
@@ -1288,6 +1299,7 @@ void OnlineController::CollectPlan(double t) {
       return;
     }
     to_ = {done->plan, done->target ? prediction_zero_ : t, done->target, done->to_local_target};
+    const bool after_sensor_hold = perception_hold_;
     perception_hold_ = false;
     last_progress_ = t;
     from_ = ActivePlan{};
@@ -1296,6 +1308,12 @@ void OnlineController::CollectPlan(double t) {
     hold_until_resume_ = false;
     planned_speed_limit_ = record.speed_limit;
     last_trigger_ = t;
+    if (after_sensor_hold) {
+      Event(Format("flying a fresh local plan from the measured state (%.2f s long, at most %.2f m/s, planned in "
+                   "%.1f ms)",
+                   done->plan->trajectory->duration(), record.speed_limit, record.latency_ms));
+      return;
+    }
     ++stats_.link_resumes;
     Event(Format("link good again: flying a fresh plan from the measured state (%.2f s long, ",
                  done->plan->trajectory->duration()) +
@@ -1509,7 +1527,7 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   }
   job.pre_grasp = PlansToPreGrasp();
   if (perceiving()) {
-    job.local = SnapshotAbout(job.start.position);
+    job.map = map_;
     blocked_since_asked_.clear();
     last_local_request_ = t;
   }
@@ -1529,7 +1547,7 @@ void OnlineController::RequestFreshLocalPlan(double t) {
   job.requested_at = t;
   job.v_max = PlanningSpeedLimit();
   job.from_rest = true;
-  job.local = SnapshotAbout(job.start.position);
+  job.map = map_;
   blocked_since_asked_.clear();
   last_local_request_ = t;
   worker_->Submit(std::move(job));
@@ -1909,7 +1927,7 @@ void OnlineController::RequestFirstPlan(double t) {
         t - last_local_request_ < PerceptionReplanPeriod() || worker_->busy()) {
       return;
     }
-    job.local = SnapshotAbout(hold_.position);
+    job.map = map_;
     last_local_request_ = t;
     blocked_since_asked_.clear();
   }
@@ -2231,8 +2249,7 @@ ControllerOutput OnlineController::Tick(double t) {
         phase_ = Phase::kStreamingHold;
         if (perceiving()) {
           // No sensor sees the vehicle's own space.
-          map_->MoveWindow(position_);
-          map_->MarkFree(position_, setup_.perception.start_free_radius);
+          map_->Start(position_, setup_.perception.start_free_radius);
           last_progress_ = t;
         }
         Event(Format("vehicle state received: holding at (%.3f, ", position_.x()) +

@@ -6,9 +6,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 
 #include "quadhand/core/text.h"
 #include "quadhand/online/controller.h"
+#include "perception_map.h"
 
 namespace quadhand::online {
 namespace {
@@ -20,23 +22,13 @@ bool Fail(std::string* why, const std::string& message) {
   return false;
 }
 
+// s of plan time a brake must stop short of new obstacles ahead for a
+// replan to be tried before braking.
+constexpr double kConflictSlack = 0.2;
+
 // A vehicle slower than this holds: a fresh plan is made from rest there
 // (as after a hold for the link).
 constexpr double kHoldingSpeed = 0.05;  // m/s
-
-// The key of the seen_resolution cube holding p (21 bits per axis about the
-// origin: +-10 km at 1 cm); none beyond.
-bool CubeKey(const Vec3& p, double resolution, int64_t* key) {
-  constexpr int64_t kHalf = int64_t{1} << 20;
-  int64_t packed = 0;
-  for (int axis = 0; axis < 3; ++axis) {
-    const double cell = std::floor(p[axis] / resolution);
-    if (!(cell >= -static_cast<double>(kHalf) && cell < static_cast<double>(kHalf))) return false;
-    packed = (packed << 21) | (static_cast<int64_t>(cell) + kHalf);
-  }
-  *key = packed;
-  return true;
-}
 
 }  // namespace
 
@@ -60,10 +52,6 @@ bool PerceptionSetup::IsValid(std::string* why) const {
 
 double OnlineController::PerceptionReplanPeriod() const { return setup_.perception.replan_period; }
 
-std::shared_ptr<const explore::LocalMapSnapshot> OnlineController::SnapshotAbout(const Vec3& position) const {
-  return std::make_shared<const explore::LocalMapSnapshot>(setup_.perception.planner->Snapshot(*map_, position));
-}
-
 bool OnlineController::SensorSilent(double t) const {
   // Counted from the vehicle's first hold until the first frame is taken.
   const double last = std::max(gate_->last_taken(), hold_start_);
@@ -75,30 +63,17 @@ void OnlineController::OnSensorFrame(double t, perception::SensorFrame frame) {
   // Judged on the vehicle's stamp on our clock, never later than its arrival.
   frame.t = MeasurementTime(t, frame.t);
   const perception::FrameDrop drop = gate_->Admit(frame, t);
-  PerceptionStats& stats = stats_.perception;
-  stats.frames = gate_->counts();
+  stats_.perception.frames = gate_->counts();
   if (drop != perception::FrameDrop::kNone) return;
-  const Pose pose = perception::SensorPose(frame);
-  for (Vec3& p : frame.points) p = pose * p;
-  for (Vec3& p : frame.misses) p = pose * p;
-  const auto begin = std::chrono::steady_clock::now();
-  map_->MoveWindow(pose.translation());
-  if (frame.points.empty()) ++stats.empty_frames;
-  // The gate refused a non-finite pose, the map's only error.
-  if (!map_->Insert(frame.points, pose.translation(), frame.misses).ok()) return;
-  stats.map_update_ms.push_back(
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count());
-  // (memory_bytes walks the kept returns: sampled, not every frame.)
-  if (stats.map_update_ms.size() % 30 == 1) stats.peak_map_bytes = std::max(stats.peak_map_bytes, map_->memory_bytes());
-  CheckNewObstacles(t, map_->NewlyBlocked());
-  if (t - last_seen_merge_ >= setup_.perception.seen_period) {
-    MergeSeen();
-    last_seen_merge_ = t;
-  }
+  map_->Push(std::move(frame));
+}
+
+void OnlineController::WaitForMap() {
+  if (map_) map_->WaitUntilIdle();
 }
 
 void OnlineController::CheckNewObstacles(double t, const std::vector<Vec3>& blocked) {
-  if (blocked.empty()) return;
+  if (blocked.empty() || std::getenv("QH_NO_CONFLICT_CHECK")) return;
   const explore::LocalPlanner& planner = *setup_.perception.planner;
   const double distance = planner.PlannedSafetyDistance(setup_.perception.map.resolution);
   // A plan being made was certified against a map without them.
@@ -116,23 +91,63 @@ void OnlineController::CheckNewObstacles(double t, const std::vector<Vec3>& bloc
     return;
   }
   if (phase_ != Phase::kFlying || link_hold_ || retreating_ || !to_.plan) return;
-  std::optional<double> conflict;
-  const ActivePlan* crossed = nullptr;
   if (blending_ && t < blend_start_ && from_.plan) {
-    conflict = planner.FirstConflict(*from_.plan->trajectory, std::max(0.0, t - from_.start), blocked, distance);
-    if (conflict) crossed = &from_;
+    // A plan waiting for its splice: from_ is flown until blend_start_, to_ after.
+    if (planner.FirstConflict(*to_.plan->trajectory, 0.0, blocked, distance)) {
+      to_ = from_;
+      from_ = ActivePlan{};
+      blending_ = false;
+      ++stats.conflicts;
+      Event(Format("%zu voxels a frame found occupied cross the plan waiting for its splice: dropped",
+                   blocked.size()));
+    } else {
+      const std::optional<double> before =
+          planner.FirstConflict(*from_.plan->trajectory, std::max(0.0, t - from_.start), blocked, distance);
+      if (!before || *before >= blend_start_ - from_.start) return;  // not where from_ is flown
+      // Within the splice's wait (shorter than a replan's lead): brake.
+      const std::optional<Setpoint> reference = Reference(t);
+      const double speed = reference ? reference->velocity.norm() : 0.0;
+      BrakeAlongPlan(t, speed);
+      perception_hold_ = true;
+      ++stats.conflicts;
+      ++stats.flown_conflicts;
+      ++stats.sensor_brakes;
+      Event(Format("%zu voxels a frame found occupied cross the plan flown ", blocked.size()) +
+            Format("%.2f s ahead: braking along it from %.2f m/s, then a fresh plan", from_.start + *before - t, speed));
+      return;
+    }
   }
-  if (!conflict) {
-    conflict = planner.FirstConflict(*to_.plan->trajectory, std::max(0.0, t - to_.start), blocked, distance);
-    if (conflict) crossed = &to_;
-  }
+  const std::optional<double> conflict =
+      planner.FirstConflict(*to_.plan->trajectory, std::max(0.0, t - to_.start), blocked, distance);
+  const ActivePlan* crossed = &to_;
   if (!conflict) return;
+  ++stats.conflicts;
+  ++stats.flown_conflicts;
+  // Far enough ahead that a brake begun when a replan is due still stops
+  // short of it: replan first, brake only if no new plan is flown by then.
+  // A replan already asked is checked against these obstacles when it
+  // comes (CrossesSeenSinceAsked) and takes that part.
+  if (!pending_resume_) {
+    const double deadline = conflict_deadline_ >= 0.0 ? conflict_deadline_ : t + options_.replan_lead;
+    const double speed_then = SampleActive(to_, deadline).velocity.norm();
+    const double stop = deadline - to_.start + 0.5 * BrakeDuration(speed_then);
+    if (*conflict > stop + kConflictSlack) {
+      if (!replan_pending_ && !planning()) RequestLocalReplan(t, /*exact=*/true, 0.0);
+      const bool first = conflict_deadline_ < 0.0;
+      conflicted_plan_ = to_.plan.get();
+      conflict_deadline_ = deadline;
+      if (first) {
+        Event(Format("%zu voxels a frame found occupied cross the plan flown ", blocked.size()) +
+              Format("%.2f s ahead: replanning (it brakes at t = %.2f s unless a new plan is flown by then)",
+                     to_.start + *conflict - t, deadline));
+      }
+      return;
+    }
+  }
   const std::optional<Setpoint> reference = Reference(t);
   const double speed = reference ? reference->velocity.norm() : 0.0;
   BrakeAlongPlan(t, speed);
   perception_hold_ = true;
-  ++stats.conflicts;
-  ++stats.flown_conflicts;
   ++stats.sensor_brakes;
   Event(Format("%zu voxels a frame found occupied cross the plan flown ", blocked.size()) +
         Format("%.2f s ahead: braking along it from %.2f m/s, then a fresh plan",
@@ -149,7 +164,24 @@ bool OnlineController::CrossesSeenSinceAsked(const planner::PlanResult& plan) co
 }
 
 void OnlineController::CheckSensor(double t) {
+  CheckNewObstacles(t, map_->TakeBlocked());
   PerceptionStats& stats = stats_.perception;
+  if (conflict_deadline_ >= 0.0) {
+    const bool replaced = to_.plan.get() != conflicted_plan_ || link_hold_ || phase_ != Phase::kFlying;
+    if (replaced) {
+      conflict_deadline_ = -1.0;
+    } else if (t >= conflict_deadline_) {
+      conflict_deadline_ = -1.0;
+      const std::optional<Setpoint> reference = Reference(t);
+      const double speed = reference ? reference->velocity.norm() : 0.0;
+      BrakeAlongPlan(t, speed);
+      perception_hold_ = true;
+      ++stats.sensor_brakes;
+      Event(Format("no plan around the new obstacles in time: braking along the plan from %.2f m/s, then a fresh "
+                   "plan",
+                   speed));
+    }
+  }
   const PerceptionSetup& perception = setup_.perception;
   const bool silent = SensorSilent(t);
   if (silent && !sensor_silent_) {
@@ -197,19 +229,18 @@ void OnlineController::CheckSensor(double t) {
   }
 }
 
-void OnlineController::MergeSeen() {
-  if (!perceiving()) return;
-  const double resolution = setup_.perception.seen_resolution;
-  for (const Vec3& p : map_->OccupiedPoints()) {
-    int64_t key = 0;
-    if (CubeKey(p, resolution, &key) && seen_keys_.insert(key).second) seen_points_.push_back(p);
-  }
-  stats_.perception.seen_points = seen_points_.size();
-}
-
 std::vector<Vec3> OnlineController::SeenPoints() {
-  MergeSeen();
-  return seen_points_;
+  if (!map_) return {};
+  map_->WaitUntilIdle();
+  std::vector<Vec3> seen = map_->SeenPoints();
+  const PerceptionMap::Figures figures = map_->figures();
+  PerceptionStats& stats = stats_.perception;
+  stats.map_update_ms = figures.update_ms;
+  stats.peak_map_bytes = figures.peak_bytes;
+  stats.empty_frames = figures.empty_frames;
+  stats.map_overrun = figures.overrun;
+  stats.seen_points = seen.size();
+  return seen;
 }
 
 }  // namespace quadhand::online

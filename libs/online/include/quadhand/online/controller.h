@@ -67,7 +67,6 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -482,7 +481,7 @@ struct PlanningSetup {
   const planner::PlanningContext* context = nullptr;
   planner::MissionPhaseCache* mission_phases = nullptr;
   // Flying on a sensor; the LocalPlanner must outlive the controller.
-  PerceptionSetup perception;
+  PerceptionSetup perception{};
 };
 
 // One planning run, as the worker reports it.
@@ -532,6 +531,7 @@ struct PerceptionStats {
   int conflicts = 0;                  // new obstacles across a plan (flown, first, or coming)
   int flown_conflicts = 0;            // of them, across the plan flown (it braked)
   int late_plans = 0;                 // local replans that came after their splice (dropped)
+  long map_overrun = 0;               // frames dropped waiting for the map (it was behind)
   size_t seen_points = 0;             // SeenPoints() at the last merge
 };
 
@@ -617,6 +617,8 @@ struct ControllerOutput {
   Phase phase = Phase::kWaitingForVehicle;
 };
 
+class PerceptionMap;
+
 class OnlineController {
  public:
   static core::Result<std::unique_ptr<OnlineController>> Create(const PlanningSetup& setup,
@@ -662,9 +664,12 @@ class OnlineController {
   bool perceiving() const { return setup_.perception.planner != nullptr; }
   // Everything the sensor saw occupied over the flight, one point per
   // PerceptionSetup::seen_resolution cube (the map's occupied returns,
-  // merged every seen_period s and now): what a perception flight is judged
-  // against.
+  // merged every seen_period s of frames and now): what a perception
+  // flight is judged against. Waits for the frames given to be mapped, and
+  // brings stats().perception's map figures up to date.
   std::vector<Vec3> SeenPoints();
+  // Waits until the frames given are in the map (tests).
+  void WaitForMap();
   // The vehicle's heartbeat: armed flag and whether it is in OFFBOARD.
   void OnHeartbeat(double t, bool armed, bool offboard);
   // The mode the same heartbeat gives: each change is an event, so that
@@ -743,20 +748,20 @@ class OnlineController {
     // Perception: a plan to a local target, whose end is not an arrival.
     bool to_local_target = false;
   };
-  // Perception (controller_perception.cc): a snapshot of the map about
-  // `position` for a job; the sensor's silence, the resume after a brake
-  // for the sensor and the stuck flight (each tick); the plans a frame's
-  // new obstacles cross; whether a new plan crosses what was seen since it
-  // was asked; the occupied returns merged into the seen points.
-  std::shared_ptr<const explore::LocalMapSnapshot> SnapshotAbout(const Vec3& position) const;
+  // Perception (controller_perception.cc): the sensor's silence, the new
+  // obstacles the map found, the resume after a brake for the sensor and
+  // the stuck flight (each tick); the plans new obstacles cross; whether a
+  // new plan crosses what was seen since it was asked.
   void CheckSensor(double t);
   bool SensorSilent(double t) const;
   void CheckNewObstacles(double t, const std::vector<Vec3>& blocked);
   bool CrossesSeenSinceAsked(const planner::PlanResult& plan) const;
-  void MergeSeen();
   double PerceptionReplanPeriod() const;
   // After a brake for the sensor: a local plan from the measured state at rest.
   void RequestFreshLocalPlan(double t);
+  // A local replan from the plan flown, its state replan_lead ahead
+  // (`exact`: spliced there), or from the measured state predicted there.
+  void RequestLocalReplan(double t, bool exact, double error);
   // The setpoint of `plan` at controller time t (after a moving target's
   // plan has ended: its end state following the prediction).
   static Setpoint SampleActive(const ActivePlan& plan, double t);
@@ -1087,18 +1092,20 @@ class OnlineController {
   // the request of the insertion's plan from there.
   void Settle(double t);
 
-  // Perception (PerceptionSetup).
-  std::unique_ptr<perception::RollingMap> map_;
+  // Perception (PerceptionSetup): the map in its own thread (perception_map.h).
+  std::shared_ptr<PerceptionMap> map_;
   std::unique_ptr<perception::FrameGate> gate_;
   bool perception_hold_ = false;  // the brake was for the sensor, not the link
   bool sensor_silent_ = false;
   bool first_local_ = false;      // first_plan_ goes to a local target
   double last_progress_ = 0.0;    // a plan was flown or begun then
   double last_local_request_ = -1e300;
-  double last_seen_merge_ = -1e300;
   std::vector<Vec3> blocked_since_asked_;  // new obstacles since the worker's job was asked
-  std::vector<Vec3> seen_points_;
-  std::unordered_set<int64_t> seen_keys_;
+  // New obstacles across the plan flown, far enough ahead to replan first:
+  // the plan flown then, and when it brakes unless a new plan has replaced
+  // it (negative: none).
+  const planner::PlanResult* conflicted_plan_ = nullptr;
+  double conflict_deadline_ = -1.0;
 
   OnlineStats stats_;
 };

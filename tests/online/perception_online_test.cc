@@ -1,0 +1,234 @@
+// The online controller flying on a sensor (controller.h, PerceptionSetup):
+// in-process against the simulator, a depth camera on the vehicle rendering
+// a hidden row of posts, the controller given only its frames. It arrives
+// with its clearance against the true world; a silent sensor brakes and
+// holds it; an obstacle appearing across the plan flown brakes it and a
+// fresh plan goes around; a plan to a local target ending is not an arrival.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "online_test_util.h"
+#include "quadhand/explore/local_planner.h"
+#include "quadhand/planner/planner_config.h"
+#include "quadhand/planner/planning_context.h"
+#include "quadhand/robot/kinematics.h"
+#include "quadhand/sim/sensor.h"
+#include "support/window_cup_task.h"
+
+namespace quadhand::online::testing {
+namespace {
+
+// Posts of 0.15 m radius between the start and a goal 8 m away, the first
+// square in the way, on a floor: the vehicle sees them only as it flies.
+std::vector<Vec3> Posts() {
+  std::vector<Vec3> points;
+  for (double x = -2.0; x <= 10.0 + 1e-9; x += 0.05) {
+    for (double y = -3.0; y <= 3.0 + 1e-9; y += 0.05) points.emplace_back(x, y, 0.0);
+  }
+  for (const Vec3& c : {Vec3(3.0, 0.0, 0.0), Vec3(5.0, 1.0, 0.0), Vec3(5.5, -1.2, 0.0)}) {
+    for (double z = 0.0; z <= 3.0 + 1e-9; z += 0.04) {
+      for (int a = 0; a < 24; ++a) {
+        const double angle = a * 2.0 * M_PI / 24.0;
+        points.emplace_back(c.x() + 0.15 * std::cos(angle), c.y() + 0.15 * std::sin(angle), z);
+      }
+    }
+  }
+  return points;
+}
+
+// A task from (0, 0, 1.2) to (8, 0, 1.2) at rest, the arm stowed; its scene
+// is only the judge's.
+planner::Task PostsTask() {
+  planner::Task task = WindowCup().task;
+  task.tool.reset();
+  task.start = planner::BoundaryState{};
+  task.start.position = Vec3(0.0, 0.0, 1.2);
+  task.start.joints = Eigen::Vector3d(0.3, -0.2, 0.0);
+  planner::BoundaryState goal = task.start;
+  goal.position = Vec3(8.0, 0.0, 1.2);
+  task.terminal = goal;
+  task.limits.v_max = 2.0;
+  task.limits.a_max = 4.0;
+  task.safety_distance = 0.03;
+  return task;
+}
+
+class PerceptionOnlineTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    task_ = PostsTask();
+    config_ = planner::DefaultPlannerConfig();
+    explore::UseLocalPlanningDefaults(&config_);
+    // The planner's base context: a point far above stands for the scene.
+    auto base = planner::PlanningContext::Create(task_, WindowCup().robot(),
+                                                 std::make_shared<const std::vector<Vec3>>(1, Vec3(0.0, 0.0, 21.2)), 0,
+                                                 planner::ContextOptions(config_, {"mrc_sdf"}));
+    ASSERT_TRUE(base.ok()) << base.status().message();
+    base_ = std::move(*base);
+    options_ = planner::RunPlannerOptions(config_, 0.01, 1, false);
+    options_.solver.max_time_seconds = 60.0;  // iterations only: deterministic under load
+    auto local = explore::LocalPlanner::Create(*base_, options_, Solver(), explore::LocalPlannerOptions{});
+    ASSERT_TRUE(local.ok()) << local.status().message();
+    local_ = std::move(*local);
+    sensor_ = SimConfig().sensor;
+    if (!sensor_.mount_given) sensor_.mount = sim::DefaultMount(sensor_.kind);
+  }
+
+  std::unique_ptr<OnlineController> Controller(const OnlineOptions& options = {}) {
+    PlanningSetup setup{base_->Scene(), &base_->task(), options_, planner::DefaultReplanOptions(), &Solver()};
+    setup.perception.planner = local_.get();
+    auto controller = OnlineController::Create(setup, options);
+    EXPECT_TRUE(controller.ok()) << controller.status().message();
+    return controller.ok() ? std::move(*controller) : nullptr;
+  }
+
+  // Renders `world` from the sensor on the simulated vehicle every other
+  // 50 Hz period (25 Hz), except in [silent_from, silent_to), and hands
+  // each frame to the controller as it arrives.
+  std::function<void(double, sim::Simulator*)> Camera(OnlineController* controller, sim::SensorRenderer* renderer,
+                                                       sim::SensorRenderer* later = nullptr, double later_from = 1e9,
+                                                       double silent_from = 1e9, double silent_to = 1e9) {
+    const robot::RobotModel& robot = WindowCup().robot();
+    const int link = robot.LinkIndex(sensor_.link);
+    EXPECT_GE(link, 0);
+    auto period = std::make_shared<long>(0);
+    return [=](double t, sim::Simulator* sim) {
+      if ((*period)++ % 2 != 0 || (t >= silent_from && t < silent_to)) return;
+      const sim::VehicleState& s = sim->state();
+      const Pose base = MakePose(s.position, s.attitude.toRotationMatrix());
+      const Pose pose = robot::LinkPose(robot, base, s.joints, link) * sensor_.mount;
+      sim::SensorRenderer* now = t >= later_from ? later : renderer;
+      perception::SensorFrame frame;
+      frame.t = t;
+      perception::SetSensorPose(pose, &frame);
+      frame.points = now->Render(pose);
+      frame.misses = now->LastMisses(8);
+      controller->OnSensorFrame(t, std::move(frame));
+      controller->WaitForMap();
+    };
+  }
+
+  // The flight's least clearance against `world` (the vehicle's own states).
+  FlightMetrics Judge(const DirectFlight& flight, const OnlineController& controller, const std::vector<Vec3>& world) {
+    auto judge = planner::PlanningContext::Create(task_, WindowCup().robot(),
+                                                  std::make_shared<const std::vector<Vec3>>(world), 0,
+                                                  planner::ContextOptions(config_, {}));
+    EXPECT_TRUE(judge.ok());
+    return EvaluateFlight(flight.log().samples(), WindowCup().robot(), (*judge)->exact(), task_,
+                          controller.current_plan()->terminal.position);
+  }
+
+  std::unique_ptr<sim::SensorRenderer> Renderer(const std::vector<Vec3>& world) {
+    auto renderer = sim::SensorRenderer::Create(world, sensor_, 5);
+    EXPECT_TRUE(renderer.ok());
+    return std::move(*renderer);
+  }
+
+  planner::Task task_;
+  planner::PlannerConfig config_;
+  planner::PlannerOptions options_;
+  std::unique_ptr<planner::PlanningContext> base_;
+  std::unique_ptr<explore::LocalPlanner> local_;
+  sim::SensorConfig sensor_;
+};
+
+TEST_F(PerceptionOnlineTest, FliesPastPostsItHasNeverSeenOnItsFramesAlone) {
+  auto controller = Controller();
+  ASSERT_NE(controller, nullptr);
+  auto renderer = Renderer(Posts());
+  DirectFlight flight(controller.get(), {}, &task_);
+  flight.Run(60.0, Camera(controller.get(), renderer.get()));
+  ASSERT_EQ(controller->phase(), Phase::kArrived) << flight.Events();
+  EXPECT_TRUE(controller->finished());
+  const OnlineStats& stats = controller->stats();
+  // The goal was behind the first post: local targets first, then the goal.
+  ASSERT_FALSE(stats.plans.empty());
+  EXPECT_EQ(stats.plans.front().local_status, static_cast<int>(explore::LocalPlanStatus::kToLocalTarget));
+  int to_goal = 0;
+  for (const PlanRecord& r : stats.plans) {
+    EXPECT_GE(r.local_status, 0);  // every plan a local one
+    to_goal += r.local_status == static_cast<int>(explore::LocalPlanStatus::kToGoal);
+  }
+  EXPECT_GE(to_goal, 1);
+  EXPECT_GT(stats.splices, 2);
+  EXPECT_GT(stats.perception.frames.taken, 100);
+  const FlightMetrics truth = Judge(flight, *controller, Posts());
+  EXPECT_GE(truth.min_clearance, 0.028) << flight.Events();
+  EXPECT_LT(truth.final_base_error, 0.05);
+  // What the sensor saw: the posts, not more (every seen point near one;
+  // the depth noise is 0.002 m times the depth squared, 7 cm at 6 m).
+  const std::vector<Vec3> seen = controller->SeenPoints();
+  ASSERT_GT(seen.size(), 1000u);
+  for (size_t i = 0; i < seen.size(); i += 97) {
+    double nearest = std::abs(seen[i].z());  // the floor
+    for (const Vec3& c : {Vec3(3.0, 0.0, 0.0), Vec3(5.0, 1.0, 0.0), Vec3(5.5, -1.2, 0.0)}) {
+      nearest = std::min(nearest, std::abs((seen[i] - c).head<2>().norm() - 0.15));
+    }
+    EXPECT_LT(nearest, 0.3) << seen[i].transpose();
+  }
+}
+
+TEST_F(PerceptionOnlineTest, ASilentSensorBrakesAndHoldsUntilFramesReturn) {
+  auto controller = Controller();
+  ASSERT_NE(controller, nullptr);
+  auto renderer = Renderer(Posts());
+  DirectFlight flight(controller.get(), {}, &task_);
+  // Silent from 4.5 s (in flight: the handshake and first plan take ~2.5 s) to 7 s.
+  flight.Run(60.0, Camera(controller.get(), renderer.get(), nullptr, 1e9, 4.5, 7.0));
+  ASSERT_EQ(controller->phase(), Phase::kArrived) << flight.Events();
+  const PerceptionStats& p = controller->stats().perception;
+  EXPECT_GE(p.silences, 1);
+  EXPECT_GE(p.sensor_brakes, 1) << flight.Events();
+  // Held: from the brake's end plus half a second until frames return.
+  int held = 0;
+  double fastest_before = 0.0;
+  for (const FlightSample& s : flight.log().samples()) {
+    const double t = s.measured.time;
+    if (t > 3.5 && t < 4.5) fastest_before = std::max(fastest_before, s.measured.velocity.norm());
+    if (t < 4.5 + 0.3 + 1.5 || t > 7.0) continue;
+    EXPECT_LT(s.measured.velocity.norm(), 0.1) << "t " << t << "\n" << flight.Events();
+    ++held;
+  }
+  EXPECT_GT(fastest_before, 0.3);  // it was flying when the sensor fell silent
+  EXPECT_GT(held, 20);
+  EXPECT_GE(Judge(flight, *controller, Posts()).min_clearance, 0.028);
+}
+
+TEST_F(PerceptionOnlineTest, AnObstacleAppearingAcrossThePlanBrakesItAndAFreshPlanGoesAround) {
+  OnlineOptions options;
+  auto controller = Controller(options);
+  ASSERT_NE(controller, nullptr);
+  std::vector<Vec3> patch;
+  // A 2 x 1.8 m patch across the way, 1 m ahead of the vehicle when it appears.
+  for (double y = -1.0; y <= 1.0 + 1e-9; y += 0.04) {
+    for (double z = 0.3; z <= 2.1 + 1e-9; z += 0.04) patch.emplace_back(2.2, y, z);
+  }
+  std::vector<Vec3> with_patch = Posts();
+  with_patch.insert(with_patch.end(), patch.begin(), patch.end());
+  auto renderer = Renderer(Posts());
+  auto later = Renderer(with_patch);
+  DirectFlight flight(controller.get(), {}, &task_);
+  // It appears once the vehicle flies towards it (its first plan runs ~3 s).
+  flight.Run(60.0, Camera(controller.get(), renderer.get(), later.get(), 3.4));
+  const PerceptionStats& p = controller->stats().perception;
+  EXPECT_GE(p.flown_conflicts, 1) << flight.Events();
+  ASSERT_EQ(controller->phase(), Phase::kArrived) << flight.Events();
+  EXPECT_GE(Judge(flight, *controller, with_patch).min_clearance, 0.028) << flight.Events();
+}
+
+TEST_F(PerceptionOnlineTest, RefusesAToolGoalAndBadOptions) {
+  PlanningSetup setup{base_->Scene(), &WindowCup().task, options_, planner::DefaultReplanOptions(), &Solver()};
+  setup.perception.planner = local_.get();
+  EXPECT_FALSE(OnlineController::Create(setup, {}).ok());  // the default task's goal is a tool pose
+  setup.task = &base_->task();
+  setup.perception.sensor_timeout = 0.0;
+  EXPECT_FALSE(OnlineController::Create(setup, {}).ok());
+  setup.perception.sensor_timeout = 0.3;
+  setup.perception.seen_resolution = std::nan("");
+  EXPECT_FALSE(OnlineController::Create(setup, {}).ok());
+}
+
+}  // namespace
+}  // namespace quadhand::online::testing
