@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 
 #include "quadhand/core/text.h"
 #include "quadhand/online/controller.h"
@@ -73,7 +72,7 @@ void OnlineController::WaitForMap() {
 }
 
 void OnlineController::CheckNewObstacles(double t, const std::vector<Vec3>& blocked) {
-  if (blocked.empty() || std::getenv("QH_NO_CONFLICT_CHECK")) return;
+  if (blocked.empty()) return;
   const explore::LocalPlanner& planner = *setup_.perception.planner;
   const double distance = planner.PlannedSafetyDistance(setup_.perception.map.resolution);
   // A plan being made was certified against a map without them.
