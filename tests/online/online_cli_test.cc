@@ -23,6 +23,7 @@
 #include "quadhand/core/isolated.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/robot/robot_model.h"
+#include "quadhand/scene/point_cloud.h"
 #include "quadhand/sim/plan_io.h"
 #include "support/run_command.h"
 #include "support/window_cup_scene.h"
@@ -425,6 +426,61 @@ TEST_F(OnlineCliTest, ASlowLossyLinkIsFlownWithinItsClearance) {
   EXPECT_GE(least, 0.0) << "the simulated vehicle went into the scene\n" << out;
 }
 
+// quadhand-online --perception over loopback: quadhand-sim renders a depth
+// camera's frames of a hidden row of posts from the true state and sends
+// them beside the link; quadhand-online plans only from them, arrives, and
+// the simulator's own record keeps the clearance against the true world.
+TEST_F(OnlineCliTest, FliesUnseenPostsOnTheSensorsFramesOverLoopback) {
+  std::vector<Vec3> world;
+  for (double x = -2.0; x <= 10.0 + 1e-9; x += 0.05) {
+    for (double y = -3.0; y <= 3.0 + 1e-9; y += 0.05) world.emplace_back(x, y, 0.0);
+  }
+  for (const Vec3& c : {Vec3(3.0, 0.0, 0.0), Vec3(5.0, 1.0, 0.0), Vec3(5.5, -1.2, 0.0)}) {
+    for (double z = 0.0; z <= 3.0 + 1e-9; z += 0.04) {
+      for (int a = 0; a < 24; ++a) {
+        const double angle = a * 2.0 * M_PI / 24.0;
+        world.emplace_back(c.x() + 0.15 * std::cos(angle), c.y() + 0.15 * std::sin(angle), z);
+      }
+    }
+  }
+  const std::string cloud = (dir_ / "posts.pcd").string();
+  ASSERT_TRUE(scene::WritePcd(cloud, world).ok());
+  const std::string task = (dir_ / "posts.yaml").string();
+  std::ofstream(task) << "robot: " << kRoot << "/meshes/quadhand/quadhand.urdf\n"
+                      << "sdf_dir: " << testing::CoarseSdfDir() << "\n"
+                      << "scene: " << cloud << "\n"
+                      << "start: {position: [0.0, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
+                      << "goal: {position: [8.0, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
+                      << "limits: {v_max: 2.0, a_max: 4.0, yaw_rate_max: 1.5, body_rate_xy_max: 3.0}\n"
+                      << "safety_distance: 0.03\n";
+  const std::string vehicle = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
+  const std::string frames = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
+  const std::string flown = (dir_ / "sim_flown.csv").string();
+  sim_ = Spawn({kSim, "--udp", vehicle, "--realtime", "--start-task", task, "--duration", "120", "-q", "--config",
+                kRoot + "/data/sim/quadhand_sim.yaml", "--world", cloud, "--sensor", "depth", "--frames-to", frames,
+                "--log", flown},
+               (dir_ / "sim").string());
+  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--perception", "--frames", frames, "--max-duration", "60"},
+                       (dir_ / "online").string());
+  const int code = Wait(&online, 90.0);
+  const std::string out = ReadAll(online.out);
+  Stop(&sim_);
+  ASSERT_EQ(code, 0) << out << ReadAll(online.err) << ReadAll(sim_.err);
+  EXPECT_NE(out.find("arrived after"), std::string::npos) << out;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("sensor: ([0-9]+) frames taken"))) << out;
+  EXPECT_GT(std::stol(m[1]), 100) << out;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("local plans: ([0-9]+) \\(([0-9]+) to the goal, ([0-9]+) to local")))
+      << out;
+  EXPECT_GE(std::stoi(m[2]), 1) << out;
+  EXPECT_GE(std::stoi(m[3]), 1) << out;  // the goal was hidden behind the first post
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("judged against ([0-9]+) points the sensor saw"))) << out;
+  EXPECT_GT(std::stol(m[1]), 1000) << out;
+  // The independent judge, against the true world.
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+}
+
 // An estimate that jumps 2 cm mid-flight (faults.estimate of the simulator,
 // docs/sim.md), followed (--follow-estimate-jumps), moves the real vehicle
 // by minus the jump while its states say it is on track: the innovation
@@ -681,6 +737,13 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {task + vehicle + " --target-replan-threshold 1e400", "--target-replan-threshold must be in (0, 1] m"},
       {task + vehicle + " --target-timeout 0", "--target-timeout must be in (0, 60] s"},
       {task + vehicle + " --target-tolerance -1", "--target-tolerance must be in (0, 1] m"},
+      {task + vehicle + " --perception --frames tcp://127.0.0.1:1", "--frames"},
+      {task + vehicle + " --perception --sensor-timeout 0", "sensor_timeout"},
+      {task + vehicle + " --perception --map-resolution nan", "--perception"},
+      {task + vehicle + " --perception --local-max-speed -1", "--perception"},
+      {task + " --perception --dry-run", "--dry-run"},
+      // The default task's goal is a tool pose: not flown on the sensor yet.
+      {task + vehicle + " --perception", "goal at rest"},
   };
   for (const auto& [args, fragment] : cases) {
     const auto r = RunCommand(kOnline + " " + args);
@@ -702,7 +765,9 @@ TEST_F(OnlineCliTest, HelpListsEveryOption) {
                              "--no-timesync", "--max-state-age", "--link-budget", "--max-blind-time", "--min-link-speed",
                              "--clearance-tolerance", "--max-judged-gap", "--tool-trim", "--setpoint-lead", "--ack-timeout",
                              "--command-attempts", "--target-acceleration-noise", "--target-noise",
-                             "--target-replan-threshold", "--target-timeout", "--target-tolerance", "Exit codes"}) {
+                             "--target-replan-threshold", "--target-timeout", "--target-tolerance", "--perception", "--frames",
+                             "--map-resolution", "--sensor-timeout", "--max-frame-age", "--local-replan-period",
+                             "--stuck-time", "--local-max-speed", "Exit codes"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   }
 }
