@@ -6,8 +6,16 @@ Reports, per world and in sum: arrived, kept the clearance, the least flown
 clearance against the true scene, time to goal, the replan latency (median,
 p95), the map update per frame, and the peak memory.
 
+With --online, each world is flown over the loopback link instead, in real
+time: quadhand-sim --udp renders the sensor's frames from the true state and
+sends them beside MAVLink, quadhand-online --perception plans from them alone
+(docs/perception.md, "Flying online on the sensor"); its clearance is judged
+against what the sensor saw, and quadhand-flightcheck judges the simulator's
+own record against the true world.
+
 Usage: python3 scripts/perception_bench.py [--kind forest|room] [--seeds 1-20] [--length 30]
-       [--sensor depth|lidar] [--build build] [--keep DIR] [-- extra quadhand-explore options]
+       [--sensor depth|lidar] [--build build] [--keep DIR] [--online]
+       [-- extra quadhand-explore (or, --online, quadhand-online) options]
 Worlds: scripts/make_forest.py (Poisson trunks, 0.15 per m^2, 8 m wide) or
 scripts/make_room.py (inner walls, each with a door or a window).
 Exit code 0 when every flight kept its clearance, 1 otherwise.
@@ -15,6 +23,8 @@ Exit code 0 when every flight kept its clearance, 1 otherwise.
 import argparse
 import json
 import os
+import re
+import socket
 import subprocess
 import sys
 import tempfile
@@ -43,6 +53,52 @@ def run(argv):
     return os.waitstatus_to_exitcode(status), usage.ru_maxrss, time.monotonic() - start, out.decode(errors="replace")
 
 
+def free_udp_port():
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def number(pattern, text, default=float("nan")):
+    m = re.search(pattern, text)
+    return float(m.group(1)) if m else default
+
+
+def fly_online(sim, online, task, record, sensor, seed, extra):
+    """One world over loopback: quadhand-sim (real time, the hidden world,
+    frames on UDP) and quadhand-online --perception. Returns the figures in
+    the shape of quadhand-explore's report, the online mode's peak memory
+    and its output."""
+    vehicle, frames = f"udp://127.0.0.1:{free_udp_port()}", f"udp://127.0.0.1:{free_udp_port()}"
+    vehicle_process = subprocess.Popen([sim, "--udp", vehicle, "--realtime", "--start-task", task, "--duration", "400",
+                                        "--quiet", "--world", task, "--sensor", sensor, "--frames-to", frames,
+                                        "--seed", str(seed), "--log", record],
+                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(0.3)
+    code, peak_kb, wall, out = run([online, task, "--vehicle", vehicle, "--perception", "--frames", frames,
+                                    "--max-duration", "300", "--quiet"] + extra)
+    vehicle_process.terminate()
+    vehicle_process.wait()
+    r = {
+        "outcome": "arrived" if code == 0 else f"exit {code}",
+        "arrived": code == 0,
+        "min_clearance_m": number(r"flown path: min clearance ([0-9.-]+)", out),
+        "flight_s": number(r"after ([0-9.]+) s: phase", out),
+        "replans": int(number(r"local plans: ([0-9]+)", out, 0)),
+        "replans_certified": int(number(r"\(([0-9]+) to the goal", out, 0) + number(r"([0-9]+) to local targets", out, 0)),
+        "replan_latency_ms": {"median": number(r"local plans:.*latency median ([0-9.]+) ms", out),
+                              "p95": number(r"local plans:.*latency median [0-9.]+ ms, p95 ([0-9.]+) ms", out),
+                              "max": float("nan")},
+        "map_update_ms": {"median": number(r"map update median ([0-9.]+) ms", out),
+                          "p95": number(r"map update median [0-9.]+ ms, p95 ([0-9.]+) ms", out)},
+        "conflicts": int(number(r"new obstacles across a plan: ([0-9]+)", out, 0)),
+        "sensor_brakes": int(number(r"brakes for the sensor: ([0-9]+)", out, 0)),
+        "setpoint_gap_ms": number(r"longest gap ([0-9.]+) ms", out),
+        "frames_taken": int(number(r"sensor: ([0-9]+) frames taken", out, 0)),
+    }
+    return r, peak_kb, out
+
+
 def main():
     argv = sys.argv[1:]
     extra = []
@@ -56,10 +112,14 @@ def main():
     parser.add_argument("--sensor", default="depth")
     parser.add_argument("--build", default="build")
     parser.add_argument("--keep", default=None, help="keep worlds, records and reports in this folder")
+    parser.add_argument("--online", action="store_true",
+                        help="fly over the loopback link in real time (quadhand-sim and quadhand-online --perception)")
     args = parser.parse_args(argv)
     explore = os.path.join(ROOT, args.build, "bin", "quadhand-explore")
     check = os.path.join(ROOT, args.build, "bin", "quadhand-flightcheck")
-    for tool in (explore, check):
+    sim = os.path.join(ROOT, args.build, "bin", "quadhand-sim")
+    online = os.path.join(ROOT, args.build, "bin", "quadhand-online")
+    for tool in (explore, check) + ((sim, online) if args.online else ()):
         if not os.access(tool, os.X_OK):
             sys.exit(f"perception_bench: {tool} is missing")
     length = args.length if args.length is not None else (30.0 if args.kind == "forest" else 12.0)
@@ -82,6 +142,21 @@ def main():
                                stdout=subprocess.DEVNULL)
                 stem = os.path.join(work, f"room_s{seed}")
             record, report = stem + f"_{args.sensor}_flown.csv", stem + f"_{args.sensor}_explore.json"
+            if args.online:
+                record = stem + f"_{args.sensor}_online_sim_flown.csv"
+                r, peak_kb, out = fly_online(sim, online, stem + ".yaml", record, args.sensor, seed, extra)
+                with open(stem + f"_{args.sensor}_online.txt", "w") as f:
+                    f.write(out)
+                check_code, _, _, _ = run([check, stem + ".yaml", record])
+                verdict = {0: "kept", 6: "LOST"}.get(check_code, f"exit {check_code}")
+                lat, upd = r["replan_latency_ms"], r["map_update_ms"]
+                print(f"| {length:g} m | {seed} | {r['outcome']} | {verdict} | {r['min_clearance_m']:.4f} (seen) | "
+                      f"{r['flight_s']:.1f} | {r['replans']} ({r['replans_certified']}) | "
+                      f"{lat['median']:.0f} / {lat['p95']:.0f} / - | {upd['median']:.1f} / {upd['p95']:.1f} | "
+                      f"{peak_kb / 1024:.0f} | conflicts {r['conflicts']}, brakes {r['sensor_brakes']}, "
+                      f"longest setpoint gap {r['setpoint_gap_ms']:.0f} ms", flush=True)
+                rows.append((r, check_code))
+                continue
             code, peak_kb, wall, out = run([explore, stem + ".yaml", "--out", record, "--report", report,
                                             "--sensor", args.sensor, "--seed", str(seed), "--quiet"] + extra)
             if not os.path.exists(report):

@@ -770,7 +770,8 @@ int main(int argc, char** argv) {
   }
   std::printf("  replans: %d triggered (%d periodic), %d spliced, %d failed, %d cold fallbacks",
               stats.replans_triggered, stats.periodic_replans, stats.splices, replan_failures, fallbacks);
-  if (!replan_ms.empty()) {
+  // (--perception: local plans, no warm start; their figures are below.)
+  if (!replan_ms.empty() && !perception_mode) {
     std::printf("; latency median %.1f ms, p95 %.1f ms (warm start alone: median %.1f ms)", Quantile(replan_ms, 0.5),
                 Quantile(replan_ms, 0.95), Quantile(warm_ms, 0.5));
   }
