@@ -134,6 +134,10 @@ int main(int argc, char** argv) {
   if (!ground_socket.ok()) return Fail("--listen " + listen_url + ": " + ground_socket.status().message());
   auto vehicle_socket = link::UdpSocket::Bind(link::UdpEndpoint{listen->host, 0});
   if (!vehicle_socket.ok()) return Fail("a socket towards --vehicle: " + vehicle_socket.status().message());
+  // A sensor frame's chunks come in a burst of megabytes (docs/link.md,
+  // "Sensor frames on UDP"), far beyond the default buffer.
+  ground_socket->SetReceiveBuffer(16u << 20);
+  vehicle_socket->SetReceiveBuffer(16u << 20);
   // Each direction draws from its own stream, so changing one direction's
   // faults leaves the other's sequence as it was.
   link::FaultChannel up(config.up, config.seed * 2 + 1), down(config.down, config.seed * 2 + 2);

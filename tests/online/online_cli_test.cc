@@ -430,7 +430,9 @@ TEST_F(OnlineCliTest, ASlowLossyLinkIsFlownWithinItsClearance) {
 // camera's frames of a hidden row of posts from the true state and sends
 // them beside the link; quadhand-online plans only from them, arrives, and
 // the simulator's own record keeps the clearance against the true world.
-TEST_F(OnlineCliTest, FliesUnseenPostsOnTheSensorsFramesOverLoopback) {
+// A hidden row of posts on a floor and a task across it (goal at rest),
+// the task's scene the posts: what quadhand-sim --world renders.
+std::string WritePostsTask(const fs::path& dir) {
   std::vector<Vec3> world;
   for (double x = -2.0; x <= 10.0 + 1e-9; x += 0.05) {
     for (double y = -3.0; y <= 3.0 + 1e-9; y += 0.05) world.emplace_back(x, y, 0.0);
@@ -443,9 +445,9 @@ TEST_F(OnlineCliTest, FliesUnseenPostsOnTheSensorsFramesOverLoopback) {
       }
     }
   }
-  const std::string cloud = (dir_ / "posts.pcd").string();
-  ASSERT_TRUE(scene::WritePcd(cloud, world).ok());
-  const std::string task = (dir_ / "posts.yaml").string();
+  const std::string cloud = (dir / "posts.pcd").string();
+  EXPECT_TRUE(scene::WritePcd(cloud, world).ok());
+  const std::string task = (dir / "posts.yaml").string();
   std::ofstream(task) << "robot: " << kRoot << "/meshes/quadhand/quadhand.urdf\n"
                       << "sdf_dir: " << testing::CoarseSdfDir() << "\n"
                       << "scene: " << cloud << "\n"
@@ -453,6 +455,12 @@ TEST_F(OnlineCliTest, FliesUnseenPostsOnTheSensorsFramesOverLoopback) {
                       << "goal: {position: [8.0, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
                       << "limits: {v_max: 2.0, a_max: 4.0, yaw_rate_max: 1.5, body_rate_xy_max: 3.0}\n"
                       << "safety_distance: 0.03\n";
+  return task;
+}
+
+TEST_F(OnlineCliTest, FliesUnseenPostsOnTheSensorsFramesOverLoopback) {
+  const std::string task = WritePostsTask(dir_);
+  const std::string cloud = (dir_ / "posts.pcd").string();
   const std::string vehicle = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
   const std::string frames = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
   const std::string flown = (dir_ / "sim_flown.csv").string();
@@ -477,6 +485,40 @@ TEST_F(OnlineCliTest, FliesUnseenPostsOnTheSensorsFramesOverLoopback) {
   ASSERT_TRUE(std::regex_search(out, m, std::regex("judged against ([0-9]+) points the sensor saw"))) << out;
   EXPECT_GT(std::stol(m[1]), 1000) << out;
   // The independent judge, against the true world.
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+}
+
+// The same with the frames through quadhand-linkproxy and an outage of
+// 1.5 s of them in flight: the sensor falls silent, the vehicle brakes and
+// holds, and flies on with a fresh plan once frames return.
+TEST_F(OnlineCliTest, ASensorOutageOverTheLinkBrakesAndTheFlightGoesOn) {
+  const std::string task = WritePostsTask(dir_);
+  const std::string cloud = (dir_ / "posts.pcd").string();
+  const std::string vehicle = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
+  const std::string frames = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
+  const std::string proxied = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
+  const std::string flown = (dir_ / "sim_flown.csv").string();
+  Child link = Spawn({kProxy, "--listen", proxied, "--vehicle", frames, "--outage", "4,1.5", "--seed", "1"},
+                     (dir_ / "proxy").string());
+  sim_ = Spawn({kSim, "--udp", vehicle, "--realtime", "--start-task", task, "--duration", "120", "-q", "--config",
+                kRoot + "/data/sim/quadhand_sim.yaml", "--world", cloud, "--sensor", "depth", "--frames-to", proxied,
+                "--log", flown},
+               (dir_ / "sim").string());
+  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--perception", "--frames", frames, "--max-duration", "60"},
+                       (dir_ / "online").string());
+  const int code = Wait(&online, 90.0);
+  const std::string out = ReadAll(online.out);
+  Stop(&sim_);
+  Stop(&link);
+  ASSERT_EQ(code, 0) << out << ReadAll(online.err) << ReadAll(sim_.err);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("sensor silences: ([0-9]+); brakes for the sensor: ([0-9]+)")))
+      << out;
+  EXPECT_GE(std::stoi(m[1]), 1) << out;
+  EXPECT_GE(std::stoi(m[2]), 1) << out;  // in flight when the frames stopped
+  EXPECT_NE(out.find("braking along the plan"), std::string::npos) << out;
+  EXPECT_NE(out.find("sensor frames again"), std::string::npos) << out;
   const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
