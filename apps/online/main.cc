@@ -835,9 +835,8 @@ int main(int argc, char** argv) {
                 local_ms.size(), to_goal, to_target, not_planned, local_ms.empty() ? 0.0 : Quantile(local_ms, 0.5),
                 local_ms.empty() ? 0.0 : Quantile(local_ms, 0.95), p.late_plans);
     std::printf("  new obstacles across a plan: %d (%d across the plan flown); sensor silences: %d; brakes for the "
-                "sensor: %d; judged against %zu points the sensor saw (one per %.0f mm cube)\n",
-                p.conflicts, p.flown_conflicts, p.silences, p.sensor_brakes, seen_points,
-                perception.seen_resolution * 1e3);
+                "sensor: %d; judged against %zu points the sensor saw (the map's last word on each voxel)\n",
+                p.conflicts, p.flown_conflicts, p.silences, p.sensor_brakes, seen_points);
   }
   const online::ClockSync& clock = controller.clock_sync();
   if (clock.synced()) {

@@ -226,7 +226,7 @@ TEST_F(PerceptionOnlineTest, RefusesAToolGoalAndBadOptions) {
   setup.perception.sensor_timeout = 0.0;
   EXPECT_FALSE(OnlineController::Create(setup, {}).ok());
   setup.perception.sensor_timeout = 0.3;
-  setup.perception.seen_resolution = std::nan("");
+  setup.perception.seen_period = std::nan("");
   EXPECT_FALSE(OnlineController::Create(setup, {}).ok());
 }
 

@@ -42,9 +42,6 @@ bool PerceptionSetup::IsValid(std::string* why) const {
   if (min_frames < 1 || min_frames > 1000) return Fail(why, "min_frames must be in [1, 1000]");
   if (!in(replan_period, 0.0, 60.0) || replan_period < 0.01) return Fail(why, "replan_period must be in [0.01, 60] s");
   if (!in(stuck_time, 0.0, 3600.0)) return Fail(why, "stuck_time must be in (0, 3600] s");
-  if (!in(seen_resolution, 0.0, 1.0) || seen_resolution < 1e-3) {
-    return Fail(why, "seen_resolution must be in [0.001, 1] m");
-  }
   if (!in(seen_period, 0.0, 60.0)) return Fail(why, "seen_period must be in (0, 60] s");
   return true;
 }

@@ -14,8 +14,8 @@ namespace quadhand::online {
 namespace {
 
 // The key of the `resolution` cube holding p (21 bits per axis about the
-// origin: +-10 km at 1 cm); none beyond.
-bool CubeKey(const Vec3& p, double resolution, int64_t* key) {
+// origin: +-100 km at 0.1 m); none beyond.
+bool VoxelKey(const Vec3& p, double resolution, int64_t* key) {
   constexpr int64_t kHalf = int64_t{1} << 20;
   int64_t packed = 0;
   for (int axis = 0; axis < 3; ++axis) {
@@ -77,7 +77,9 @@ explore::LocalMapSnapshot PerceptionMap::Snapshot(const explore::LocalPlanner& p
 std::vector<Vec3> PerceptionMap::SeenPoints() {
   std::lock_guard<std::mutex> lock(map_mutex_);
   MergeSeenLocked();
-  return seen_points_;
+  std::vector<Vec3> points;
+  for (const auto& [key, returns] : seen_) points.insert(points.end(), returns.begin(), returns.end());
+  return points;
 }
 
 void PerceptionMap::WaitUntilIdle() {
@@ -91,13 +93,30 @@ PerceptionMap::Figures PerceptionMap::figures() const {
 }
 
 void PerceptionMap::MergeSeenLocked() {
-  const double resolution = setup_.seen_resolution;
+  // A depth camera's far returns are noisy (0.002 m times the depth
+  // squared): a voxel in front of a surface seen from afar can read
+  // occupied until the vehicle comes nearer and its rays pass through it.
+  // So each voxel keeps what the map last said of it, not every return
+  // it ever held.
+  const double resolution = map_->options().resolution;
+  std::unordered_map<int64_t, std::vector<Vec3>> occupied;
   for (const Vec3& p : map_->OccupiedPoints()) {
     int64_t key = 0;
-    if (CubeKey(p, resolution, &key) && seen_keys_.insert(key).second) seen_points_.push_back(p);
+    if (VoxelKey(p, resolution, &key)) occupied[key].push_back(p);
   }
+  for (auto it = seen_.begin(); it != seen_.end();) {
+    const Vec3 inside = it->second.front();  // a return in the voxel stands for it
+    if (map_->State(inside) == perception::VoxelState::kFree) {
+      it = seen_.erase(it);
+      continue;
+    }
+    ++it;
+  }
+  for (auto& [key, returns] : occupied) seen_[key] = std::move(returns);
+  size_t count = 0;
+  for (const auto& entry : seen_) count += entry.second.size();
   std::lock_guard<std::mutex> lock(queue_mutex_);
-  figures_.seen_points = seen_points_.size();
+  figures_.seen_points = count;
 }
 
 void PerceptionMap::Run() {

@@ -12,7 +12,7 @@
 #include <memory>
 #include <mutex>
 #include <thread>
-#include <unordered_set>
+#include <unordered_map>
 #include <vector>
 
 #include "quadhand/explore/local_planner.h"
@@ -40,7 +40,9 @@ class PerceptionMap {
   // The voxels the frames put in since the last call turned from free to occupied.
   std::vector<Vec3> TakeBlocked();
   explore::LocalMapSnapshot Snapshot(const explore::LocalPlanner& planner, const Vec3& about) const;
-  // Everything seen occupied (PerceptionSetup::seen_resolution), merged now.
+  // The map's last word on every voxel it has seen (merged now): the raw
+  // returns of each voxel last seen occupied, none of a voxel since seen
+  // free; a voxel that left the window as it was last seen.
   std::vector<Vec3> SeenPoints();
   // Waits until every frame pushed is in the map (tests, the flight's end).
   void WaitUntilIdle();
@@ -72,8 +74,7 @@ class PerceptionMap {
   Figures figures_;
   mutable std::mutex map_mutex_;  // the map and the seen points
   std::unique_ptr<perception::RollingMap> map_;
-  std::vector<Vec3> seen_points_;
-  std::unordered_set<int64_t> seen_keys_;
+  std::unordered_map<int64_t, std::vector<Vec3>> seen_;  // by voxel (VoxelKey)
   double last_merge_ = -1e300;  // the stamp of the frame merged at
   std::thread thread_;  // last: starts once everything above exists
 };

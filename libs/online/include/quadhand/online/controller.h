@@ -461,9 +461,8 @@ struct PerceptionSetup {
   int min_frames = 3;
   double replan_period = 0.5;      // s
   double stuck_time = 15.0;        // s
-  // SeenPoints(): the map's occupied returns merged every seen_period s,
-  // one per seen_resolution m cube.
-  double seen_resolution = 0.01;
+  // SeenPoints(): the map's last word on each voxel, merged every
+  // seen_period s of frames.
   double seen_period = 1.0;
   bool IsValid(std::string* why) const;
 };
@@ -662,10 +661,10 @@ class OnlineController {
   // sensor's frame. Ignored without perception.
   void OnSensorFrame(double t, perception::SensorFrame frame);
   bool perceiving() const { return setup_.perception.planner != nullptr; }
-  // Everything the sensor saw occupied over the flight, one point per
-  // PerceptionSetup::seen_resolution cube (the map's occupied returns,
-  // merged every seen_period s of frames and now): what a perception
-  // flight is judged against. Waits for the frames given to be mapped, and
+  // What the sensor saw occupied over the flight: the raw returns of every
+  // voxel the map last saw occupied (merged every seen_period s of frames
+  // and now; a voxel later seen free has none, one that left the window
+  // keeps its last): what a perception flight is judged against. Waits for the frames given to be mapped, and
   // brings stats().perception's map figures up to date.
   std::vector<Vec3> SeenPoints();
   // Waits until the frames given are in the map (tests).
