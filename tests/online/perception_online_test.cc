@@ -218,6 +218,44 @@ TEST_F(PerceptionOnlineTest, AnObstacleAppearingAcrossThePlanBrakesItAndAFreshPl
   EXPECT_GE(Judge(flight, *controller, with_patch).min_clearance, 0.028) << flight.Events();
 }
 
+// The flight is judged against the map's last word on each voxel: returns
+// that made a voxel occupied once (a far, noisy view) and whose voxel the
+// sensor later saw through are not among the points judged against.
+TEST_F(PerceptionOnlineTest, WhatWasSeenIsTheMapsLastWordOnEachVoxel) {
+  auto controller = Controller();
+  ASSERT_NE(controller, nullptr);
+  std::vector<Vec3> wall;  // 3 m ahead along the sensor's z
+  for (double x = -1.0; x <= 1.0 + 1e-9; x += 0.02) {
+    for (double y = -1.0; y <= 1.0 + 1e-9; y += 0.02) wall.emplace_back(x, y, 3.0);
+  }
+  const Vec3 blob(0.02, 0.03, 1.53);  // in front of it
+  double t = 0.0;
+  auto frame = [&](bool with_blob) {
+    t += 0.04;
+    perception::SensorFrame f;
+    f.t = t;
+    perception::SetSensorPose(Pose::Identity(), &f);
+    f.points = wall;
+    if (with_blob) f.points.insert(f.points.end(), 20, blob);
+    controller->OnSensorFrame(t, std::move(f));
+    controller->WaitForMap();
+  };
+  auto near_blob = [&](const std::vector<Vec3>& points) {
+    size_t n = 0;
+    for (const Vec3& p : points) n += (p - blob).norm() < 0.05;
+    return n;
+  };
+  for (int k = 0; k < 5; ++k) frame(true);
+  const std::vector<Vec3> before = controller->SeenPoints();
+  EXPECT_GT(near_blob(before), 0u);  // seen occupied
+  for (int k = 0; k < 30; ++k) frame(false);
+  const std::vector<Vec3> after = controller->SeenPoints();
+  EXPECT_EQ(near_blob(after), 0u);  // since seen through: free
+  size_t on_wall = 0;
+  for (const Vec3& p : after) on_wall += std::abs(p.z() - 3.0) < 1e-9;
+  EXPECT_GT(on_wall, 1000u);
+}
+
 TEST_F(PerceptionOnlineTest, RefusesAToolGoalAndBadOptions) {
   PlanningSetup setup{base_->Scene(), &WindowCup().task, options_, planner::DefaultReplanOptions(), &Solver()};
   setup.perception.planner = local_.get();
