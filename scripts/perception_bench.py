@@ -99,6 +99,20 @@ def fly_online(sim, online, task, record, sensor, seed, extra):
     return r, peak_kb, out
 
 
+def judged_row(check, stem, record, length, seed, r, peak_kb, clearance_note, more):
+    """Judges `record` with quadhand-flightcheck against the true world,
+    prints the world's row and returns flightcheck's exit code."""
+    check_code, _, _, _ = run([check, stem + ".yaml", record])
+    verdict = {0: "kept", 6: "LOST"}.get(check_code, f"exit {check_code}")
+    lat, upd = r["replan_latency_ms"], r["map_update_ms"]
+    worst = "-" if lat["max"] != lat["max"] else f"{lat['max']:.0f}"  # NaN: not reported
+    print(f"| {length:g} m | {seed} | {r['outcome']} | {verdict} | {r['min_clearance_m']:.4f}{clearance_note} | "
+          f"{r['flight_s']:.1f} | {r['replans']} ({r['replans_certified']}) | "
+          f"{lat['median']:.0f} / {lat['p95']:.0f} / {worst} | {upd['median']:.1f} / {upd['p95']:.1f} | "
+          f"{peak_kb / 1024:.0f} |{more}", flush=True)
+    return check_code
+
+
 def main():
     argv = sys.argv[1:]
     extra = []
@@ -147,14 +161,9 @@ def main():
                 r, peak_kb, out = fly_online(sim, online, stem + ".yaml", record, args.sensor, seed, extra)
                 with open(stem + f"_{args.sensor}_online.txt", "w") as f:
                     f.write(out)
-                check_code, _, _, _ = run([check, stem + ".yaml", record])
-                verdict = {0: "kept", 6: "LOST"}.get(check_code, f"exit {check_code}")
-                lat, upd = r["replan_latency_ms"], r["map_update_ms"]
-                print(f"| {length:g} m | {seed} | {r['outcome']} | {verdict} | {r['min_clearance_m']:.4f} (seen) | "
-                      f"{r['flight_s']:.1f} | {r['replans']} ({r['replans_certified']}) | "
-                      f"{lat['median']:.0f} / {lat['p95']:.0f} / - | {upd['median']:.1f} / {upd['p95']:.1f} | "
-                      f"{peak_kb / 1024:.0f} | conflicts {r['conflicts']}, brakes {r['sensor_brakes']}, "
-                      f"longest setpoint gap {r['setpoint_gap_ms']:.0f} ms", flush=True)
+                check_code = judged_row(check, stem, record, length, seed, r, peak_kb, " (seen)",
+                                        f" conflicts {r['conflicts']}, brakes {r['sensor_brakes']}, "
+                                        f"longest setpoint gap {r['setpoint_gap_ms']:.0f} ms")
                 rows.append((r, check_code))
                 continue
             code, peak_kb, wall, out = run([explore, stem + ".yaml", "--out", record, "--report", report,
@@ -165,13 +174,7 @@ def main():
                 rows.append(None)
                 continue
             r = json.load(open(report))
-            check_code, _, _, check_out = run([check, stem + ".yaml", record])
-            verdict = {0: "kept", 6: "LOST"}.get(check_code, f"exit {check_code}")
-            lat, upd = r["replan_latency_ms"], r["map_update_ms"]
-            print(f"| {length:g} m | {seed} | {r['outcome']} | {verdict} | {r['min_clearance_m']:.4f} | "
-                  f"{r['flight_s']:.1f} | {r['replans']} ({r['replans_certified']}) | "
-                  f"{lat['median']:.0f} / {lat['p95']:.0f} / {lat['max']:.0f} | {upd['median']:.1f} / {upd['p95']:.1f} | "
-                  f"{peak_kb / 1024:.0f} |", flush=True)
+            check_code = judged_row(check, stem, record, length, seed, r, peak_kb, "", "")
             rows.append((r, check_code))
     done = [x for x in rows if x is not None]
     arrived = sum(1 for r, c in done if r["arrived"] and c == 0)

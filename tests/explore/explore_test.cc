@@ -24,6 +24,7 @@
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/scene/point_cloud.h"
 #include "quadhand/solvers/builtin_solvers.h"
+#include "support/posts_world.h"
 #include "support/run_command.h"
 #include "support/window_cup_task.h"
 
@@ -195,20 +196,8 @@ TEST_F(ExploreTest, NothingSeenGivesNoPlan) {
   EXPECT_FALSE(p.local->PlanFrom(*map, bad).ok());
 }
 
-// Posts of 0.15 m radius between the start and a goal 8 m away, the first
-// square in the way: the vehicle sees them only as it flies.
-std::vector<Vec3> Posts() {
-  std::vector<Vec3> points;
-  for (const Vec3& c : {Vec3(3.0, 0.0, 0.0), Vec3(5.0, 1.0, 0.0), Vec3(5.5, -1.2, 0.0)}) {
-    for (double z = 0.0; z <= 3.0 + 1e-9; z += 0.04) {
-      for (int a = 0; a < 24; ++a) {
-        const double angle = a * 2.0 * M_PI / 24.0;
-        points.emplace_back(c.x() + 0.15 * std::cos(angle), c.y() + 0.15 * std::sin(angle), z);
-      }
-    }
-  }
-  return points;
-}
+// The posts, no floor (support/posts_world.h).
+std::vector<Vec3> Posts() { return testing::PostsWorld(/*with_floor=*/false); }
 
 TEST_F(ExploreTest, FliesPastPostsItHasNeverSeenAndKeepsTheClearance) {
   const std::string task = WriteTask(Posts(), Vec3(8.0, 0.0, 1.2));

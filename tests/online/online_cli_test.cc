@@ -25,6 +25,7 @@
 #include "quadhand/robot/robot_model.h"
 #include "quadhand/scene/point_cloud.h"
 #include "quadhand/sim/plan_io.h"
+#include "support/posts_world.h"
 #include "support/run_command.h"
 #include "support/window_cup_scene.h"
 #include "support/window_cup_task.h"
@@ -426,25 +427,10 @@ TEST_F(OnlineCliTest, ASlowLossyLinkIsFlownWithinItsClearance) {
   EXPECT_GE(least, 0.0) << "the simulated vehicle went into the scene\n" << out;
 }
 
-// quadhand-online --perception over loopback: quadhand-sim renders a depth
-// camera's frames of a hidden row of posts from the true state and sends
-// them beside the link; quadhand-online plans only from them, arrives, and
-// the simulator's own record keeps the clearance against the true world.
 // A hidden row of posts on a floor and a task across it (goal at rest),
 // the task's scene the posts: what quadhand-sim --world renders.
 std::string WritePostsTask(const fs::path& dir) {
-  std::vector<Vec3> world;
-  for (double x = -2.0; x <= 10.0 + 1e-9; x += 0.05) {
-    for (double y = -3.0; y <= 3.0 + 1e-9; y += 0.05) world.emplace_back(x, y, 0.0);
-  }
-  for (const Vec3& c : {Vec3(3.0, 0.0, 0.0), Vec3(5.0, 1.0, 0.0), Vec3(5.5, -1.2, 0.0)}) {
-    for (double z = 0.0; z <= 3.0 + 1e-9; z += 0.04) {
-      for (int a = 0; a < 24; ++a) {
-        const double angle = a * 2.0 * M_PI / 24.0;
-        world.emplace_back(c.x() + 0.15 * std::cos(angle), c.y() + 0.15 * std::sin(angle), z);
-      }
-    }
-  }
+  const std::vector<Vec3> world = testing::PostsWorld(/*with_floor=*/true);
   const std::string cloud = (dir / "posts.pcd").string();
   EXPECT_TRUE(scene::WritePcd(cloud, world).ok());
   const std::string task = (dir / "posts.yaml").string();
@@ -458,22 +444,35 @@ std::string WritePostsTask(const fs::path& dir) {
   return task;
 }
 
+// quadhand-sim as the vehicle and its depth camera on the posts (frames sent
+// to `frames_to`), quadhand-online --perception receiving the frames on
+// `frames`: its exit code and output, the simulator's record in `flown`.
+std::pair<int, std::string> FlyPostsOnTheSensor(const fs::path& dir, const std::string& task,
+                                                const std::string& frames_to, const std::string& frames,
+                                                const std::string& flown, Child* sim) {
+  const std::string vehicle = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
+  *sim = Spawn({kSim, "--udp", vehicle, "--realtime", "--start-task", task, "--duration", "120", "-q", "--config",
+                kRoot + "/data/sim/quadhand_sim.yaml", "--world", (dir / "posts.pcd").string(), "--sensor", "depth",
+                "--frames-to", frames_to, "--log", flown},
+               (dir / "sim").string());
+  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--perception", "--frames", frames, "--max-duration", "60"},
+                       (dir / "online").string());
+  const int code = Wait(&online, 90.0);
+  const std::string out = ReadAll(online.out) + ReadAll(online.err);
+  Stop(sim);
+  return {code, out};
+}
+
+// quadhand-online --perception over loopback: quadhand-sim renders a depth
+// camera's frames of a hidden row of posts from the true state and sends
+// them beside the link; quadhand-online plans only from them, arrives, and
+// the simulator's own record keeps the clearance against the true world.
 TEST_F(OnlineCliTest, FliesUnseenPostsOnTheSensorsFramesOverLoopback) {
   const std::string task = WritePostsTask(dir_);
-  const std::string cloud = (dir_ / "posts.pcd").string();
-  const std::string vehicle = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
   const std::string frames = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
   const std::string flown = (dir_ / "sim_flown.csv").string();
-  sim_ = Spawn({kSim, "--udp", vehicle, "--realtime", "--start-task", task, "--duration", "120", "-q", "--config",
-                kRoot + "/data/sim/quadhand_sim.yaml", "--world", cloud, "--sensor", "depth", "--frames-to", frames,
-                "--log", flown},
-               (dir_ / "sim").string());
-  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--perception", "--frames", frames, "--max-duration", "60"},
-                       (dir_ / "online").string());
-  const int code = Wait(&online, 90.0);
-  const std::string out = ReadAll(online.out);
-  Stop(&sim_);
-  ASSERT_EQ(code, 0) << out << ReadAll(online.err) << ReadAll(sim_.err);
+  const auto [code, out] = FlyPostsOnTheSensor(dir_, task, frames, frames, flown, &sim_);
+  ASSERT_EQ(code, 0) << out << ReadAll(sim_.err);
   EXPECT_NE(out.find("arrived after"), std::string::npos) << out;
   std::smatch m;
   ASSERT_TRUE(std::regex_search(out, m, std::regex("sensor: ([0-9]+) frames taken"))) << out;
@@ -494,24 +493,14 @@ TEST_F(OnlineCliTest, FliesUnseenPostsOnTheSensorsFramesOverLoopback) {
 // holds, and flies on with a fresh plan once frames return.
 TEST_F(OnlineCliTest, ASensorOutageOverTheLinkBrakesAndTheFlightGoesOn) {
   const std::string task = WritePostsTask(dir_);
-  const std::string cloud = (dir_ / "posts.pcd").string();
-  const std::string vehicle = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
   const std::string frames = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
   const std::string proxied = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
   const std::string flown = (dir_ / "sim_flown.csv").string();
   Child link = Spawn({kProxy, "--listen", proxied, "--vehicle", frames, "--outage", "4,1.5", "--seed", "1"},
                      (dir_ / "proxy").string());
-  sim_ = Spawn({kSim, "--udp", vehicle, "--realtime", "--start-task", task, "--duration", "120", "-q", "--config",
-                kRoot + "/data/sim/quadhand_sim.yaml", "--world", cloud, "--sensor", "depth", "--frames-to", proxied,
-                "--log", flown},
-               (dir_ / "sim").string());
-  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--perception", "--frames", frames, "--max-duration", "60"},
-                       (dir_ / "online").string());
-  const int code = Wait(&online, 90.0);
-  const std::string out = ReadAll(online.out);
-  Stop(&sim_);
+  const auto [code, out] = FlyPostsOnTheSensor(dir_, task, proxied, frames, flown, &sim_);
   Stop(&link);
-  ASSERT_EQ(code, 0) << out << ReadAll(online.err) << ReadAll(sim_.err);
+  ASSERT_EQ(code, 0) << out << ReadAll(sim_.err);
   std::smatch m;
   ASSERT_TRUE(std::regex_search(out, m, std::regex("sensor silences: ([0-9]+); brakes for the sensor: ([0-9]+)")))
       << out;

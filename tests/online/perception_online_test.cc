@@ -15,28 +15,14 @@
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/robot/kinematics.h"
 #include "quadhand/sim/sensor.h"
+#include "support/posts_world.h"
 #include "support/window_cup_task.h"
 
 namespace quadhand::online::testing {
 namespace {
 
-// Posts of 0.15 m radius between the start and a goal 8 m away, the first
-// square in the way, on a floor: the vehicle sees them only as it flies.
-std::vector<Vec3> Posts() {
-  std::vector<Vec3> points;
-  for (double x = -2.0; x <= 10.0 + 1e-9; x += 0.05) {
-    for (double y = -3.0; y <= 3.0 + 1e-9; y += 0.05) points.emplace_back(x, y, 0.0);
-  }
-  for (const Vec3& c : {Vec3(3.0, 0.0, 0.0), Vec3(5.0, 1.0, 0.0), Vec3(5.5, -1.2, 0.0)}) {
-    for (double z = 0.0; z <= 3.0 + 1e-9; z += 0.04) {
-      for (int a = 0; a < 24; ++a) {
-        const double angle = a * 2.0 * M_PI / 24.0;
-        points.emplace_back(c.x() + 0.15 * std::cos(angle), c.y() + 0.15 * std::sin(angle), z);
-      }
-    }
-  }
-  return points;
-}
+// The posts on a floor (support/posts_world.h).
+std::vector<Vec3> Posts() { return quadhand::testing::PostsWorld(/*with_floor=*/true); }
 
 // A task from (0, 0, 1.2) to (8, 0, 1.2) at rest, the arm stowed; its scene
 // is only the judge's.
@@ -163,7 +149,7 @@ TEST_F(PerceptionOnlineTest, FliesPastPostsItHasNeverSeenOnItsFramesAlone) {
   ASSERT_GT(seen.size(), 1000u);
   for (size_t i = 0; i < seen.size(); i += 97) {
     double nearest = std::abs(seen[i].z());  // the floor
-    for (const Vec3& c : {Vec3(3.0, 0.0, 0.0), Vec3(5.0, 1.0, 0.0), Vec3(5.5, -1.2, 0.0)}) {
+    for (const Vec3& c : quadhand::testing::PostCentres()) {
       nearest = std::min(nearest, std::abs((seen[i] - c).head<2>().norm() - 0.15));
     }
     EXPECT_LT(nearest, 0.3) << seen[i].transpose();

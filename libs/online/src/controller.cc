@@ -1078,19 +1078,23 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   s.joint_rates = then.joint_rates;
   job.pre_grasp = PlansToPreGrasp();
   worker_->Submit(std::move(job));
-  replan_pending_ = true;
-  pending_resume_ = false;
-  pending_splice_time_ = t_splice;
-  pending_exact_ = false;
-  pending_keep_from_ = tail_pending;
+  MarkReplanPending(t_splice, /*exact=*/false, /*keep_from=*/tail_pending);
   last_trigger_ = t;
-  ++stats_.replans_triggered;
   if (periodic) {
     ++stats_.periodic_replans;
     Event(Format("periodic replan (tracking error %.3f m)", error));
   } else {
     Event(Format("tracking error %.3f m > %.3f m: replanning from the measured state", error, options_.replan_threshold));
   }
+}
+
+void OnlineController::MarkReplanPending(double splice_time, bool exact, bool keep_from) {
+  replan_pending_ = true;
+  pending_resume_ = false;
+  pending_splice_time_ = splice_time;
+  pending_exact_ = exact;
+  pending_keep_from_ = keep_from;
+  ++stats_.replans_triggered;
 }
 
 void OnlineController::RequestLocalReplan(double t, bool exact, double error) {
@@ -1124,13 +1128,8 @@ void OnlineController::RequestLocalReplan(double t, bool exact, double error) {
   blocked_since_asked_.clear();
   last_local_request_ = t;
   worker_->Submit(std::move(job));
-  replan_pending_ = true;
-  pending_resume_ = false;
-  pending_splice_time_ = t_splice;
-  pending_exact_ = exact;
-  pending_keep_from_ = false;
+  MarkReplanPending(t_splice, exact, /*keep_from=*/false);
   last_trigger_ = t;
-  ++stats_.replans_triggered;
   if (exact) {
     ++stats_.periodic_replans;
   } else {
@@ -1176,13 +1175,8 @@ void OnlineController::ReplanTail(double t, double shift) {
   job.v_max = planned_speed_limit_;
   job.pre_grasp = PlansToPreGrasp();
   worker_->Submit(std::move(job));
-  replan_pending_ = true;
-  pending_resume_ = false;
-  pending_splice_time_ = from;
-  pending_exact_ = true;
-  pending_keep_from_ = tail_pending;
+  MarkReplanPending(from, /*exact=*/true, /*keep_from=*/tail_pending);
   last_target_trigger_ = t;
-  ++stats_.replans_triggered;
   ++stats_.target_replans;
   Event(Format("the target's prediction moved the grasp %.4f m: replanning the plan from t = %.2f s", shift, from));
 }

@@ -48,6 +48,15 @@ bool PerceptionSetup::IsValid(std::string* why) const {
 
 double OnlineController::PerceptionReplanPeriod() const { return setup_.perception.replan_period; }
 
+double OnlineController::BrakeForSensor(double t) {
+  const std::optional<Setpoint> reference = Reference(t);
+  const double speed = reference ? reference->velocity.norm() : 0.0;
+  BrakeAlongPlan(t, speed);
+  perception_hold_ = true;
+  ++stats_.perception.sensor_brakes;
+  return speed;
+}
+
 bool OnlineController::SensorSilent(double t) const {
   // Counted from the vehicle's first hold until the first frame is taken.
   const double last = std::max(gate_->last_taken(), hold_start_);
@@ -101,13 +110,9 @@ void OnlineController::CheckNewObstacles(double t, const std::vector<Vec3>& bloc
           planner.FirstConflict(*from_.plan->trajectory, std::max(0.0, t - from_.start), blocked, distance);
       if (!before || *before >= blend_start_ - from_.start) return;  // not where from_ is flown
       // Within the splice's wait (shorter than a replan's lead): brake.
-      const std::optional<Setpoint> reference = Reference(t);
-      const double speed = reference ? reference->velocity.norm() : 0.0;
-      BrakeAlongPlan(t, speed);
-      perception_hold_ = true;
+      const double speed = BrakeForSensor(t);
       ++stats.conflicts;
       ++stats.flown_conflicts;
-      ++stats.sensor_brakes;
       Event(Format("%zu voxels a frame found occupied cross the plan flown ", blocked.size()) +
             Format("%.2f s ahead: braking along it from %.2f m/s, then a fresh plan", from_.start + *before - t, speed));
       return;
@@ -140,11 +145,7 @@ void OnlineController::CheckNewObstacles(double t, const std::vector<Vec3>& bloc
       return;
     }
   }
-  const std::optional<Setpoint> reference = Reference(t);
-  const double speed = reference ? reference->velocity.norm() : 0.0;
-  BrakeAlongPlan(t, speed);
-  perception_hold_ = true;
-  ++stats.sensor_brakes;
+  const double speed = BrakeForSensor(t);
   Event(Format("%zu voxels a frame found occupied cross the plan flown ", blocked.size()) +
         Format("%.2f s ahead: braking along it from %.2f m/s, then a fresh plan",
                crossed->start + *conflict - t, speed));
@@ -168,11 +169,7 @@ void OnlineController::CheckSensor(double t) {
       conflict_deadline_ = -1.0;
     } else if (t >= conflict_deadline_) {
       conflict_deadline_ = -1.0;
-      const std::optional<Setpoint> reference = Reference(t);
-      const double speed = reference ? reference->velocity.norm() : 0.0;
-      BrakeAlongPlan(t, speed);
-      perception_hold_ = true;
-      ++stats.sensor_brakes;
+      const double speed = BrakeForSensor(t);
       Event(Format("no plan around the new obstacles in time: braking along the plan from %.2f m/s, then a fresh "
                    "plan",
                    speed));
@@ -184,11 +181,7 @@ void OnlineController::CheckSensor(double t) {
     sensor_silent_ = true;
     ++stats.silences;
     if (phase_ == Phase::kFlying && !link_hold_ && !retreating_) {
-      const std::optional<Setpoint> reference = Reference(t);
-      const double speed = reference ? reference->velocity.norm() : 0.0;
-      BrakeAlongPlan(t, speed);
-      perception_hold_ = true;
-      ++stats.sensor_brakes;
+      const double speed = BrakeForSensor(t);
       Event(Format("no sensor frame taken for %.2f s: braking along the plan from %.2f m/s and holding until frames "
                    "come again",
                    perception.sensor_timeout, speed));

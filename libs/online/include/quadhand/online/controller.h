@@ -756,8 +756,14 @@ class OnlineController {
   void CheckNewObstacles(double t, const std::vector<Vec3>& blocked);
   bool CrossesSeenSinceAsked(const planner::PlanResult& plan) const;
   double PerceptionReplanPeriod() const;
+  // Brakes along the plan for the sensor (a silence, new obstacles), counted;
+  // returns the speed it brakes from.
+  double BrakeForSensor(double t);
   // After a brake for the sensor: a local plan from the measured state at rest.
   void RequestFreshLocalPlan(double t);
+  // A replan handed to the worker, to be spliced at `splice_time` (`exact`:
+  // without a blend; `keep_from`: the plan flown now stays from_): counted.
+  void MarkReplanPending(double splice_time, bool exact, bool keep_from);
   // A local replan from the plan flown, its state replan_lead ahead
   // (`exact`: spliced there), or from the measured state predicted there.
   void RequestLocalReplan(double t, bool exact, double error);
