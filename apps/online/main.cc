@@ -64,12 +64,15 @@ constexpr int kExitAborted = 7;
 std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }
 
-// --perception: the task's robot, goal and limits, its scene not read. A
+// --perception: the task's robot, goal and limits, its scene not read (nor
+// needed: the key may be left out). A
 // context needs points: one far above the start stands for them, and only
 // the robot's models and the goal are used (explore::LocalPlanner).
 core::Result<std::unique_ptr<planner::PlanningContext>> LoadContextWithoutScene(const std::string& task_path,
                                                                                 const planner::PlannerConfig& config) {
-  auto task = planner::LoadTask(task_path);
+  planner::TaskSources sources;
+  sources.scene_given = true;  // a scene key may be left out: the sensor gives it
+  auto task = planner::LoadTask(task_path, sources);
   if (!task.ok()) return task.status();
   auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
   if (!robot.ok()) return robot.status();

@@ -428,25 +428,29 @@ TEST_F(OnlineCliTest, ASlowLossyLinkIsFlownWithinItsClearance) {
 }
 
 // A hidden row of posts on a floor and a task across it (goal at rest),
-// the task's scene the posts: what quadhand-sim --world renders.
+// the task's scene the posts: what quadhand-sim --world renders; and the
+// same task without a scene in posts_unseen.yaml.
 std::string WritePostsTask(const fs::path& dir) {
   const std::vector<Vec3> world = testing::PostsWorld(/*with_floor=*/true);
   const std::string cloud = (dir / "posts.pcd").string();
   EXPECT_TRUE(scene::WritePcd(cloud, world).ok());
   const std::string task = (dir / "posts.yaml").string();
-  std::ofstream(task) << "robot: " << kRoot << "/meshes/quadhand/quadhand.urdf\n"
-                      << "sdf_dir: " << testing::CoarseSdfDir() << "\n"
-                      << "scene: " << cloud << "\n"
-                      << "start: {position: [0.0, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
-                      << "goal: {position: [8.0, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
-                      << "limits: {v_max: 2.0, a_max: 4.0, yaw_rate_max: 1.5, body_rate_xy_max: 3.0}\n"
-                      << "safety_distance: 0.03\n";
+  const std::string common = "robot: " + kRoot + "/meshes/quadhand/quadhand.urdf\n" +
+                             "sdf_dir: " + testing::CoarseSdfDir() + "\n" +
+                             "start: {position: [0.0, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
+                             "goal: {position: [8.0, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
+                             "limits: {v_max: 2.0, a_max: 4.0, yaw_rate_max: 1.5, body_rate_xy_max: 3.0}\n"
+                             "safety_distance: 0.03\n";
+  std::ofstream(task) << common << "scene: " << cloud << "\n";
+  // The same without a scene: what quadhand-online --perception is given.
+  std::ofstream((dir / "posts_unseen.yaml").string()) << common;
   return task;
 }
 
 // quadhand-sim as the vehicle and its depth camera on the posts (frames sent
-// to `frames_to`), quadhand-online --perception receiving the frames on
-// `frames`: its exit code and output, the simulator's record in `flown`.
+// to `frames_to`), quadhand-online --perception given the task without a
+// scene and receiving the frames on `frames`: its exit code and output,
+// the simulator's record in `flown`.
 std::pair<int, std::string> FlyPostsOnTheSensor(const fs::path& dir, const std::string& task,
                                                 const std::string& frames_to, const std::string& frames,
                                                 const std::string& flown, Child* sim) {
@@ -455,7 +459,8 @@ std::pair<int, std::string> FlyPostsOnTheSensor(const fs::path& dir, const std::
                 kRoot + "/data/sim/quadhand_sim.yaml", "--world", (dir / "posts.pcd").string(), "--sensor", "depth",
                 "--frames-to", frames_to, "--log", flown},
                (dir / "sim").string());
-  Child online = Spawn({kOnline, task, "--vehicle", vehicle, "--perception", "--frames", frames, "--max-duration", "60"},
+  Child online = Spawn({kOnline, (dir / "posts_unseen.yaml").string(), "--vehicle", vehicle, "--perception", "--frames",
+                        frames, "--max-duration", "60"},
                        (dir / "online").string());
   const int code = Wait(&online, 90.0);
   const std::string out = ReadAll(online.out) + ReadAll(online.err);

@@ -639,10 +639,12 @@ core::Result<Task> ParseTask(const std::string& name, const std::string& base_di
 
 }  // namespace
 
-core::Result<Task> LoadTask(const std::string& path) {
+core::Result<Task> LoadTask(const std::string& path) { return LoadTask(path, TaskSources{}); }
+
+core::Result<Task> LoadTask(const std::string& path, const TaskSources& sources) {
   auto text = core::ReadFileToString(path);
   if (!text.ok()) return text.status();
-  return ParseTaskText(*text, path, core::DirectoryOf(path), TaskSources{});
+  return ParseTaskText(*text, path, core::DirectoryOf(path), sources);
 }
 
 core::Result<Task> ParseTaskText(const std::string& text, const std::string& name, const std::string& base_dir,

@@ -89,6 +89,10 @@ struct TaskSources {
   bool scene_given = false;
 };
 
+// The same with keys the caller gives itself (quadhand-online --perception:
+// no scene).
+core::Result<Task> LoadTask(const std::string& path, const TaskSources& sources);
+
 // The same from YAML (or JSON) text: errors name `name`, and relative paths
 // in the task resolve against `base_dir`.
 core::Result<Task> ParseTaskText(const std::string& text, const std::string& name, const std::string& base_dir,
