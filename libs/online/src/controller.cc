@@ -357,7 +357,7 @@ class OnlineController::Worker {
     const auto begin = std::chrono::steady_clock::now();
     const explore::LocalPlanner& planner = *setup_.perception.planner;
     const explore::LocalMapSnapshot snapshot = job.map->Snapshot(planner, job.start.position);
-    core::Result<explore::LocalPlanResult> result = planner.PlanIn(snapshot, job.start, job.v_max > 0.0 ? job.v_max : 0.0);
+    core::Result<explore::LocalPlanResult> result = planner.PlanIn(snapshot, job.start, job.v_max);
     done.record.latency_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - begin).count();
     done.record.snapshot_ms = snapshot.ms;
     if (!result.ok()) {
@@ -1053,29 +1053,13 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   Worker::Job job;
   if (tracker_ != nullptr && !PredictTarget(t_splice, &job.target_motion, &job.target_placement)) return;
 
-  // The measured state predicted to the splice time, the tracking error held
-  // constant: the error is against the reference the vehicle was following
-  // when it measured the state (streamed an uplink latency before), and the
-  // new plan's setpoints reach it as late as the current plan's did.
-  const double followed = position_time_ - UplinkLatency();
-  const planner::WholeBodySample now = trajectory.Sample(std::max(0.0, followed - flown.start));
-  const planner::WholeBodySample then = trajectory.Sample(plan_time);
-  const planner::BoundaryState measured = MeasuredBoundaryState();
   job.replan = true;
   job.base = flown.plan;
   job.t_from = plan_time;
   job.requested_at = t;
   job.periodic = periodic;
   job.v_max = planned_speed_limit_;
-  planner::BoundaryState& s = job.start;
-  s.position = measured.position + (then.position - now.position);
-  s.velocity = measured.velocity + (then.velocity - now.velocity);
-  s.acceleration = then.acceleration;
-  s.jerk = then.jerk;
-  s.yaw = measured.yaw + (then.yaw - now.yaw);
-  s.yaw_rate = then.yaw_rate;
-  s.joints = measured.joints + (then.joints - now.joints);
-  s.joint_rates = then.joint_rates;
+  job.start = PredictedMeasuredState(flown, plan_time);
   job.pre_grasp = PlansToPreGrasp();
   worker_->Submit(std::move(job));
   MarkReplanPending(t_splice, /*exact=*/false, /*keep_from=*/tail_pending);
@@ -1086,6 +1070,32 @@ void OnlineController::MaybeReplan(double t, bool periodic, double error) {
   } else {
     Event(Format("tracking error %.3f m > %.3f m: replanning from the measured state", error, options_.replan_threshold));
   }
+}
+
+planner::BoundaryState OnlineController::PredictedMeasuredState(const ActivePlan& flown, double plan_time) const {
+  // The tracking error is held constant: it is against the reference the
+  // vehicle was following when it measured the state (streamed an uplink
+  // latency before), and the new plan's setpoints reach it as late as the
+  // current plan's did.
+  const planner::WholeBodyTrajectory& trajectory = *flown.plan->trajectory;
+  const double followed = position_time_ - UplinkLatency();
+  const planner::WholeBodySample now = trajectory.Sample(std::clamp(followed - flown.start, 0.0, trajectory.duration()));
+  const planner::WholeBodySample then = trajectory.Sample(std::min(plan_time, trajectory.duration()));
+  const planner::BoundaryState measured = MeasuredBoundaryState();
+  planner::BoundaryState s = then.State();
+  s.position = measured.position + (then.position - now.position);
+  s.velocity = measured.velocity + (then.velocity - now.velocity);
+  s.yaw = measured.yaw + (then.yaw - now.yaw);
+  s.joints = measured.joints + (then.joints - now.joints);
+  return s;
+}
+
+planner::BoundaryState OnlineController::MeasuredStateAtRest() const {
+  planner::BoundaryState s = MeasuredBoundaryState();
+  s.velocity.setZero();
+  s.yaw_rate = 0.0;
+  s.joint_rates.setZero();
+  return s;
 }
 
 void OnlineController::MarkReplanPending(double splice_time, bool exact, bool keep_from) {
@@ -1106,20 +1116,8 @@ void OnlineController::RequestLocalReplan(double t, bool exact, double error) {
   const double t_splice = t + options_.replan_lead;
   const double plan_time = t_splice - flown.start;
   Worker::Job job;
-  if (exact) {
-    job.start = trajectory.Sample(std::min(plan_time, trajectory.duration())).State();
-  } else {
-    const double followed = position_time_ - UplinkLatency();
-    const planner::WholeBodySample now =
-        trajectory.Sample(std::clamp(followed - flown.start, 0.0, trajectory.duration()));
-    const planner::WholeBodySample then = trajectory.Sample(std::min(plan_time, trajectory.duration()));
-    const planner::BoundaryState measured = MeasuredBoundaryState();
-    job.start = then.State();
-    job.start.position = measured.position + (then.position - now.position);
-    job.start.velocity = measured.velocity + (then.velocity - now.velocity);
-    job.start.yaw = measured.yaw + (then.yaw - now.yaw);
-    job.start.joints = measured.joints + (then.joints - now.joints);
-  }
+  job.start = exact ? trajectory.Sample(std::min(plan_time, trajectory.duration())).State()
+                    : PredictedMeasuredState(flown, plan_time);
   job.map = map_;
   job.replan = true;
   job.requested_at = t;
@@ -1506,11 +1504,7 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
   }
   if (reengaging_ && !ReengageOffboard(t, out)) return;
   Worker::Job job;
-  job.start = MeasuredBoundaryState();
-  job.start.acceleration.setZero();
-  job.start.velocity.setZero();
-  job.start.yaw_rate = 0.0;
-  job.start.joint_rates.setZero();
+  job.start = MeasuredStateAtRest();
   job.requested_at = t;
   job.v_max = limit;
   job.from_rest = true;
@@ -1531,13 +1525,10 @@ void OnlineController::CheckLink(double t, ControllerOutput* out) {
 }
 
 void OnlineController::RequestFreshLocalPlan(double t) {
+  // It plans from rest at the measured pose: the vehicle must be holding.
+  if (velocity_.norm() > kRestSpeed) return;
   Worker::Job job;
-  job.start = MeasuredBoundaryState();
-  job.start.velocity.setZero();
-  job.start.acceleration.setZero();
-  job.start.jerk.setZero();
-  job.start.yaw_rate = 0.0;
-  job.start.joint_rates.setZero();
+  job.start = MeasuredStateAtRest();
   job.requested_at = t;
   job.v_max = PlanningSpeedLimit();
   job.from_rest = true;

@@ -25,10 +25,6 @@ bool Fail(std::string* why, const std::string& message) {
 // replan to be tried before braking.
 constexpr double kConflictSlack = 0.2;
 
-// A vehicle slower than this holds: a fresh plan is made from rest there
-// (as after a hold for the link).
-constexpr double kHoldingSpeed = 0.05;  // m/s
-
 }  // namespace
 
 bool PerceptionSetup::IsValid(std::string* why) const {
@@ -120,7 +116,6 @@ void OnlineController::CheckNewObstacles(double t, const std::vector<Vec3>& bloc
   }
   const std::optional<double> conflict =
       planner.FirstConflict(*to_.plan->trajectory, std::max(0.0, t - to_.start), blocked, distance);
-  const ActivePlan* crossed = &to_;
   if (!conflict) return;
   ++stats.conflicts;
   ++stats.flown_conflicts;
@@ -148,7 +143,7 @@ void OnlineController::CheckNewObstacles(double t, const std::vector<Vec3>& bloc
   const double speed = BrakeForSensor(t);
   Event(Format("%zu voxels a frame found occupied cross the plan flown ", blocked.size()) +
         Format("%.2f s ahead: braking along it from %.2f m/s, then a fresh plan",
-               crossed->start + *conflict - t, speed));
+               to_.start + *conflict - t, speed));
 }
 
 bool OnlineController::CrossesSeenSinceAsked(const planner::PlanResult& plan) const {
@@ -202,7 +197,7 @@ void OnlineController::CheckSensor(double t) {
   // After a brake for the sensor: a fresh plan from the measured state at rest.
   if (phase_ == Phase::kFlying && link_hold_ && perception_hold_ && !silent && !pending_resume_ &&
       !replan_pending_ && !planning() && t - link_hold_start_ >= link_brake_duration_ &&
-      velocity_.norm() <= kHoldingSpeed && t - last_local_request_ >= perception.replan_period) {
+      t - last_local_request_ >= perception.replan_period) {
     RequestFreshLocalPlan(t);
   }
 

@@ -759,7 +759,8 @@ class OnlineController {
   // Brakes along the plan for the sensor (a silence, new obstacles), counted;
   // returns the speed it brakes from.
   double BrakeForSensor(double t);
-  // After a brake for the sensor: a local plan from the measured state at rest.
+  // After a brake for the sensor: a local plan from the measured state at
+  // rest, once the vehicle holds.
   void RequestFreshLocalPlan(double t);
   // A replan handed to the worker, to be spliced at `splice_time` (`exact`:
   // without a blend; `keep_from`: the plan flown now stays from_): counted.
@@ -770,6 +771,11 @@ class OnlineController {
   // The setpoint of `plan` at controller time t (after a moving target's
   // plan has ended: its end state following the prediction).
   static Setpoint SampleActive(const ActivePlan& plan, double t);
+  // The measured state predicted to plan time `plan_time` of `flown` (a
+  // replan's start off track), the tracking error held constant.
+  planner::BoundaryState PredictedMeasuredState(const ActivePlan& flown, double plan_time) const;
+  // The measured pose and joints at rest: a fresh plan's start after a hold.
+  planner::BoundaryState MeasuredStateAtRest() const;
   // A moving target (controller_target.cc): the prediction from time t as
   // a job's motion and placement; false without an estimate.
   bool PredictTarget(double t, std::optional<planner::TargetMotion>* motion, Pose* placement) const;
