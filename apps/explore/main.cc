@@ -207,7 +207,6 @@ int main(int argc, char** argv) {
   auto kind = sim::ParseSensorKind(sensor_name);
   if (!kind.ok()) return Fail("--sensor: " + kind.status().message());
   sensor.kind = *kind;
-  if (!sensor.mount_given) sensor.mount = sim::DefaultMount(sensor.kind);
   if (robot->LinkIndex(sensor.link) < 0) return Fail(sim_config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
   auto renderer = sim::SensorRenderer::Create(*world, sensor, seed ^ 0x73656e73ull);
   if (!renderer.ok()) return Fail(sim_config_path + ": " + renderer.status().message());

@@ -73,7 +73,7 @@ core::Status WriteFrames(const std::vector<sim::FlownSample>& samples, const rob
     if (sample.flown.t + 1e-9 < next) continue;
     next += period * std::max(1.0, std::floor((sample.flown.t + 1e-9 - next) / period) + 1.0);
     const Pose base = MakePose(sample.flown.position, sample.flown.attitude.toRotationMatrix());
-    const Pose pose = robot::LinkPose(robot, base, sample.flown.joints, link) * sensor.mount;
+    const Pose pose = robot::LinkPose(robot, base, sample.flown.joints, link) * sensor.Mount();
     const std::string file = core::Format("frame_%06d.pcd", *frames);
     QUADHAND_RETURN_IF_ERROR(scene::WritePcd(partial + "/" + file, renderer->Render(pose), scene::PcdEncoding::kBinary));
     const Quat q(pose.linear());
@@ -265,7 +265,6 @@ int main(int argc, char** argv) {
     auto kind = sim::ParseSensorKind(sensor_name);
     if (!kind.ok()) return Fail("--sensor: " + kind.status().message());
     sensor.kind = *kind;
-    if (!sensor.mount_given) sensor.mount = sim::DefaultMount(sensor.kind);
     if (robot->LinkIndex(sensor.link) < 0) {
       return Fail(config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
     }

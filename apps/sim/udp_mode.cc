@@ -105,7 +105,7 @@ int RunUdpMode(sim::Autopilot autopilot, const UdpModeOptions& options, const st
   auto send_frame = [&]() {
     const sim::VehicleState& state = autopilot.state();
     const Pose base = MakePose(state.position, state.attitude.toRotationMatrix());
-    const Pose pose = robot::LinkPose(*options.robot, base, state.joints, sensor_link) * options.sensor.mount;
+    const Pose pose = robot::LinkPose(*options.robot, base, state.joints, sensor_link) * options.sensor.Mount();
     perception::SensorFrame frame;
     frame.t = autopilot.time();
     perception::SetSensorPose(pose, &frame);

@@ -59,7 +59,6 @@ class PerceptionOnlineTest : public ::testing::Test {
     ASSERT_TRUE(local.ok()) << local.status().message();
     local_ = std::move(*local);
     sensor_ = SimConfig().sensor;
-    if (!sensor_.mount_given) sensor_.mount = sim::DefaultMount(sensor_.kind);
   }
 
   std::unique_ptr<OnlineController> Controller(const OnlineOptions& options = {}) {
@@ -84,7 +83,7 @@ class PerceptionOnlineTest : public ::testing::Test {
       if ((*period)++ % 2 != 0 || (t >= silent_from && t < silent_to)) return;
       const sim::VehicleState& s = sim->state();
       const Pose base = MakePose(s.position, s.attitude.toRotationMatrix());
-      const Pose pose = robot::LinkPose(robot, base, s.joints, link) * sensor_.mount;
+      const Pose pose = robot::LinkPose(robot, base, s.joints, link) * sensor_.Mount();
       sim::SensorRenderer* now = t >= later_from ? later : renderer;
       perception::SensorFrame frame;
       frame.t = t;

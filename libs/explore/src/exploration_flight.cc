@@ -207,7 +207,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
     const sim::VehicleState& state = simulator->state();
     if (t >= next_frame - 1e-9) {
       const Pose base = MakePose(state.position, state.attitude.toRotationMatrix());
-      const Pose sensor_pose = robot::LinkPose(robot, base, state.joints, link) * sensor.mount;
+      const Pose sensor_pose = robot::LinkPose(robot, base, state.joints, link) * sensor.Mount();
       perception::SensorFrame sent;
       sent.t = t;
       perception::SetSensorPose(sensor_pose, &sent);

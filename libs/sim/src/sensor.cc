@@ -102,6 +102,8 @@ Pose DefaultMount(SensorKind kind) {
   return MakePose(Vec3(0.1, 0.0, 0.0), rotation);
 }
 
+Pose SensorConfig::Mount() const { return mount_given ? mount : DefaultMount(kind); }
+
 core::Result<SensorKind> ParseSensorKind(const std::string& name) {
   if (name == "depth") return SensorKind::kDepth;
   if (name == "lidar") return SensorKind::kLidar;

@@ -53,13 +53,15 @@ struct SensorConfig {
   DepthCameraOptions depth;
   LidarOptions lidar;
   std::string link = "base_link";
-  Pose mount = Pose::Identity();
-  bool mount_given = false;  // else DefaultMount(kind)
+  Pose mount = Pose::Identity();  // when mount_given; read Mount()
+  bool mount_given = false;
   // The radius of the disc each scene point stands for, m: wide enough for
   // the scene's point spacing to leave no holes at the ranges that matter.
   double splat_radius = 0.02;
   double rate() const { return kind == SensorKind::kDepth ? depth.rate : lidar.rate; }
   double max_range() const { return kind == SensorKind::kDepth ? depth.max_range : lidar.max_range; }
+  // The sensor's frame in `link`'s: the mount given, else DefaultMount(kind).
+  Pose Mount() const;
   bool IsValid(std::string* why) const;
 };
 
