@@ -190,11 +190,7 @@ int main(int argc, char** argv) {
     if (!judge_after.ok()) return Fail(appear_path + ": " + judge_after.status().message());
   }
   // The planner's base context: the robot and its SDFs for the local plans.
-  // It never plans itself; its one point, far above the start, only makes
-  // a context (which needs a scene).
-  auto base = planner::PlanningContext::Create(
-      *task, *robot, std::make_shared<const std::vector<Vec3>>(1, task->start.position + Vec3(0.0, 0.0, 20.0)), 0,
-      planner::ContextOptions(*config, {"mrc_sdf"}));
+  auto base = explore::BaseContext(*task, *robot, *config);
   if (!base.ok()) return Fail(task_path + ": " + base.status().message());
   if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
   auto solver = opt::CreateSolver(solver_name);

@@ -65,9 +65,7 @@ std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }
 
 // --perception: the task's robot, goal and limits, its scene not read (nor
-// needed: the key may be left out). A
-// context needs points: one far above the start stands for them, and only
-// the robot's models and the goal are used (explore::LocalPlanner).
+// needed: the key may be left out): explore::BaseContext.
 core::Result<std::unique_ptr<planner::PlanningContext>> LoadContextWithoutScene(const std::string& task_path,
                                                                                 const planner::PlannerConfig& config) {
   planner::TaskSources sources;
@@ -76,10 +74,7 @@ core::Result<std::unique_ptr<planner::PlanningContext>> LoadContextWithoutScene(
   if (!task.ok()) return task.status();
   auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
   if (!robot.ok()) return robot.status();
-  const Vec3 far_above = task->start.position + Vec3(0.0, 0.0, 20.0);
-  return planner::PlanningContext::Create(std::move(*task), std::move(*robot),
-                                          std::make_shared<const std::vector<Vec3>>(1, far_above), 0,
-                                          planner::ContextOptions(config, {"mrc_sdf"}));
+  return explore::BaseContext(std::move(*task), std::move(*robot), config);
 }
 
 int Fail(const std::string& message) {

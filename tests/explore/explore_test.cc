@@ -83,9 +83,7 @@ class ExploreTest : public ::testing::Test {
     auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
     EXPECT_TRUE(robot.ok());
     const planner::PlannerConfig config = planner::DefaultPlannerConfig();
-    auto base = planner::PlanningContext::Create(
-        *task, *robot, std::make_shared<const std::vector<Vec3>>(1, Vec3(0.0, 0.0, 21.2)), 0,
-        planner::ContextOptions(config, {"mrc_sdf"}));
+    auto base = explore::BaseContext(*task, *robot, config);
     EXPECT_TRUE(base.ok()) << base.status().message();
     p.base = std::move(*base);
     EXPECT_TRUE(solvers::RegisterBuiltinSolvers().ok());

@@ -47,10 +47,7 @@ class PerceptionOnlineTest : public ::testing::Test {
     task_ = PostsTask();
     config_ = planner::DefaultPlannerConfig();
     explore::UseLocalPlanningDefaults(&config_);
-    // The planner's base context: a point far above stands for the scene.
-    auto base = planner::PlanningContext::Create(task_, WindowCup().robot(),
-                                                 std::make_shared<const std::vector<Vec3>>(1, Vec3(0.0, 0.0, 21.2)), 0,
-                                                 planner::ContextOptions(config_, {"mrc_sdf"}));
+    auto base = explore::BaseContext(task_, WindowCup().robot(), config_);
     ASSERT_TRUE(base.ok()) << base.status().message();
     base_ = std::move(*base);
     options_ = planner::RunPlannerOptions(config_, 0.01, 1, false);

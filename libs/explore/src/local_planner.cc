@@ -93,6 +93,14 @@ void UseLocalPlanningDefaults(planner::PlannerConfig* config) {
   config->front_end.voxel_size = 0.1;
 }
 
+core::Result<std::unique_ptr<planner::PlanningContext>> BaseContext(planner::Task task, robot::RobotModel robot,
+                                                                    const planner::PlannerConfig& config) {
+  const Vec3 far_above = task.start.position + Vec3(0.0, 0.0, 20.0);
+  return planner::PlanningContext::Create(std::move(task), std::move(robot),
+                                          std::make_shared<const std::vector<Vec3>>(1, far_above), 0,
+                                          planner::ContextOptions(config, {"mrc_sdf"}));
+}
+
 double LocalPlanner::PlannedSafetyDistance(double map_resolution) const {
   return base_.task().safety_distance + local_.tracking_margin + perception::VoxelBallRadius(map_resolution);
 }

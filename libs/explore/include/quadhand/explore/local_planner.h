@@ -75,6 +75,13 @@ struct LocalPlannerOptions {
 // end's voxels are 0.1 m (docs/configuration.md).
 void UseLocalPlanningDefaults(planner::PlannerConfig* config);
 
+// The context local plans are made from (LocalPlanner::Create's `base`):
+// the task's robot, its link SDFs (MRC-SDF) and goal. It never plans
+// itself; a context needs points, so one 20 m above the task's start
+// stands for the scene, which every local plan replaces with the map's.
+core::Result<std::unique_ptr<planner::PlanningContext>> BaseContext(planner::Task task, robot::RobotModel robot,
+                                                                    const planner::PlannerConfig& config);
+
 enum class LocalPlanStatus {
   kToGoal,         // certified, to the task's goal
   kToLocalTarget,  // certified, to a local target
