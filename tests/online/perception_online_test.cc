@@ -29,6 +29,7 @@ std::vector<Vec3> Posts() { return quadhand::testing::PostsWorld(/*with_floor=*/
 planner::Task PostsTask() {
   planner::Task task = WindowCup().task;
   task.tool.reset();
+  task.sdf_dir = quadhand::testing::CoarseSdfDir();  // a clean clone has no generated SDFs
   task.start = planner::BoundaryState{};
   task.start.position = Vec3(0.0, 0.0, 1.2);
   task.start.joints = Eigen::Vector3d(0.3, -0.2, 0.0);
