@@ -1,6 +1,7 @@
 // quadhand-map: builds the rolling map (perception/rolling_map.h) from a
 // folder of recorded sensor frames (perception/frames.h: quadhand-sim
-// --frames writes one), or from frames arriving on UDP (--listen;
+// --frames writes one), from a ROS 1 bag's clouds (--bag; scene/ros_bag.h),
+// or from frames arriving on UDP (--listen;
 // link/sensor_stream.h: quadhand-sim --udp --frames-to sends them), the
 // window following the sensor, and writes what it
 // holds at the end: the raw returns of its occupied voxels (a scene
@@ -30,6 +31,7 @@
 #include "quadhand/perception/rolling_map.h"
 #include "quadhand/perception/sensor_frame.h"
 #include "quadhand/scene/point_cloud.h"
+#include "quadhand/scene/ros_bag.h"
 
 namespace {
 
@@ -67,16 +69,30 @@ int main(int argc, char** argv) {
       "  quadhand-map FRAMES_DIR --out occupied.pcd [--unknown-out unknown.pcd --unknown-box x0,y0,z0,x1,y1,z1]\n"
       "               [--resolution 0.1] [--window 15,15,5] [--max-range 6] [--json]\n"
       "  quadhand-map --listen udp://ADDR:PORT --out occupied.pcd [--idle 2] [--max-duration S] [...]\n"
+      "  quadhand-map --bag FILE.bag --cloud-topic /points [--odom-topic /odom [--extrinsic x,y,z,qw,qx,qy,qz]\n"
+      "               | --world-frame world] --out occupied.pcd [...]\n"
       "FRAMES_DIR: frames.csv and one cloud per frame (docs/sim.md, \"The frames folder\").\n"
+      "--bag: a ROS 1 bag's sensor_msgs/PointCloud2 on --cloud-topic, placed by nav_msgs/Odometry on --odom-topic\n"
+      "or by /tf and /tf_static (docs/perception.md, \"Recorded data\").\n"
       "--listen: frames on UDP (docs/link.md, \"Sensor frames on UDP\"), until --idle s without a datagram\n"
       "after the first frame, --max-duration, or SIGINT/SIGTERM.\n"
       "Exit codes: 0 success; 2 bad input."};
-  std::string dir, out_path, unknown_path, unknown_box_text, window_text, listen_url;
+  std::string dir, out_path, unknown_path, unknown_box_text, window_text, listen_url, extrinsic_text;
+  scene::BagCloudSource bag;
   double idle = 2.0, max_duration = 0.0;
   perception::RollingMapOptions options;
   bool json = false;
   app.add_option("frames", dir, "Folder of frames (frames.csv and the clouds it names)");
   app.add_option("--listen", listen_url, "Receive frames on this local address instead (udp://ADDR:PORT)");
+  app.add_option("--bag", bag.path, "Read the clouds of this ROS 1 bag instead");
+  app.add_option("--cloud-topic", bag.cloud_topic, "--bag: the sensor_msgs/PointCloud2 topic");
+  app.add_option("--odom-topic", bag.odom_topic, "--bag: place each cloud by this nav_msgs/Odometry topic's pose");
+  app.add_option("--extrinsic", extrinsic_text,
+                 "--odom-topic: the cloud's frame in the odometry's child frame, x,y,z,qw,qx,qy,qz (default identity)");
+  app.add_option("--world-frame", bag.world_frame, "--bag without --odom-topic: place each cloud by /tf in this frame")
+      ->capture_default_str();
+  app.add_option("--max-pose-gap", bag.max_pose_gap, "--odom-topic: no pose between odometry messages farther apart, s")
+      ->capture_default_str();
   app.add_option("--idle", idle, "--listen: stop after this many seconds without a datagram, once a frame is mapped")
       ->capture_default_str();
   app.add_option("--max-duration", max_duration, "--listen: stop after this many seconds (0: no limit)")
@@ -96,7 +112,27 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return Fail(e.what());
   }
-  if (dir.empty() == listen_url.empty()) return Fail("give a frames folder or --listen udp://ADDR:PORT (one of them)");
+  if (int{!dir.empty()} + int{!listen_url.empty()} + int{!bag.path.empty()} != 1) {
+    return Fail("give a frames folder, --bag FILE or --listen udp://ADDR:PORT (one of them)");
+  }
+  const bool bag_options = !bag.cloud_topic.empty() || !bag.odom_topic.empty() || !extrinsic_text.empty() ||
+                           app.count("--world-frame") > 0 || app.count("--max-pose-gap") > 0;
+  if (bag.path.empty() && bag_options) return Fail("--cloud-topic, --odom-topic, --extrinsic, --world-frame and --max-pose-gap are only used with --bag");
+  if (!bag.path.empty()) {
+    if (bag.cloud_topic.empty()) return Fail("--bag needs --cloud-topic (quadhand-map --bag FILE --cloud-topic /points ...)");
+    if (!bag.odom_topic.empty() && app.count("--world-frame") > 0) {
+      return Fail("--odom-topic and --world-frame are two ways to place the clouds: give one");
+    }
+    if (!extrinsic_text.empty()) {
+      if (bag.odom_topic.empty()) return Fail("--extrinsic is only used with --odom-topic (/tf gives the sensor's frame)");
+      auto e = Numbers(extrinsic_text, 7, "--extrinsic");
+      if (!e.ok()) return Fail(e.status().message());
+      const Eigen::Vector4d q((*e)[3], (*e)[4], (*e)[5], (*e)[6]);
+      if (std::abs(q.norm() - 1.0) > 1e-3) return Fail("--extrinsic: qw,qx,qy,qz must be a unit quaternion");
+      bag.extrinsic = MakePose(Vec3((*e)[0], (*e)[1], (*e)[2]), Quat(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix());
+    }
+    if (std::string why; !bag.IsValid(&why)) return Fail(bag.path + ": " + why);
+  }
   if (!(std::isfinite(idle) && idle > 0.0 && idle <= 3600.0)) return Fail("--idle must be in (0, 3600] s");
   if (!(std::isfinite(max_duration) && max_duration >= 0.0)) return Fail("--max-duration must be >= 0 s");
   if (!window_text.empty()) {
@@ -143,7 +179,27 @@ int main(int argc, char** argv) {
   perception::FrameGateOptions gate_options;
   gate_options.max_age = std::numeric_limits<double>::infinity();
   perception::FrameGate gate(gate_options);
-  if (listen_url.empty()) {
+  scene::BagCloudCounts bag_counts;
+  if (!bag.path.empty()) {
+    source = bag.path;
+    const core::Status read = scene::ForEachBagCloud(
+        bag,
+        [&](scene::BagCloud& cloud) -> core::Status {
+          perception::SensorFrame frame;
+          frame.t = cloud.t;
+          perception::SetSensorPose(cloud.sensor_to_world, &frame);
+          if (gate.Admit(frame, frame.t) != perception::FrameDrop::kNone) return core::Status::Ok();
+          if (cloud.points.empty()) {
+            ++empty_frames;
+            return core::Status::Ok();
+          }
+          for (Vec3& p : cloud.points) p = cloud.sensor_to_world * p;
+          const core::Status s = map_frame(cloud.points, cloud.sensor_to_world, {});
+          return s.ok() ? s : core::Status::InvalidArgument(bag.path + ": " + s.message());
+        },
+        &bag_counts);
+    if (!read.ok()) return Fail(read.message());
+  } else if (listen_url.empty()) {
     auto read = perception::ReadFrameIndex(dir);
     if (!read.ok()) return Fail(read.status().message());
     index = std::move(*read);
@@ -207,6 +263,12 @@ int main(int argc, char** argv) {
                                             "%ld empty)",
                                             stream.datagrams, stream.frames, gated.dropped(), empty_frames));
     }
+    if (!bag.path.empty()) {
+      return Fail(bag.path + core::Format(": no usable cloud on %s (%ld messages: %ld malformed, %ld without a pose, "
+                                          "%ld dropped by the gate, %ld empty)",
+                                          bag.cloud_topic.c_str(), bag_counts.messages, bag_counts.malformed,
+                                          bag_counts.no_pose, gated.dropped(), empty_frames));
+    }
     return Fail(dir + ": no usable frame (" + std::to_string(index.dropped()) + " rows dropped, " +
                 std::to_string(unreadable) + " clouds unreadable, " + std::to_string(empty_frames) + " empty)");
   }
@@ -233,6 +295,14 @@ int main(int argc, char** argv) {
                          stream.datagrams, stream.frames, stream.malformed, stream.truncated, stream.corrupted,
                          stream.inconsistent, stream.duplicates, stream.incomplete_frames, gated.malformed,
                          gated.bad_pose, gated.out_of_order);
+  const std::string bag_json =
+      bag.path.empty()
+          ? std::string()
+          : core::Format(", \"bag_messages\": %ld, \"bag_malformed\": %ld, \"bag_no_pose\": %ld, "
+                         "\"bag_non_finite_points\": %ld, \"bag_poses\": %ld, \"bag_bad_poses\": %ld, "
+                         "\"frames_bad_pose\": %ld, \"frames_out_of_order\": %ld",
+                         bag_counts.messages, bag_counts.malformed, bag_counts.no_pose, bag_counts.non_finite_points,
+                         bag_counts.poses, bag_counts.bad_poses, gated.bad_pose, gated.out_of_order);
   if (json) {
     std::printf("{\"frames\": %zu, \"empty_frames\": %ld, \"rows_malformed\": %ld, \"rows_bad_pose\": %ld, \"rows_out_of_order\": %ld, "
                 "\"clouds_unreadable\": %ld, \"update_ms_median\": %.3f, \"update_ms_p95\": %.3f, "
@@ -240,9 +310,16 @@ int main(int argc, char** argv) {
                 "\"unknown_voxels\": %ld%s}\n",
                 update_ms.size(), empty_frames, index.malformed, index.bad_pose, index.out_of_order, unreadable,
                 median, p95, worst,
-                (*map)->num_known_voxels(), (*map)->memory_bytes() / 1e6, occupied.size(), unknown, stream_json.c_str());
+                (*map)->num_known_voxels(), (*map)->memory_bytes() / 1e6, occupied.size(), unknown,
+                (stream_json + bag_json).c_str());
   } else {
-    if (!listen_url.empty()) {
+    if (!bag.path.empty()) {
+      std::printf("%zu clouds mapped, %ld empty, of %ld on %s (dropped: %ld malformed, %ld without a pose, %ld bad "
+                  "poses, %ld out of order; %ld non-finite returns; poses: %ld, %ld unusable)\n",
+                  update_ms.size(), empty_frames, bag_counts.messages, bag.cloud_topic.c_str(), bag_counts.malformed,
+                  bag_counts.no_pose, gated.bad_pose, gated.out_of_order, bag_counts.non_finite_points,
+                  bag_counts.poses, bag_counts.bad_poses);
+    } else if (!listen_url.empty()) {
       std::printf("%zu frames mapped, %ld empty, from %ld datagrams and %ld frames received (dropped: datagrams %ld "
                   "malformed, %ld truncated, %ld corrupted, %ld inconsistent, %ld duplicate; frames %ld incomplete, "
                   "%ld malformed, %ld bad poses, %ld out of order)\n",

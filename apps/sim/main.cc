@@ -30,6 +30,7 @@
 #include "quadhand/robot/robot_model.h"
 #include "quadhand/planner/task.h"
 #include "quadhand/scene/point_cloud.h"
+#include "quadhand/scene/ros_bag.h"
 #include "quadhand/sim/sensor.h"
 #include "quadhand/sim/autopilot.h"
 #include "quadhand/sim/config.h"
@@ -53,17 +54,26 @@ int Fail(const std::string& message, int code = kExitBadInput) {
 // What the sensor saw along the flight (docs/sim.md, "Sensors"): a frame
 // at every 1/rate of the flown record (the vehicle's own states), each a
 // binary PCD of the returns in the sensor's frame, and DIR/frames.csv with
-// each frame's time, file and sensor pose in the world. The folder is made
-// by renaming a finished temporary one: it is all there or not at all.
+// each frame's time, file and sensor pose in the world; and/or the same
+// frames as a ROS 1 bag (scene/ros_bag.h). The folder is made by renaming
+// a finished temporary one, and the bag likewise: all there or not at all.
 // `link` is the robot's link the sensor is mounted on (sensor.link).
 core::Status WriteFrames(const std::vector<sim::FlownSample>& samples, const robot::RobotModel& robot, int link,
                          const sim::SensorConfig& sensor, sim::SensorRenderer* renderer, const std::string& dir,
-                         int* frames) {
-  const std::string partial = dir + ".partial";
+                         const std::string& bag_path, int* frames) {
+  const std::string partial = dir.empty() ? std::string() : dir + ".partial";
   std::error_code ec;
-  std::filesystem::remove_all(partial, ec);
-  if (!std::filesystem::create_directory(partial, ec)) {
-    return core::Status::InvalidArgument("--frames " + dir + ": cannot make " + partial + " (" + ec.message() + ")");
+  if (!dir.empty()) {
+    std::filesystem::remove_all(partial, ec);
+    if (!std::filesystem::create_directory(partial, ec)) {
+      return core::Status::InvalidArgument("--frames " + dir + ": cannot make " + partial + " (" + ec.message() + ")");
+    }
+  }
+  std::unique_ptr<scene::BagWriter> bag;
+  if (!bag_path.empty()) {
+    auto created = scene::BagWriter::Create(bag_path);
+    if (!created.ok()) return core::Status::InvalidArgument("--bag " + created.status().message());
+    bag = std::move(*created);
   }
   std::string index = "index,t,file,x,y,z,qw,qx,qy,qz\n";
   const double period = 1.0 / sensor.rate();
@@ -75,13 +85,17 @@ core::Status WriteFrames(const std::vector<sim::FlownSample>& samples, const rob
     const Pose base = MakePose(sample.flown.position, sample.flown.attitude.toRotationMatrix());
     const Pose pose = robot::LinkPose(robot, base, sample.flown.joints, link) * sensor.Mount();
     const std::string file = core::Format("frame_%06d.pcd", *frames);
-    QUADHAND_RETURN_IF_ERROR(scene::WritePcd(partial + "/" + file, renderer->Render(pose), scene::PcdEncoding::kBinary));
+    const std::vector<Vec3> returns = renderer->Render(pose);
+    if (!dir.empty()) QUADHAND_RETURN_IF_ERROR(scene::WritePcd(partial + "/" + file, returns, scene::PcdEncoding::kBinary));
+    if (bag != nullptr) QUADHAND_RETURN_IF_ERROR(bag->Write(sample.flown.t, base, base.inverse() * pose, returns));
     const Quat q(pose.linear());
     const Vec3 p = pose.translation();
     index += core::Format("%d,%.6f,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", *frames, sample.flown.t, file.c_str(),
                           p.x(), p.y(), p.z(), q.w(), q.x(), q.y(), q.z());
     ++*frames;
   }
+  if (bag != nullptr) QUADHAND_RETURN_IF_ERROR(bag->Close());
+  if (dir.empty()) return core::Status::Ok();
   QUADHAND_RETURN_IF_ERROR(core::WriteFileAtomically(partial + "/frames.csv", index));
   std::filesystem::rename(partial, dir, ec);
   if (ec) return core::Status::InvalidArgument("--frames " + dir + ": " + ec.message());
@@ -106,7 +120,7 @@ int main(int argc, char** argv) {
   uint64_t seed = 0;
   sim::FigureEightOptions eight;
   app.add_option("--track", track_path, "Plan file to fly (CSV, contracts.md)");
-  std::string world_path, sensor_name, frames_dir, frames_to_url;
+  std::string world_path, sensor_name, frames_dir, frames_to_url, bag_path;
   size_t frame_datagram = link::kDefaultSensorDatagramBytes;
   app.add_option("--world", world_path, "--track, --udp: the hidden true scene a sensor sees: a PCD or PLY cloud (world frame), "
                                         "or a task file (YAML) whose scene: it is");
@@ -114,6 +128,8 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"depth", "lidar"}));
   app.add_option("--frames", frames_dir, "--track with --world: write the sensor's frames to this new folder "
                                          "(PCD per frame and frames.csv; docs/sim.md, Sensors)");
+  app.add_option("--bag", bag_path, "--track with --world: write the sensor's frames to this new ROS 1 bag "
+                                    "(PointCloud2, Odometry and /tf; docs/sim.md, Sensors)");
   app.add_flag("--figure8", figure8, "Write the figure-eight plan of the paper's experiment to --out instead");
   app.add_option("--frames-to", frames_to_url,
                  "--udp with --world: send the sensor's frames to this address (udp://HOST:PORT; docs/link.md, "
@@ -194,12 +210,21 @@ int main(int argc, char** argv) {
   }
   if (udp && !out_path.empty()) return Fail("--out is not used with --udp (use --log for the flown states)");
   if (udp && app.count("--settle") > 0) return Fail("--settle is only used with --track");
-  const int sensing = int{!world_path.empty()} + int{!sensor_name.empty()} + int{!frames_dir.empty()} +
-                      int{!frames_to_url.empty()};
+  const int sensing = int{!world_path.empty()} + int{!sensor_name.empty()} +
+                      int{!frames_dir.empty() || !bag_path.empty() || !frames_to_url.empty()};
   if (!frames_dir.empty() && track_path.empty()) return Fail("--frames is only used with --track (--udp: --frames-to)");
+  if (!bag_path.empty() && track_path.empty()) return Fail("--bag is only used with --track");
+  if (!bag_path.empty()) {
+    std::error_code ec;
+    if (std::filesystem::exists(bag_path, ec)) return Fail("--bag " + bag_path + ": exists already (give a new file)");
+    const std::string parent = core::DirectoryOf(bag_path);
+    if (!std::filesystem::is_directory(parent.empty() ? "." : parent, ec)) {
+      return Fail("--bag " + bag_path + ": its folder does not exist");
+    }
+  }
   if (!frames_to_url.empty() && !udp) return Fail("--frames-to is only used with --udp (--track: --frames)");
   if (sensing > 0 && (figure8 || sensing < 3)) {
-    return Fail("--world, --sensor and --frames (--track) or --frames-to (--udp) go together");
+    return Fail("--world, --sensor and --frames or --bag (--track) or --frames-to (--udp) go together");
   }
   if (!frames_dir.empty()) {
     std::error_code ec;
@@ -374,11 +399,14 @@ int main(int argc, char** argv) {
   int frames = 0;
   if (renderer != nullptr) {
     if (core::Status s = WriteFrames(result->samples, *robot, robot->LinkIndex(sensor.link), sensor, renderer.get(),
-                                     frames_dir, &frames);
+                                     frames_dir, bag_path, &frames);
         !s.ok()) {
       return Fail(s.message());
     }
-    if (!quiet) std::printf("sensor: %d %s frames of %s: %s\n", frames, sensor_name.c_str(), world_path.c_str(), frames_dir.c_str());
+    if (!quiet) {
+      const std::string to = frames_dir + (!frames_dir.empty() && !bag_path.empty() ? ", " : "") + bag_path;
+      std::printf("sensor: %d %s frames of %s: %s\n", frames, sensor_name.c_str(), world_path.c_str(), to.c_str());
+    }
   }
   if (!quiet) {
     const sim::TrackingErrorStats& e = result->error;

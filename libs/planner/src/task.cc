@@ -109,7 +109,51 @@ core::Status ReadUnitQuaternion(const Reader& r, const YAML::Node& node, const s
   return core::Status::Ok();
 }
 
-// scene: a path, or a list of {file, pose, crop, voxel} (contracts.md).
+core::Status ReadPose(const Reader& r, const YAML::Node& node, const std::string& key, Pose* pose) {
+  QUADHAND_RETURN_IF_ERROR(r.CheckKeys(node, key, {"position", "orientation"}));
+  Vec3 position;
+  Quat orientation;
+  QUADHAND_RETURN_IF_ERROR(r.Vector3(node["position"], key + ".position", &position));
+  QUADHAND_RETURN_IF_ERROR(ReadUnitQuaternion(r, node["orientation"], key + ".orientation", &orientation));
+  *pose = MakePose(position, orientation.toRotationMatrix());
+  return core::Status::Ok();
+}
+
+core::Status ReadTopic(const Reader& r, const YAML::Node& node, const std::string& key, std::string* out) {
+  if (!node || !node.IsScalar() || node.Scalar().empty()) return r.Error(key, "expected a ROS topic or frame name");
+  *out = node.Scalar();
+  return core::Status::Ok();
+}
+
+// A scene entry {bag, cloud_topic, odom_topic | world_frame, extrinsic,
+// max_pose_gap} (docs/task_format.md, "Recorded clouds in a ROS 1 bag").
+core::Status ReadBagScan(const Reader& r, const YAML::Node& entry, const std::string& key, scene::ScanSource* source) {
+  scene::BagCloudSource bag;
+  QUADHAND_RETURN_IF_ERROR(r.Path(entry["bag"], key + ".bag", &bag.path));
+  QUADHAND_RETURN_IF_ERROR(ReadTopic(r, entry["cloud_topic"], key + ".cloud_topic", &bag.cloud_topic));
+  if (entry["odom_topic"] && entry["world_frame"]) {
+    return r.Error(key, "odom_topic and world_frame are two ways to place the clouds: give one");
+  }
+  if (entry["odom_topic"]) {
+    QUADHAND_RETURN_IF_ERROR(ReadTopic(r, entry["odom_topic"], key + ".odom_topic", &bag.odom_topic));
+  } else if (entry["world_frame"]) {
+    QUADHAND_RETURN_IF_ERROR(ReadTopic(r, entry["world_frame"], key + ".world_frame", &bag.world_frame));
+  }
+  if (const YAML::Node extrinsic = entry["extrinsic"]) {
+    if (bag.odom_topic.empty()) return r.Error(key + ".extrinsic", "is only used with odom_topic (/tf gives the sensor's frame)");
+    QUADHAND_RETURN_IF_ERROR(ReadPose(r, extrinsic, key + ".extrinsic", &bag.extrinsic));
+  }
+  if (entry["max_pose_gap"]) {
+    QUADHAND_RETURN_IF_ERROR(r.Number(entry["max_pose_gap"], key + ".max_pose_gap", &bag.max_pose_gap));
+    if (!(bag.max_pose_gap > 0.0)) return r.Error(key + ".max_pose_gap", "must be > 0 s");
+  }
+  source->path = bag.path;
+  source->bag = std::move(bag);
+  return core::Status::Ok();
+}
+
+// scene: a path, or a list of {file, pose, crop, voxel} (contracts.md) or
+// {bag, cloud_topic, ...}.
 core::Status ReadScene(const Reader& r, const YAML::Node& node, Task* task) {
   if (node.IsScalar()) {
     scene::ScanSource source;
@@ -119,22 +163,23 @@ core::Status ReadScene(const Reader& r, const YAML::Node& node, Task* task) {
     return core::Status::Ok();
   }
   if (!node.IsSequence() || node.size() == 0) {
-    return r.Error("scene", "expected a point cloud path or a list of scans ({file, pose, crop, voxel})");
+    return r.Error("scene", "expected a point cloud path or a list of scans ({file, pose, crop, voxel} or {bag, ...})");
   }
   task->scans.clear();
   for (size_t i = 0; i < node.size(); ++i) {
     const std::string key = "scene[" + std::to_string(i) + "]";
     const YAML::Node entry = node[i];
-    QUADHAND_RETURN_IF_ERROR(r.CheckKeys(entry, key, {"file", "pose", "crop", "voxel"}));
     scene::ScanSource source;
-    QUADHAND_RETURN_IF_ERROR(r.Path(entry["file"], key + ".file", &source.path));
-    if (const YAML::Node pose = entry["pose"]) {
-      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(pose, key + ".pose", {"position", "orientation"}));
-      Vec3 position;
-      Quat orientation;
-      QUADHAND_RETURN_IF_ERROR(r.Vector3(pose["position"], key + ".pose.position", &position));
-      QUADHAND_RETURN_IF_ERROR(ReadUnitQuaternion(r, pose["orientation"], key + ".pose.orientation", &orientation));
-      source.sensor_to_world = MakePose(position, orientation.toRotationMatrix());
+    if (entry.IsMap() && entry["bag"]) {
+      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(entry, key, {"bag", "cloud_topic", "odom_topic", "extrinsic", "world_frame",
+                                                        "max_pose_gap", "crop", "voxel"}));
+      QUADHAND_RETURN_IF_ERROR(ReadBagScan(r, entry, key, &source));
+    } else {
+      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(entry, key, {"file", "pose", "crop", "voxel"}));
+      QUADHAND_RETURN_IF_ERROR(r.Path(entry["file"], key + ".file", &source.path));
+      if (const YAML::Node pose = entry["pose"]) {
+        QUADHAND_RETURN_IF_ERROR(ReadPose(r, pose, key + ".pose", &source.sensor_to_world));
+      }
     }
     if (const YAML::Node crop = entry["crop"]) {
       QUADHAND_RETURN_IF_ERROR(r.CheckKeys(crop, key + ".crop", {"min", "max"}));

@@ -10,6 +10,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include "quadhand/core/text.h"
 #include "quadhand/scene/point_cloud.h"
 
 namespace quadhand::scene {
@@ -71,6 +72,43 @@ core::Result<std::vector<Vec3>> Voxelise(const std::vector<Vec3>& points, double
   return out;
 }
 
+// A bag's clouds in the world, each cropped as it is read (a long bag need
+// not be held whole before the crop).
+core::Result<std::vector<Vec3>> LoadBag(const BagCloudSource& bag, const std::optional<CropBox>& crop,
+                                        LoadedScans* scans) {
+  std::vector<Vec3> points;
+  BagCloudCounts counts;
+  const core::Status read = ForEachBagCloud(
+      bag,
+      [&](BagCloud& cloud) {
+        for (Vec3& p : cloud.points) p = cloud.sensor_to_world * p;
+        if (crop) {
+          const size_t before = cloud.points.size();
+          cloud.points = Crop(cloud.points, *crop);
+          scans->cropped_away += static_cast<long>(before - cloud.points.size());
+        }
+        points.insert(points.end(), cloud.points.begin(), cloud.points.end());
+        return core::Status::Ok();
+      },
+      &counts);
+  if (!read.ok()) return read;
+  if (counts.used == 0) {
+    return core::Status::InvalidArgument(core::Format(
+        "%s: no cloud on %s could be used (%ld messages: %ld malformed, %ld without a pose at their stamp)",
+        bag.path.c_str(), bag.cloud_topic.c_str(), counts.messages, counts.malformed, counts.no_pose));
+  }
+  BagCloudCounts& sum = scans->bag_clouds;
+  sum.messages += counts.messages;
+  sum.used += counts.used;
+  sum.malformed += counts.malformed;
+  sum.no_pose += counts.no_pose;
+  sum.non_finite_points += counts.non_finite_points;
+  sum.poses += counts.poses;
+  sum.bad_poses += counts.bad_poses;
+  scans->dropped_non_finite += counts.non_finite_points;
+  return points;
+}
+
 }  // namespace
 
 core::Result<LoadedScans> LoadScans(const std::vector<ScanSource>& sources) {
@@ -89,18 +127,26 @@ core::Result<LoadedScans> LoadScans(const std::vector<ScanSource>& sources) {
     if (!(source.voxel >= 0.0 && std::isfinite(source.voxel))) {
       return core::Status::InvalidArgument(source.path + ": voxel: the leaf size must be a positive number of metres");
     }
-    auto cloud = LoadPointCloud(source.path);
-    if (!cloud.ok()) return cloud.status();
-    scans.dropped_non_finite += cloud->dropped_non_finite;
-    std::vector<Vec3> points = std::move(cloud->points);
-    if (!source.sensor_to_world.isApprox(Pose::Identity(), 0.0)) {
-      for (Vec3& p : points) p = source.sensor_to_world * p;
-    }
-    if (source.crop) {
-      const size_t before = points.size();
-      points = Crop(points, *source.crop);
-      scans.cropped_away += static_cast<long>(before - points.size());
+    std::vector<Vec3> points;
+    if (source.bag) {
+      auto bag = LoadBag(*source.bag, source.crop, &scans);
+      if (!bag.ok()) return bag.status();
+      points = std::move(*bag);
       if (points.empty()) continue;
+    } else {
+      auto cloud = LoadPointCloud(source.path);
+      if (!cloud.ok()) return cloud.status();
+      scans.dropped_non_finite += cloud->dropped_non_finite;
+      points = std::move(cloud->points);
+      if (!source.sensor_to_world.isApprox(Pose::Identity(), 0.0)) {
+        for (Vec3& p : points) p = source.sensor_to_world * p;
+      }
+      if (source.crop) {
+        const size_t before = points.size();
+        points = Crop(points, *source.crop);
+        scans.cropped_away += static_cast<long>(before - points.size());
+        if (points.empty()) continue;
+      }
     }
     std::vector<Vec3> planned = points;
     if (source.voxel > 0.0) {

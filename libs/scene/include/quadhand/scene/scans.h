@@ -1,5 +1,6 @@
 // A scene made of one or more scans, each as its sensor wrote it: a point
-// cloud file (scene/point_cloud.h), the sensor's pose in the world, an
+// cloud file (scene/point_cloud.h) and the sensor's pose in the world, or a
+// ROS 1 bag's clouds at their recorded poses (scene/ros_bag.h); then an
 // optional crop box (world frame) and an optional voxel filter, both PCL's
 // filters. The task file's `scene:` (docs/task_format.md) is a list of these.
 #pragma once
@@ -10,6 +11,7 @@
 
 #include "quadhand/core/status.h"
 #include "quadhand/core/types.h"
+#include "quadhand/scene/ros_bag.h"
 
 namespace quadhand::scene {
 
@@ -18,8 +20,11 @@ struct CropBox {
 };
 
 struct ScanSource {
-  std::string path;               // PCD or PLY
+  std::string path;               // PCD or PLY, or the bag
   Pose sensor_to_world = Pose::Identity();
+  // A bag instead of one cloud (bag->path == path): every usable cloud of
+  // its topic at its own pose; sensor_to_world stays the identity.
+  std::optional<BagCloudSource> bag;
   std::optional<CropBox> crop;    // applied in the world frame, after the pose
   double voxel = 0.0;             // leaf size, metres; 0: no voxel filter
 };
@@ -34,11 +39,13 @@ struct LoadedScans {
   // they are `points`).
   std::vector<Vec3> unfiltered_points;
   long dropped_non_finite = 0;  // over all scans
+  BagCloudCounts bag_clouds;    // summed over the bags
   long cropped_away = 0;        // finite points outside their scan's crop box
   double load_seconds = 0.0;    // reading, moving and filtering every scan
 };
 
-// Errors name the scan's file: unreadable or malformed (LoadPointCloud), a
+// Errors name the scan's file: unreadable or malformed (LoadPointCloud; a
+// bag: ForEachBagCloud, or no cloud of its topic with a pose), a
 // pose that is not a rigid motion, a crop box with min >= max, a voxel leaf
 // that is not positive and finite or so small for the scan's extent that
 // PCL's voxel indices would overflow, and a scene with no point left.

@@ -1,0 +1,478 @@
+#include "quadhand/scene/ros_bag.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <unistd.h>
+
+#include <console_bridge/console.h>
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2/buffer_core.h>
+#include <tf2/exceptions.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include "quadhand/core/text.h"
+
+namespace quadhand::scene {
+namespace {
+
+constexpr char kCloudType[] = "sensor_msgs/PointCloud2";
+constexpr char kOdomType[] = "nav_msgs/Odometry";
+constexpr char kTfType[] = "tf2_msgs/TFMessage";
+
+// rosbag and tf2 report through console_bridge: their warnings would
+// interleave with the one line a bad input gets; what they warn of is
+// counted instead.
+void QuietConsoleBridge() { console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE); }
+
+bool Fail(std::string* why, const std::string& message) {
+  if (why != nullptr) *why = message;
+  return false;
+}
+
+std::string StripSlash(const std::string& frame) { return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame; }
+
+double StampOf(const ros::Time& stamp, const ros::Time& bag_time) {
+  return stamp.isZero() ? bag_time.toSec() : stamp.toSec();
+}
+
+// A rigid pose from a ROS position and orientation, or false when it is
+// not one (non-finite, or a quaternion off unit length by more than 1e-3).
+template <typename Position, typename Orientation>
+bool ToPose(const Position& p, const Orientation& q, Pose* pose) {
+  const Vec3 position(p.x, p.y, p.z);
+  const Eigen::Vector4d quaternion(q.w, q.x, q.y, q.z);
+  if (!position.allFinite() || !quaternion.allFinite() || std::abs(quaternion.norm() - 1.0) > 1e-3) return false;
+  *pose = MakePose(position, Quat(q.w, q.x, q.y, q.z).normalized().toRotationMatrix());
+  return true;
+}
+
+// The finite x, y, z returns of a cloud, or false when it is malformed.
+bool DecodeCloud(const sensor_msgs::PointCloud2& cloud, std::vector<Vec3>* points, long* non_finite) {
+  if (cloud.is_bigendian) return false;
+  int offset[3] = {-1, -1, -1};
+  uint8_t type[3] = {0, 0, 0};
+  const char* names[3] = {"x", "y", "z"};
+  for (const sensor_msgs::PointField& field : cloud.fields) {
+    for (int axis = 0; axis < 3; ++axis) {
+      if (field.name != names[axis]) continue;
+      if (field.count > 1) return false;
+      if (field.datatype != sensor_msgs::PointField::FLOAT32 && field.datatype != sensor_msgs::PointField::FLOAT64) {
+        return false;
+      }
+      offset[axis] = static_cast<int>(field.offset);
+      type[axis] = field.datatype;
+    }
+  }
+  const uint64_t width = cloud.width, height = cloud.height, step = cloud.point_step, row = cloud.row_step;
+  for (int axis = 0; axis < 3; ++axis) {
+    const uint64_t size = type[axis] == sensor_msgs::PointField::FLOAT64 ? 8 : 4;
+    if (offset[axis] < 0 || static_cast<uint64_t>(offset[axis]) + size > step) return false;
+  }
+  if (step == 0 || width * step > row || height * row > cloud.data.size()) return false;
+  points->clear();
+  points->reserve(width * height);
+  for (uint64_t r = 0; r < height; ++r) {
+    for (uint64_t c = 0; c < width; ++c) {
+      const uint8_t* at = cloud.data.data() + r * row + c * step;
+      double value[3];
+      for (int axis = 0; axis < 3; ++axis) {
+        if (type[axis] == sensor_msgs::PointField::FLOAT64) {
+          std::memcpy(&value[axis], at + offset[axis], 8);
+        } else {
+          float f;
+          std::memcpy(&f, at + offset[axis], 4);
+          value[axis] = f;
+        }
+      }
+      const Vec3 p(value[0], value[1], value[2]);
+      if (p.allFinite()) {
+        points->push_back(p);
+      } else {
+        ++*non_finite;
+      }
+    }
+  }
+  return true;
+}
+
+// Odometry poses in stamp order, interpolated between neighbours.
+class OdometryTrack {
+ public:
+  void Add(double t, const Pose& pose) { samples_.push_back({t, pose}); }
+  void Sort() {
+    std::stable_sort(samples_.begin(), samples_.end(), [](const auto& a, const auto& b) { return a.t < b.t; });
+  }
+  bool At(double t, double max_gap, Pose* pose) const {
+    if (samples_.empty() || t < samples_.front().t || t > samples_.back().t) return false;
+    auto after = std::lower_bound(samples_.begin(), samples_.end(), t, [](const auto& s, double v) { return s.t < v; });
+    if (after->t == t) {
+      *pose = after->pose;
+      return true;
+    }
+    const auto before = after - 1;
+    const double span = after->t - before->t;
+    if (!(span <= max_gap)) return false;
+    const double u = (t - before->t) / span;
+    const Quat q0(before->pose.linear()), q1(after->pose.linear());
+    *pose = MakePose((1.0 - u) * before->pose.translation() + u * after->pose.translation(),
+                     q0.slerp(u, q1).toRotationMatrix());
+    return true;
+  }
+
+ private:
+  struct Sample {
+    double t;
+    Pose pose;
+  };
+  std::vector<Sample> samples_;
+};
+
+std::map<std::string, std::string> TopicTypes(rosbag::Bag& bag) {
+  std::map<std::string, std::string> topics;
+  rosbag::View all(bag);
+  for (const rosbag::ConnectionInfo* connection : all.getConnections()) {
+    topics[connection->topic] = connection->datatype;
+  }
+  return topics;
+}
+
+std::string ListTopics(const std::map<std::string, std::string>& topics) {
+  if (topics.empty()) return "the bag has no topic";
+  std::string list = "the bag has ";
+  for (auto it = topics.begin(); it != topics.end(); ++it) {
+    if (it != topics.begin()) list += ", ";
+    list += it->first + " [" + it->second + "]";
+  }
+  return list;
+}
+
+core::Status CheckTopic(const std::string& path, const std::map<std::string, std::string>& topics,
+                        const std::string& topic, const char* type) {
+  const auto found = topics.find(topic);
+  if (found == topics.end()) {
+    return core::Status::InvalidArgument(path + ": no topic " + topic + " (" + ListTopics(topics) + ")");
+  }
+  if (found->second != type) {
+    return core::Status::InvalidArgument(path + ": topic " + topic + " is " + found->second + ", not " + type);
+  }
+  return core::Status::Ok();
+}
+
+core::Status OpenForReading(const std::string& path, rosbag::Bag* bag) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return core::Status::InvalidArgument(path + ": " + (std::filesystem::exists(path, ec) ? "not a regular file" : "no such file"));
+  }
+  try {
+    bag->open(path, rosbag::bagmode::Read);
+  } catch (const std::exception& e) {
+    return core::Status::InvalidArgument(path + ": not a readable ROS 1 bag (" + e.what() + ")");
+  }
+  return core::Status::Ok();
+}
+
+}  // namespace
+
+bool BagCloudSource::IsValid(std::string* why) const {
+  if (path.empty()) return Fail(why, "no bag file given");
+  if (cloud_topic.empty()) return Fail(why, "no cloud topic given");
+  if (odom_topic.empty() && StripSlash(world_frame).empty()) return Fail(why, "no odometry topic and no world frame given");
+  if (!(std::isfinite(max_pose_gap) && max_pose_gap > 0.0)) return Fail(why, "max_pose_gap must be > 0 s");
+  const Mat3& R = extrinsic.linear();
+  if (!extrinsic.matrix().allFinite() || (R.transpose() * R - Mat3::Identity()).norm() > 1e-6 || R.determinant() < 0.0) {
+    return Fail(why, "the extrinsic is not a rigid motion");
+  }
+  return true;
+}
+
+core::Result<std::vector<std::string>> BagTopics(const std::string& path) {
+  QuietConsoleBridge();
+  rosbag::Bag bag;
+  QUADHAND_RETURN_IF_ERROR(OpenForReading(path, &bag));
+  try {
+    std::vector<std::string> out;
+    for (const auto& [topic, type] : TopicTypes(bag)) out.push_back(topic + " [" + type + "]");
+    return out;
+  } catch (const std::exception& e) {
+    return core::Status::InvalidArgument(path + ": not a readable ROS 1 bag (" + e.what() + ")");
+  }
+}
+
+core::Status ForEachBagCloud(const BagCloudSource& source, const std::function<core::Status(BagCloud&)>& visit,
+                             BagCloudCounts* counts) {
+  QuietConsoleBridge();
+  BagCloudCounts local;
+  BagCloudCounts& n = counts != nullptr ? *counts : local;
+  n = BagCloudCounts{};
+  if (std::string why; !source.IsValid(&why)) return core::Status::InvalidArgument(source.path + ": " + why);
+  rosbag::Bag bag;
+  QUADHAND_RETURN_IF_ERROR(OpenForReading(source.path, &bag));
+  try {
+    const std::map<std::string, std::string> topics = TopicTypes(bag);
+    QUADHAND_RETURN_IF_ERROR(CheckTopic(source.path, topics, source.cloud_topic, kCloudType));
+    OdometryTrack odometry;
+    std::unique_ptr<tf2::BufferCore> tf;
+    const std::string world = StripSlash(source.world_frame);
+    if (!source.odom_topic.empty()) {
+      QUADHAND_RETURN_IF_ERROR(CheckTopic(source.path, topics, source.odom_topic, kOdomType));
+      rosbag::View view(bag, rosbag::TopicQuery(source.odom_topic));
+      for (const rosbag::MessageInstance& message : view) {
+        ++n.poses;
+        boost::shared_ptr<nav_msgs::Odometry> odom;
+        try {
+          odom = message.instantiate<nav_msgs::Odometry>();
+        } catch (const std::exception&) {
+          odom.reset();
+        }
+        Pose pose;
+        if (odom == nullptr || !ToPose(odom->pose.pose.position, odom->pose.pose.orientation, &pose)) {
+          ++n.bad_poses;
+          continue;
+        }
+        odometry.Add(StampOf(odom->header.stamp, message.getTime()), pose);
+      }
+      odometry.Sort();
+    } else {
+      std::vector<std::string> tf_topics;
+      for (const char* topic : {"/tf", "/tf_static"}) {
+        const auto found = topics.find(topic);
+        if (found != topics.end() && found->second == kTfType) tf_topics.push_back(topic);
+      }
+      if (tf_topics.empty()) {
+        return core::Status::InvalidArgument(source.path + ": no /tf or /tf_static of " + std::string(kTfType) +
+                                             " to place the clouds in frame " + world + " (" + ListTopics(topics) +
+                                             "; or give an odometry topic)");
+      }
+      rosbag::View whole(bag);
+      const double span = std::max(0.0, (whole.getEndTime() - whole.getBeginTime()).toSec());
+      tf = std::make_unique<tf2::BufferCore>(ros::Duration(span + 10.0));
+      rosbag::View view(bag, rosbag::TopicQuery(tf_topics));
+      for (const rosbag::MessageInstance& message : view) {
+        boost::shared_ptr<tf2_msgs::TFMessage> transforms;
+        try {
+          transforms = message.instantiate<tf2_msgs::TFMessage>();
+        } catch (const std::exception&) {
+          transforms.reset();
+        }
+        if (transforms == nullptr) {
+          ++n.poses;
+          ++n.bad_poses;
+          continue;
+        }
+        const bool is_static = message.getTopic() == "/tf_static";
+        for (const geometry_msgs::TransformStamped& transform : transforms->transforms) {
+          ++n.poses;
+          Pose ignored;
+          if (!ToPose(transform.transform.translation, transform.transform.rotation, &ignored) ||
+              !tf->setTransform(transform, "bag", is_static)) {
+            ++n.bad_poses;
+          }
+        }
+      }
+    }
+
+    rosbag::View clouds(bag, rosbag::TopicQuery(source.cloud_topic));
+    BagCloud cloud;
+    for (const rosbag::MessageInstance& message : clouds) {
+      ++n.messages;
+      boost::shared_ptr<sensor_msgs::PointCloud2> msg;
+      try {
+        msg = message.instantiate<sensor_msgs::PointCloud2>();
+      } catch (const std::exception&) {
+        msg.reset();
+      }
+      long non_finite = 0;
+      if (msg == nullptr || !DecodeCloud(*msg, &cloud.points, &non_finite)) {
+        ++n.malformed;
+        continue;
+      }
+      cloud.t = StampOf(msg->header.stamp, message.getTime());
+      if (tf != nullptr) {
+        try {
+          const ros::Time stamp = msg->header.stamp.isZero() ? message.getTime() : msg->header.stamp;
+          const geometry_msgs::TransformStamped transform =
+              tf->lookupTransform(world, StripSlash(msg->header.frame_id), stamp);
+          if (!ToPose(transform.transform.translation, transform.transform.rotation, &cloud.sensor_to_world)) {
+            ++n.no_pose;
+            continue;
+          }
+        } catch (const tf2::TransformException&) {
+          ++n.no_pose;
+          continue;
+        }
+      } else {
+        Pose body;
+        if (!odometry.At(cloud.t, source.max_pose_gap, &body)) {
+          ++n.no_pose;
+          continue;
+        }
+        cloud.sensor_to_world = body * source.extrinsic;
+      }
+      n.non_finite_points += non_finite;
+      ++n.used;
+      QUADHAND_RETURN_IF_ERROR(visit(cloud));
+    }
+  } catch (const std::exception& e) {
+    return core::Status::InvalidArgument(source.path + ": not a readable ROS 1 bag (" + e.what() + ")");
+  }
+  return core::Status::Ok();
+}
+
+struct BagWriter::Impl {
+  std::string path, partial;
+  BagTopicsToWrite topics;
+  rosbag::Bag bag;
+  bool open = false;
+};
+
+BagWriter::BagWriter(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+BagWriter::~BagWriter() {
+  if (impl_ != nullptr && impl_->open) {
+    try {
+      impl_->bag.close();
+    } catch (const std::exception&) {
+    }
+    std::error_code ec;
+    std::filesystem::remove(impl_->partial, ec);
+  }
+}
+
+core::Result<std::unique_ptr<BagWriter>> BagWriter::Create(const std::string& path, const BagTopicsToWrite& topics) {
+  QuietConsoleBridge();
+  if (!(std::isfinite(topics.epoch) && topics.epoch > 0.0)) {
+    return core::Status::InvalidArgument(path + ": the bag's epoch must be > 0 s");
+  }
+  auto impl = std::make_unique<Impl>();
+  impl->path = path;
+  impl->partial = path + core::Format(".partial.%d", static_cast<int>(getpid()));
+  impl->topics = topics;
+  try {
+    impl->bag.open(impl->partial, rosbag::bagmode::Write);
+  } catch (const std::exception& e) {
+    return core::Status::InvalidArgument(path + ": cannot write a bag (" + e.what() + ")");
+  }
+  impl->open = true;
+  return std::unique_ptr<BagWriter>(new BagWriter(std::move(impl)));
+}
+
+namespace {
+
+core::Result<ros::Time> StampToWrite(const std::string& path, bool open, double t, double epoch) {
+  if (!open) return core::Status::InvalidArgument(path + ": the bag is closed");
+  if (!std::isfinite(t) || t + epoch <= 0.0) {
+    return core::Status::InvalidArgument(path + ": a frame's time must be finite and after the epoch");
+  }
+  return ros::Time(t + epoch);
+}
+
+geometry_msgs::TransformStamped TransformOf(const Pose& pose, const ros::Time& stamp, const std::string& parent,
+                                            const std::string& child) {
+  geometry_msgs::TransformStamped out;
+  out.header.stamp = stamp;
+  out.header.frame_id = parent;
+  out.child_frame_id = child;
+  const Quat q(pose.linear());
+  out.transform.translation.x = pose.translation().x();
+  out.transform.translation.y = pose.translation().y();
+  out.transform.translation.z = pose.translation().z();
+  out.transform.rotation.w = q.w();
+  out.transform.rotation.x = q.x();
+  out.transform.rotation.y = q.y();
+  out.transform.rotation.z = q.z();
+  return out;
+}
+
+}  // namespace
+
+core::Status BagWriter::Write(double t, const Pose& base_to_world, const Pose& sensor_to_base,
+                              const std::vector<Vec3>& points) {
+  QUADHAND_RETURN_IF_ERROR(WritePose(t, base_to_world, sensor_to_base));
+  return WriteCloud(t, points);
+}
+
+core::Status BagWriter::WritePose(double t, const Pose& base_to_world, const Pose& sensor_to_base) {
+  auto stamp = StampToWrite(impl_->path, impl_->open, t, impl_->topics.epoch);
+  if (!stamp.ok()) return stamp.status();
+  const BagTopicsToWrite& names = impl_->topics;
+  const geometry_msgs::TransformStamped base = TransformOf(base_to_world, *stamp, names.world_frame, names.base_frame);
+  nav_msgs::Odometry odom;
+  odom.header = base.header;
+  odom.child_frame_id = names.base_frame;
+  odom.pose.pose.position.x = base.transform.translation.x;
+  odom.pose.pose.position.y = base.transform.translation.y;
+  odom.pose.pose.position.z = base.transform.translation.z;
+  odom.pose.pose.orientation = base.transform.rotation;
+  tf2_msgs::TFMessage tf;
+  tf.transforms.push_back(base);
+  tf.transforms.push_back(TransformOf(sensor_to_base, *stamp, names.base_frame, names.sensor_frame));
+  try {
+    impl_->bag.write("/tf", *stamp, tf);
+    impl_->bag.write(names.odom_topic, *stamp, odom);
+  } catch (const std::exception& e) {
+    return core::Status::InvalidArgument(impl_->path + ": cannot write the bag (" + e.what() + ")");
+  }
+  return core::Status::Ok();
+}
+
+core::Status BagWriter::WriteCloud(double t, const std::vector<Vec3>& points) {
+  auto stamp = StampToWrite(impl_->path, impl_->open, t, impl_->topics.epoch);
+  if (!stamp.ok()) return stamp.status();
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header.stamp = *stamp;
+  cloud.header.frame_id = impl_->topics.sensor_frame;
+  cloud.height = 1;
+  cloud.width = static_cast<uint32_t>(points.size());
+  const char* axes[3] = {"x", "y", "z"};
+  for (int axis = 0; axis < 3; ++axis) {
+    sensor_msgs::PointField field;
+    field.name = axes[axis];
+    field.offset = static_cast<uint32_t>(4 * axis);
+    field.datatype = sensor_msgs::PointField::FLOAT32;
+    field.count = 1;
+    cloud.fields.push_back(field);
+  }
+  cloud.is_bigendian = false;
+  cloud.point_step = 12;
+  cloud.row_step = 12 * cloud.width;
+  cloud.is_dense = true;
+  cloud.data.resize(cloud.row_step);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const float xyz[3] = {static_cast<float>(points[i].x()), static_cast<float>(points[i].y()),
+                          static_cast<float>(points[i].z())};
+    std::memcpy(cloud.data.data() + 12 * i, xyz, 12);
+  }
+  try {
+    impl_->bag.write(impl_->topics.cloud_topic, *stamp, cloud);
+  } catch (const std::exception& e) {
+    return core::Status::InvalidArgument(impl_->path + ": cannot write the bag (" + e.what() + ")");
+  }
+  return core::Status::Ok();
+}
+
+core::Status BagWriter::Close() {
+  if (!impl_->open) return core::Status::Ok();
+  try {
+    impl_->bag.close();
+  } catch (const std::exception& e) {
+    return core::Status::InvalidArgument(impl_->path + ": cannot finish the bag (" + e.what() + ")");
+  }
+  impl_->open = false;
+  std::error_code ec;
+  std::filesystem::rename(impl_->partial, impl_->path, ec);
+  if (ec) {
+    std::filesystem::remove(impl_->partial, ec);
+    return core::Status::InvalidArgument(impl_->path + ": " + ec.message());
+  }
+  return core::Status::Ok();
+}
+
+}  // namespace quadhand::scene
