@@ -16,6 +16,7 @@
 
 #include "quadhand/core/text.h"
 #include "quadhand/scene/point_cloud.h"
+#include "quadhand/scene/ros_bag.h"
 #include "support/run_command.h"
 #include "support/window_cup_task.h"
 
@@ -187,6 +188,69 @@ TEST_F(PlanCliTest, PlansOnAScanGivenInItsSensorFrame) {
   fs::remove(out);
   fs::remove(report);
   ExpectBadInput(WriteTask({{"scene:", scene("[2, 0, 0, 0]")}}), "scene[0].pose.orientation: expected a unit quaternion");
+}
+
+// The default scene recorded as a ROS 1 bag (docs/task_format.md,
+// "Recorded clouds in a ROS 1 bag"): two clouds, each half of the scene in
+// the frame of a sensor 0.1 m ahead of a moving base, placed by the
+// bag's odometry and the extrinsic. The plan succeeds on the scene put back
+// together; a topic the bag lacks is bad input listing its topics.
+TEST_F(PlanCliTest, PlansOnAScanRecordedInAROSBag) {
+  auto cloud = scene::LoadPcd(std::string(QUADHAND_SOURCE_DIR) + "/data/scenes/window_cup.pcd");
+  ASSERT_TRUE(cloud.ok());
+  const Pose sensor_to_base = MakePose(Vec3(0.1, 0.0, -0.05), Quat(0.95, 0.0, 0.2, 0.0).normalized().toRotationMatrix());
+  const Pose base0 = MakePose(Vec3(0.5, 0.0, 1.2), Quat(Eigen::AngleAxisd(3.0, Vec3::UnitZ())).toRotationMatrix());
+  const Pose base1 = MakePose(Vec3(0.0, 0.2, 1.3), Quat(Eigen::AngleAxisd(2.8, Vec3::UnitZ())).toRotationMatrix());
+  const std::string bag = (dir_ / "scene.bag").string();
+  {
+    auto writer = scene::BagWriter::Create(bag);
+    ASSERT_TRUE(writer.ok());
+    const size_t half = cloud->points.size() / 2;
+    for (int i = 0; i < 2; ++i) {
+      const Pose sensor = (i == 0 ? base0 : base1) * sensor_to_base;
+      std::vector<Vec3> part(cloud->points.begin() + (i == 0 ? 0 : half),
+                             i == 0 ? cloud->points.begin() + half : cloud->points.end());
+      for (Vec3& p : part) p = sensor.inverse() * p;
+      ASSERT_TRUE((*writer)->Write(0.1 * i, i == 0 ? base0 : base1, sensor_to_base, part).ok());
+    }
+    ASSERT_TRUE((*writer)->Close().ok());
+  }
+  const Quat q(sensor_to_base.linear());
+  std::ostringstream scene;
+  scene.precision(17);
+  scene << "scene:\n  - bag: " << bag << "\n    cloud_topic: /quadhand/points\n    odom_topic: /quadhand/odom\n"
+        << "    extrinsic: {position: [0.1, 0, -0.05], orientation: [" << q.w() << ", " << q.x() << ", " << q.y() << ", "
+        << q.z() << "]}";
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const auto planned =
+      RunCommand(kPlan + " " + WriteTask({{"scene:", scene.str()}}) + " --out " + out + " --report " + report);
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  EXPECT_EQ(nlohmann::json::parse(ReadAll(report))["scene_points"].get<size_t>(), cloud->points.size());
+  fs::remove(out);
+  fs::remove(report);
+  // Placed by /tf instead (world <- base_link <- quadhand_sensor), the same.
+  const auto by_tf = RunCommand(kPlan + " " +
+                                WriteTask({{"scene:", "scene:\n  - bag: " + bag +
+                                                          "\n    cloud_topic: /quadhand/points\n    world_frame: world"}}) +
+                                " --out " + out + " --report " + report);
+  ASSERT_EQ(by_tf.exit_code, 0) << by_tf.err;
+  fs::remove(out);
+  fs::remove(report);
+  ExpectBadInput(WriteTask({{"scene:", "scene:\n  - bag: " + bag + "\n    cloud_topic: /camera/points"}}),
+                 "no topic /camera/points (the bag has /quadhand/odom [nav_msgs/Odometry], /quadhand/points "
+                 "[sensor_msgs/PointCloud2], /tf [tf2_msgs/TFMessage])");
+  ExpectBadInput(WriteTask({{"scene:", "scene:\n  - bag: " + bag + "\n    cloud_topic: /quadhand/points\n"
+                                       "    pose: {position: [0, 0, 0], orientation: [1, 0, 0, 0]}"}}),
+                 "scene[0].pose: unknown key");
+  ExpectBadInput(WriteTask({{"scene:", "scene:\n  - bag: " + bag + "\n    cloud_topic: /quadhand/points\n"
+                                       "    odom_topic: /quadhand/odom\n    world_frame: map"}}),
+                 "give one");
+  ExpectBadInput(WriteTask({{"scene:", "scene:\n  - bag: " + bag + "\n    cloud_topic: /quadhand/points\n"
+                                       "    world_frame: map"}}),
+                 "no cloud on /quadhand/points could be used (2 messages: 0 malformed, 2 without a pose");
+  ExpectBadInput(WriteTask({{"scene:", "scene:\n  - bag: " + std::string(QUADHAND_SOURCE_DIR) +
+                                       "/data/scenes/window_cup.pcd\n    cloud_topic: /points"}}),
+                 "window_cup.pcd: not a readable ROS 1 bag");
 }
 
 // Self-collision: with a self-safety distance no posture of the reference

@@ -11,6 +11,7 @@
 
 #include "quadhand/core/text.h"
 #include "quadhand/scene/point_cloud.h"
+#include "quadhand/scene/ros_bag.h"
 #include "support/run_command.h"
 
 namespace quadhand {
@@ -77,6 +78,64 @@ TEST_F(MapCliTest, MapsTheFramesAndCountsWhatItDrops) {
   for (const Vec3& c : behind->points) EXPECT_GT(c.x(), 3.0);
 }
 
+// The same frames as a ROS 1 bag (--bag) and as a folder: the same map.
+// The sensor sits on a base that moves and turns; the bag places each cloud
+// by /tf (world <- base_link <- quadhand_sensor) or by the odometry and
+// the extrinsic; the folder by each frame's pose.
+TEST_F(MapCliTest, MapsABagAsItMapsTheSameFramesInAFolder) {
+  std::vector<Vec3> wall;
+  for (double y = -1.5; y <= 1.5 + 1e-9; y += 0.03) {
+    for (double z = 0.0; z <= 2.0 + 1e-9; z += 0.03) wall.emplace_back(4.0, y, z);
+  }
+  const Pose sensor_to_base = MakePose(Vec3(0.1, 0.0, -0.05), Quat(0.98, 0.0, 0.15, 0.0).normalized().toRotationMatrix());
+  const std::string bag = (dir_ / "frames.bag").string();
+  auto writer = scene::BagWriter::Create(bag);
+  ASSERT_TRUE(writer.ok());
+  std::string index = "index,t,file,x,y,z,qw,qx,qy,qz\n";
+  for (int i = 0; i < 4; ++i) {
+    const Pose base = MakePose(Vec3(0.3 * i, 0.1 * i, 1.0), Quat(Eigen::AngleAxisd(0.1 * i, Vec3::UnitZ())).toRotationMatrix());
+    const Pose sensor = base * sensor_to_base;
+    std::vector<Vec3> seen;
+    for (const Vec3& p : wall) seen.push_back(sensor.inverse() * p);
+    ASSERT_TRUE((*writer)->Write(0.1 * i, base, sensor_to_base, seen).ok());
+    const std::string file = "f" + std::to_string(i) + ".pcd";
+    ASSERT_TRUE(scene::WritePcd((dir_ / "frames" / file).string(), seen).ok());
+    const Quat q(sensor.linear());
+    index += core::Format("%d,%.3f,%s,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", i, 0.1 * i, file.c_str(),
+                          sensor.translation().x(), sensor.translation().y(), sensor.translation().z(), q.w(), q.x(),
+                          q.y(), q.z());
+  }
+  ASSERT_TRUE((*writer)->Close().ok());
+  std::ofstream(dir_ / "frames" / "frames.csv") << index;
+  auto map = [&](const std::string& args, const std::string& out) {
+    const auto r = RunCommand(kMap + " " + args + " --out " + out + " --json");
+    EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.err;
+    const auto points = scene::LoadPcd(out);
+    EXPECT_TRUE(points.ok()) << out;
+    return std::make_pair(r.exit_code == 0 ? nlohmann::json::parse(r.out) : nlohmann::json(),
+                          points.ok() ? points->points : std::vector<Vec3>{});
+  };
+  const auto [folder_json, folder] = map((dir_ / "frames").string(), (dir_ / "folder.pcd").string());
+  const auto [tf_json, by_tf] = map("--bag " + bag + " --cloud-topic /quadhand/points", (dir_ / "tf.pcd").string());
+  const Quat e(sensor_to_base.linear());
+  const auto [odom_json, by_odom] =
+      map("--bag " + bag + " --cloud-topic /quadhand/points --odom-topic /quadhand/odom --extrinsic " +
+              core::Format("0.1,0,-0.05,%.17g,%.17g,%.17g,%.17g", e.w(), e.x(), e.y(), e.z()),
+          (dir_ / "odom.pcd").string());
+  ASSERT_FALSE(folder.empty());
+  EXPECT_EQ(tf_json["frames"].get<int>(), 4);
+  EXPECT_EQ(tf_json["bag_messages"].get<int>(), 4);
+  EXPECT_EQ(tf_json["bag_poses"].get<int>(), 8);
+  EXPECT_EQ(odom_json["bag_poses"].get<int>(), 4);
+  EXPECT_EQ(by_tf.size(), folder.size());
+  EXPECT_EQ(by_odom.size(), folder.size());
+  EXPECT_EQ(tf_json["known_voxels"], folder_json["known_voxels"]);
+  // Every return lands on the wall, whichever way it was placed.
+  for (const auto* points : {&folder, &by_tf, &by_odom}) {
+    for (const Vec3& p : *points) ASSERT_NEAR(p.x(), 4.0, 1e-5);
+  }
+}
+
 TEST_F(MapCliTest, BadInputIsOneLineAndNoOutput) {
   const std::string out = (dir_ / "occupied.pcd").string();
   auto expect_bad = [&](const std::string& args, const std::string& fragment) {
@@ -102,10 +161,36 @@ TEST_F(MapCliTest, BadInputIsOneLineAndNoOutput) {
   expect_bad("--listen udp://127.0.0.1:0 --idle 0 --out " + out, "--idle");
   // Nothing arrives: no map, one line, no file.
   expect_bad("--listen udp://127.0.0.1:0 --max-duration 0.3 --json --out " + out, "no usable frame");
+  // Bags.
+  const std::string bag = (dir_ / "one.bag").string();
+  {
+    auto writer = scene::BagWriter::Create(bag);
+    ASSERT_TRUE(writer.ok());
+    ASSERT_TRUE((*writer)->Write(0.0, Pose::Identity(), Pose::Identity(), {Vec3(2, 0, 0)}).ok());
+    ASSERT_TRUE((*writer)->Close().ok());
+  }
+  expect_bad("--bag " + bag + " --out " + out, "needs --cloud-topic");
+  expect_bad("--bag " + bag + " --cloud-topic /points --out " + out,
+             bag + ": no topic /points (the bag has /quadhand/odom [nav_msgs/Odometry], /quadhand/points "
+                   "[sensor_msgs/PointCloud2], /tf [tf2_msgs/TFMessage])");
+  expect_bad("--bag " + bag + " --cloud-topic /quadhand/odom --out " + out, "is nav_msgs/Odometry, not");
+  expect_bad("--bag " + bag + " --cloud-topic /quadhand/points --odom-topic /quadhand/odom --world-frame map --out " + out,
+             "give one");
+  expect_bad("--bag " + bag + " --cloud-topic /quadhand/points --extrinsic 0,0,0,1,0,0,0 --out " + out,
+             "only used with --odom-topic");
+  expect_bad("--bag " + bag + " --cloud-topic /quadhand/points --odom-topic /quadhand/odom --extrinsic 0,0,0,2,0,0,0 --out " +
+                 out,
+             "unit quaternion");
+  expect_bad("--bag " + bag + " --cloud-topic /quadhand/points --world-frame map --out " + out,
+             "no usable cloud on /quadhand/points (1 messages: 0 malformed, 1 without a pose");
+  expect_bad("--bag " + frames + "/frames.csv --cloud-topic /p --out " + out, "not a readable ROS 1 bag");
+  expect_bad("--bag " + bag + " " + frames + " --cloud-topic /quadhand/points --out " + out, "one of them");
+  expect_bad(frames + " --cloud-topic /quadhand/points --out " + out, "only used with --bag");
   const auto help = RunCommand(kMap + " --help");
   EXPECT_EQ(help.exit_code, 0);
   for (const char* option : {"--out", "--unknown-out", "--unknown-box", "--resolution", "--window", "--max-range", "--json",
-                             "--listen", "--idle", "--max-duration"}) {
+                             "--listen", "--idle", "--max-duration", "--bag", "--cloud-topic", "--odom-topic",
+                             "--extrinsic", "--world-frame", "--max-pose-gap"}) {
     EXPECT_NE(help.out.find(option), std::string::npos) << option;
   }
 }

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "quadhand/scene/point_cloud.h"
+#include "quadhand/scene/ros_bag.h"
 
 #include "support/run_command.h"
 
@@ -144,6 +145,29 @@ TEST_F(SimCliTest, WritesTheFramesASensorSeesAlongTheFlight) {
   ASSERT_GT(cloud->points.size(), 1000u);
   // (Within 6 sigma of the depth noise there: 0.002 m at 1 m, times 2.5^2.)
   for (const Vec3& p : cloud->points) EXPECT_NEAR((sensor * p).x(), 2.5, 0.08) << p.transpose();
+  // The same frames as a ROS 1 bag: a cloud per frame, placed by /tf where
+  // frames.csv places it, with the same returns (both float32).
+  const std::string bag = (dir_ / "frames.bag").string(), both = (dir_ / "both").string();
+  const auto bagged = RunCommand(kSim + " -q --config " + kConfig + " --track " + plan + " --out " + out + "b --world " +
+                                 world + " --sensor depth --frames " + both + " --bag " + bag);
+  ASSERT_EQ(bagged.exit_code, 0) << bagged.err;
+  std::vector<scene::BagCloud> clouds;
+  scene::BagCloudSource source;
+  source.path = bag;
+  source.cloud_topic = "/quadhand/points";
+  scene::BagCloudCounts counts;
+  ASSERT_TRUE(scene::ForEachBagCloud(source, [&](scene::BagCloud& c) { clouds.push_back(c); return core::Status::Ok(); },
+                                     &counts).ok());
+  ASSERT_EQ(clouds.size(), 16u);
+  EXPECT_LT((clouds[0].sensor_to_world.matrix() - sensor.matrix()).norm(), 1e-6);
+  auto first = scene::LoadPcd(both + "/frame_000000.pcd");
+  ASSERT_TRUE(first.ok());
+  ASSERT_EQ(clouds[0].points.size(), first->points.size());
+  for (size_t i = 0; i < first->points.size(); ++i) ASSERT_LT((clouds[0].points[i] - first->points[i]).norm(), 1e-6);
+  ExpectBadInput("--track " + plan + " --world " + world + " --sensor depth --bag " + bag, "exists already");
+  ExpectBadInput("--track " + plan + " --world " + world + " --sensor depth --bag " + (dir_ / "no" / "x.bag").string(),
+                 "its folder does not exist");
+
   // The folder is new: given again, it is refused, and nothing is written.
   ExpectBadInput("--track " + plan + " --world " + world + " --sensor depth --frames " + frames, "exists already");
   ExpectBadInput("--track " + plan + " --world " + world + " --sensor depth", "go together");
