@@ -8,7 +8,7 @@
 # Prints executions, coverage and findings per target. Not part of CI.
 #
 # Usage: bash scripts/fuzz.sh [SECONDS] [TARGET...]
-#   targets: point_cloud mesh urdf task planner_config bench_config sim_config sdf mavlink sensor_stream
+#   targets: point_cloud mesh urdf task planner_config bench_config sim_config sdf mavlink sensor_stream ros_bag
 # Needs clang (Debian: clang-14, libclang-rt-14-dev holds libFuzzer).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,7 +18,7 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || (( seconds < 1 )); then
   echo "fuzz.sh: SECONDS must be a positive whole number (got '$seconds')" >&2
   exit 2
 fi
-all=(point_cloud mesh urdf task planner_config bench_config sim_config sdf mavlink sensor_stream)
+all=(point_cloud mesh urdf task planner_config bench_config sim_config sdf mavlink sensor_stream ros_bag)
 targets=("$@")
 [[ ${#targets[@]} -eq 0 ]] && targets=("${all[@]}")
 for t in "${targets[@]}"; do
