@@ -310,6 +310,16 @@ TEST_F(RosBagTest, WhatIsNotABagIsOneErrorNamingIt) {
   ReadAll(Source(Path("text.bag")), &counts, &status);
   ASSERT_FALSE(status.ok());
   EXPECT_EQ(status.message().rfind(Path("text.bag") + ": not a readable ROS 1 bag", 0), 0u) << status.message();
+  // A record declaring a 4 GB header in a file of 30 bytes: refused before
+  // rosbag would allocate it (found by fuzz_ros_bag).
+  {
+    std::ofstream huge(Path("huge.bag"), std::ios::binary);
+    huge << "#ROSBAG V2.0\n";
+    const uint32_t lengths[3] = {0xF0000000u, 0u, 0u};
+    huge.write(reinterpret_cast<const char*>(lengths), sizeof(lengths));
+  }
+  ReadAll(Source(Path("huge.bag")), &counts, &status);
+  EXPECT_EQ(status.message(), Path("huge.bag") + ": not a readable ROS 1 bag (a record's header runs past the end)");
   ReadAll(Source(dir_.string()), &counts, &status);
   EXPECT_EQ(status.message(), dir_.string() + ": not a regular file");
   // A bag cut short anywhere: an error naming it, or the clouds before the cut; never a crash.
@@ -326,6 +336,53 @@ TEST_F(RosBagTest, WhatIsNotABagIsOneErrorNamingIt) {
       EXPECT_LE(clouds.size(), 3u);
     }
   }
+}
+
+TEST_F(RosBagTest, CompressedChunksReadAsPlainOnes) {
+  const std::vector<Vec3> points = {Vec3(1.0, 0.0, 0.0), Vec3(2.0, 0.5, -0.5)};
+  for (const auto compression : {rosbag::compression::BZ2, rosbag::compression::LZ4}) {
+    const std::string path = Path(compression == rosbag::compression::BZ2 ? "bz2.bag" : "lz4.bag");
+    {
+      rosbag::Bag bag(path, rosbag::bagmode::Write);
+      bag.setCompression(compression);
+      tf2_msgs::TFMessage tf;
+      geometry_msgs::TransformStamped t;
+      t.header.frame_id = "world";
+      t.child_frame_id = "cam";
+      t.header.stamp = ros::Time(1.0);
+      t.transform.translation.z = 1.0;
+      t.transform.rotation.w = 1.0;
+      tf.transforms.push_back(t);
+      bag.write("/tf", ros::Time(1.0), tf);
+      for (int i = 0; i < 50; ++i) bag.write("/quadhand/points", ros::Time(1.0), RawCloud(points, false, "cam"));
+    }
+    BagCloudCounts counts;
+    const std::vector<BagCloud> clouds = ReadAll(Source(path), &counts);
+    ASSERT_EQ(clouds.size(), 50u) << path;
+    EXPECT_LT((clouds[49].sensor_to_world * clouds[49].points[1] - Vec3(2.0, 0.5, 0.5)).norm(), 1e-6);
+  }
+}
+
+// What fuzz_ros_bag found (tests/fuzz/corpus/ros_bag/: a connection record
+// declaring a 4 GB header, an index entry pointing into the middle of a
+// chunk, which made rosbag read outside its buffer) and the seed bag:
+// each is read or refused with one error naming it.
+TEST_F(RosBagTest, TheFuzzersFindingsAreRefusedNotCrashedOn) {
+  const std::string corpus = std::string(QUADHAND_SOURCE_DIR) + "/tests/fuzz/corpus/ros_bag";
+  int refused = 0, read = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(corpus)) {
+    BagCloudCounts counts;
+    core::Status status;
+    ReadAll(Source(entry.path().string()), &counts, &status);
+    if (status.ok()) {
+      ++read;
+    } else {
+      ++refused;
+      EXPECT_EQ(status.message().rfind(entry.path().string() + ": not a readable ROS 1 bag (", 0), 0u) << status.message();
+    }
+  }
+  EXPECT_EQ(read, 1);  // the seed
+  EXPECT_GE(refused, 2);
 }
 
 TEST_F(RosBagTest, AFailedWriterLeavesNoFile) {

@@ -5,11 +5,14 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 #include <unistd.h>
 
+#include <bzlib.h>
 #include <console_bridge/console.h>
+#include <roslz4/lz4s.h>
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -166,11 +169,183 @@ core::Status CheckTopic(const std::string& path, const std::map<std::string, std
   return core::Status::Ok();
 }
 
+// rosbag trusts a bag's lengths and offsets: a 200-byte file declaring a
+// 4 GB header makes it allocate 4 GB, and an index entry pointing into the
+// middle of a chunk makes it read outside its buffer (a SEGV; both found by
+// fuzz_ros_bag). So the bag's structure is checked first, as rosbag will
+// read it: every record's lengths inside what holds it (the file, its
+// header, its chunk, decompressed as rosbag will decompress it); the bag
+// header's index position, each chunk info's chunk position and each index
+// entry's offset on the start of a record of the right kind.
+constexpr uint64_t kMaxRecordHeaderBytes = 64u << 20;  // a connection's message definition is a few kB
+constexpr uint64_t kMaxChunkBytes = 1u << 30;
+constexpr char kOpMessage = 0x02, kOpBagHeader = 0x03, kOpIndex = 0x04, kOpChunk = 0x05, kOpChunkInfo = 0x06;
+
+struct Record {
+  uint64_t start = 0;  // where its header length is
+  char op = 0;
+  std::map<std::string, std::string> fields;
+  uint64_t data_at = 0, data_len = 0;
+};
+
+template <typename T>
+bool FieldValue(const Record& record, const std::string& name, T* value) {
+  const auto found = record.fields.find(name);
+  if (found == record.fields.end() || found->second.size() != sizeof(T)) return false;
+  std::memcpy(value, found->second.data(), sizeof(T));
+  return true;
+}
+
+// The records of `bytes` from `at` (a file's, or a chunk's), or why not.
+// `read(at, n, out)` gives n bytes at `at`, or false.
+std::string ReadRecords(const std::function<bool(uint64_t, uint64_t, std::string*)>& read, uint64_t at, uint64_t size,
+                        std::vector<Record>* records) {
+  std::string bytes;
+  while (at < size) {
+    Record record;
+    record.start = at;
+    uint32_t header_len = 0, data_len = 0;
+    if (size - at < 4 || !read(at, 4, &bytes)) return "a record's length runs past the end";
+    std::memcpy(&header_len, bytes.data(), 4);
+    at += 4;
+    if (header_len > size - at || header_len > kMaxRecordHeaderBytes) return "a record's header runs past the end";
+    std::string header;
+    if (!read(at, header_len, &header)) return "unreadable";
+    at += header_len;
+    for (size_t f = 0; f < header.size();) {
+      uint32_t field_len = 0;
+      if (header.size() - f < 4) return "a header field's length runs past its header";
+      std::memcpy(&field_len, header.data() + f, 4);
+      f += 4;
+      if (field_len > header.size() - f) return "a header field runs past its header";
+      const std::string field = header.substr(f, field_len);
+      const size_t equals = field.find('=');
+      if (equals == std::string::npos) return "a header field without '='";
+      record.fields[field.substr(0, equals)] = field.substr(equals + 1);
+      f += field_len;
+    }
+    if (!FieldValue(record, "op", &record.op)) return "a record without its op";
+    if (size - at < 4 || !read(at, 4, &bytes)) return "a record's data length runs past the end";
+    std::memcpy(&data_len, bytes.data(), 4);
+    at += 4;
+    if (data_len > size - at) return "a record's data runs past the end";
+    record.data_at = at;
+    record.data_len = data_len;
+    at += data_len;
+    records->push_back(std::move(record));
+  }
+  return "";
+}
+
+// A chunk's records as rosbag will see them, decompressed, or why not.
+std::string ReadChunk(const Record& chunk, std::string data, std::vector<Record>* records) {
+  std::string compression;
+  uint32_t size = 0;
+  const auto found = chunk.fields.find("compression");
+  if (found == chunk.fields.end() || !FieldValue(chunk, "size", &size)) return "a chunk without its compression or size";
+  if (size > kMaxChunkBytes) return "a chunk declares more than 1 GiB";
+  std::string plain;
+  if (found->second == "none") {
+    if (size != data.size()) return "an uncompressed chunk's size disagrees with its data";
+    plain = std::move(data);
+  } else if (found->second == "bz2" || found->second == "lz4") {
+    plain.assign(size, '\0');
+    unsigned int out = size;
+    const int code = found->second == "bz2"
+                         ? BZ2_bzBuffToBuffDecompress(plain.data(), &out, data.data(),
+                                                      static_cast<unsigned int>(data.size()), 0, 0)
+                         : roslz4_buffToBuffDecompress(data.data(), static_cast<unsigned int>(data.size()),
+                                                       plain.data(), &out);
+    if (code != 0 || out != size) return "a " + found->second + " chunk that does not decompress to its size";
+  } else {
+    return "a chunk compressed as '" + found->second + "'";
+  }
+  auto read = [&plain](uint64_t at, uint64_t n, std::string* out) {
+    if (at > plain.size() || n > plain.size() - at) return false;
+    out->assign(plain, at, n);
+    return true;
+  };
+  return ReadRecords(read, 0, plain.size(), records);
+}
+
+core::Status CheckBagLayout(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) return core::Status::InvalidArgument(path + ": cannot open");
+  static const std::string kMagic = "#ROSBAG V2.0\n";
+  std::string magic(kMagic.size(), '\0');
+  file.read(magic.data(), static_cast<std::streamsize>(magic.size()));
+  if (static_cast<size_t>(file.gcount()) != magic.size() || magic != kMagic) {
+    return core::Status::InvalidArgument(path + ": not a readable ROS 1 bag (no '#ROSBAG V2.0' line at its start)");
+  }
+  std::error_code ec;
+  const uint64_t size = std::filesystem::file_size(path, ec);
+  if (ec) return core::Status::InvalidArgument(path + ": " + ec.message());
+  auto read = [&file](uint64_t at, uint64_t n, std::string* out) {
+    out->resize(n);
+    file.clear();
+    file.seekg(static_cast<std::streamoff>(at));
+    file.read(out->data(), static_cast<std::streamsize>(n));
+    return static_cast<uint64_t>(file.gcount()) == n;
+  };
+  auto bad = [&path](const std::string& why) {
+    return core::Status::InvalidArgument(path + ": not a readable ROS 1 bag (" + why + ")");
+  };
+  std::vector<Record> records;
+  if (std::string why = ReadRecords(read, kMagic.size(), size, &records); !why.empty()) return bad(why);
+  std::set<uint64_t> starts, chunk_starts;
+  for (const Record& record : records) {
+    starts.insert(record.start);
+    if (record.op == kOpChunk) chunk_starts.insert(record.start);
+  }
+  std::set<uint64_t> messages;  // offsets of the message records of the chunk before
+  bool after_chunk = false;
+  for (const Record& record : records) {
+    if (record.op == kOpBagHeader) {
+      uint64_t index_pos = 0;
+      if (!FieldValue(record, "index_pos", &index_pos)) return bad("a bag header without its index position");
+      if (index_pos != 0 && index_pos != size && starts.count(index_pos) == 0) {
+        return bad("the index position is not a record's start");
+      }
+    } else if (record.op == kOpChunk) {
+      std::string data;
+      if (!read(record.data_at, record.data_len, &data)) return bad("unreadable");
+      std::vector<Record> inner;
+      if (std::string why = ReadChunk(record, std::move(data), &inner); !why.empty()) return bad("in a chunk: " + why);
+      messages.clear();
+      for (const Record& r : inner) {
+        if (r.op == kOpMessage) messages.insert(r.start);
+      }
+      after_chunk = true;
+    } else if (record.op == kOpIndex) {
+      uint32_t count = 0, version = 0;
+      if (!FieldValue(record, "count", &count) || !FieldValue(record, "ver", &version) || version != 1 ||
+          record.data_len != 12ull * count) {
+        return bad("an index record's count disagrees with its data");
+      }
+      if (!after_chunk) return bad("an index record before any chunk");
+      std::string data;
+      if (!read(record.data_at, record.data_len, &data)) return bad("unreadable");
+      for (uint32_t e = 0; e < count; ++e) {
+        uint32_t offset = 0;
+        std::memcpy(&offset, data.data() + 12 * e + 8, 4);
+        if (messages.count(offset) == 0) return bad("an index entry that is not on a message in its chunk");
+      }
+    } else if (record.op == kOpChunkInfo) {
+      uint64_t chunk_pos = 0;
+      if (!FieldValue(record, "chunk_pos", &chunk_pos) || chunk_starts.count(chunk_pos) == 0) {
+        return bad("a chunk info that is not on a chunk");
+      }
+    }
+  }
+  return core::Status::Ok();
+}
+
 core::Status OpenForReading(const std::string& path, rosbag::Bag* bag) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
     return core::Status::InvalidArgument(path + ": " + (std::filesystem::exists(path, ec) ? "not a regular file" : "no such file"));
   }
+  QUADHAND_RETURN_IF_ERROR(CheckBagLayout(path));
   try {
     bag->open(path, rosbag::bagmode::Read);
   } catch (const std::exception& e) {
