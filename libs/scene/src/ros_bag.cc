@@ -179,7 +179,8 @@ core::Status CheckTopic(const std::string& path, const std::map<std::string, std
 // entry's offset on the start of a record of the right kind.
 constexpr uint64_t kMaxRecordHeaderBytes = 64u << 20;  // a connection's message definition is a few kB
 constexpr uint64_t kMaxChunkBytes = 1u << 30;
-constexpr char kOpMessage = 0x02, kOpBagHeader = 0x03, kOpIndex = 0x04, kOpChunk = 0x05, kOpChunkInfo = 0x06;
+constexpr char kOpMessage = 0x02, kOpBagHeader = 0x03, kOpIndex = 0x04, kOpChunk = 0x05, kOpChunkInfo = 0x06,
+               kOpConnection = 0x07;
 
 struct Record {
   uint64_t start = 0;  // where its header length is
@@ -194,6 +195,23 @@ bool FieldValue(const Record& record, const std::string& name, T* value) {
   if (found == record.fields.end() || found->second.size() != sizeof(T)) return false;
   std::memcpy(value, found->second.data(), sizeof(T));
   return true;
+}
+
+// A record header's fields (each a 4-byte length, then name=value), or why not.
+std::string ParseFields(const std::string& header, std::map<std::string, std::string>* fields) {
+  for (size_t f = 0; f < header.size();) {
+    uint32_t field_len = 0;
+    if (header.size() - f < 4) return "header field's length runs past its header";
+    std::memcpy(&field_len, header.data() + f, 4);
+    f += 4;
+    if (field_len > header.size() - f) return "header field runs past its header";
+    const std::string field = header.substr(f, field_len);
+    const size_t equals = field.find('=');
+    if (equals == std::string::npos) return "header field without '='";
+    (*fields)[field.substr(0, equals)] = field.substr(equals + 1);
+    f += field_len;
+  }
+  return "";
 }
 
 // The records of `bytes` from `at` (a file's, or a chunk's), or why not.
@@ -212,23 +230,19 @@ std::string ReadRecords(const std::function<bool(uint64_t, uint64_t, std::string
     std::string header;
     if (!read(at, header_len, &header)) return "unreadable";
     at += header_len;
-    for (size_t f = 0; f < header.size();) {
-      uint32_t field_len = 0;
-      if (header.size() - f < 4) return "a header field's length runs past its header";
-      std::memcpy(&field_len, header.data() + f, 4);
-      f += 4;
-      if (field_len > header.size() - f) return "a header field runs past its header";
-      const std::string field = header.substr(f, field_len);
-      const size_t equals = field.find('=');
-      if (equals == std::string::npos) return "a header field without '='";
-      record.fields[field.substr(0, equals)] = field.substr(equals + 1);
-      f += field_len;
-    }
+    if (std::string why = ParseFields(header, &record.fields); !why.empty()) return "a " + why;
     if (!FieldValue(record, "op", &record.op)) return "a record without its op";
     if (size - at < 4 || !read(at, 4, &bytes)) return "a record's data length runs past the end";
     std::memcpy(&data_len, bytes.data(), 4);
     at += 4;
     if (data_len > size - at) return "a record's data runs past the end";
+    if (record.op == kOpConnection) {  // its data is a header too: the connection's
+      if (data_len > kMaxRecordHeaderBytes) return "a connection's header is too long";
+      std::string connection;
+      std::map<std::string, std::string> fields;
+      if (!read(at, data_len, &connection)) return "unreadable";
+      if (std::string why = ParseFields(connection, &fields); !why.empty()) return "a connection's " + why;
+    }
     record.data_at = at;
     record.data_len = data_len;
     at += data_len;
