@@ -57,37 +57,188 @@ bool ToPose(const Position& p, const Orientation& q, Pose* pose) {
   return true;
 }
 
+// A message's serialised bytes (ROS 1 serialisation: little-endian,
+// strings and arrays as a uint32 length and their elements), read with
+// every length checked against the bytes left before anything is sized by
+// it. roscpp's own deserialisers size a string or a vector from the length
+// they read before they know it is there: a cloud declaring 3 GB of data
+// in a 100-byte message made them allocate 3 GB (fuzz_ros_bag).
+class MessageReader {
+ public:
+  explicit MessageReader(const std::vector<uint8_t>& bytes) : at_(bytes.data()), left_(bytes.size()) {}
+  bool Skip(size_t n) {
+    if (n > left_) return false;
+    at_ += n;
+    left_ -= n;
+    return true;
+  }
+  template <typename T>
+  bool Read(T* value) {
+    if (sizeof(T) > left_) return false;
+    std::memcpy(value, at_, sizeof(T));
+    return Skip(sizeof(T));
+  }
+  // A uint32 length, then that many bytes: where they are, not a copy.
+  bool Span(const uint8_t** data, uint32_t* size) {
+    if (!Read(size) || *size > left_) return false;
+    *data = at_;
+    return Skip(*size);
+  }
+  bool String(std::string* text) {
+    const uint8_t* data = nullptr;
+    uint32_t size = 0;
+    if (!Span(&data, &size)) return false;
+    text->assign(reinterpret_cast<const char*>(data), size);
+    return true;
+  }
+  // std_msgs/Header: seq, stamp, frame_id.
+  bool Header(ros::Time* stamp, std::string* frame) {
+    uint32_t seq = 0;
+    return Read(&seq) && Read(&stamp->sec) && Read(&stamp->nsec) && String(frame);
+  }
+  // geometry_msgs/Point or Vector3, then Quaternion (x, y, z, w).
+  bool Pose7(double xyz[3], double xyzw[4]) {
+    for (int k = 0; k < 3; ++k) {
+      if (!Read(&xyz[k])) return false;
+    }
+    for (int k = 0; k < 4; ++k) {
+      if (!Read(&xyzw[k])) return false;
+    }
+    return true;
+  }
+
+ private:
+  const uint8_t* at_;
+  size_t left_;
+};
+
+// The serialised bytes of a message, as the bag holds them.
+bool MessageBytes(const rosbag::MessageInstance& message, std::vector<uint8_t>* bytes) {
+  try {
+    bytes->resize(message.size());
+    ros::serialization::OStream stream(bytes->data(), static_cast<uint32_t>(bytes->size()));
+    message.write(stream);
+    return true;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+struct CloudField {
+  std::string name;
+  uint32_t offset = 0, count = 0;
+  uint8_t datatype = 0;
+};
+
+struct CloudMessage {
+  ros::Time stamp;
+  std::string frame;
+  uint32_t height = 0, width = 0, point_step = 0, row_step = 0;
+  std::vector<CloudField> fields;
+  uint8_t is_bigendian = 0;
+  const uint8_t* data = nullptr;
+  uint32_t data_size = 0;
+};
+
+// sensor_msgs/PointCloud2, or false when the bytes do not hold one.
+bool ReadCloudMessage(const std::vector<uint8_t>& bytes, CloudMessage* cloud) {
+  MessageReader r(bytes);
+  uint32_t count = 0;
+  if (!r.Header(&cloud->stamp, &cloud->frame) || !r.Read(&cloud->height) || !r.Read(&cloud->width) || !r.Read(&count)) {
+    return false;
+  }
+  cloud->fields.clear();
+  for (uint32_t k = 0; k < count; ++k) {
+    CloudField field;
+    if (!r.String(&field.name) || !r.Read(&field.offset) || !r.Read(&field.datatype) || !r.Read(&field.count)) {
+      return false;
+    }
+    cloud->fields.push_back(std::move(field));
+  }
+  uint8_t is_dense = 0;
+  return r.Read(&cloud->is_bigendian) && r.Read(&cloud->point_step) && r.Read(&cloud->row_step) &&
+         r.Span(&cloud->data, &cloud->data_size) && r.Read(&is_dense);
+}
+
+struct StampedPose {
+  ros::Time stamp;
+  std::string frame, child;
+  double position[3] = {0, 0, 0}, orientation[4] = {0, 0, 0, 0};  // x, y, z, w
+
+  geometry_msgs::TransformStamped Transform() const {
+    geometry_msgs::TransformStamped t;
+    t.header.stamp = stamp;
+    t.header.frame_id = frame;
+    t.child_frame_id = child;
+    t.transform.translation.x = position[0];
+    t.transform.translation.y = position[1];
+    t.transform.translation.z = position[2];
+    t.transform.rotation.x = orientation[0];
+    t.transform.rotation.y = orientation[1];
+    t.transform.rotation.z = orientation[2];
+    t.transform.rotation.w = orientation[3];
+    return t;
+  }
+  bool ToPose(Pose* pose) const {
+    const Vec3 p(position[0], position[1], position[2]);
+    const Eigen::Vector4d q(orientation[3], orientation[0], orientation[1], orientation[2]);
+    if (!p.allFinite() || !q.allFinite() || std::abs(q.norm() - 1.0) > 1e-3) return false;
+    *pose = MakePose(p, Quat(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix());
+    return true;
+  }
+};
+
+// nav_msgs/Odometry's header, child frame and pose (the rest is not read).
+bool ReadOdometryMessage(const std::vector<uint8_t>& bytes, StampedPose* odom) {
+  MessageReader r(bytes);
+  return r.Header(&odom->stamp, &odom->frame) && r.String(&odom->child) && r.Pose7(odom->position, odom->orientation);
+}
+
+// tf2_msgs/TFMessage: its transforms.
+bool ReadTfMessage(const std::vector<uint8_t>& bytes, std::vector<StampedPose>* transforms) {
+  MessageReader r(bytes);
+  uint32_t count = 0;
+  if (!r.Read(&count)) return false;
+  transforms->clear();
+  for (uint32_t k = 0; k < count; ++k) {
+    StampedPose t;
+    if (!r.Header(&t.stamp, &t.frame) || !r.String(&t.child) || !r.Pose7(t.position, t.orientation)) return false;
+    transforms->push_back(std::move(t));
+  }
+  return true;
+}
+
 // The finite x, y, z returns of a cloud, or false when it is malformed.
-bool DecodeCloud(const sensor_msgs::PointCloud2& cloud, std::vector<Vec3>* points, long* non_finite) {
+bool DecodeCloud(const CloudMessage& cloud, std::vector<Vec3>* points, long* non_finite) {
+  constexpr uint8_t kFloat32 = 7, kFloat64 = 8;  // sensor_msgs/PointField's datatypes
   if (cloud.is_bigendian) return false;
   int offset[3] = {-1, -1, -1};
   uint8_t type[3] = {0, 0, 0};
   const char* names[3] = {"x", "y", "z"};
-  for (const sensor_msgs::PointField& field : cloud.fields) {
+  for (const CloudField& field : cloud.fields) {
     for (int axis = 0; axis < 3; ++axis) {
       if (field.name != names[axis]) continue;
       if (field.count > 1) return false;
-      if (field.datatype != sensor_msgs::PointField::FLOAT32 && field.datatype != sensor_msgs::PointField::FLOAT64) {
-        return false;
-      }
+      if (field.datatype != kFloat32 && field.datatype != kFloat64) return false;
+      if (field.offset > (1u << 20)) return false;
       offset[axis] = static_cast<int>(field.offset);
       type[axis] = field.datatype;
     }
   }
   const uint64_t width = cloud.width, height = cloud.height, step = cloud.point_step, row = cloud.row_step;
   for (int axis = 0; axis < 3; ++axis) {
-    const uint64_t size = type[axis] == sensor_msgs::PointField::FLOAT64 ? 8 : 4;
+    const uint64_t size = type[axis] == kFloat64 ? 8 : 4;
     if (offset[axis] < 0 || static_cast<uint64_t>(offset[axis]) + size > step) return false;
   }
-  if (step == 0 || width * step > row || height * row > cloud.data.size()) return false;
+  if (step == 0 || width * step > row || height * row > cloud.data_size) return false;
   points->clear();
   points->reserve(width * height);
   for (uint64_t r = 0; r < height; ++r) {
     for (uint64_t c = 0; c < width; ++c) {
-      const uint8_t* at = cloud.data.data() + r * row + c * step;
+      const uint8_t* at = cloud.data + r * row + c * step;
       double value[3];
       for (int axis = 0; axis < 3; ++axis) {
-        if (type[axis] == sensor_msgs::PointField::FLOAT64) {
+        if (type[axis] == kFloat64) {
           std::memcpy(&value[axis], at + offset[axis], 8);
         } else {
           float f;
@@ -409,24 +560,21 @@ core::Status ForEachBagCloud(const BagCloudSource& source, const std::function<c
     QUADHAND_RETURN_IF_ERROR(CheckTopic(source.path, topics, source.cloud_topic, kCloudType));
     OdometryTrack odometry;
     std::unique_ptr<tf2::BufferCore> tf;
+    std::vector<uint8_t> bytes;
+    std::vector<StampedPose> transforms;
     const std::string world = StripSlash(source.world_frame);
     if (!source.odom_topic.empty()) {
       QUADHAND_RETURN_IF_ERROR(CheckTopic(source.path, topics, source.odom_topic, kOdomType));
       rosbag::View view(bag, rosbag::TopicQuery(source.odom_topic));
       for (const rosbag::MessageInstance& message : view) {
         ++n.poses;
-        boost::shared_ptr<nav_msgs::Odometry> odom;
-        try {
-          odom = message.instantiate<nav_msgs::Odometry>();
-        } catch (const std::exception&) {
-          odom.reset();
-        }
+        StampedPose odom;
         Pose pose;
-        if (odom == nullptr || !ToPose(odom->pose.pose.position, odom->pose.pose.orientation, &pose)) {
+        if (!MessageBytes(message, &bytes) || !ReadOdometryMessage(bytes, &odom) || !odom.ToPose(&pose)) {
           ++n.bad_poses;
           continue;
         }
-        odometry.Add(StampOf(odom->header.stamp, message.getTime()), pose);
+        odometry.Add(StampOf(odom.stamp, message.getTime()), pose);
       }
       odometry.Sort();
     } else {
@@ -445,23 +593,16 @@ core::Status ForEachBagCloud(const BagCloudSource& source, const std::function<c
       tf = std::make_unique<tf2::BufferCore>(ros::Duration(span + 10.0));
       rosbag::View view(bag, rosbag::TopicQuery(tf_topics));
       for (const rosbag::MessageInstance& message : view) {
-        boost::shared_ptr<tf2_msgs::TFMessage> transforms;
-        try {
-          transforms = message.instantiate<tf2_msgs::TFMessage>();
-        } catch (const std::exception&) {
-          transforms.reset();
-        }
-        if (transforms == nullptr) {
+        if (!MessageBytes(message, &bytes) || !ReadTfMessage(bytes, &transforms)) {
           ++n.poses;
           ++n.bad_poses;
           continue;
         }
         const bool is_static = message.getTopic() == "/tf_static";
-        for (const geometry_msgs::TransformStamped& transform : transforms->transforms) {
+        for (const StampedPose& transform : transforms) {
           ++n.poses;
           Pose ignored;
-          if (!ToPose(transform.transform.translation, transform.transform.rotation, &ignored) ||
-              !tf->setTransform(transform, "bag", is_static)) {
+          if (!transform.ToPose(&ignored) || !tf->setTransform(transform.Transform(), "bag", is_static)) {
             ++n.bad_poses;
           }
         }
@@ -470,25 +611,20 @@ core::Status ForEachBagCloud(const BagCloudSource& source, const std::function<c
 
     rosbag::View clouds(bag, rosbag::TopicQuery(source.cloud_topic));
     BagCloud cloud;
+    CloudMessage msg;
     for (const rosbag::MessageInstance& message : clouds) {
       ++n.messages;
-      boost::shared_ptr<sensor_msgs::PointCloud2> msg;
-      try {
-        msg = message.instantiate<sensor_msgs::PointCloud2>();
-      } catch (const std::exception&) {
-        msg.reset();
-      }
       long non_finite = 0;
-      if (msg == nullptr || !DecodeCloud(*msg, &cloud.points, &non_finite)) {
+      if (!MessageBytes(message, &bytes) || !ReadCloudMessage(bytes, &msg) ||
+          !DecodeCloud(msg, &cloud.points, &non_finite)) {
         ++n.malformed;
         continue;
       }
-      cloud.t = StampOf(msg->header.stamp, message.getTime());
+      cloud.t = StampOf(msg.stamp, message.getTime());
       if (tf != nullptr) {
         try {
-          const ros::Time stamp = msg->header.stamp.isZero() ? message.getTime() : msg->header.stamp;
-          const geometry_msgs::TransformStamped transform =
-              tf->lookupTransform(world, StripSlash(msg->header.frame_id), stamp);
+          const ros::Time stamp = msg.stamp.isZero() ? message.getTime() : msg.stamp;
+          const geometry_msgs::TransformStamped transform = tf->lookupTransform(world, StripSlash(msg.frame), stamp);
           if (!ToPose(transform.transform.translation, transform.transform.rotation, &cloud.sensor_to_world)) {
             ++n.no_pose;
             continue;
