@@ -102,6 +102,19 @@ core::Status WriteFrames(const std::vector<sim::FlownSample>& samples, const rob
   return core::Status::Ok();
 }
 
+// Why `path`, a new output of `option` (a folder or a file, never
+// overwritten), cannot be made; empty when it can, or when not asked for.
+std::string NewOutputProblem(const std::string& option, const std::string& path, const std::string& kind) {
+  if (path.empty()) return "";
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec)) return option + " " + path + ": exists already (give a new " + kind + ")";
+  const std::string parent = core::DirectoryOf(path);
+  if (!std::filesystem::is_directory(parent.empty() ? "." : parent, ec)) {
+    return option + " " + path + ": its folder does not exist";
+  }
+  return "";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -214,26 +227,12 @@ int main(int argc, char** argv) {
                       int{!frames_dir.empty() || !bag_path.empty() || !frames_to_url.empty()};
   if (!frames_dir.empty() && track_path.empty()) return Fail("--frames is only used with --track (--udp: --frames-to)");
   if (!bag_path.empty() && track_path.empty()) return Fail("--bag is only used with --track");
-  if (!bag_path.empty()) {
-    std::error_code ec;
-    if (std::filesystem::exists(bag_path, ec)) return Fail("--bag " + bag_path + ": exists already (give a new file)");
-    const std::string parent = core::DirectoryOf(bag_path);
-    if (!std::filesystem::is_directory(parent.empty() ? "." : parent, ec)) {
-      return Fail("--bag " + bag_path + ": its folder does not exist");
-    }
-  }
   if (!frames_to_url.empty() && !udp) return Fail("--frames-to is only used with --udp (--track: --frames)");
   if (sensing > 0 && (figure8 || sensing < 3)) {
     return Fail("--world, --sensor and --frames or --bag (--track) or --frames-to (--udp) go together");
   }
-  if (!frames_dir.empty()) {
-    std::error_code ec;
-    if (std::filesystem::exists(frames_dir, ec)) return Fail("--frames " + frames_dir + ": exists already (give a new folder)");
-    const std::string parent = core::DirectoryOf(frames_dir);
-    if (!std::filesystem::is_directory(parent.empty() ? "." : parent, ec)) {
-      return Fail("--frames " + frames_dir + ": its folder does not exist");
-    }
-  }
+  if (std::string why = NewOutputProblem("--frames", frames_dir, "folder"); !why.empty()) return Fail(why);
+  if (std::string why = NewOutputProblem("--bag", bag_path, "file"); !why.empty()) return Fail(why);
   if (!udp && out_path.empty()) return Fail("--out is required with --track and --figure8");
   if (!udp) {
     const std::vector<std::pair<bool, const char*>> udp_only = {
