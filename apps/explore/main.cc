@@ -89,6 +89,8 @@ int main(int argc, char** argv) {
   app.add_option("--solver", solver_name, "Optimiser back-end (docs/solvers.md)")->capture_default_str();
   app.add_option("--seed", seed, "Seed of the simulator's and the sensor's noise")->capture_default_str();
   app.add_option("--resolution", options.map.resolution, "Rolling map voxel edge, m")->capture_default_str();
+  app.add_option("--ray-threads", options.map.ray_threads, "Threads that walk each frame's rays into the map")
+      ->capture_default_str();
   app.add_option("--replan-period", options.replan_period, "Seconds of flight between replans")->capture_default_str();
   app.add_option("--plan-ahead", options.plan_ahead, "A new plan starts this long after its request, s")
       ->capture_default_str();

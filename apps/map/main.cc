@@ -104,6 +104,7 @@ int main(int argc, char** argv) {
   app.add_option("--window", window_text, "Half-extents of the window about the sensor, m (x,y,z; default 15,15,5)");
   app.add_option("--max-range", options.max_range, "Returns farther than this free their ray and occupy nothing, m")
       ->capture_default_str();
+  app.add_option("--ray-threads", options.ray_threads, "Threads that walk each frame's rays")->capture_default_str();
   app.add_flag("--json", json, "Print one JSON line instead of words");
   try {
     app.parse(argc, argv);

@@ -355,6 +355,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--map-resolution", perception.map.resolution, "--perception: the rolling map's voxel edge, m")
       ->capture_default_str();
+  app.add_option("--map-threads", perception.map.ray_threads, "--perception: threads that walk each frame's rays into the map")
+      ->capture_default_str();
   app.add_option("--sensor-timeout", perception.sensor_timeout,
                  "--perception: s without a frame taken before the vehicle brakes and holds")
       ->capture_default_str();

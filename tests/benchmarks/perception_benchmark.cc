@@ -4,7 +4,8 @@
 // depth camera's 87 x 58 degrees, every return at its own depth in 1-6 m:
 // one ray per return), and a depth frame the simulator's camera renders of
 // a forest (returns on trunk surfaces, 30,000 of them taken evenly), from
-// an origin that moves 2 cm per frame as a flight's does.
+// an origin that moves 2 cm per frame as a flight's does. The second
+// argument is the threads that walk the rays (RollingMapOptions::ray_threads).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -37,6 +38,7 @@ std::vector<Vec3> Frame(const Vec3& origin, std::mt19937_64* rng) {
 void BM_InsertFrame(benchmark::State& state) {
   RollingMapOptions options;
   options.resolution = state.range(0) / 100.0;
+  options.ray_threads = static_cast<int>(state.range(1));
   auto map = RollingMap::Create(options);
   std::mt19937_64 rng(1);
   Vec3 origin(0.0, 0.0, 1.2);
@@ -51,7 +53,7 @@ void BM_InsertFrame(benchmark::State& state) {
   state.counters["known_voxels"] = static_cast<double>((*map)->num_known_voxels());
   state.counters["memory_MB"] = static_cast<double>((*map)->memory_bytes()) / 1e6;
 }
-BENCHMARK(BM_InsertFrame)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_InsertFrame)->ArgsProduct({{10, 5}, {1, 2, 4, 8}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Trunks (radius 0.1-0.25 m, 4 m tall, points every 5 cm) at 0.15 per m^2
 // over 20 x 8 m ahead of the camera; its depth frame from (0, 0, 1.2)
@@ -84,6 +86,7 @@ std::vector<Vec3> RenderedForestFrame() {
 void BM_InsertRenderedFrame(benchmark::State& state) {
   RollingMapOptions options;
   options.resolution = state.range(0) / 100.0;
+  options.ray_threads = static_cast<int>(state.range(1));
   auto map = RollingMap::Create(options);
   const std::vector<Vec3> frame = RenderedForestFrame();
   int k = 0;
@@ -94,7 +97,7 @@ void BM_InsertRenderedFrame(benchmark::State& state) {
   state.counters["returns"] = static_cast<double>(frame.size());
   state.counters["known_voxels"] = static_cast<double>((*map)->num_known_voxels());
 }
-BENCHMARK(BM_InsertRenderedFrame)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_InsertRenderedFrame)->ArgsProduct({{10, 5}, {1, 2, 4, 8}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_MoveWindow(benchmark::State& state) {
   RollingMapOptions options;

@@ -247,3 +247,53 @@ TEST(RollingMapTest, MarkFreeFreesABallAndMissesFreeTheirRaysOccupyingNothing) {
 
 }  // namespace
 }  // namespace quadhand::perception
+
+namespace quadhand::perception {
+namespace {
+
+// Rays walked by several threads give the map one thread gives: the same
+// state in every voxel, frame after frame, as obstacles come and go (each
+// voxel is still updated once per frame, whichever thread reaches it).
+TEST(RollingMapTest, SeveralRayThreadsBuildTheMapOneThreadBuilds) {
+  RollingMapOptions one, four;
+  one.window_half_extent = four.window_half_extent = Vec3(5.0, 5.0, 3.0);
+  four.ray_threads = 4;
+  auto serial = Map(one), parallel = Map(four);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> angle(-0.7, 0.7), depth(0.5, 7.0);
+  for (int frame = 0; frame < 12; ++frame) {
+    const Vec3 origin(0.05 * frame, 0.01 * frame, 0.0);
+    std::vector<Vec3> points, misses;
+    for (int k = 0; k < 12000; ++k) {  // enough rays for 4 threads
+      const double a = angle(rng), e = angle(rng), d = depth(rng);
+      const Vec3 p = origin + d * Vec3(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
+      (k % 7 == 0 ? misses : points).push_back(p);
+    }
+    if (frame == 6) points = Wall(2.0, 1.0, 0.02);  // the scene changes: what was seen free is hit
+    for (RollingMap* map : {serial.get(), parallel.get()}) {
+      map->MoveWindow(origin);
+      ASSERT_TRUE(map->Insert(points, origin, misses).ok());
+    }
+    EXPECT_EQ(parallel->NewlyBlocked().size(), serial->NewlyBlocked().size()) << frame;
+    EXPECT_EQ(parallel->num_known_voxels(), serial->num_known_voxels()) << frame;
+  }
+  int differ = 0, known = 0;
+  for (double x = -4.95; x < 5.0; x += 0.1) {
+    for (double y = -4.95; y < 5.0; y += 0.1) {
+      for (double z = -2.95; z < 3.0; z += 0.1) {
+        const Vec3 p(x, y, z);
+        differ += serial->State(p) != parallel->State(p) ? 1 : 0;
+        known += serial->State(p) != VoxelState::kUnknown ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_EQ(differ, 0);
+  EXPECT_GT(known, 10000);
+  EXPECT_EQ(serial->OccupiedPoints().size(), parallel->OccupiedPoints().size());
+  RollingMapOptions bad;
+  bad.ray_threads = 0;
+  EXPECT_FALSE(RollingMap::Create(bad).ok());
+}
+
+}  // namespace
+}  // namespace quadhand::perception

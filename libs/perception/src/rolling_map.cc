@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <thread>
 #include <unordered_map>
 
 namespace quadhand::perception {
@@ -22,6 +23,9 @@ bool In(double x, double lo, double hi) { return std::isfinite(x) && x >= lo && 
 constexpr double kUnitsPerNat = 20.0;
 constexpr int kClampLow = -40, kClampHigh = 70;
 constexpr std::int8_t kUnknown = -128;
+// A thread is started per this many rays at least: fewer are walked sooner
+// than a thread starts.
+constexpr size_t kRaysPerThread = 2000;
 
 int LogOddsUnits(double probability) {
   return static_cast<int>(std::lround(std::log(probability / (1.0 - probability)) * kUnitsPerNat));
@@ -47,6 +51,7 @@ bool RollingMapOptions::IsValid(std::string* why) const {
     return Fail(why, "occupied_threshold must be in (0.12, 0.97)");
   }
   if (max_points_per_voxel < 1 || max_points_per_voxel > 1000) return Fail(why, "max_points_per_voxel must be in [1, 1000]");
+  if (ray_threads < 1 || ray_threads > 64) return Fail(why, "ray_threads must be in [1, 64]");
   return true;
 }
 
@@ -95,13 +100,31 @@ struct RollingMap::Impl {
     const int before = cells[cell].value == kUnknown ? 0 : cells[cell].value;
     cells[cell].value = static_cast<std::int8_t>(std::clamp(before + delta, kClampLow, kClampHigh));
   }
-  // A ray crossed the voxel: missed once this frame, unless it is an end voxel.
-  void Cross(size_t cell) {
-    if (cells[cell].mark != 0) return;
-    cells[cell].mark = 2;
-    touched.push_back(cell);
+  // A ray crossed the voxel: missed once this frame, unless it is an end
+  // voxel. With several threads walking rays, the one whose compare-and-swap
+  // marks the voxel owns it for the frame: only it writes the voxel's value.
+  template <bool kShared>
+  void Cross(size_t cell, std::vector<size_t>* crossed) {
+    std::uint8_t& mark = cells[cell].mark;
+    if constexpr (kShared) {
+      std::uint8_t expected = 0;
+      if (__atomic_load_n(&mark, __ATOMIC_RELAXED) != 0 ||
+          !__atomic_compare_exchange_n(&mark, &expected, std::uint8_t{2}, false, __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
+        return;
+      }
+    } else {
+      if (mark != 0) return;
+      mark = 2;
+    }
+    crossed->push_back(cell);
     Update(cell, miss);
   }
+  // Walks rays first, first + stride, ... (Amanatides and Woo), in plain
+  // integers: the voxel's place in the window (for the inside test) and in
+  // the ring (for its cell) move with it, no division a step.
+  template <bool kShared>
+  void WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, size_t first, size_t stride, const Vec3& origin,
+                std::vector<size_t>* crossed);
 
   RollingMapOptions options;
   Eigen::Vector3i dims = Eigen::Vector3i::Ones(), low = Eigen::Vector3i::Zero();
@@ -185,21 +208,45 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
     }
   }
   m.end_voxels.clear();
-  // Each ray's voxels before its end, by a voxel walk (Amanatides and Woo),
-  // in plain integers: the voxel's place in the window (for the inside
-  // test) and in the ring (for its cell) move with it, no division a step.
-  const int nx = m.dims.x(), ny = m.dims.y(), nz = m.dims.z();
-  const Eigen::Vector3i start = m.VoxelOf(origin);
-  for (const auto& [end, returned] : rays) {
-    const Eigen::Vector3i last = m.VoxelOf(end);
+  // Each ray's voxels before its end. Threads share the rays round-robin
+  // (near and far rays alike) when there are enough to be worth a thread.
+  const size_t threads =
+      std::min<size_t>(static_cast<size_t>(m.options.ray_threads), std::max<size_t>(1, rays.size() / kRaysPerThread));
+  if (threads <= 1) {
+    m.WalkRays<false>(rays, 0, 1, origin, &m.touched);
+  } else {
+    std::vector<std::vector<size_t>> crossed(threads);
+    std::vector<std::thread> helpers;
+    for (size_t k = 1; k < threads; ++k) {
+      helpers.emplace_back([&, k] { m.WalkRays<true>(rays, k, threads, origin, &crossed[k]); });
+    }
+    m.WalkRays<true>(rays, 0, threads, origin, &crossed[0]);
+    for (std::thread& helper : helpers) helper.join();
+    for (const std::vector<size_t>& cells : crossed) m.touched.insert(m.touched.end(), cells.begin(), cells.end());
+  }
+  for (size_t cell : m.touched) m.cells[cell].mark = 0;
+  m.touched.clear();
+  ++m.frames;
+  return core::Status::Ok();
+}
+
+template <bool kShared>
+void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, size_t first, size_t stride,
+                                const Vec3& origin, std::vector<size_t>* crossed) {
+  const double res = options.resolution;
+  const int nx = dims.x(), ny = dims.y(), nz = dims.z();
+  const Eigen::Vector3i start = VoxelOf(origin);
+  for (size_t r = first; r < rays.size(); r += stride) {
+    const auto& [end, returned] = rays[r];
+    const Eigen::Vector3i last = VoxelOf(end);
     const Vec3 d = end - origin;
     int step[3], rel[3], ring[3];
     double t_max[3], t_delta[3];
-    const int dims[3] = {nx, ny, nz};
+    const int size[3] = {nx, ny, nz};
     for (int a = 0; a < 3; ++a) {
       step[a] = d[a] > 0.0 ? 1 : (d[a] < 0.0 ? -1 : 0);
-      rel[a] = start[a] - m.low[a];
-      ring[a] = Impl::Mod(start[a], dims[a]);
+      rel[a] = start[a] - low[a];
+      ring[a] = Mod(start[a], size[a]);
       if (step[a] == 0) {
         t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
         continue;
@@ -213,21 +260,17 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
     for (int n = 0; n < steps; ++n) {
       if (static_cast<unsigned>(rel[0]) < static_cast<unsigned>(nx) && static_cast<unsigned>(rel[1]) < static_cast<unsigned>(ny) &&
           static_cast<unsigned>(rel[2]) < static_cast<unsigned>(nz)) {
-        m.Cross(m.CellOfRing(ring[0], ring[1], ring[2]));
+        Cross<kShared>(CellOfRing(ring[0], ring[1], ring[2]), crossed);
       }
       const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
       rel[axis] += step[axis];
       ring[axis] += step[axis];
-      if (ring[axis] == dims[axis]) ring[axis] = 0;
-      if (ring[axis] < 0) ring[axis] = dims[axis] - 1;
+      if (ring[axis] == size[axis]) ring[axis] = 0;
+      if (ring[axis] < 0) ring[axis] = size[axis] - 1;
       t_max[axis] += t_delta[axis];
     }
-    if (!returned && m.Inside(last)) m.Cross(m.Cell(last));  // a ray cut at max_range: crossed, not hit
+    if (!returned && Inside(last)) Cross<kShared>(Cell(last), crossed);  // a ray cut at max_range: crossed, not hit
   }
-  for (size_t cell : m.touched) m.cells[cell].mark = 0;
-  m.touched.clear();
-  ++m.frames;
-  return core::Status::Ok();
 }
 
 void RollingMap::MoveWindow(const Vec3& centre) {

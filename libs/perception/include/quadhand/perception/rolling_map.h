@@ -37,6 +37,11 @@ struct RollingMapOptions {
   // occupied after a hit, and after a miss; occupied above the threshold.
   double probability_hit = 0.7, probability_miss = 0.4, occupied_threshold = 0.5;
   int max_points_per_voxel = 8;  // raw points kept per occupied voxel
+  // Threads that walk a frame's rays (the caller's among them). The map is
+  // the same for any count: each voxel is still updated once per frame.
+  // More than one pays off on a computer with cores to spare (the paper's
+  // onboard computer has 8); on a loaded one the threads compete.
+  int ray_threads = 1;
   bool IsValid(std::string* why) const;
 };
 
