@@ -367,7 +367,7 @@ TEST_F(RosBagTest, CompressedChunksReadAsPlainOnes) {
 // declaring a 4 GB header; an index entry pointing into the middle of a
 // chunk, and a connection header's field longer than the header, each of
 // which made rosbag read outside its buffer; a cloud declaring 3 GB of data
-// in a short message) and the seed bag:
+// in a short message) and the seed bags:
 // each is read or refused with one error naming it.
 TEST_F(RosBagTest, TheFuzzersFindingsAreRefusedNotCrashedOn) {
   const std::string corpus = std::string(QUADHAND_SOURCE_DIR) + "/tests/fuzz/corpus/ros_bag";
@@ -383,8 +383,8 @@ TEST_F(RosBagTest, TheFuzzersFindingsAreRefusedNotCrashedOn) {
       EXPECT_EQ(status.message().rfind(entry.path().string() + ": not a readable ROS 1 bag (", 0), 0u) << status.message();
     }
   }
-  EXPECT_EQ(read + refused, 5);
-  EXPECT_GE(refused, 3);
+  EXPECT_GE(read, 4);     // the seeds: plain, bz2 and lz4 with /tf_static, many chunks
+  EXPECT_GE(refused, 3);  // three of the findings
 }
 
 TEST_F(RosBagTest, AFailedWriterLeavesNoFile) {
