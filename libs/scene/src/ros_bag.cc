@@ -365,28 +365,28 @@ std::string ParseFields(const std::string& header, std::map<std::string, std::st
   return "";
 }
 
-// The records of `bytes` from `at` (a file's, or a chunk's), or why not.
+// The records from `at` to `end` (of a file, or a chunk), or why not.
 // `read(at, n, out)` gives n bytes at `at`, or false.
-std::string ReadRecords(const std::function<bool(uint64_t, uint64_t, std::string*)>& read, uint64_t at, uint64_t size,
+std::string ReadRecords(const std::function<bool(uint64_t, uint64_t, std::string*)>& read, uint64_t at, uint64_t end,
                         std::vector<Record>* records) {
   std::string bytes;
-  while (at < size) {
+  while (at < end) {
     Record record;
     record.start = at;
     uint32_t header_len = 0, data_len = 0;
-    if (size - at < 4 || !read(at, 4, &bytes)) return "a record's length runs past the end";
+    if (end - at < 4 || !read(at, 4, &bytes)) return "a record's length runs past the end";
     std::memcpy(&header_len, bytes.data(), 4);
     at += 4;
-    if (header_len > size - at || header_len > kMaxRecordHeaderBytes) return "a record's header runs past the end";
+    if (header_len > end - at || header_len > kMaxRecordHeaderBytes) return "a record's header runs past the end";
     std::string header;
     if (!read(at, header_len, &header)) return "unreadable";
     at += header_len;
     if (std::string why = ParseFields(header, &record.fields); !why.empty()) return "a " + why;
     if (!FieldValue(record, "op", &record.op)) return "a record without its op";
-    if (size - at < 4 || !read(at, 4, &bytes)) return "a record's data length runs past the end";
+    if (end - at < 4 || !read(at, 4, &bytes)) return "a record's data length runs past the end";
     std::memcpy(&data_len, bytes.data(), 4);
     at += 4;
-    if (data_len > size - at) return "a record's data runs past the end";
+    if (data_len > end - at) return "a record's data runs past the end";
     if (record.op == kOpConnection) {  // its data is a header too: the connection's
       if (data_len > kMaxRecordHeaderBytes) return "a connection's header is too long";
       std::string connection;
@@ -403,34 +403,38 @@ std::string ReadRecords(const std::function<bool(uint64_t, uint64_t, std::string
 }
 
 // A chunk's records as rosbag will see them, decompressed, or why not.
-std::string ReadChunk(const Record& chunk, std::string data, std::vector<Record>* records) {
-  std::string compression;
+// A chunk's records as rosbag will see them, or why not; their starts are
+// offsets in the chunk's (decompressed) data. `read` reads the file. An
+// uncompressed chunk is walked in place, its messages' data skipped; a
+// compressed one is read and decompressed.
+using FileReader = std::function<bool(uint64_t, uint64_t, std::string*)>;
+std::string ReadChunk(const Record& chunk, const FileReader& read, std::vector<Record>* records) {
   uint32_t size = 0;
   const auto found = chunk.fields.find("compression");
   if (found == chunk.fields.end() || !FieldValue(chunk, "size", &size)) return "a chunk without its compression or size";
   if (size > kMaxChunkBytes) return "a chunk declares more than 1 GiB";
-  std::string plain;
   if (found->second == "none") {
-    if (size != data.size()) return "an uncompressed chunk's size disagrees with its data";
-    plain = std::move(data);
-  } else if (found->second == "bz2" || found->second == "lz4") {
-    plain.assign(size, '\0');
-    unsigned int out = size;
-    const int code = found->second == "bz2"
-                         ? BZ2_bzBuffToBuffDecompress(plain.data(), &out, data.data(),
-                                                      static_cast<unsigned int>(data.size()), 0, 0)
-                         : roslz4_buffToBuffDecompress(data.data(), static_cast<unsigned int>(data.size()),
-                                                       plain.data(), &out);
-    if (code != 0 || out != size) return "a " + found->second + " chunk that does not decompress to its size";
-  } else {
-    return "a chunk compressed as '" + found->second + "'";
+    if (size != chunk.data_len) return "an uncompressed chunk's size disagrees with its data";
+    const std::string why = ReadRecords(read, chunk.data_at, chunk.data_at + chunk.data_len, records);
+    for (Record& record : *records) record.start -= chunk.data_at;
+    return why;
   }
-  auto read = [&plain](uint64_t at, uint64_t n, std::string* out) {
+  if (found->second != "bz2" && found->second != "lz4") return "a chunk compressed as '" + found->second + "'";
+  std::string data, plain(size, '\0');
+  if (!read(chunk.data_at, chunk.data_len, &data)) return "unreadable";
+  unsigned int out = size;
+  const int code = found->second == "bz2"
+                       ? BZ2_bzBuffToBuffDecompress(plain.data(), &out, data.data(),
+                                                    static_cast<unsigned int>(data.size()), 0, 0)
+                       : roslz4_buffToBuffDecompress(data.data(), static_cast<unsigned int>(data.size()), plain.data(),
+                                                     &out);
+  if (code != 0 || out != size) return "a " + found->second + " chunk that does not decompress to its size";
+  auto read_plain = [&plain](uint64_t at, uint64_t n, std::string* bytes) {
     if (at > plain.size() || n > plain.size() - at) return false;
-    out->assign(plain, at, n);
+    bytes->assign(plain, at, n);
     return true;
   };
-  return ReadRecords(read, 0, plain.size(), records);
+  return ReadRecords(read_plain, 0, plain.size(), records);
 }
 
 core::Status CheckBagLayout(const std::string& path) {
@@ -472,10 +476,8 @@ core::Status CheckBagLayout(const std::string& path) {
         return bad("the index position is not a record's start");
       }
     } else if (record.op == kOpChunk) {
-      std::string data;
-      if (!read(record.data_at, record.data_len, &data)) return bad("unreadable");
       std::vector<Record> inner;
-      if (std::string why = ReadChunk(record, std::move(data), &inner); !why.empty()) return bad("in a chunk: " + why);
+      if (std::string why = ReadChunk(record, read, &inner); !why.empty()) return bad("in a chunk: " + why);
       messages.clear();
       for (const Record& r : inner) {
         if (r.op == kOpMessage) messages.insert(r.start);
