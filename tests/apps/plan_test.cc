@@ -248,6 +248,9 @@ TEST_F(PlanCliTest, PlansOnAScanRecordedInAROSBag) {
   ExpectBadInput(WriteTask({{"scene:", "scene:\n  - bag: " + bag + "\n    cloud_topic: /quadhand/points\n"
                                        "    world_frame: map"}}),
                  "no cloud on /quadhand/points could be used (2 messages: 0 malformed, 2 without a pose");
+  ExpectBadInput(WriteTask({{"scene:", "scene:\n  - bag: " + bag + "\n    cloud_topic: /quadhand/points\n"
+                                       "    skip_unusable: maybe"}}),
+                 "scene[0].skip_unusable: expected true or false");
   ExpectBadInput(WriteTask({{"scene:", "scene:\n  - bag: " + std::string(QUADHAND_SOURCE_DIR) +
                                        "/data/scenes/window_cup.pcd\n    cloud_topic: /points"}}),
                  "window_cup.pcd: not a readable ROS 1 bag");

@@ -412,6 +412,31 @@ TEST_F(RosBagTest, ATaskSceneListsABagLikeAScan) {
   EXPECT_EQ(loaded->points.size(), 3 * upper);  // three frames of it
   EXPECT_EQ(loaded->bag_clouds.used, 3);
   for (const Vec3& p : loaded->points) EXPECT_GE(p.z(), 0.525);
+  // A bag with a cloud that cannot be placed: the scene would miss what it
+  // saw, so it is an error unless the task says to plan without it.
+  {
+    auto partial = BagWriter::Create(Path("partial.bag"));
+    ASSERT_TRUE(partial.ok());
+    ASSERT_TRUE((*partial)->WritePose(0.0, Pose::Identity(), Pose::Identity()).ok());
+    ASSERT_TRUE((*partial)->WritePose(0.2, Pose::Identity(), Pose::Identity()).ok());
+    ASSERT_TRUE((*partial)->WriteCloud(0.1, recording.world).ok());
+    ASSERT_TRUE((*partial)->WriteCloud(5.0, recording.world).ok());  // after the last pose
+    ASSERT_TRUE((*partial)->Close().ok());
+  }
+  ScanSource partial;
+  partial.path = Path("partial.bag");
+  partial.bag = Source(partial.path);
+  auto strict = LoadScans({partial});
+  ASSERT_FALSE(strict.ok());
+  EXPECT_EQ(strict.status().message(),
+            Path("partial.bag") + ": 1 of the 2 clouds on /quadhand/points could not be used (0 malformed, 1 without a "
+                                  "pose at their stamp): the scene would miss what they saw (skip_unusable: true plans "
+                                  "without them)");
+  partial.skip_unusable_clouds = true;
+  auto skipping = LoadScans({partial});
+  ASSERT_TRUE(skipping.ok()) << skipping.status().message();
+  EXPECT_EQ(skipping->points.size(), recording.world.size());
+  EXPECT_EQ(skipping->bag_clouds.no_pose, 1);
   // A bag none of whose clouds has a pose is an error naming it.
   scan.bag->odom_topic = "/quadhand/odom";
   auto writer = BagWriter::Create(Path("posed_late.bag"));

@@ -147,6 +147,12 @@ core::Status ReadBagScan(const Reader& r, const YAML::Node& entry, const std::st
     QUADHAND_RETURN_IF_ERROR(r.Number(entry["max_pose_gap"], key + ".max_pose_gap", &bag.max_pose_gap));
     if (!(bag.max_pose_gap > 0.0)) return r.Error(key + ".max_pose_gap", "must be > 0 s");
   }
+  if (const YAML::Node skip = entry["skip_unusable"]) {
+    if (!skip.IsScalar() || (skip.Scalar() != "true" && skip.Scalar() != "false")) {
+      return r.Error(key + ".skip_unusable", "expected true or false");
+    }
+    source->skip_unusable_clouds = skip.Scalar() == "true";
+  }
   source->path = bag.path;
   source->bag = std::move(bag);
   return core::Status::Ok();
@@ -172,7 +178,7 @@ core::Status ReadScene(const Reader& r, const YAML::Node& node, Task* task) {
     scene::ScanSource source;
     if (entry.IsMap() && entry["bag"]) {
       QUADHAND_RETURN_IF_ERROR(r.CheckKeys(entry, key, {"bag", "cloud_topic", "odom_topic", "extrinsic", "world_frame",
-                                                        "max_pose_gap", "crop", "voxel"}));
+                                                        "max_pose_gap", "skip_unusable", "crop", "voxel"}));
       QUADHAND_RETURN_IF_ERROR(ReadBagScan(r, entry, key, &source));
     } else {
       QUADHAND_RETURN_IF_ERROR(r.CheckKeys(entry, key, {"file", "pose", "crop", "voxel"}));

@@ -75,7 +75,7 @@ core::Result<std::vector<Vec3>> Voxelise(const std::vector<Vec3>& points, double
 // A bag's clouds in the world, each cropped as it is read (a long bag need
 // not be held whole before the crop).
 core::Result<std::vector<Vec3>> LoadBag(const BagCloudSource& bag, const std::optional<CropBox>& crop,
-                                        LoadedScans* scans) {
+                                        bool skip_unusable, LoadedScans* scans) {
   std::vector<Vec3> points;
   BagCloudCounts counts;
   const core::Status read = ForEachBagCloud(
@@ -96,6 +96,16 @@ core::Result<std::vector<Vec3>> LoadBag(const BagCloudSource& bag, const std::op
     return core::Status::InvalidArgument(core::Format(
         "%s: no cloud on %s could be used (%ld messages: %ld malformed, %ld without a pose at their stamp)",
         bag.path.c_str(), bag.cloud_topic.c_str(), counts.messages, counts.malformed, counts.no_pose));
+  }
+  // A scene is planned as the truth: a cloud left out is what it saw left
+  // out, and a plan through there would be certified against a scene with
+  // a hole. So leaving one out is the user's decision, not the reader's.
+  if (counts.used < counts.messages && !skip_unusable) {
+    return core::Status::InvalidArgument(core::Format(
+        "%s: %ld of the %ld clouds on %s could not be used (%ld malformed, %ld without a pose at their stamp): the "
+        "scene would miss what they saw (skip_unusable: true plans without them)",
+        bag.path.c_str(), counts.messages - counts.used, counts.messages, bag.cloud_topic.c_str(), counts.malformed,
+        counts.no_pose));
   }
   BagCloudCounts& sum = scans->bag_clouds;
   sum.messages += counts.messages;
@@ -129,7 +139,7 @@ core::Result<LoadedScans> LoadScans(const std::vector<ScanSource>& sources) {
     }
     std::vector<Vec3> points;
     if (source.bag) {
-      auto bag = LoadBag(*source.bag, source.crop, &scans);
+      auto bag = LoadBag(*source.bag, source.crop, source.skip_unusable_clouds, &scans);
       if (!bag.ok()) return bag.status();
       points = std::move(*bag);
       if (points.empty()) continue;

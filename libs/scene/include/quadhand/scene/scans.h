@@ -25,6 +25,10 @@ struct ScanSource {
   // A bag instead of one cloud (bag->path == path): every usable cloud of
   // its topic at its own pose; sensor_to_world stays the identity.
   std::optional<BagCloudSource> bag;
+  // A bag with clouds that cannot be used (malformed, or without a pose at
+  // their stamp) is an error unless this is set: the scene would miss what
+  // they saw. Set, the bag's usable clouds are the scan.
+  bool skip_unusable_clouds = false;
   std::optional<CropBox> crop;    // applied in the world frame, after the pose
   double voxel = 0.0;             // leaf size, metres; 0: no voxel filter
 };
