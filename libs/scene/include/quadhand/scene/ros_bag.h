@@ -5,6 +5,11 @@
 // written with Debian's rosbag_storage (the bag format of ROS 1 Noetic);
 // the transforms are looked up with tf2.
 //
+// rosbag and roscpp trust the lengths and offsets a bag declares, so a
+// bag's structure is checked before rosbag reads it, and messages are read
+// from their bytes with every length checked (docs/reliability.md, "ROS 1
+// bags": what fuzzing found).
+//
 // A cloud that cannot be used is dropped and counted, never an error: one
 // that does not decode, is big-endian, lacks float32 or float64 x/y/z
 // fields, or declares more data than it holds (malformed); one whose stamp
