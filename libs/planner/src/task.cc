@@ -52,6 +52,15 @@ class Reader {
     return core::Status::Ok();
   }
 
+  // `true` or `false`, nothing else (YAML's yes/on/1 are refused as typos).
+  core::Status Bool(const YAML::Node& node, const std::string& key, bool* out) const {
+    if (!node || !node.IsScalar() || (node.Scalar() != "true" && node.Scalar() != "false")) {
+      return Error(key, "expected true or false");
+    }
+    *out = node.Scalar() == "true";
+    return core::Status::Ok();
+  }
+
   core::Status Vector(const YAML::Node& node, const std::string& key, int size, VecX* out) const {
     if (!node || !node.IsSequence()) return Error(key, "expected a list of numbers");
     if (size >= 0 && static_cast<int>(node.size()) != size) {
@@ -147,11 +156,8 @@ core::Status ReadBagScan(const Reader& r, const YAML::Node& entry, const std::st
     QUADHAND_RETURN_IF_ERROR(r.Number(entry["max_pose_gap"], key + ".max_pose_gap", &bag.max_pose_gap));
     if (!(bag.max_pose_gap > 0.0)) return r.Error(key + ".max_pose_gap", "must be > 0 s");
   }
-  if (const YAML::Node skip = entry["skip_unusable"]) {
-    if (!skip.IsScalar() || (skip.Scalar() != "true" && skip.Scalar() != "false")) {
-      return r.Error(key + ".skip_unusable", "expected true or false");
-    }
-    source->skip_unusable_clouds = skip.Scalar() == "true";
+  if (entry["skip_unusable"]) {
+    QUADHAND_RETURN_IF_ERROR(r.Bool(entry["skip_unusable"], key + ".skip_unusable", &source->skip_unusable_clouds));
   }
   source->path = bag.path;
   source->bag = std::move(bag);

@@ -42,19 +42,33 @@ bool Fail(std::string* why, const std::string& message) {
 
 std::string StripSlash(const std::string& frame) { return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame; }
 
-double StampOf(const ros::Time& stamp, const ros::Time& bag_time) {
-  return stamp.isZero() ? bag_time.toSec() : stamp.toSec();
+// A message's stamp: its header's, or its bag time when that is zero.
+ros::Time StampOf(const ros::Time& stamp, const ros::Time& bag_time) { return stamp.isZero() ? bag_time : stamp; }
+
+// A rigid pose from a position and a quaternion [w, x, y, z], or false when
+// it is not one (non-finite, or a quaternion off unit length by more than
+// 1e-3).
+bool ToPose(const Vec3& position, const Eigen::Vector4d& wxyz, Pose* pose) {
+  if (!position.allFinite() || !wxyz.allFinite() || std::abs(wxyz.norm() - 1.0) > 1e-3) return false;
+  *pose = MakePose(position, Quat(wxyz[0], wxyz[1], wxyz[2], wxyz[3]).normalized().toRotationMatrix());
+  return true;
 }
 
-// A rigid pose from a ROS position and orientation, or false when it is
-// not one (non-finite, or a quaternion off unit length by more than 1e-3).
-template <typename Position, typename Orientation>
-bool ToPose(const Position& p, const Orientation& q, Pose* pose) {
-  const Vec3 position(p.x, p.y, p.z);
-  const Eigen::Vector4d quaternion(q.w, q.x, q.y, q.z);
-  if (!position.allFinite() || !quaternion.allFinite() || std::abs(quaternion.norm() - 1.0) > 1e-3) return false;
-  *pose = MakePose(position, Quat(q.w, q.x, q.y, q.z).normalized().toRotationMatrix());
-  return true;
+geometry_msgs::TransformStamped TransformOf(const Pose& pose, const ros::Time& stamp, const std::string& parent,
+                                            const std::string& child) {
+  geometry_msgs::TransformStamped out;
+  out.header.stamp = stamp;
+  out.header.frame_id = parent;
+  out.child_frame_id = child;
+  const Quat q(pose.linear());
+  out.transform.translation.x = pose.translation().x();
+  out.transform.translation.y = pose.translation().y();
+  out.transform.translation.z = pose.translation().z();
+  out.transform.rotation.w = q.w();
+  out.transform.rotation.x = q.x();
+  out.transform.rotation.y = q.y();
+  out.transform.rotation.z = q.z();
+  return out;
 }
 
 // A message's serialised bytes (ROS 1 serialisation: little-endian,
@@ -165,26 +179,9 @@ struct StampedPose {
   std::string frame, child;
   double position[3] = {0, 0, 0}, orientation[4] = {0, 0, 0, 0};  // x, y, z, w
 
-  geometry_msgs::TransformStamped Transform() const {
-    geometry_msgs::TransformStamped t;
-    t.header.stamp = stamp;
-    t.header.frame_id = frame;
-    t.child_frame_id = child;
-    t.transform.translation.x = position[0];
-    t.transform.translation.y = position[1];
-    t.transform.translation.z = position[2];
-    t.transform.rotation.x = orientation[0];
-    t.transform.rotation.y = orientation[1];
-    t.transform.rotation.z = orientation[2];
-    t.transform.rotation.w = orientation[3];
-    return t;
-  }
   bool ToPose(Pose* pose) const {
-    const Vec3 p(position[0], position[1], position[2]);
-    const Eigen::Vector4d q(orientation[3], orientation[0], orientation[1], orientation[2]);
-    if (!p.allFinite() || !q.allFinite() || std::abs(q.norm() - 1.0) > 1e-3) return false;
-    *pose = MakePose(p, Quat(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix());
-    return true;
+    return quadhand::scene::ToPose(Vec3(position[0], position[1], position[2]),
+                                   Eigen::Vector4d(orientation[3], orientation[0], orientation[1], orientation[2]), pose);
   }
 };
 
@@ -298,14 +295,18 @@ std::map<std::string, std::string> TopicTypes(rosbag::Bag& bag) {
   return topics;
 }
 
+// "/topic [pkg/Type]" for each topic, in name order.
+std::vector<std::string> TopicLines(const std::map<std::string, std::string>& topics) {
+  std::vector<std::string> lines;
+  for (const auto& [topic, type] : topics) lines.push_back(topic + " [" + type + "]");
+  return lines;
+}
+
 std::string ListTopics(const std::map<std::string, std::string>& topics) {
   if (topics.empty()) return "the bag has no topic";
-  std::string list = "the bag has ";
-  for (auto it = topics.begin(); it != topics.end(); ++it) {
-    if (it != topics.begin()) list += ", ";
-    list += it->first + " [" + it->second + "]";
-  }
-  return list;
+  std::string list;
+  for (const std::string& line : TopicLines(topics)) list += (list.empty() ? "" : ", ") + line;
+  return "the bag has " + list;
 }
 
 core::Status CheckTopic(const std::string& path, const std::map<std::string, std::string>& topics,
@@ -365,10 +366,11 @@ std::string ParseFields(const std::string& header, std::map<std::string, std::st
   return "";
 }
 
+// `read(at, n, out)` gives the n bytes at `at`, or false.
+using FileReader = std::function<bool(uint64_t, uint64_t, std::string*)>;
+
 // The records from `at` to `end` (of a file, or a chunk), or why not.
-// `read(at, n, out)` gives n bytes at `at`, or false.
-std::string ReadRecords(const std::function<bool(uint64_t, uint64_t, std::string*)>& read, uint64_t at, uint64_t end,
-                        std::vector<Record>* records) {
+std::string ReadRecords(const FileReader& read, uint64_t at, uint64_t end, std::vector<Record>* records) {
   std::string bytes;
   while (at < end) {
     Record record;
@@ -402,12 +404,10 @@ std::string ReadRecords(const std::function<bool(uint64_t, uint64_t, std::string
   return "";
 }
 
-// A chunk's records as rosbag will see them, decompressed, or why not.
 // A chunk's records as rosbag will see them, or why not; their starts are
 // offsets in the chunk's (decompressed) data. `read` reads the file. An
 // uncompressed chunk is walked in place, its messages' data skipped; a
 // compressed one is read and decompressed.
-using FileReader = std::function<bool(uint64_t, uint64_t, std::string*)>;
 std::string ReadChunk(const Record& chunk, const FileReader& read, std::vector<Record>* records) {
   uint32_t size = 0;
   const auto found = chunk.fields.find("compression");
@@ -523,15 +523,23 @@ core::Status OpenForReading(const std::string& path, rosbag::Bag* bag) {
 
 }  // namespace
 
+BagCloudCounts& BagCloudCounts::operator+=(const BagCloudCounts& other) {
+  messages += other.messages;
+  used += other.used;
+  malformed += other.malformed;
+  no_pose += other.no_pose;
+  non_finite_points += other.non_finite_points;
+  poses += other.poses;
+  bad_poses += other.bad_poses;
+  return *this;
+}
+
 bool BagCloudSource::IsValid(std::string* why) const {
   if (path.empty()) return Fail(why, "no bag file given");
   if (cloud_topic.empty()) return Fail(why, "no cloud topic given");
   if (odom_topic.empty() && StripSlash(world_frame).empty()) return Fail(why, "no odometry topic and no world frame given");
   if (!(std::isfinite(max_pose_gap) && max_pose_gap > 0.0)) return Fail(why, "max_pose_gap must be > 0 s");
-  const Mat3& R = extrinsic.linear();
-  if (!extrinsic.matrix().allFinite() || (R.transpose() * R - Mat3::Identity()).norm() > 1e-6 || R.determinant() < 0.0) {
-    return Fail(why, "the extrinsic is not a rigid motion");
-  }
+  if (!IsRigidMotion(extrinsic)) return Fail(why, "the extrinsic is not a rigid motion");
   return true;
 }
 
@@ -540,9 +548,7 @@ core::Result<std::vector<std::string>> BagTopics(const std::string& path) {
   rosbag::Bag bag;
   QUADHAND_RETURN_IF_ERROR(OpenForReading(path, &bag));
   try {
-    std::vector<std::string> out;
-    for (const auto& [topic, type] : TopicTypes(bag)) out.push_back(topic + " [" + type + "]");
-    return out;
+    return TopicLines(TopicTypes(bag));
   } catch (const std::exception& e) {
     return core::Status::InvalidArgument(path + ": not a readable ROS 1 bag (" + e.what() + ")");
   }
@@ -576,7 +582,7 @@ core::Status ForEachBagCloud(const BagCloudSource& source, const std::function<c
           ++n.bad_poses;
           continue;
         }
-        odometry.Add(StampOf(odom.stamp, message.getTime()), pose);
+        odometry.Add(StampOf(odom.stamp, message.getTime()).toSec(), pose);
       }
       odometry.Sort();
     } else {
@@ -603,8 +609,9 @@ core::Status ForEachBagCloud(const BagCloudSource& source, const std::function<c
         const bool is_static = message.getTopic() == "/tf_static";
         for (const StampedPose& transform : transforms) {
           ++n.poses;
-          Pose ignored;
-          if (!transform.ToPose(&ignored) || !tf->setTransform(transform.Transform(), "bag", is_static)) {
+          Pose pose;
+          if (!transform.ToPose(&pose) ||
+              !tf->setTransform(TransformOf(pose, transform.stamp, transform.frame, transform.child), "bag", is_static)) {
             ++n.bad_poses;
           }
         }
@@ -622,12 +629,14 @@ core::Status ForEachBagCloud(const BagCloudSource& source, const std::function<c
         ++n.malformed;
         continue;
       }
-      cloud.t = StampOf(msg.stamp, message.getTime());
+      const ros::Time stamp = StampOf(msg.stamp, message.getTime());
+      cloud.t = stamp.toSec();
       if (tf != nullptr) {
         try {
-          const ros::Time stamp = msg.stamp.isZero() ? message.getTime() : msg.stamp;
-          const geometry_msgs::TransformStamped transform = tf->lookupTransform(world, StripSlash(msg.frame), stamp);
-          if (!ToPose(transform.transform.translation, transform.transform.rotation, &cloud.sensor_to_world)) {
+          const geometry_msgs::Transform transform = tf->lookupTransform(world, StripSlash(msg.frame), stamp).transform;
+          const Vec3 position(transform.translation.x, transform.translation.y, transform.translation.z);
+          const Eigen::Vector4d wxyz(transform.rotation.w, transform.rotation.x, transform.rotation.y, transform.rotation.z);
+          if (!ToPose(position, wxyz, &cloud.sensor_to_world)) {
             ++n.no_pose;
             continue;
           }
@@ -701,22 +710,6 @@ core::Result<ros::Time> StampToWrite(const std::string& path, bool open, double 
   return ros::Time(t + epoch);
 }
 
-geometry_msgs::TransformStamped TransformOf(const Pose& pose, const ros::Time& stamp, const std::string& parent,
-                                            const std::string& child) {
-  geometry_msgs::TransformStamped out;
-  out.header.stamp = stamp;
-  out.header.frame_id = parent;
-  out.child_frame_id = child;
-  const Quat q(pose.linear());
-  out.transform.translation.x = pose.translation().x();
-  out.transform.translation.y = pose.translation().y();
-  out.transform.translation.z = pose.translation().z();
-  out.transform.rotation.w = q.w();
-  out.transform.rotation.x = q.x();
-  out.transform.rotation.y = q.y();
-  out.transform.rotation.z = q.z();
-  return out;
-}
 
 }  // namespace
 

@@ -16,11 +16,6 @@
 namespace quadhand::scene {
 namespace {
 
-bool IsRigid(const Pose& pose) {
-  const Mat3& R = pose.linear();
-  return pose.matrix().allFinite() && (R.transpose() * R - Mat3::Identity()).norm() < 1e-6 && R.determinant() > 0.0;
-}
-
 pcl::PointCloud<pcl::PointXYZ>::Ptr ToPcl(const std::vector<Vec3>& points) {
   auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
   cloud->reserve(points.size());
@@ -43,6 +38,13 @@ std::vector<Vec3> Crop(const std::vector<Vec3>& points, const CropBox& box) {
   kept.reserve(inside.size());
   for (const auto index : inside) kept.push_back(points[static_cast<size_t>(index)]);
   return kept;
+}
+
+// Crop, counting what it took away.
+void CropCounting(const CropBox& box, std::vector<Vec3>* points, long* cropped_away) {
+  const size_t before = points->size();
+  *points = Crop(*points, box);
+  *cropped_away += static_cast<long>(before - points->size());
 }
 
 core::Result<std::vector<Vec3>> Voxelise(const std::vector<Vec3>& points, double leaf, const std::string& path) {
@@ -82,11 +84,7 @@ core::Result<std::vector<Vec3>> LoadBag(const BagCloudSource& bag, const std::op
       bag,
       [&](BagCloud& cloud) {
         for (Vec3& p : cloud.points) p = cloud.sensor_to_world * p;
-        if (crop) {
-          const size_t before = cloud.points.size();
-          cloud.points = Crop(cloud.points, *crop);
-          scans->cropped_away += static_cast<long>(before - cloud.points.size());
-        }
+        if (crop) CropCounting(*crop, &cloud.points, &scans->cropped_away);
         points.insert(points.end(), cloud.points.begin(), cloud.points.end());
         return core::Status::Ok();
       },
@@ -107,14 +105,7 @@ core::Result<std::vector<Vec3>> LoadBag(const BagCloudSource& bag, const std::op
         bag.path.c_str(), counts.messages - counts.used, counts.messages, bag.cloud_topic.c_str(), counts.malformed,
         counts.no_pose));
   }
-  BagCloudCounts& sum = scans->bag_clouds;
-  sum.messages += counts.messages;
-  sum.used += counts.used;
-  sum.malformed += counts.malformed;
-  sum.no_pose += counts.no_pose;
-  sum.non_finite_points += counts.non_finite_points;
-  sum.poses += counts.poses;
-  sum.bad_poses += counts.bad_poses;
+  scans->bag_clouds += counts;
   scans->dropped_non_finite += counts.non_finite_points;
   return points;
 }
@@ -128,7 +119,7 @@ core::Result<LoadedScans> LoadScans(const std::vector<ScanSource>& sources) {
   bool any_voxel = false;
   for (const ScanSource& source : sources) any_voxel = any_voxel || source.voxel > 0.0;
   for (const ScanSource& source : sources) {
-    if (!IsRigid(source.sensor_to_world)) {
+    if (!IsRigidMotion(source.sensor_to_world)) {
       return core::Status::InvalidArgument(source.path + ": pose: not a rigid motion (a unit quaternion and a finite position)");
     }
     if (source.crop && !(source.crop->min.array() < source.crop->max.array()).all()) {
@@ -152,9 +143,7 @@ core::Result<LoadedScans> LoadScans(const std::vector<ScanSource>& sources) {
         for (Vec3& p : points) p = source.sensor_to_world * p;
       }
       if (source.crop) {
-        const size_t before = points.size();
-        points = Crop(points, *source.crop);
-        scans.cropped_away += static_cast<long>(before - points.size());
+        CropCounting(*source.crop, &points, &scans.cropped_away);
         if (points.empty()) continue;
       }
     }

@@ -30,6 +30,13 @@ inline Pose MakePose(const Vec3& translation, const Mat3& rotation) {
   return pose;
 }
 
+// A finite pose whose linear part is a rotation (orthonormal to 1e-6,
+// not a reflection).
+inline bool IsRigidMotion(const Pose& pose) {
+  const Mat3& R = pose.linear();
+  return pose.matrix().allFinite() && (R.transpose() * R - Mat3::Identity()).norm() < 1e-6 && R.determinant() > 0.0;
+}
+
 // Rotation matrix exp([w]x) of a rotation vector (axis * angle).
 inline Mat3 ExpSO3(const Vec3& rotation_vector) {
   const double angle = rotation_vector.norm();

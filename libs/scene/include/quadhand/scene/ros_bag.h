@@ -58,6 +58,7 @@ struct BagCloudCounts {
   long non_finite_points = 0;  // returns dropped from clouds used (an organised cloud's invalid pixels)
   long poses = 0;              // odometry messages, or transforms on /tf and /tf_static
   long bad_poses = 0;          // of those: non-finite, not a unit quaternion, or refused by tf2
+  BagCloudCounts& operator+=(const BagCloudCounts& other);
 };
 
 // Calls `visit` with each usable cloud of the topic, in the bag's order.
