@@ -328,6 +328,8 @@ int main(int argc, char** argv) {
                          {"context_ms", r.context_ms},
                          {"plan_ms", r.plan_ms},
                          {"safety_distance", r.safety_distance},
+                         {"start_clearance", r.start_clearance},
+                         {"recovery", r.recovery},
                          {"boundary_voxels", r.scene_points},
                          {"targets_tried", r.targets_tried},
                          {"message", r.message}});

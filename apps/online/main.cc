@@ -820,7 +820,7 @@ int main(int argc, char** argv) {
                 p.frames.taken, p.empty_frames, p.frames.malformed, p.frames.bad_pose, p.frames.from_the_future,
                 p.frames.out_of_order, p.frames.stale, p.map_overrun, p.map_update_ms.empty() ? 0.0 : Quantile(p.map_update_ms, 0.5),
                 p.map_update_ms.empty() ? 0.0 : Quantile(p.map_update_ms, 0.95), p.peak_map_bytes / 1e6);
-    int to_goal = 0, to_target = 0, not_planned = 0;
+    int to_goal = 0, to_target = 0, not_planned = 0, recoveries = 0;
     std::vector<double> local_ms;
     for (const online::PlanRecord& r : stats.plans) {
       if (r.local_status < 0) continue;
@@ -829,11 +829,14 @@ int main(int argc, char** argv) {
       to_goal += status == explore::LocalPlanStatus::kToGoal;
       to_target += status == explore::LocalPlanStatus::kToLocalTarget;
       not_planned += !r.success;
+      recoveries += r.recovery && r.success;
     }
-    std::printf("  local plans: %zu (%d to the goal, %d to local targets, %d without a plan), latency median %.1f ms, "
-                "p95 %.1f ms (the map's snapshot included); %d late (dropped)\n",
-                local_ms.size(), to_goal, to_target, not_planned, local_ms.empty() ? 0.0 : Quantile(local_ms, 0.5),
-                local_ms.empty() ? 0.0 : Quantile(local_ms, 0.95), p.late_plans);
+    std::printf("  local plans: %zu (%d to the goal, %d to local targets, %d without a plan; %d recoveries from inside "
+                "the certificate's floor), latency median %.1f ms, p95 %.1f ms (the map's snapshot included); %d late "
+                "(dropped)\n",
+                local_ms.size(), to_goal, to_target, not_planned, recoveries,
+                local_ms.empty() ? 0.0 : Quantile(local_ms, 0.5), local_ms.empty() ? 0.0 : Quantile(local_ms, 0.95),
+                p.late_plans);
     std::printf("  new obstacles across a plan: %d (%d across the plan flown); sensor silences: %d; brakes for the "
                 "sensor: %d; judged against %zu points the sensor saw (the map's last word on each voxel)\n",
                 p.conflicts, p.flown_conflicts, p.silences, p.sensor_brakes, seen_points);

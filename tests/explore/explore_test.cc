@@ -179,6 +179,50 @@ TEST_F(ExploreTest, PlansToTheGoalOnceItIsSeenFree) {
   }
 }
 
+// A start nearer the map's boundary than the certificate's floor (the task's
+// distance plus the ball radius), as a brake that could not stop short of a
+// new obstacle leaves the vehicle: the plan backs away, never nearer than it
+// started, and holds the planned distance from recovery_time on. Without the
+// recovery rule no plan could be certified from there.
+TEST_F(ExploreTest, AStartInsideTheCertificatesFloorBacksAway) {
+  const std::vector<Vec3> wall = WallAt(1.6);
+  Planner p = MakePlanner(WriteTask(wall, Vec3(8.0, 0.0, 1.2)));
+  auto map = MapOf(wall, Vec3(0.0, 0.0, 1.2));
+  const double floor = 0.03 + map->BoundaryBallRadius();
+  const double planned_distance = p.local->PlannedSafetyDistance(map->options().resolution);
+  // Nearer the wall step by step until the start is inside the floor (its
+  // clearance as the local plan measures it) but clear of the centres.
+  std::optional<explore::LocalPlanResult> inside;
+  planner::BoundaryState from = p.base->task().start;
+  for (double x = 0.6; x < 1.6 && !inside; x += 0.01) {
+    from.position.x() = x;
+    if (map->State(from.position) != perception::VoxelState::kFree) break;
+    auto planned = p.local->PlanFrom(*map, from);
+    ASSERT_TRUE(planned.ok()) << planned.status().message();
+    if (planned->start_clearance < floor - 0.02 && planned->start_clearance > 0.01) inside = std::move(*planned);
+  }
+  ASSERT_TRUE(inside.has_value()) << "no start found inside the floor";
+  EXPECT_TRUE(inside->recovery);
+  ASSERT_TRUE(inside->status == explore::LocalPlanStatus::kToLocalTarget ||
+              inside->status == explore::LocalPlanStatus::kToGoal)
+      << inside->message;
+  const planner::PostCheckReport& check = inside->plan.post_check;
+  EXPECT_TRUE(check.passed && check.certified && check.recovery) << check.FirstFailure();
+  EXPECT_GE(check.certified_clearance, inside->start_clearance - 0.002 - 1e-9);
+  // From recovery_time on, the planned distance (the last sample's too).
+  const planner::WholeBodyTrajectory& trajectory = *inside->plan.trajectory;
+  const double recovery_time = p.local->options().recovery_time;
+  for (const planner::CertifiedInterval& stretch : check.certified_intervals) {
+    if (stretch.t0 >= recovery_time) {
+      EXPECT_GE(stretch.clearance_lower, planned_distance - 0.002) << stretch.t0;
+    }
+  }
+  EXPECT_GT(trajectory.duration(), recovery_time);
+  EXPECT_GE((trajectory.Sample(trajectory.duration()).position - from.position).norm(), 0.3);  // min_progress
+  EXPECT_GE(check.certified_intervals.back().clearance_at_t1, planned_distance - 0.002);
+  ExpectInSeenFreeSpace(trajectory, *map);
+}
+
 TEST_F(ExploreTest, NothingSeenGivesNoPlan) {
   Planner p = MakePlanner(WriteTask(WallAt(5.0), Vec3(8.0, 0.0, 1.2)));
   auto map = MapOf({}, Vec3(0.0, 0.0, 1.2));  // only the vehicle's own space

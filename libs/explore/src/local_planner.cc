@@ -51,6 +51,7 @@ bool LocalPlannerOptions::IsValid(std::string* why) const {
     return Fail(why, "tracking_margin must be in [0, 1] m");
   }
   if (alternative_guesses < 0 || alternative_guesses > 3) return Fail(why, "alternative_guesses must be in [0, 3]");
+  if (!Positive(recovery_time, 10.0)) return Fail(why, "recovery_time must be in (0, 10] s");
   return true;
 }
 
@@ -226,13 +227,22 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
   // from it would hold the vehicle there for good. The tracking margin is
   // slack, not part of the certificate (the task's distance plus the ball
   // radius is), so it shrinks to what the start has, never below that.
+  // A start inside that floor plans a recovery: never nearer the boundary
+  // than it starts, and at the planned distance after recovery_time.
   const planner::PlanningScene scene = (*context)->Scene(0);
-  {
-    const double start_clearance =
-        planner::StateClearance(scene, start, options_.cost.flatness, planner::ClearanceSearchReach(task));
+  planner::PlannerOptions options = options_;
+  result.start_clearance =
+      planner::StateClearance(scene, start, options_.cost.flatness, planner::ClearanceSearchReach(task));
+  if (result.start_clearance < task.safety_distance) {
     const double floor = base_task.safety_distance + perception::VoxelBallRadius(snapshot.resolution);
-    if (start_clearance < task.safety_distance && start_clearance - kStartSlack >= floor) {
-      task.safety_distance = start_clearance - kStartSlack;
+    if (result.start_clearance - kStartSlack >= floor) {
+      task.safety_distance = result.start_clearance - kStartSlack;
+    } else {
+      result.recovery = true;
+      options.post_check.recovery_time = local_.recovery_time;
+      // From rest (a braked plan's stop) nothing needs braking; a start
+      // moving towards the boundary may not go past its centres.
+      options.post_check.recovery_min_clearance = 0.0;
     }
   }
   result.safety_distance = task.safety_distance;
@@ -299,7 +309,7 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
     }
     if (!leg) continue;
     tried.push_back(target);
-    auto planned = planner::Plan(scene, *leg, options_, solver_);
+    auto planned = planner::Plan(scene, *leg, options, solver_);
     if (!planned.ok()) {
       result.message = planned.status().message();
       continue;

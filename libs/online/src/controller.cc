@@ -367,6 +367,8 @@ class OnlineController::Worker {
     }
     done.record.local_status = static_cast<int>(result->status);
     done.record.scene_points = result->scene_points;
+    done.record.recovery = result->recovery;
+    done.record.start_clearance = result->start_clearance;
     const bool planned = result->status == explore::LocalPlanStatus::kToGoal ||
                          result->status == explore::LocalPlanStatus::kToLocalTarget;
     done.record.message = planned ? std::string() : std::string(explore::LocalPlanStatusName(result->status)) +
@@ -1391,9 +1393,12 @@ void OnlineController::CollectPlan(double t) {
                                         "blending the new plan in from t = %.2f s"
                                       : "replanned in %.1f ms; blending the new plan in from t = %.2f s",
                  record.latency_ms, blend_start_) +
-          (record.recovery ? Format(" (recovering from %.4f m inside the safety distance)",
-                                    setup_.task->safety_distance - record.start_clearance)
-                           : std::string()));
+          (!record.recovery ? std::string()
+           : record.local_status >= 0
+               ? Format(" (backing away: %.4f m from the map's boundary, inside the certificate's floor)",
+                        record.start_clearance)
+               : Format(" (recovering from %.4f m inside the safety distance)",
+                        setup_.task->safety_distance - record.start_clearance)));
   } else if (record.status == planner::PlanStatus::kInsertionInProgress) {
     Event("not replanned: the insertion has begun");
   } else if (record.periodic) {

@@ -336,15 +336,21 @@ core::Result<bool> ResolveGoal(const PlanningScene& scene, const Task& task, con
 }
 
 // Stage "check end points": start and goal must be collision-free, or no
-// plan can pass the post-check.
+// plan can pass the post-check. Under the post-check's recovery rule
+// (PostCheckOptions::recovery_time) the start need only clear what that
+// rule's stretch may not go below.
 core::Status CheckEndPoints(const PlanningScene& scene, const Task& task, const BoundaryState& terminal,
                             const PlannerOptions& options) {
   const double reach = ClearanceSearchReach(task);
   const std::pair<const char*, const BoundaryState*> ends[] = {{"start", &task.start}, {"goal", &terminal}};
+  const PostCheckOptions& check = options.post_check;
   for (const auto& [name, state] : ends) {
     int link = -1;
     const double clearance = StateClearance(scene, *state, options.cost.flatness, reach, &link);
-    if (clearance < AcceptedClearance(task, options.post_check.clearance_tolerance)) {
+    const bool recovering_start = state == &task.start && check.recovery_time > 0.0;
+    const double accepted = recovering_start ? check.recovery_min_clearance - check.clearance_tolerance
+                                             : AcceptedClearance(task, check.clearance_tolerance);
+    if (clearance < accepted) {
       return core::Status::InvalidArgument(task.file + ": " + name + " state is in collision: link " +
                                            scene.robot.link(link).name + " is " + std::to_string(clearance) +
                                            " m from the scene (safety distance " +

@@ -65,6 +65,13 @@ struct LocalPlannerOptions {
   // (PlannerOptions::alternative_guesses, capped): a local plan that fails
   // is retried at the next replan from a newer map, not at length now.
   int alternative_guesses = 1;
+  // A start nearer the boundary than the certificate's floor (the task's
+  // distance plus the ball radius: where a brake that could not stop short
+  // of a new obstacle leaves the vehicle) plans a recovery: the post-check's
+  // recovery rule (PostCheckOptions::recovery_time) holds the clearance at
+  // least at the start's own for this long, s, and at the planned distance
+  // from then on. Without it no plan could be certified from there.
+  double recovery_time = 1.0;
   bool IsValid(std::string* why) const;
 };
 
@@ -103,6 +110,11 @@ struct LocalPlanSummary {
   // start was nearer the boundary than that (never less than the task's
   // distance plus the map's ball radius, which the certificate needs).
   double safety_distance = 0.0;
+  // The start's clearance to the boundary's centres (exact link meshes),
+  // and whether it was inside that floor, so that the plan is a recovery
+  // (LocalPlannerOptions::recovery_time).
+  double start_clearance = 0.0;
+  bool recovery = false;
   std::string message;      // why the last target failed, for people
 };
 
