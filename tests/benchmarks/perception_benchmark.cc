@@ -99,6 +99,26 @@ void BM_InsertRenderedFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_InsertRenderedFrame)->ArgsProduct({{10, 5}, {1, 2, 4, 8}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// The local planner's scene at every replan (explore/local_planner.h): the
+// boundary in its default box (12 x 12 x 4 m) about the vehicle, after a
+// few rendered frames from nearby.
+void BM_ObstacleBoundary(benchmark::State& state) {
+  RollingMapOptions options;
+  options.resolution = state.range(0) / 100.0;
+  auto map = RollingMap::Create(options);
+  const std::vector<Vec3> frame = RenderedForestFrame();
+  for (int k = 0; k < 4; ++k) (void)(*map)->Insert(frame, Vec3(0.1 * k, 0.0, 1.2));
+  const Vec3 start(0.3, 0.0, 1.2), half(6.0, 6.0, 2.0);
+  size_t centres = 0;
+  for (auto _ : state) {
+    const std::vector<Vec3> boundary = (*map)->ObstacleBoundary(start - half, start + half);
+    centres = boundary.size();
+    benchmark::DoNotOptimize(boundary.data());
+  }
+  state.counters["boundary_voxels"] = static_cast<double>(centres);
+}
+BENCHMARK(BM_ObstacleBoundary)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond);
+
 void BM_MoveWindow(benchmark::State& state) {
   RollingMapOptions options;
   auto map = RollingMap::Create(options);

@@ -11,6 +11,8 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <set>
+#include <tuple>
 
 namespace quadhand::perception {
 namespace {
@@ -223,6 +225,60 @@ TEST(RollingMapTest, TheObstacleBoundaryBoundsTheDistanceToEverythingNotSeenFree
     EXPECT_NE(map->State(c), VoxelState::kFree) << c.transpose();
   }
   EXPECT_GT(outside, 0);  // the free cone reaches the box's faces
+}
+
+// The boundary is exactly its definition, in its order: every not-free voxel
+// (occupied, unknown, outside the window or the box) sharing a face with a
+// free voxel of the box, once, walked box voxel by box voxel (x, then y,
+// then z) and face by face. Read through State() alone, including boxes
+// that reach past the window's edge and a window that has rolled.
+TEST(RollingMapTest, TheObstacleBoundaryIsItsDefinitionVoxelByVoxel) {
+  RollingMapOptions options;
+  options.resolution = 0.1;
+  options.window_half_extent = Vec3(2.0, 2.0, 1.0);
+  auto map = Map(options);
+  std::vector<Vec3> wall;
+  for (const Vec3& p : Wall(1.2, 1.5, 0.02)) {
+    if (std::abs(p.y() - 0.3) > 0.2 || std::abs(p.z()) > 0.3) wall.push_back(p);
+  }
+  ASSERT_TRUE(map->Insert(wall, Vec3(0.05, 0.02, 0.01)).ok());
+  map->MoveWindow(Vec3(0.73, -0.41, 0.12));  // rolled: the ring's cells wrap
+  ASSERT_TRUE(map->Insert(wall, Vec3(0.3, -0.2, 0.1)).ok());
+  const double res = options.resolution;
+  auto reference = [&](const Vec3& lo, const Vec3& hi) {
+    const Eigen::Vector3i first = (lo / res).array().floor().cast<int>(), last = (hi / res).array().floor().cast<int>();
+    auto centre = [&](const Eigen::Vector3i& v) { return Vec3((v.cast<double>().array() + 0.5).matrix() * res); };
+    auto in_box = [&](const Eigen::Vector3i& v) { return (v.array() >= first.array()).all() && (v.array() <= last.array()).all(); };
+    auto free = [&](const Eigen::Vector3i& v) { return in_box(v) && map->State(centre(v)) == VoxelState::kFree; };
+    std::vector<Vec3> out;
+    std::set<std::tuple<int, int, int>> listed;
+    const int faces[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (int i = first.x(); i <= last.x(); ++i) {
+      for (int j = first.y(); j <= last.y(); ++j) {
+        for (int k = first.z(); k <= last.z(); ++k) {
+          if (!free(Eigen::Vector3i(i, j, k))) continue;
+          for (const auto& f : faces) {
+            const Eigen::Vector3i u(i + f[0], j + f[1], k + f[2]);
+            if (free(u)) continue;
+            if (in_box(u) && !listed.insert({u.x(), u.y(), u.z()}).second) continue;
+            out.push_back(centre(u));
+          }
+        }
+      }
+    }
+    return out;
+  };
+  const std::pair<Vec3, Vec3> boxes[] = {
+      {Vec3(-0.45, -0.75, -0.55), Vec3(2.55, 0.75, 0.55)},
+      {Vec3(-3.0, -3.0, -2.0), Vec3(3.0, 3.0, 2.0)},      // past the window on every side
+      {Vec3(0.31, -0.02, -0.07), Vec3(0.33, 0.01, 0.04)},  // one column of voxels
+  };
+  for (const auto& [lo, hi] : boxes) {
+    const std::vector<Vec3> got = map->ObstacleBoundary(lo, hi), want = reference(lo, hi);
+    ASSERT_EQ(got.size(), want.size()) << lo.transpose();
+    ASSERT_FALSE(got.empty());
+    for (size_t n = 0; n < got.size(); ++n) ASSERT_LT((got[n] - want[n]).norm(), 1e-9) << n;
+  }
 }
 
 TEST(RollingMapTest, MarkFreeFreesABallAndMissesFreeTheirRaysOccupyingNothing) {

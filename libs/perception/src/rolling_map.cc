@@ -1,6 +1,7 @@
 #include "quadhand/perception/rolling_map.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -345,49 +346,66 @@ std::vector<Vec3> RollingMap::ObstacleBoundary(const Vec3& lo, const Vec3& hi) c
   const Eigen::Vector3i first = m.VoxelOf(lo), last = m.VoxelOf(hi);
   const Eigen::Vector3i size = last - first + Eigen::Vector3i::Ones();
   const double res = m.options.resolution;
-  auto centre = [res](const Eigen::Vector3i& v) { return Vec3((v.cast<double>().array() + 0.5).matrix() * res); };
-  auto in_box = [&](const Eigen::Vector3i& v) {
-    return ((v - first).array() >= 0).all() && ((v - first).array() < size.array()).all();
-  };
-  auto local = [&](const Eigen::Vector3i& v) {
-    const Eigen::Vector3i r = v - first;
-    return (static_cast<size_t>(r.x()) * size.y() + r.y()) * size.z() + r.z();
-  };
-  auto free = [&](const Eigen::Vector3i& v) {
-    if (!m.Inside(v)) return false;
-    const std::int8_t value = m.cells[m.Cell(v)].value;
-    return value != kUnknown && value <= m.threshold;
-  };
+  // Called at every replan over a box of about half a million voxels: the
+  // ring's cell of each box coordinate is worked out once per axis (-1
+  // outside the window), and neighbours are reached by strides.
+  std::array<std::vector<int>, 3> ring;
+  for (int a = 0; a < 3; ++a) {
+    ring[a].resize(static_cast<size_t>(size[a]));
+    for (int r = 0; r < size[a]; ++r) {
+      const int v = first[a] + r - m.low[a];
+      ring[a][static_cast<size_t>(r)] = v >= 0 && v < m.dims[a] ? Impl::Mod(first[a] + r, m.dims[a]) : -1;
+    }
+  }
+  const size_t stride_y = static_cast<size_t>(size.z()), stride_x = static_cast<size_t>(size.y()) * stride_y;
   // Each voxel of the box once: whether it is free, and whether it is
   // listed already (a voxel outside the box touches one box voxel by a face,
   // so it is met once).
-  std::vector<std::uint8_t> state(static_cast<size_t>(size.x()) * size.y() * size.z(), 0);
+  std::vector<std::uint8_t> state(stride_x * static_cast<size_t>(size.x()), 0);
   constexpr std::uint8_t kIsFree = 1, kListed = 2;
-  for (int i = first.x(); i <= last.x(); ++i) {
-    for (int j = first.y(); j <= last.y(); ++j) {
-      for (int k = first.z(); k <= last.z(); ++k) {
-        const Eigen::Vector3i v(i, j, k);
-        if (free(v)) state[local(v)] = kIsFree;
+  for (int i = 0; i < size.x(); ++i) {
+    const int ci = ring[0][static_cast<size_t>(i)];
+    if (ci < 0) continue;
+    for (int j = 0; j < size.y(); ++j) {
+      const int cj = ring[1][static_cast<size_t>(j)];
+      if (cj < 0) continue;
+      const size_t row = m.CellOfRing(ci, cj, 0), local = static_cast<size_t>(i) * stride_x + j * stride_y;
+      for (int k = 0; k < size.z(); ++k) {
+        const int ck = ring[2][static_cast<size_t>(k)];
+        if (ck < 0) continue;
+        const std::int8_t value = m.cells[row + static_cast<size_t>(ck)].value;
+        if (value != kUnknown && value <= m.threshold) state[local + static_cast<size_t>(k)] = kIsFree;
       }
     }
   }
-  static const int kFaces[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  for (int i = first.x(); i <= last.x(); ++i) {
-    for (int j = first.y(); j <= last.y(); ++j) {
-      for (int k = first.z(); k <= last.z(); ++k) {
-        const Eigen::Vector3i v(i, j, k);
-        if (!(state[local(v)] & kIsFree)) continue;
-        for (const auto& face : kFaces) {
-          const Eigen::Vector3i u = v + Eigen::Vector3i(face[0], face[1], face[2]);
-          if (!in_box(u)) {
-            centres.push_back(centre(u));
-            continue;
-          }
-          std::uint8_t& s = state[local(u)];
-          if (s & (kIsFree | kListed)) continue;
-          s |= kListed;
-          centres.push_back(centre(u));
-        }
+  auto centre = [&](int i, int j, int k) {
+    return Vec3((first.x() + i + 0.5) * res, (first.y() + j + 0.5) * res, (first.z() + k + 0.5) * res);
+  };
+  // A neighbour (di, dj, dk) of box voxel (i, j, k) at local index `at`.
+  auto visit = [&](int i, int j, int k, int di, int dj, int dk, bool inside, size_t at) {
+    if (!inside) {
+      centres.push_back(centre(i + di, j + dj, k + dk));
+      return;
+    }
+    std::uint8_t& s = state[at];
+    if (s & (kIsFree | kListed)) return;
+    s |= kListed;
+    centres.push_back(centre(i + di, j + dj, k + dk));
+  };
+  for (int i = 0; i < size.x(); ++i) {
+    for (int j = 0; j < size.y(); ++j) {
+      const size_t row = static_cast<size_t>(i) * stride_x + j * stride_y;
+      for (int k = 0; k < size.z(); ++k) {
+        const size_t at = row + static_cast<size_t>(k);
+        if (!(state[at] & kIsFree)) continue;
+        // The faces in a fixed order (+x, -x, +y, -y, +z, -z): the list's
+        // order does not depend on how the box is stored.
+        visit(i, j, k, 1, 0, 0, i + 1 < size.x(), at + stride_x);
+        visit(i, j, k, -1, 0, 0, i > 0, at - stride_x);
+        visit(i, j, k, 0, 1, 0, j + 1 < size.y(), at + stride_y);
+        visit(i, j, k, 0, -1, 0, j > 0, at - stride_y);
+        visit(i, j, k, 0, 0, 1, k + 1 < size.z(), at + 1);
+        visit(i, j, k, 0, 0, -1, k > 0, at - 1);
       }
     }
   }
