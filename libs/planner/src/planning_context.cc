@@ -111,10 +111,10 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForLocalScene(
   if (!task.mission.empty() || MovingToolGoal(task) != nullptr) {
     return core::Status::InvalidArgument("a local scene's task may not have a mission or a moving target");
   }
-  std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs;
-  AppendLoadedSdfs(&given_sdfs);
-  auto local = Build(std::move(task), robot_, std::move(points), 0, options_, nullptr, std::move(given_sdfs),
-                     /*mission_phase=*/true);
+  // The same robot and options: this context's grids are shared, not
+  // copied (a local scene is built at every replan).
+  auto local = Build(std::move(task), robot_, std::move(points), 0, options_, nullptr, {}, /*mission_phase=*/true,
+                     nullptr, nullptr, /*same_robot=*/this);
   if (local.ok()) (*local)->scene_load_seconds_ = 0.0;
   return local;
 }
@@ -123,7 +123,8 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
     const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
     std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, bool mission_phase,
-    std::shared_ptr<const std::vector<Vec3>> moving_given, std::shared_ptr<const std::vector<Vec3>> moving_checked_given) {
+    std::shared_ptr<const std::vector<Vec3>> moving_given, std::shared_ptr<const std::vector<Vec3>> moving_checked_given,
+    const PlanningContext* same_robot) {
   QUADHAND_RETURN_IF_ERROR(CheckRepresentationNames(options));
   if (checked_points == nullptr) checked_points = points;
   for (const auto* cloud : {&points, &checked_points}) {
@@ -192,7 +193,14 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
   // The moving points get an MRC-SDF model for the optimiser (none when no
   // representation is asked for: quadhand-flightcheck's exact checks).
   const bool moving_points = !context->moving_points_.empty() && !options.representations.empty();
-  if (mrc_sdf || moving_points || !context->self_collision_->pairs().empty()) {
+  if (same_robot != nullptr && same_robot->sdf_grids_ != nullptr) {
+    sdf_grids = same_robot->sdf_grids_;
+    context->sdf_grids_ = sdf_grids;
+    context->sdf_links_ = same_robot->sdf_links_;
+    if (!context->self_collision_->pairs().empty()) {
+      QUADHAND_RETURN_IF_ERROR(context->self_collision_->AttachSdfGrids(sdf_grids));
+    }
+  } else if (mrc_sdf || moving_points || !context->self_collision_->pairs().empty()) {
     const auto load_start = std::chrono::steady_clock::now();
     std::vector<int> links;
     std::vector<geometry::SdfGrid> grids;

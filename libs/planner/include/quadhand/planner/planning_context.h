@@ -152,7 +152,8 @@ class PlanningContext {
       const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,
       std::vector<std::pair<int, geometry::SdfGrid>> given_sdfs, bool mission_phase,
       std::shared_ptr<const std::vector<Vec3>> moving_given = nullptr,
-      std::shared_ptr<const std::vector<Vec3>> moving_checked_given = nullptr);
+      std::shared_ptr<const std::vector<Vec3>> moving_checked_given = nullptr,
+      const PlanningContext* same_robot = nullptr);
 
   PlanningContextOptions options_;
   Task task_;
