@@ -95,6 +95,10 @@ int main(int argc, char** argv) {
   app.add_option("--plan-ahead", options.plan_ahead, "A new plan starts this long after its request, s")
       ->capture_default_str();
   app.add_option("--horizon", local.horizon, "A local target lies within this of the start, m")->capture_default_str();
+  app.add_option("--guide-cell", local.guide_cell,
+                 "Local targets are ranked by the way to the goal round what was seen occupied, on cells of this "
+                 "edge, m (0: by the straight distance)")
+      ->capture_default_str();
   app.add_option("--max-speed", local.max_speed, "Local plans fly at most this fast (and the task's v_max), m/s")
       ->capture_default_str();
   app.add_option("--max-acceleration", local.max_acceleration,
@@ -110,6 +114,9 @@ int main(int argc, char** argv) {
                  "Rays with no return free the map along every this-many-th pixel of each image axis (1-64)")
       ->capture_default_str();
   app.add_option("--time-limit", options.time_limit, "Simulated seconds before giving up (0: from the distance)")
+      ->capture_default_str();
+  app.add_option("--stuck-time", options.stuck_time,
+                 "Simulated seconds without a new plan, the last one ended, before the flight ends stuck")
       ->capture_default_str();
   app.add_option("--sensor-timeout", options.sensor_timeout,
                  "Seconds without a good frame before the vehicle brakes along its plan and holds")

@@ -369,6 +369,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--local-max-speed", local_options.max_speed, "--perception: local plans fly at most this fast, m/s")
       ->capture_default_str();
+  app.add_option("--guide-cell", local_options.guide_cell,
+                 "--perception: local targets are ranked by the way to the goal round what was seen occupied, on "
+                 "cells of this edge, m (0: by the straight distance)")
+      ->capture_default_str();
   std::vector<std::string> package_path;
   quadhand::apps::AddPackagePathOption(&app, &package_path);
   app.add_flag("-q,--quiet", quiet, "Print only the final summary (and errors)");

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <random>
 
+#include "quadhand/explore/guide.h"
 #include "quadhand/perception/rolling_map.h"
 #include "quadhand/sim/sensor.h"
 
@@ -118,6 +119,24 @@ void BM_ObstacleBoundary(benchmark::State& state) {
   state.counters["boundary_voxels"] = static_cast<double>(centres);
 }
 BENCHMARK(BM_ObstacleBoundary)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond);
+
+// The local planner's guide at every snapshot (explore/guide.h): the way
+// to a goal 20 m ahead through the whole window, round what the frames saw.
+void BM_Guide(benchmark::State& state) {
+  RollingMapOptions options;
+  auto map = RollingMap::Create(options);
+  const std::vector<Vec3> frame = RenderedForestFrame();
+  for (int k = 0; k < 4; ++k) (void)(*map)->Insert(frame, Vec3(0.1 * k, 0.0, 1.2));
+  const double cell = state.range(0) / 100.0;
+  int blocked = 0;
+  for (auto _ : state) {
+    const quadhand::explore::Guide guide = quadhand::explore::Guide::Compute(**map, Vec3(20.0, 0.0, 1.2), cell, 1.0);
+    blocked = guide.blocked_cells();
+    benchmark::DoNotOptimize(guide.CostAt(Vec3(0.3, 0.0, 1.2)));
+  }
+  state.counters["blocked_cells"] = blocked;
+}
+BENCHMARK(BM_Guide)->Arg(40)->Arg(25)->Unit(benchmark::kMillisecond);
 
 void BM_MoveWindow(benchmark::State& state) {
   RollingMapOptions options;

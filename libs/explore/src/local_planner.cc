@@ -7,6 +7,7 @@
 
 #include "quadhand/core/text.h"
 #include "quadhand/env/exact_mesh_model.h"
+#include "quadhand/explore/guide.h"
 #include "quadhand/planner/moving_scene.h"
 #include "quadhand/robot/kinematics.h"
 
@@ -39,6 +40,9 @@ bool LocalPlannerOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(target_separation) && target_separation >= 0.0)) return Fail(why, "target_separation must be >= 0 m");
   if (!(std::isfinite(min_progress) && min_progress >= 0.0 && min_progress < horizon)) {
     return Fail(why, "min_progress must be in [0, horizon) m");
+  }
+  if (!(std::isfinite(guide_cell) && (guide_cell == 0.0 || (guide_cell >= 0.05 && guide_cell <= 5.0)))) {
+    return Fail(why, "guide_cell must be 0 (no guide) or in [0.05, 5] m");
   }
   if (!(std::isfinite(max_height_offset) && max_height_offset >= 0.0)) return Fail(why, "max_height_offset must be >= 0 m");
   if (!(std::isfinite(target_clearance_margin) && target_clearance_margin >= 0.0 && target_clearance_margin <= 1.0)) {
@@ -178,6 +182,20 @@ LocalMapSnapshot LocalPlanner::Snapshot(const perception::RollingMap& map, const
       }
     }
   }
+  // Beyond this, a target the guide cannot reach ranks after every other.
+  constexpr double kUnreachableRank = 1e6;
+  snapshot.seen_free_rank.reserve(snapshot.seen_free.size());
+  if (local_.guide_cell > 0.0 && !snapshot.seen_free.empty()) {
+    const auto guide_start = std::chrono::steady_clock::now();
+    const Guide guide = Guide::Compute(map, goal_.position, local_.guide_cell, local_.max_height_offset);
+    for (const Vec3& p : snapshot.seen_free) {
+      const double cost = guide.CostAt(p);
+      snapshot.seen_free_rank.push_back(std::isfinite(cost) ? cost : kUnreachableRank + (p - goal_.position).norm());
+    }
+    snapshot.guide_ms = MsSince(guide_start);
+  } else {
+    for (const Vec3& p : snapshot.seen_free) snapshot.seen_free_rank.push_back((p - goal_.position).norm());
+  }
   snapshot.ms = MsSince(begin);
   return snapshot;
 }
@@ -252,11 +270,15 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
   // front end, then the lattice's seen-free points nearest the goal.
   std::vector<std::pair<double, Vec3>> candidates;
   if (snapshot.goal_seen_free && front_end.IsFree(goal_.position)) candidates.emplace_back(-1.0, goal_.position);
-  for (const Vec3& p : snapshot.seen_free) {
-    if (front_end.IsFree(p)) candidates.emplace_back((p - goal_.position).norm(), p);
+  if (snapshot.seen_free_rank.size() != snapshot.seen_free.size()) {
+    return core::Status::InvalidArgument("local plan: the map's snapshot has no rank for its targets");
   }
-  std::sort(candidates.begin(), candidates.end(),
-            [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (size_t n = 0; n < snapshot.seen_free.size(); ++n) {
+    const Vec3& p = snapshot.seen_free[n];
+    if (front_end.IsFree(p)) candidates.emplace_back(snapshot.seen_free_rank[n], p);
+  }
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
   if (candidates.empty()) {
     result.status = LocalPlanStatus::kNoTarget;
     result.message = "no point of the box is seen free and open";

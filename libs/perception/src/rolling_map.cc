@@ -434,6 +434,20 @@ std::vector<Vec3> RollingMap::OccupiedPoints() const {
   return points;
 }
 
+std::vector<Vec3> RollingMap::OccupiedVoxelCentres() const {
+  const Impl& m = *impl_;
+  std::vector<Vec3> centres;
+  centres.reserve(m.raw.size());
+  const double res = m.options.resolution;
+  // Every occupied voxel was hit, so it keeps returns (the table holds it).
+  for (const auto& [key, kept] : m.raw) {
+    if (kept.empty()) continue;
+    const Eigen::Vector3i v = m.VoxelOf(kept.front());
+    if (m.Occupied(v)) centres.push_back((v.cast<double>().array() + 0.5).matrix() * res);
+  }
+  return centres;
+}
+
 std::vector<Vec3> RollingMap::UnknownVoxelCentres(const Vec3& lo, const Vec3& hi) const {
   const Impl& m = *impl_;
   std::vector<Vec3> centres;

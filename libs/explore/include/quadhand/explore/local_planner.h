@@ -45,6 +45,10 @@ struct LocalPlannerOptions {
   double target_separation = 1.0;
   // A local target nearer the start than this is not worth a plan, m.
   double min_progress = 0.3;
+  // Targets are ranked by the guide's way to the goal (guide.h: through the
+  // map's window round what it has seen occupied, unknown space open) on
+  // cells of this edge, m; 0: by the straight distance to the goal.
+  double guide_cell = 0.4;
   // The local targets' height stays within this of the goal's, m (the
   // lattice covers the box otherwise).
   double max_height_offset = 1.0;
@@ -129,6 +133,11 @@ struct LocalMapSnapshot {
   double resolution = 0.1;           // the map's voxel edge, m
   bool goal_seen_free = false;       // the goal in the box and seen free
   std::vector<Vec3> seen_free;       // target lattice points seen free, in lattice order
+  // Each one's rank (smaller first): the guide's way to the goal, m, or
+  // without a guide (guide_cell 0) its straight distance to the goal; one
+  // the guide cannot reach ranks after every other, by straight distance.
+  std::vector<double> seen_free_rank;
+  double guide_ms = 0.0;             // of ms: the guide
   double ms = 0.0;                   // taking it
 };
 

@@ -78,6 +78,8 @@ class RollingMap {
   VoxelState State(const Vec3& p) const;
   // The raw points kept in the occupied voxels inside the window.
   std::vector<Vec3> OccupiedPoints() const;
+  // The centres of the occupied voxels inside the window (each once).
+  std::vector<Vec3> OccupiedVoxelCentres() const;
   // The centres of the voxels inside [lo, hi] (and the window) that no ray
   // has seen: a plan treats each as an obstacle of the voxel's size.
   std::vector<Vec3> UnknownVoxelCentres(const Vec3& lo, const Vec3& hi) const;
