@@ -247,7 +247,10 @@ TEST(GuideTest, MeasuresTheWayRoundWhatWasSeenOccupied) {
   const double cell = 0.4;
   // The grid's metric is at most 1.09 times the straight distance (steps of
   // 1, 1.4 and 1.7 cells), plus the cells at either end.
-  auto within = [&](double cost, double exact) { return cost >= exact - 1e-9 && cost <= 1.09 * exact + 2.0 * cell; };
+  // (Lengths are counted in tenths of a cell, rounded: half of one below.)
+  auto within = [&](double cost, double exact) {
+    return cost >= exact - 0.05 * cell - 1e-6 && cost <= 1.09 * exact + 2.0 * cell;
+  };
   auto map = perception::RollingMap::Create(perception::RollingMapOptions{});
   ASSERT_TRUE(map.ok());
   (*map)->MoveWindow(Vec3(0.0, 0.0, 1.2));
@@ -257,9 +260,9 @@ TEST(GuideTest, MeasuresTheWayRoundWhatWasSeenOccupied) {
     EXPECT_EQ(open.blocked_cells(), 0);
     for (const Vec3& p : {Vec3(0.0, 0.0, 1.2), Vec3(-5.0, 4.0, 1.5), Vec3(6.1, -0.2, 1.1), Vec3(2.0, -7.0, 0.5)}) {
       const double exact = (p - goal).norm();
-      EXPECT_TRUE(within(open.CostAt(p), std::max(0.0, exact - cell * std::sqrt(3.0)))) << p.transpose() << ": "
-                                                                                         << open.CostAt(p);
-      EXPECT_LE(open.CostAt(p), 1.09 * exact + 2.0 * cell) << p.transpose();
+      // Never shorter than the straight line (every centre's way is at
+      // least its straight distance; p goes on straight to a centre).
+      EXPECT_TRUE(within(open.CostAt(p), exact)) << p.transpose() << ": " << open.CostAt(p);
     }
     // Outside the searched layers (the goal's height +- 1 m and a cell).
     EXPECT_EQ(open.CostAt(Vec3(0.0, 0.0, 4.0)), explore::Guide::kUnreachable);
@@ -284,7 +287,7 @@ TEST(GuideTest, MeasuresTheWayRoundWhatWasSeenOccupied) {
   // A goal beyond the window (its half extent is 15 m): straight on from the border.
   const Vec3 far(40.0, 0.0, 1.2);
   const explore::Guide beyond = explore::Guide::Compute(**map, far, cell, 1.0);
-  EXPECT_TRUE(within(beyond.CostAt(Vec3(10.0, 0.0, 1.2)), 30.0 - cell * std::sqrt(3.0)))
+  EXPECT_TRUE(within(beyond.CostAt(Vec3(10.0, 0.0, 1.2)), 30.0))
       << beyond.CostAt(Vec3(10.0, 0.0, 1.2));
   // Walled in on every side in the searched layers: unreachable.
   auto boxed = perception::RollingMap::Create(perception::RollingMapOptions{});

@@ -141,15 +141,24 @@ Guide Guide::Compute(const perception::RollingMap& map, const Vec3& goal, double
 
 double Guide::CostAt(const Vec3& p) const {
   if (cost_.empty() || !p.allFinite()) return kUnreachable;
-  Eigen::Vector3i c;
+  // Through the nearest reached of the (up to) eight cell centres about p:
+  // a point ranks by the way on from the centres around it, so that of two
+  // points in one cell the one further along the way ranks first.
+  Eigen::Vector3i below;
   for (int a = 0; a < 3; ++a) {
-    const double u = std::floor((p[a] - lo_[a]) / cell_);
+    const double u = (p[a] - lo_[a]) / cell_;
     if (u < 0.0 || u >= dims_[a]) return kUnreachable;
-    c[a] = static_cast<int>(u);
+    below[a] = static_cast<int>(std::floor(u - 0.5));
   }
-  const float cost = cost_[(static_cast<size_t>(c.x()) * dims_.y() + c.y()) * dims_.z() + c.z()];
-  if (!std::isfinite(cost)) return kUnreachable;
-  return cost + (p - (lo_ + (c.cast<double>().array() + 0.5).matrix() * cell_)).norm();
+  double best = kUnreachable;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3i c = below + Eigen::Vector3i(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+    if ((c.array() < 0).any() || (c.array() >= dims_.array()).any()) continue;
+    const float cost = cost_[(static_cast<size_t>(c.x()) * dims_.y() + c.y()) * dims_.z() + c.z()];
+    if (!std::isfinite(cost)) continue;
+    best = std::min(best, cost + (p - (lo_ + (c.cast<double>().array() + 0.5).matrix() * cell_)).norm());
+  }
+  return best;
 }
 
 }  // namespace quadhand::explore

@@ -31,10 +31,11 @@ class Guide {
   // `height_range` >= 0 (m).
   static Guide Compute(const perception::RollingMap& map, const Vec3& goal, double cell, double height_range);
 
-  // The way's length from `p` to the goal, m: the cell of p's cost plus the
-  // straight distance from p to that cell's centre. kUnreachable for a point
-  // outside the searched cells, or in a cell the search never reached (walled
-  // in, or blocked).
+  // The way's length from `p` to the goal, m: the least, over the (up to)
+  // eight cell centres about p the search reached, of the centre's length
+  // plus the straight distance from p to it. kUnreachable for a point
+  // outside the searched cells, or with none of those centres reached
+  // (walled in, or blocked).
   double CostAt(const Vec3& p) const;
 
   int num_cells() const { return static_cast<int>(cost_.size()); }
