@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
   app.add_option("--horizon", local.horizon, "A local target lies within this of the start, m")->capture_default_str();
   app.add_option("--guide-cell", local.guide_cell,
                  "Local targets are ranked by the way to the goal round what was seen occupied, on cells of this "
-                 "edge, m (0: by the straight distance)")
+                 "edge, m, e.g. 0.4 (0: by the straight distance)")
       ->capture_default_str();
   app.add_option("--max-speed", local.max_speed, "Local plans fly at most this fast (and the task's v_max), m/s")
       ->capture_default_str();

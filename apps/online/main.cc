@@ -371,7 +371,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--guide-cell", local_options.guide_cell,
                  "--perception: local targets are ranked by the way to the goal round what was seen occupied, on "
-                 "cells of this edge, m (0: by the straight distance)")
+                 "cells of this edge, m, e.g. 0.4 (0: by the straight distance)")
       ->capture_default_str();
   std::vector<std::string> package_path;
   quadhand::apps::AddPackagePathOption(&app, &package_path);

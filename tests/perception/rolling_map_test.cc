@@ -281,6 +281,32 @@ TEST(RollingMapTest, TheObstacleBoundaryIsItsDefinitionVoxelByVoxel) {
   }
 }
 
+// ConnectedFree: the free voxels a chain of free voxels (face to face,
+// inside the box) joins to the start's; none from a voxel that is not free.
+TEST(RollingMapTest, ConnectedFreeIsWhatAChainOfFreeVoxelsReaches) {
+  auto map = Map();
+  map->MarkFree(Vec3(0.0, 0.0, 0.0), 0.5);
+  map->MarkFree(Vec3(2.0, 0.0, 0.0), 0.5);
+  const Vec3 lo(-1.0, -1.0, -1.0), hi(3.0, 1.0, 1.0);
+  const FreeRegion apart = map->ConnectedFree(lo, hi, Vec3(0.01, 0.01, 0.01));
+  EXPECT_TRUE(apart.Contains(Vec3(0.3, 0.0, 0.0)));
+  EXPECT_FALSE(apart.Contains(Vec3(2.0, 0.0, 0.0)));
+  EXPECT_FALSE(apart.Contains(Vec3(1.0, 0.0, 0.0)));  // unknown between them
+  EXPECT_FALSE(apart.Contains(Vec3(5.0, 0.0, 0.0)));  // outside the box
+  // A corridor joins them.
+  for (double x = 0.0; x <= 2.0 + 1e-9; x += 0.1) map->MarkFree(Vec3(x, 0.0, 0.0), 0.12);
+  const FreeRegion joined = map->ConnectedFree(lo, hi, Vec3(0.01, 0.01, 0.01));
+  EXPECT_TRUE(joined.Contains(Vec3(2.0, 0.0, 0.0)));
+  EXPECT_TRUE(joined.Contains(Vec3(1.0, 0.0, 0.0)));
+  // ...but not through the box's outside: the same two balls, the box cut
+  // between them.
+  EXPECT_FALSE(map->ConnectedFree(lo, Vec3(1.0, 1.0, 1.0), Vec3(0.01, 0.01, 0.01)).Contains(Vec3(2.0, 0.0, 0.0)));
+  // From a voxel that is not free: nothing.
+  const FreeRegion none = map->ConnectedFree(lo, hi, Vec3(0.0, 0.9, 0.9));
+  EXPECT_FALSE(none.Contains(Vec3(0.0, 0.9, 0.9)));
+  EXPECT_FALSE(none.Contains(Vec3(0.0, 0.0, 0.0)));
+}
+
 TEST(RollingMapTest, MarkFreeFreesABallAndMissesFreeTheirRaysOccupyingNothing) {
   auto map = Map();
   map->MarkFree(Vec3(0.0, 0.0, 0.0), 0.35);

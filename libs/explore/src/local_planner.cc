@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <optional>
 
 #include "quadhand/core/text.h"
@@ -164,7 +165,14 @@ LocalMapSnapshot LocalPlanner::Snapshot(const perception::RollingMap& map, const
   auto in_box = [&](const Vec3& p) {
     return ((p - snapshot.lo).array() >= 0.0).all() && ((snapshot.hi - p).array() >= 0.0).all();
   };
-  auto seen_free = [&](const Vec3& p) { return map.State(p) == perception::VoxelState::kFree; };
+  // Only what seen free space joins to the start can be flown to: a point
+  // seen free through a gap too small to fly (a ray through a wall) is
+  // not a target. (A start whose own voxel is not free: every free point.)
+  const perception::FreeRegion joined = map.ConnectedFree(snapshot.lo, snapshot.hi, start);
+  const bool any_joined = std::any_of(joined.in.begin(), joined.in.end(), [](std::uint8_t v) { return v != 0; });
+  auto seen_free = [&](const Vec3& p) {
+    return any_joined ? joined.Contains(p) : map.State(p) == perception::VoxelState::kFree;
+  };
   snapshot.goal_seen_free = in_box(goal_.position) && seen_free(goal_.position);
   const double s = local_.target_spacing;
   const int n = static_cast<int>(std::floor(local_.horizon / s));

@@ -56,6 +56,12 @@ bool RollingMapOptions::IsValid(std::string* why) const {
   return true;
 }
 
+// The voxels of a box and which of them are free.
+struct FreeBox {
+  Eigen::Vector3i first = Eigen::Vector3i::Zero(), size = Eigen::Vector3i::Zero();
+  std::vector<std::uint8_t> free;
+};
+
 // The window is a dense ring of voxels over global voxel indices
 // [low, low + dims): voxel (i, j, k) lives in cell (i mod nx, j mod ny,
 // k mod nz), so moving the window clears only the slabs that leave it.
@@ -87,6 +93,41 @@ struct RollingMap::Impl {
   }
   size_t Cell(const Eigen::Vector3i& v) const {
     return CellOfRing(Mod(v.x(), dims.x()), Mod(v.y(), dims.y()), Mod(v.z(), dims.z()));
+  }
+  // The free voxels of the box [lo, hi] in whole voxels (1 free, 0 not;
+  // x, then y, then z). Called at every replan over a box of about half a
+  // million voxels: the ring's cell of each box coordinate is worked out
+  // once per axis (-1 outside the window).
+  FreeBox FreeOfBox(const Vec3& lo, const Vec3& hi) const {
+    FreeBox box;
+    box.first = VoxelOf(lo);
+    box.size = VoxelOf(hi) - box.first + Eigen::Vector3i::Ones();
+    std::array<std::vector<int>, 3> ring;
+    for (int a = 0; a < 3; ++a) {
+      ring[a].resize(static_cast<size_t>(box.size[a]));
+      for (int r = 0; r < box.size[a]; ++r) {
+        const int v = box.first[a] + r - low[a];
+        ring[a][static_cast<size_t>(r)] = v >= 0 && v < dims[a] ? Mod(box.first[a] + r, dims[a]) : -1;
+      }
+    }
+    const size_t stride_y = static_cast<size_t>(box.size.z()), stride_x = static_cast<size_t>(box.size.y()) * stride_y;
+    box.free.assign(stride_x * static_cast<size_t>(box.size.x()), 0);
+    for (int i = 0; i < box.size.x(); ++i) {
+      const int ci = ring[0][static_cast<size_t>(i)];
+      if (ci < 0) continue;
+      for (int j = 0; j < box.size.y(); ++j) {
+        const int cj = ring[1][static_cast<size_t>(j)];
+        if (cj < 0) continue;
+        const size_t row = CellOfRing(ci, cj, 0), local = static_cast<size_t>(i) * stride_x + j * stride_y;
+        for (int k = 0; k < box.size.z(); ++k) {
+          const int ck = ring[2][static_cast<size_t>(k)];
+          if (ck < 0) continue;
+          const std::int8_t value = cells[row + static_cast<size_t>(ck)].value;
+          if (value != kUnknown && value <= threshold) box.free[local + static_cast<size_t>(k)] = 1;
+        }
+      }
+    }
+    return box;
   }
   static std::int64_t Key(const Eigen::Vector3i& v) {
     return (static_cast<std::int64_t>(v.x() & 0x1fffff) << 42) | (static_cast<std::int64_t>(v.y() & 0x1fffff) << 21) |
@@ -343,41 +384,15 @@ std::vector<Vec3> RollingMap::ObstacleBoundary(const Vec3& lo, const Vec3& hi) c
   const Impl& m = *impl_;
   std::vector<Vec3> centres;
   if (!lo.allFinite() || !hi.allFinite() || (hi.array() < lo.array()).any()) return centres;
-  const Eigen::Vector3i first = m.VoxelOf(lo), last = m.VoxelOf(hi);
-  const Eigen::Vector3i size = last - first + Eigen::Vector3i::Ones();
+  const FreeBox box = m.FreeOfBox(lo, hi);
+  const Eigen::Vector3i first = box.first, size = box.size;
   const double res = m.options.resolution;
-  // Called at every replan over a box of about half a million voxels: the
-  // ring's cell of each box coordinate is worked out once per axis (-1
-  // outside the window), and neighbours are reached by strides.
-  std::array<std::vector<int>, 3> ring;
-  for (int a = 0; a < 3; ++a) {
-    ring[a].resize(static_cast<size_t>(size[a]));
-    for (int r = 0; r < size[a]; ++r) {
-      const int v = first[a] + r - m.low[a];
-      ring[a][static_cast<size_t>(r)] = v >= 0 && v < m.dims[a] ? Impl::Mod(first[a] + r, m.dims[a]) : -1;
-    }
-  }
   const size_t stride_y = static_cast<size_t>(size.z()), stride_x = static_cast<size_t>(size.y()) * stride_y;
   // Each voxel of the box once: whether it is free, and whether it is
   // listed already (a voxel outside the box touches one box voxel by a face,
   // so it is met once).
-  std::vector<std::uint8_t> state(stride_x * static_cast<size_t>(size.x()), 0);
+  std::vector<std::uint8_t> state = box.free;
   constexpr std::uint8_t kIsFree = 1, kListed = 2;
-  for (int i = 0; i < size.x(); ++i) {
-    const int ci = ring[0][static_cast<size_t>(i)];
-    if (ci < 0) continue;
-    for (int j = 0; j < size.y(); ++j) {
-      const int cj = ring[1][static_cast<size_t>(j)];
-      if (cj < 0) continue;
-      const size_t row = m.CellOfRing(ci, cj, 0), local = static_cast<size_t>(i) * stride_x + j * stride_y;
-      for (int k = 0; k < size.z(); ++k) {
-        const int ck = ring[2][static_cast<size_t>(k)];
-        if (ck < 0) continue;
-        const std::int8_t value = m.cells[row + static_cast<size_t>(ck)].value;
-        if (value != kUnknown && value <= m.threshold) state[local + static_cast<size_t>(k)] = kIsFree;
-      }
-    }
-  }
   auto centre = [&](int i, int j, int k) {
     return Vec3((first.x() + i + 0.5) * res, (first.y() + j + 0.5) * res, (first.z() + k + 0.5) * res);
   };
@@ -410,6 +425,45 @@ std::vector<Vec3> RollingMap::ObstacleBoundary(const Vec3& lo, const Vec3& hi) c
     }
   }
   return centres;
+}
+
+FreeRegion RollingMap::ConnectedFree(const Vec3& lo, const Vec3& hi, const Vec3& from) const {
+  const Impl& m = *impl_;
+  FreeRegion region;
+  region.resolution = m.options.resolution;
+  if (!lo.allFinite() || !hi.allFinite() || !from.allFinite() || (hi.array() < lo.array()).any()) return region;
+  FreeBox box = m.FreeOfBox(lo, hi);
+  region.first = box.first;
+  region.size = box.size;
+  region.in.assign(box.free.size(), 0);
+  const Eigen::Vector3i seed = m.VoxelOf(from) - box.first;
+  if ((seed.array() < 0).any() || (seed.array() >= box.size.array()).any()) return region;
+  const long stride_y = box.size.z(), stride_x = static_cast<long>(box.size.y()) * box.size.z();
+  const long start = seed.x() * stride_x + seed.y() * stride_y + seed.z();
+  if (!box.free[static_cast<size_t>(start)]) return region;
+  std::vector<long> queue{start};
+  region.in[static_cast<size_t>(start)] = 1;
+  for (size_t q = 0; q < queue.size(); ++q) {
+    const long n = queue[q];
+    const int i = static_cast<int>(n / stride_x), j = static_cast<int>((n / stride_y) % box.size.y()),
+              k = static_cast<int>(n % stride_y);
+    const std::pair<bool, long> faces[6] = {{i + 1 < box.size.x(), n + stride_x}, {i > 0, n - stride_x},
+                                            {j + 1 < box.size.y(), n + stride_y}, {j > 0, n - stride_y},
+                                            {k + 1 < box.size.z(), n + 1},        {k > 0, n - 1}};
+    for (const auto& [inside, next] : faces) {
+      if (!inside || !box.free[static_cast<size_t>(next)] || region.in[static_cast<size_t>(next)]) continue;
+      region.in[static_cast<size_t>(next)] = 1;
+      queue.push_back(next);
+    }
+  }
+  return region;
+}
+
+bool FreeRegion::Contains(const Vec3& p) const {
+  if (in.empty() || !p.allFinite()) return false;
+  const Eigen::Vector3i v = (p / resolution).array().floor().cast<int>().matrix() - first;
+  if ((v.array() < 0).any() || (v.array() >= size.array()).any()) return false;
+  return in[(static_cast<size_t>(v.x()) * size.y() + v.y()) * size.z() + v.z()] != 0;
 }
 
 double RollingMap::BoundaryBallRadius() const { return VoxelBallRadius(impl_->options.resolution); }

@@ -45,10 +45,13 @@ struct LocalPlannerOptions {
   double target_separation = 1.0;
   // A local target nearer the start than this is not worth a plan, m.
   double min_progress = 0.3;
-  // Targets are ranked by the guide's way to the goal (guide.h: through the
+  // Targets are ranked by their straight distance to the goal, or with
+  // guide_cell > 0 by the guide's way to the goal (guide.h: through the
   // map's window round what it has seen occupied, unknown space open) on
-  // cells of this edge, m; 0: by the straight distance to the goal.
-  double guide_cell = 0.4;
+  // cells of this edge, m. Off by default: it leads out of a dead end, but
+  // its coarse cells can close a window, and in rooms it costs time
+  // (docs/perception.md, "Local targets along a guide").
+  double guide_cell = 0.0;
   // The local targets' height stays within this of the goal's, m (the
   // lattice covers the box otherwise).
   double max_height_offset = 1.0;

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -46,6 +47,14 @@ struct RollingMapOptions {
 };
 
 enum class VoxelState { kUnknown, kFree, kOccupied };
+
+// A set of voxels of a box (RollingMap::ConnectedFree).
+struct FreeRegion {
+  Eigen::Vector3i first = Eigen::Vector3i::Zero(), size = Eigen::Vector3i::Zero();  // the box, in voxels
+  double resolution = 0.1;
+  std::vector<std::uint8_t> in;  // per voxel of the box, x then y then z
+  bool Contains(const Vec3& p) const;
+};
 
 // Half the diagonal of a voxel of edge `resolution`: the radius of the ball
 // about its centre that holds the whole voxel.
@@ -94,6 +103,10 @@ class RollingMap {
   // So a clearance of d + BoundaryBallRadius() to these centres certifies a
   // clearance of d to everything not seen free.
   std::vector<Vec3> ObstacleBoundary(const Vec3& lo, const Vec3& hi) const;
+  // The free voxels of the box [lo, hi] joined to `from`'s voxel by a chain
+  // of free voxels of the box sharing faces: where a body at `from` can go
+  // through seen free space (empty when from's voxel is not free).
+  FreeRegion ConnectedFree(const Vec3& lo, const Vec3& hi, const Vec3& from) const;
   // VoxelBallRadius of this map's voxels.
   double BoundaryBallRadius() const;
   // The centres of the voxels the last Insert turned from free to occupied:
