@@ -120,6 +120,25 @@ void BM_ObstacleBoundary(benchmark::State& state) {
 }
 BENCHMARK(BM_ObstacleBoundary)->Arg(10)->Arg(5)->Unit(benchmark::kMillisecond);
 
+// The local planner's targets at every snapshot: the free voxels of its
+// box joined to the start (RollingMap::ConnectedFree).
+void BM_ConnectedFree(benchmark::State& state) {
+  RollingMapOptions options;
+  auto map = RollingMap::Create(options);
+  const std::vector<Vec3> frame = RenderedForestFrame();
+  for (int k = 0; k < 4; ++k) (void)(*map)->Insert(frame, Vec3(0.1 * k, 0.0, 1.2));
+  const Vec3 start(0.3, 0.0, 1.2), half(6.0, 6.0, 2.0);
+  (*map)->MarkFree(start, 0.5);
+  size_t joined = 0;
+  for (auto _ : state) {
+    const quadhand::perception::FreeRegion region = (*map)->ConnectedFree(start - half, start + half, start);
+    joined = static_cast<size_t>(std::count(region.in.begin(), region.in.end(), 1));
+    benchmark::DoNotOptimize(region.in.data());
+  }
+  state.counters["joined_voxels"] = static_cast<double>(joined);
+}
+BENCHMARK(BM_ConnectedFree)->Unit(benchmark::kMillisecond);
+
 // The local planner's guide at every snapshot (explore/guide.h): the way
 // to a goal 20 m ahead through the whole window, round what the frames saw.
 void BM_Guide(benchmark::State& state) {

@@ -432,28 +432,46 @@ FreeRegion RollingMap::ConnectedFree(const Vec3& lo, const Vec3& hi, const Vec3&
   FreeRegion region;
   region.resolution = m.options.resolution;
   if (!lo.allFinite() || !hi.allFinite() || !from.allFinite() || (hi.array() < lo.array()).any()) return region;
-  FreeBox box = m.FreeOfBox(lo, hi);
+  const FreeBox box = m.FreeOfBox(lo, hi);
   region.first = box.first;
   region.size = box.size;
   region.in.assign(box.free.size(), 0);
   const Eigen::Vector3i seed = m.VoxelOf(from) - box.first;
   if ((seed.array() < 0).any() || (seed.array() >= box.size.array()).any()) return region;
-  const long stride_y = box.size.z(), stride_x = static_cast<long>(box.size.y()) * box.size.z();
-  const long start = seed.x() * stride_x + seed.y() * stride_y + seed.z();
-  if (!box.free[static_cast<size_t>(start)]) return region;
+  // Flooded on a copy padded by one voxel that is not free on every side,
+  // so that a voxel's six neighbours are reached by offsets alone (at every
+  // replan, over a box of half a million voxels).
+  const Eigen::Vector3i padded = box.size + Eigen::Vector3i::Constant(2);
+  const long pz = 1, py = padded.z(), px = static_cast<long>(padded.y()) * padded.z();
+  // 0: not free or outside the box, 1: free, 2: reached.
+  std::vector<std::uint8_t> state(static_cast<size_t>(px) * padded.x(), 0);
+  const size_t stride_y = static_cast<size_t>(box.size.z()), stride_x = static_cast<size_t>(box.size.y()) * stride_y;
+  for (int i = 0; i < box.size.x(); ++i) {
+    for (int j = 0; j < box.size.y(); ++j) {
+      const std::uint8_t* from_row = box.free.data() + static_cast<size_t>(i) * stride_x + j * stride_y;
+      std::uint8_t* to_row = state.data() + (i + 1) * px + (j + 1) * py + 1;
+      std::copy(from_row, from_row + box.size.z(), to_row);
+    }
+  }
+  const long start = (seed.x() + 1) * px + (seed.y() + 1) * py + (seed.z() + 1);
+  if (state[static_cast<size_t>(start)] != 1) return region;
+  const long offsets[6] = {px, -px, py, -py, pz, -pz};
   std::vector<long> queue{start};
-  region.in[static_cast<size_t>(start)] = 1;
+  state[static_cast<size_t>(start)] = 2;
   for (size_t q = 0; q < queue.size(); ++q) {
     const long n = queue[q];
-    const int i = static_cast<int>(n / stride_x), j = static_cast<int>((n / stride_y) % box.size.y()),
-              k = static_cast<int>(n % stride_y);
-    const std::pair<bool, long> faces[6] = {{i + 1 < box.size.x(), n + stride_x}, {i > 0, n - stride_x},
-                                            {j + 1 < box.size.y(), n + stride_y}, {j > 0, n - stride_y},
-                                            {k + 1 < box.size.z(), n + 1},        {k > 0, n - 1}};
-    for (const auto& [inside, next] : faces) {
-      if (!inside || !box.free[static_cast<size_t>(next)] || region.in[static_cast<size_t>(next)]) continue;
-      region.in[static_cast<size_t>(next)] = 1;
-      queue.push_back(next);
+    for (const long offset : offsets) {
+      std::uint8_t& next = state[static_cast<size_t>(n + offset)];
+      if (next != 1) continue;
+      next = 2;
+      queue.push_back(n + offset);
+    }
+  }
+  for (int i = 0; i < box.size.x(); ++i) {
+    for (int j = 0; j < box.size.y(); ++j) {
+      const std::uint8_t* from_row = state.data() + (i + 1) * px + (j + 1) * py + 1;
+      std::uint8_t* to_row = region.in.data() + static_cast<size_t>(i) * stride_x + j * stride_y;
+      for (int k = 0; k < box.size.z(); ++k) to_row[k] = from_row[k] == 2;
     }
   }
   return region;
