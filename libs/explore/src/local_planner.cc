@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdint>
 #include <optional>
 
 #include "quadhand/core/text.h"
@@ -169,7 +168,7 @@ LocalMapSnapshot LocalPlanner::Snapshot(const perception::RollingMap& map, const
   // seen free through a gap too small to fly (a ray through a wall) is
   // not a target. (A start whose own voxel is not free: every free point.)
   const perception::FreeRegion joined = map.ConnectedFree(snapshot.lo, snapshot.hi, start);
-  const bool any_joined = std::any_of(joined.in.begin(), joined.in.end(), [](std::uint8_t v) { return v != 0; });
+  const bool any_joined = joined.Contains(start);  // the flood starts there, or nothing is joined
   auto seen_free = [&](const Vec3& p) {
     return any_joined ? joined.Contains(p) : map.State(p) == perception::VoxelState::kFree;
   };
@@ -194,13 +193,11 @@ LocalMapSnapshot LocalPlanner::Snapshot(const perception::RollingMap& map, const
   constexpr double kUnreachableRank = 1e6;
   snapshot.seen_free_rank.reserve(snapshot.seen_free.size());
   if (local_.guide_cell > 0.0 && !snapshot.seen_free.empty()) {
-    const auto guide_start = std::chrono::steady_clock::now();
     const Guide guide = Guide::Compute(map, goal_.position, local_.guide_cell, local_.max_height_offset);
     for (const Vec3& p : snapshot.seen_free) {
       const double cost = guide.CostAt(p);
       snapshot.seen_free_rank.push_back(std::isfinite(cost) ? cost : kUnreachableRank + (p - goal_.position).norm());
     }
-    snapshot.guide_ms = MsSince(guide_start);
   } else {
     for (const Vec3& p : snapshot.seen_free) snapshot.seen_free_rank.push_back((p - goal_.position).norm());
   }

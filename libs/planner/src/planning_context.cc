@@ -195,11 +195,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
   const bool moving_points = !context->moving_points_.empty() && !options.representations.empty();
   if (same_robot != nullptr && same_robot->sdf_grids_ != nullptr) {
     sdf_grids = same_robot->sdf_grids_;
-    context->sdf_grids_ = sdf_grids;
     context->sdf_links_ = same_robot->sdf_links_;
-    if (!context->self_collision_->pairs().empty()) {
-      QUADHAND_RETURN_IF_ERROR(context->self_collision_->AttachSdfGrids(sdf_grids));
-    }
   } else if (mrc_sdf || moving_points || !context->self_collision_->pairs().empty()) {
     const auto load_start = std::chrono::steady_clock::now();
     std::vector<int> links;
@@ -217,12 +213,14 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
         }
       }
       sdf_grids = std::make_shared<const std::vector<geometry::SdfGrid>>(std::move(grids));
-      context->sdf_grids_ = sdf_grids;
       context->sdf_links_ = links;
       sdf_load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - load_start).count();
-      if (!context->self_collision_->pairs().empty()) {
-        QUADHAND_RETURN_IF_ERROR(context->self_collision_->AttachSdfGrids(sdf_grids));
-      }
+    }
+  }
+  if (sdf_grids != nullptr) {
+    context->sdf_grids_ = sdf_grids;
+    if (!context->self_collision_->pairs().empty()) {
+      QUADHAND_RETURN_IF_ERROR(context->self_collision_->AttachSdfGrids(sdf_grids));
     }
   }
 

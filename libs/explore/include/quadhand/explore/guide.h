@@ -38,7 +38,6 @@ class Guide {
   // (walled in, or blocked).
   double CostAt(const Vec3& p) const;
 
-  int num_cells() const { return static_cast<int>(cost_.size()); }
   int blocked_cells() const { return blocked_; }
 
  private:

@@ -140,7 +140,6 @@ struct LocalMapSnapshot {
   // without a guide (guide_cell 0) its straight distance to the goal; one
   // the guide cannot reach ranks after every other, by straight distance.
   std::vector<double> seen_free_rank;
-  double guide_ms = 0.0;             // of ms: the guide
   double ms = 0.0;                   // taking it
 };
 
