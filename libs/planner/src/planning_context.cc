@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
+#include <thread>
 
 #include "quadhand/core/text.h"
 #include "quadhand/geometry/mesh_io.h"
@@ -159,6 +161,41 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     QUADHAND_RETURN_IF_ERROR(context->SplitMovingPoints());
   }
 
+  std::vector<Vec3> contain = options.front_end_also_contain;
+  contain.push_back(t.start.position);
+  if (t.terminal) contain.push_back(t.terminal->position);
+  if (t.tool) {
+    // A goal given as a tool pose: the base ends within the arm's reach of
+    // it (from the URDF; a prismatic joint without limits has none, and
+    // then the scene's extent bounds the search).
+    const int tool_link = context->robot_.LinkIndex(t.tool_link);
+    const double reach = tool_link >= 0 ? robot::LinkOriginReach(context->robot_)[tool_link] : 0.0;
+    if (std::isfinite(reach)) {
+      contain.push_back(t.tool->position - Vec3::Constant(reach));
+      contain.push_back(t.tool->position + Vec3::Constant(reach));
+    }
+  }
+  FrontEndOptions front_end_options = options.front_end;
+  if (front_end_options.size_from_robot) {
+    auto extents = robot::StowedHalfExtents(context->robot_);
+    if (!extents.ok()) return extents.status();
+    const double half_width = std::min(extents->x(), extents->y());
+    if (half_width > 0.0) {
+      front_end_options.inflation_radius = half_width;
+      front_end_options.inflation_height = extents->z() > 0.0 ? extents->z() : half_width;
+      front_end_options.shortcut_clearance = front_end_options.shortcut_ratio * half_width;
+    }
+  }
+  context->front_end_inflation_ = front_end_options.inflation_radius;
+  // The front end's map needs only the points and these options: it is
+  // built on a second core while the index, the exact model and the
+  // representations are built on this one (a local scene's context is
+  // built at every replan, and the two are its largest parts). The
+  // results are the same either way.
+  auto build_front_end = [&]() { return FrontEndMap::Build(context->points(), front_end_options, contain); };
+  std::future<core::Result<FrontEndMap>> front_end_future;
+  if (std::thread::hardware_concurrency() > 1) front_end_future = std::async(std::launch::async, build_front_end);
+
   // The cloud is indexed once here and shared by the post-check and the
   // representations whose index has the same cell (when both see the same
   // points: with a voxel filter the post-check sees the unfiltered ones).
@@ -228,48 +265,38 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
       std::chrono::duration<double>(std::chrono::steady_clock::now() - robot_load_start).count();
   context->sdf_load_seconds_ = sdf_load_ms / 1e3;
 
-  std::vector<Vec3> contain = options.front_end_also_contain;
-  contain.push_back(t.start.position);
-  if (t.terminal) contain.push_back(t.terminal->position);
-  if (t.tool) {
-    // A goal given as a tool pose: the base ends within the arm's reach of
-    // it (from the URDF; a prismatic joint without limits has none, and
-    // then the scene's extent bounds the search).
-    const int tool_link = context->robot_.LinkIndex(t.tool_link);
-    const double reach = tool_link >= 0 ? robot::LinkOriginReach(context->robot_)[tool_link] : 0.0;
-    if (std::isfinite(reach)) {
-      contain.push_back(t.tool->position - Vec3::Constant(reach));
-      contain.push_back(t.tool->position + Vec3::Constant(reach));
+  // The front end's error comes first, as when it was built first.
+  core::Status front_end_status = core::Status::Ok();
+  auto take_front_end = [&]() {
+    if (context->front_end_ != nullptr || !front_end_status.ok()) return;
+    auto front_end = front_end_future.valid() ? front_end_future.get() : build_front_end();
+    // The search box spans the scene and the task's start and goal: a far-off
+    // start in the task is as likely the cause as a wide scene.
+    if (!front_end.ok()) {
+      front_end_status = front_end.status().WithPrefix(t.file + ": the start and goal with the scene " + t.scene_path);
+      return;
     }
-  }
-  FrontEndOptions front_end_options = options.front_end;
-  if (front_end_options.size_from_robot) {
-    auto extents = robot::StowedHalfExtents(context->robot_);
-    if (!extents.ok()) return extents.status();
-    const double half_width = std::min(extents->x(), extents->y());
-    if (half_width > 0.0) {
-      front_end_options.inflation_radius = half_width;
-      front_end_options.inflation_height = extents->z() > 0.0 ? extents->z() : half_width;
-      front_end_options.shortcut_clearance = front_end_options.shortcut_ratio * half_width;
-    }
-  }
-  context->front_end_inflation_ = front_end_options.inflation_radius;
-  auto front_end = FrontEndMap::Build(context->points(), front_end_options, contain);
-  // The search box spans the scene and the task's start and goal: a far-off
-  // start in the task is as likely the cause as a wide scene.
-  if (!front_end.ok()) {
-    return front_end.status().WithPrefix(t.file + ": the start and goal with the scene " + t.scene_path);
-  }
-  context->front_end_ = std::make_unique<FrontEndMap>(std::move(*front_end));
-
+    context->front_end_ = std::make_unique<FrontEndMap>(std::move(*front_end));
+  };
   for (const std::string& name : options.representations) {
     auto model = MakeRepresentation(name, context->robot_, t.sdf_dir, context->points(), options.representation_options,
                                     index, sdf_grids);
-    if (!model.ok()) return model.status();
+    if (!model.ok()) {
+      take_front_end();
+      return front_end_status.ok() ? model.status() : front_end_status;
+    }
     // MRC-SDF's build time includes loading the grids it was handed.
     if (name == "mrc_sdf") model->build_ms += sdf_load_ms;
     context->representations_.push_back(std::move(*model));
+    // A scene too large for the front end is refused before building more.
+    if (front_end_future.valid() &&
+        front_end_future.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+      take_front_end();
+      if (!front_end_status.ok()) return front_end_status;
+    }
   }
+  take_front_end();
+  if (!front_end_status.ok()) return front_end_status;
   if (moving != nullptr) {
     auto moving_part = context->MovingSceneFor(moving->motion, Pose::Identity());
     if (!moving_part.ok()) return moving_part.status();
