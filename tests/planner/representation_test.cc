@@ -1,5 +1,10 @@
 #include "quadhand/planner/representation.h"
 
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -116,6 +121,77 @@ TEST(RepresentationRegistryTest, ARegisteredRepresentationGetsItsOwnConfiguratio
   RepresentationOptions text_for_builtin;
   text_for_builtin.registered["esdf"] = "{resolution: 0.03}";
   EXPECT_FALSE(text_for_builtin.IsValid(nullptr));
+}
+
+// A context builds its front-end map beside its representations (on a
+// second core). The map is the one FrontEndMap::Build makes alone, and
+// when both fail the front end's error is the one reported, as when the
+// front end was built first.
+TEST(RepresentationRegistryTest, AContextsFrontEndIsBuiltBesideItsRepresentations) {
+  ASSERT_TRUE(RegisterRepresentation("always_fails", [](const RepresentationInputs&) {
+                return core::Result<Representation>(core::Status::Internal("always_fails: refused"));
+              }).ok());
+  const std::string dir = ::testing::TempDir() + "/context_front_end_" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  const std::string task_path = dir + "/task.yaml";
+  // A goal at rest (no tool pose): the front end then contains just the
+  // start and the goal, which the map built alone below is given too.
+  std::ofstream(task_path) << testing::WindowCupTaskText(
+      {{"  tool:", ""}, {"    position:", ""}, {"    orientation:", ""}, {"    insertion:", ""}});
+
+  PlanningContextOptions options;
+  auto context = PlanningContext::Load(task_path, options);
+  ASSERT_TRUE(context.ok()) << context.status().message();
+  // The same map as built alone: every third voxel's freedom, the blocked
+  // count, the storage, and segments' clearance.
+  const FrontEndMap& beside = (*context)->front_end();
+  const Task& task = (*context)->task();
+  ASSERT_FALSE(task.tool.has_value());
+  ASSERT_TRUE(task.terminal.has_value());
+  FrontEndOptions alone_options = beside.options();
+  alone_options.size_from_robot = false;
+  auto alone = FrontEndMap::Build((*context)->points(), alone_options, {task.start.position, task.terminal->position});
+  ASSERT_TRUE(alone.ok()) << alone.status().message();
+  ASSERT_EQ(alone->dims(), beside.dims());
+  ASSERT_EQ(alone->min_corner(), beside.min_corner());
+  EXPECT_EQ(alone->num_blocked(), beside.num_blocked());
+  EXPECT_EQ(alone->grid_bytes(), beside.grid_bytes());
+  int compared = 0, free = 0;
+  for (int i = 0; i < beside.dims().x(); i += 3) {
+    for (int j = 0; j < beside.dims().y(); j += 3) {
+      for (int k = 0; k < beside.dims().z(); k += 3) {
+        const Vec3 p = beside.min_corner() + (Vec3(i, j, k) + Vec3::Constant(0.5)) * beside.options().voxel_size;
+        ASSERT_EQ(alone->IsFree(p), beside.IsFree(p)) << p.transpose();
+        ++compared;
+        free += beside.IsFree(p) ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_GT(compared, 1000);
+  EXPECT_GT(free, 0);
+  EXPECT_LT(free, compared);
+  const std::vector<Vec3>& points = (*context)->points();
+  for (size_t n = 0; n < points.size(); n += std::max<size_t>(1, points.size() / 200)) {
+    const Vec3 a = points[n] + Vec3(0.0, 0.0, 0.3), b = task.start.position;
+    ASSERT_EQ(alone->SegmentIsClear(a, b), beside.SegmentIsClear(a, b)) << a.transpose();
+  }
+
+  // A representation's error alone is reported as it is ...
+  options.representations = {"mrc_sdf", "always_fails"};
+  auto refused = PlanningContext::Load(task_path, options);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().message(), "always_fails: refused");
+  // ... but a scene too large for the front end is what the user hears of.
+  options.front_end.max_voxels = 1000;
+  options.representations = {"always_fails"};
+  auto too_large = PlanningContext::Load(task_path, options);
+  ASSERT_FALSE(too_large.ok());
+  EXPECT_NE(too_large.status().message().find("max_voxels"), std::string::npos) << too_large.status().message();
+  options.representations = {"mrc_sdf"};
+  auto too_large_alone = PlanningContext::Load(task_path, options);
+  ASSERT_FALSE(too_large_alone.ok());
+  EXPECT_EQ(too_large_alone.status().message(), too_large.status().message());
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
