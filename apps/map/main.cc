@@ -7,7 +7,11 @@
 // holds at the end: the raw returns of its occupied voxels (a scene
 // quadhand-plan reads) and, if asked, the centres of the unknown voxels of
 // a box. Prints the frames used and dropped (and why) and the map update's
-// cost per frame. docs/perception.md.
+// cost per frame. With --plan TASK it also replans over the recording
+// (explore/recorded_replans.h): every --replan-period of the frames' time,
+// a local plan from where the recording's vehicle was to the task's goal,
+// each reported with its latency and whether it was certified.
+// docs/perception.md.
 //
 // Exit codes: 0 success; 2 bad input (one line on stderr naming the file).
 #include <algorithm>
@@ -17,19 +21,30 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
+#include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/core/statistics.h"
 #include "quadhand/core/text.h"
+#include "quadhand/explore/local_planner.h"
+#include "quadhand/explore/recorded_replans.h"
 #include "quadhand/link/sensor_stream.h"
 #include "quadhand/link/udp.h"
 #include "quadhand/perception/frames.h"
 #include "quadhand/perception/rolling_map.h"
 #include "quadhand/perception/sensor_frame.h"
+#include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/planner_config.h"
+#include "quadhand/planner/planning_context.h"
+#include "quadhand/sim/sensor.h"
+#include "quadhand/solvers/builtin_solvers.h"
 #include "quadhand/scene/point_cloud.h"
 #include "quadhand/scene/ros_bag.h"
 
@@ -71,11 +86,15 @@ int main(int argc, char** argv) {
       "  quadhand-map --listen udp://ADDR:PORT --out occupied.pcd [--idle 2] [--max-duration S] [...]\n"
       "  quadhand-map --bag FILE.bag --cloud-topic /points [--odom-topic /odom [--extrinsic x,y,z,qw,qx,qy,qz]\n"
       "               | --world-frame world] --out occupied.pcd [...]\n"
+      "  quadhand-map SOURCE --out occupied.pcd --plan TASK.yaml [--report R.json] [--mount x,y,z,qw,qx,qy,qz]\n"
       "FRAMES_DIR: frames.csv and one cloud per frame (docs/sim.md, \"The frames folder\").\n"
       "--bag: a ROS 1 bag's sensor_msgs/PointCloud2 on --cloud-topic, placed by nav_msgs/Odometry on --odom-topic\n"
       "or by /tf and /tf_static (docs/perception.md, \"Recorded data\").\n"
       "--listen: frames on UDP (docs/link.md, \"Sensor frames on UDP\"), until --idle s without a datagram\n"
       "after the first frame, --max-duration, or SIGINT/SIGTERM.\n"
+      "--plan: replan over the recording, open loop: every --replan-period s of the frames' time, a local plan\n"
+      "from where the recording's vehicle was to the task's goal (docs/perception.md, \"Replanning over recorded\n"
+      "frames\").\n"
       "Exit codes: 0 success; 2 bad input."};
   std::string dir, out_path, unknown_path, unknown_box_text, window_text, listen_url, extrinsic_text;
   scene::BagCloudSource bag;
@@ -106,6 +125,19 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--ray-threads", options.ray_threads, "Threads that walk each frame's rays")->capture_default_str();
   app.add_flag("--json", json, "Print one JSON line instead of words");
+  std::string plan_task_path, report_path, mount_text, config_path, solver_name = "lbfgs";
+  explore::RecordedReplanOptions replan_options;
+  replan_options.mount = sim::DefaultMount(sim::SensorKind::kDepth);
+  app.add_option("--plan", plan_task_path,
+                 "Replan over the recording to this task's goal (a goal at rest; its scene is not read)");
+  app.add_option("--report", report_path, "--plan: a JSON report of every replan");
+  app.add_option("--mount", mount_text,
+                 "--plan: the sensor's pose in the robot's base link, x,y,z,qw,qx,qy,qz (default: the simulator's "
+                 "depth camera, 0.1 m ahead looking along x)");
+  app.add_option("--replan-period", replan_options.replan_period, "--plan: seconds of the frames' time between replans")
+      ->capture_default_str();
+  app.add_option("--config", config_path, "--plan: planner configuration (YAML, docs/config.md; default: built-in)");
+  app.add_option("--solver", solver_name, "--plan: optimiser back-end (docs/solvers.md)")->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -151,24 +183,81 @@ int main(int argc, char** argv) {
     box_hi = Vec3((*box)[3], (*box)[4], (*box)[5]);
     if (!(box_lo.array() < box_hi.array()).all()) return Fail("--unknown-box: min must be below max on every axis");
   }
-  for (const std::string& path : {out_path, unknown_path}) {
+  const bool planning = !plan_task_path.empty();
+  if (!planning && (!report_path.empty() || !mount_text.empty() || !config_path.empty() ||
+                    app.count("--replan-period") > 0 || app.count("--solver") > 0)) {
+    return Fail("--report, --mount, --replan-period, --config and --solver are only used with --plan");
+  }
+  if (!mount_text.empty()) {
+    auto m = Numbers(mount_text, 7, "--mount");
+    if (!m.ok()) return Fail(m.status().message());
+    const Eigen::Vector4d q((*m)[3], (*m)[4], (*m)[5], (*m)[6]);
+    if (std::abs(q.norm() - 1.0) > 1e-3) return Fail("--mount: qw,qx,qy,qz must be a unit quaternion");
+    replan_options.mount =
+        MakePose(Vec3((*m)[0], (*m)[1], (*m)[2]), Quat(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix());
+  }
+  if (std::string why; !replan_options.IsValid(&why)) return Fail("--replan-period: " + why);
+  for (const std::string& path : {out_path, unknown_path, report_path}) {
     if (path.empty()) continue;
     const std::filesystem::path parent = std::filesystem::path(path).parent_path();
     std::error_code ec;
     if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) return Fail(path + ": its folder does not exist");
+    for (const std::string& input : {dir, bag.path, plan_task_path, config_path}) {
+      if (!input.empty() && core::SameFile(path, input)) return Fail(path + ": is an input of this run");
+    }
+  }
+  if (!report_path.empty() && (core::SameFile(report_path, out_path) || core::SameFile(report_path, unknown_path))) {
+    return Fail("--report " + report_path + ": names another output of this run");
+  }
+
+  // --plan: the local planner of the task, as quadhand-explore builds it.
+  std::unique_ptr<planner::PlanningContext> base;
+  std::unique_ptr<opt::Solver> solver;
+  std::unique_ptr<explore::LocalPlanner> local_planner;
+  std::optional<explore::RecordedReplanner> replanner;
+  std::vector<explore::RecordedReplan> replans;
+  if (planning) {
+    auto config = planner::LoadPlannerConfigOrDefaults(config_path);
+    if (!config.ok()) return Fail(config.status().message());
+    if (config_path.empty()) explore::UseLocalPlanningDefaults(&*config);
+    auto base_context = explore::BaseContextOfTaskFile(plan_task_path, *config);
+    if (!base_context.ok()) return Fail(base_context.status().message());
+    base = std::move(*base_context);
+    if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
+    auto created = opt::CreateSolver(solver_name);
+    if (!created.ok()) return Fail("--solver: " + created.status().message());
+    solver = std::move(*created);
+    auto local = explore::LocalPlanner::Create(*base, planner::RunPlannerOptions(*config, 0.01, 1, false), *solver,
+                                               explore::LocalPlannerOptions{});
+    if (!local.ok()) return Fail(plan_task_path + ": " + local.status().message());
+    local_planner = std::move(*local);
+    auto made = explore::RecordedReplanner::Create(*local_planner, base->task(), replan_options);
+    if (!made.ok()) return Fail(made.status().message());
+    replanner.emplace(std::move(*made));
   }
 
   auto map = perception::RollingMap::Create(options);
   if (!map.ok()) return Fail(map.status().message());
   long unreadable = 0, empty_frames = 0;
   std::vector<double> update_ms;
-  // One frame into the map, in the world frame.
-  auto map_frame = [&](const std::vector<Vec3>& points, const Pose& sensor_to_world,
+  // One frame into the map, in the world frame; with --plan, then a replan
+  // when its period has passed.
+  auto map_frame = [&](double t, const std::vector<Vec3>& points, const Pose& sensor_to_world,
                        const std::vector<Vec3>& misses) -> core::Status {
+    if (replanner) replanner->BeforeFrame(map->get(), t, sensor_to_world);
     const auto start = std::chrono::steady_clock::now();
     (*map)->MoveWindow(sensor_to_world.translation());
     QUADHAND_RETURN_IF_ERROR((*map)->Insert(points, sensor_to_world.translation(), misses));
     update_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    if (!replanner) return core::Status::Ok();
+    if (auto replan = replanner->AfterFrame(**map, t, sensor_to_world)) {
+      if (!json) {
+        std::fprintf(stderr, "\r  t %8.2f s: replan %-15s %7.1f ms, %6zu boundary voxels   ", replan->t,
+                     explore::LocalPlanStatusName(replan->result.status), replan->result.total_ms,
+                     replan->result.scene_points);
+      }
+      replans.push_back(std::move(*replan));
+    }
     return core::Status::Ok();
   };
 
@@ -195,7 +284,7 @@ int main(int argc, char** argv) {
             return core::Status::Ok();
           }
           for (Vec3& p : cloud.points) p = cloud.sensor_to_world * p;
-          const core::Status s = map_frame(cloud.points, cloud.sensor_to_world, {});
+          const core::Status s = map_frame(cloud.t, cloud.points, cloud.sensor_to_world, {});
           return s.ok() ? s : core::Status::InvalidArgument(bag.path + ": " + s.message());
         },
         &bag_counts);
@@ -215,7 +304,7 @@ int main(int argc, char** argv) {
         continue;
       }
       for (Vec3& p : cloud->points) p = frame.sensor_to_world * p;
-      if (core::Status s = map_frame(cloud->points, frame.sensor_to_world, {}); !s.ok()) {
+      if (core::Status s = map_frame(frame.t, cloud->points, frame.sensor_to_world, {}); !s.ok()) {
         return Fail(frame.path + ": " + s.message());
       }
     }
@@ -249,7 +338,7 @@ int main(int argc, char** argv) {
         const Pose pose = perception::SensorPose(*frame);
         for (Vec3& p : frame->points) p = pose * p;
         for (Vec3& p : frame->misses) p = pose * p;
-        if (core::Status s = map_frame(frame->points, pose, frame->misses); !s.ok()) {
+        if (core::Status s = map_frame(frame->t, frame->points, pose, frame->misses); !s.ok()) {
           return Fail(listen_url + ": " + s.message());
         }
       }
@@ -284,6 +373,58 @@ int main(int argc, char** argv) {
       if (core::Status s = scene::WritePcd(unknown_path, centres); !s.ok()) return Fail(s.message());
     }
   }
+  // --plan: the replans' summary, and the report.
+  std::vector<double> replan_ms;
+  int certified = 0, to_goal = 0, recoveries = 0;
+  nlohmann::json replan_log = nlohmann::json::array();
+  for (const explore::RecordedReplan& r : replans) {
+    const explore::LocalPlanResult& p = r.result;
+    replan_ms.push_back(p.total_ms);
+    const bool ok = p.status == explore::LocalPlanStatus::kToGoal || p.status == explore::LocalPlanStatus::kToLocalTarget;
+    certified += ok ? 1 : 0;
+    to_goal += p.status == explore::LocalPlanStatus::kToGoal ? 1 : 0;
+    recoveries += ok && p.recovery ? 1 : 0;
+    nlohmann::json entry = {{"t", r.t},
+                            {"position", {r.start.position.x(), r.start.position.y(), r.start.position.z()}},
+                            {"speed", r.start.velocity.norm()},
+                            {"status", explore::LocalPlanStatusName(p.status)},
+                            {"total_ms", p.total_ms},
+                            {"scene_ms", p.scene_ms},
+                            {"context_ms", p.context_ms},
+                            {"plan_ms", p.plan_ms},
+                            {"safety_distance", p.safety_distance},
+                            {"start_clearance", p.start_clearance},
+                            {"recovery", p.recovery},
+                            {"boundary_voxels", p.scene_points},
+                            {"targets_tried", p.targets_tried},
+                            {"message", p.message}};
+    if (ok) {
+      entry["target"] = {p.target.x(), p.target.y(), p.target.z()};
+      entry["duration_s"] = p.plan.trajectory ? p.plan.trajectory->duration() : 0.0;
+    }
+    replan_log.push_back(entry);
+  }
+  auto stats = [](const std::vector<double>& values) {
+    return nlohmann::json{{"count", values.size()},
+                          {"median", core::RankQuantile(values, 0.5)},
+                          {"p95", core::RankQuantile(values, 0.95)},
+                          {"max", values.empty() ? 0.0 : *std::max_element(values.begin(), values.end())}};
+  };
+  if (!report_path.empty()) {
+    const nlohmann::json report = {{"source", source},
+                                   {"task", plan_task_path},
+                                   {"frames", update_ms.size()},
+                                   {"map_update_ms", stats(update_ms)},
+                                   {"replan_period_s", replan_options.replan_period},
+                                   {"planned_safety_distance_m", local_planner->PlannedSafetyDistance(options.resolution)},
+                                   {"replans", replans.size()},
+                                   {"replans_certified", certified},
+                                   {"replans_to_goal", to_goal},
+                                   {"recoveries", recoveries},
+                                   {"replan_latency_ms", stats(replan_ms)},
+                                   {"replan_log", replan_log}};
+    if (core::Status s = core::WriteFileAtomically(report_path, report.dump(2) + "\n"); !s.ok()) return Fail(s.message());
+  }
   const double median = core::RankQuantile(update_ms, 0.5), p95 = core::RankQuantile(update_ms, 0.95);
   const double worst = *std::max_element(update_ms.begin(), update_ms.end());
   const std::string stream_json =
@@ -308,11 +449,17 @@ int main(int argc, char** argv) {
     std::printf("{\"frames\": %zu, \"empty_frames\": %ld, \"rows_malformed\": %ld, \"rows_bad_pose\": %ld, \"rows_out_of_order\": %ld, "
                 "\"clouds_unreadable\": %ld, \"update_ms_median\": %.3f, \"update_ms_p95\": %.3f, "
                 "\"update_ms_max\": %.3f, \"known_voxels\": %zu, \"memory_mb\": %.2f, \"occupied_points\": %zu, "
-                "\"unknown_voxels\": %ld%s}\n",
+                "\"unknown_voxels\": %ld%s%s}\n",
                 update_ms.size(), empty_frames, index.malformed, index.bad_pose, index.out_of_order, unreadable,
                 median, p95, worst,
                 (*map)->num_known_voxels(), (*map)->memory_bytes() / 1e6, occupied.size(), unknown,
-                (stream_json + bag_json).c_str());
+                (stream_json + bag_json).c_str(),
+                planning ? core::Format(", \"replans\": %zu, \"replans_certified\": %d, \"replans_to_goal\": %d, "
+                                        "\"replan_ms_median\": %.3f, \"replan_ms_p95\": %.3f",
+                                        replans.size(), certified, to_goal, core::RankQuantile(replan_ms, 0.5),
+                                        core::RankQuantile(replan_ms, 0.95))
+                                .c_str()
+                         : "");
   } else {
     if (!bag.path.empty()) {
       std::printf("%zu clouds mapped, %ld empty, of %ld on %s (dropped: %ld malformed, %ld without a pose, %ld bad "
@@ -338,6 +485,16 @@ int main(int argc, char** argv) {
     if (unknown >= 0) {
       std::printf("unknown: %ld voxel centres in the box%s\n", unknown,
                   unknown > 0 ? (" -> " + unknown_path).c_str() : " (none: no file written)");
+    }
+    if (planning) {
+      std::fprintf(stderr, "\n");
+      std::printf("replans: %zu every %g s of the frames' time, %d certified (%d to the goal, %d recoveries), %zu "
+                  "without a plan; latency median %.1f ms, p95 %.1f ms, max %.1f ms%s\n",
+                  replans.size(), replan_options.replan_period, certified, to_goal, recoveries,
+                  replans.size() - static_cast<size_t>(certified), core::RankQuantile(replan_ms, 0.5),
+                  core::RankQuantile(replan_ms, 0.95),
+                  replan_ms.empty() ? 0.0 : *std::max_element(replan_ms.begin(), replan_ms.end()),
+                  report_path.empty() ? "" : (" -> " + report_path).c_str());
     }
   }
   return 0;

@@ -64,19 +64,6 @@ constexpr int kExitAborted = 7;
 std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }
 
-// --perception: the task's robot, goal and limits, its scene not read (nor
-// needed: the key may be left out): explore::BaseContext.
-core::Result<std::unique_ptr<planner::PlanningContext>> LoadContextWithoutScene(const std::string& task_path,
-                                                                                const planner::PlannerConfig& config) {
-  planner::TaskSources sources;
-  sources.scene_given = true;  // a scene key may be left out: the sensor gives it
-  auto task = planner::LoadTask(task_path, sources);
-  if (!task.ok()) return task.status();
-  auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
-  if (!robot.ok()) return robot.status();
-  return explore::BaseContext(std::move(*task), std::move(*robot), config);
-}
-
 int Fail(const std::string& message) {
   core::PrintError("quadhand-online", message);
   return kExitBadInput;
@@ -510,7 +497,7 @@ int main(int argc, char** argv) {
   if (threads >= 0) planner::SetWorkerThreads(threads, &*config);
   if (perception_mode && planner_config_path.empty()) explore::UseLocalPlanningDefaults(&*config);
   robot::PrependRosPackagePath(package_path);
-  auto context = perception_mode ? LoadContextWithoutScene(task_path, *config)
+  auto context = perception_mode ? explore::BaseContextOfTaskFile(task_path, *config)
                                  : planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));
   if (!context.ok()) return Fail(context.status().message());
   const planner::PlanningContext& ctx = **context;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -13,6 +14,7 @@
 #include "quadhand/scene/point_cloud.h"
 #include "quadhand/scene/ros_bag.h"
 #include "support/run_command.h"
+#include "support/window_cup_task.h"
 
 namespace quadhand {
 namespace {
@@ -193,6 +195,78 @@ TEST_F(MapCliTest, BadInputIsOneLineAndNoOutput) {
                              "--extrinsic", "--world-frame", "--max-pose-gap"}) {
     EXPECT_NE(help.out.find(option), std::string::npos) << option;
   }
+}
+
+// --plan: replanning over a recording, open loop. The recording: a sensor
+// on the base (--mount identity) moving along x at 0.5 m/s for 2 s, ten
+// frames a second, each the points of a wall at x = 4 in the sensor's
+// frame; the task's goal lies behind the wall. A replan every 0.5 s of the
+// frames' time, from where the base was, each to a local target before the
+// wall; the report says so. Bad --plan input: exit 2, one line, no output.
+TEST_F(MapCliTest, ReplansOverTheRecordingToTheTasksGoal) {
+  std::vector<Vec3> wall;
+  for (double y = -3.0; y <= 3.0 + 1e-9; y += 0.04) {
+    for (double z = 0.0; z <= 3.0 + 1e-9; z += 0.04) wall.emplace_back(4.0, y, z);
+  }
+  const fs::path frames = dir_ / "frames";
+  std::string index = "index,t,file,x,y,z,qw,qx,qy,qz\n";
+  for (int k = 0; k <= 20; ++k) {
+    const double t = 0.1 * k;
+    const Vec3 base(0.5 * t, 0.0, 1.2);
+    std::vector<Vec3> seen;
+    for (const Vec3& p : wall) seen.push_back(p - base);
+    const std::string name = core::Format("f%02d.pcd", k);
+    ASSERT_TRUE(scene::WritePcd((frames / name).string(), seen).ok());
+    index += core::Format("%d,%g,%s,%g,%g,%g,1,0,0,0\n", k, t, name.c_str(), base.x(), base.y(), base.z());
+  }
+  std::ofstream(frames / "frames.csv") << index;
+  const std::string task = (dir_ / "task.yaml").string();
+  std::ofstream(task) << "robot: " << QUADHAND_SOURCE_DIR << "/meshes/quadhand/quadhand.urdf\n"
+                      << "sdf_dir: " << testing::CoarseSdfDir() << "\n"
+                      << "start: {position: [0.0, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
+                      << "goal: {position: [8.0, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
+                      << "limits: {v_max: 2.0, a_max: 4.0, yaw_rate_max: 1.5, body_rate_xy_max: 3.0}\n"
+                      << "safety_distance: 0.03\n";
+  const std::string out = (dir_ / "occupied.pcd").string(), report = (dir_ / "replans.json").string();
+  const std::string run = kMap + " " + frames.string() + " --out " + out;
+  const auto r = RunCommand(run + " --plan " + task + " --report " + report + " --mount 0,0,0,1,0,0,0 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const nlohmann::json line = nlohmann::json::parse(r.out);
+  EXPECT_EQ(line["frames"].get<int>(), 21);
+  EXPECT_EQ(line["replans"].get<int>(), 5);
+  const nlohmann::json j = nlohmann::json::parse(testing::ReadAll(report));
+  ASSERT_EQ(j["replan_log"].size(), 5u);
+  int certified = 0;
+  for (size_t n = 0; n < 5; ++n) {
+    const nlohmann::json& e = j["replan_log"][n];
+    EXPECT_NEAR(e["t"].get<double>(), 0.5 * static_cast<double>(n), 1e-9);
+    EXPECT_NEAR(e["position"][0].get<double>(), 0.25 * static_cast<double>(n), 1e-9);
+    EXPECT_NEAR(e["position"][2].get<double>(), 1.2, 1e-9);
+    EXPECT_NEAR(e["speed"].get<double>(), n == 0 ? 0.0 : 0.5, 1e-9);
+    if (e["status"] == "to_local_target") {
+      ++certified;
+      EXPECT_LT(e["target"][0].get<double>(), 4.0);  // before the wall: nothing behind it is seen
+    }
+    EXPECT_NE(e["status"], "to_goal");
+  }
+  EXPECT_EQ(j["replans_certified"].get<int>(), certified);
+  EXPECT_EQ(line["replans_certified"].get<int>(), certified);
+  EXPECT_GE(certified, 3);
+
+  // Bad input: nothing written.
+  fs::remove(out);
+  fs::remove(report);
+  for (const std::string& bad :
+       {" --plan " + (dir_ / "missing.yaml").string(), " --report " + report,
+        " --plan " + task + " --mount 0,0,0,2,0,0,0", " --plan " + task + " --replan-period 0",
+        " --plan " + task + " --report " + out}) {
+    const auto e = RunCommand(run + bad);
+    EXPECT_EQ(e.exit_code, 2) << bad << "\n" << e.out << e.err;
+    EXPECT_EQ(std::count(e.err.begin(), e.err.end(), '\n'), 1) << e.err;
+    EXPECT_FALSE(fs::exists(out)) << bad;
+    EXPECT_FALSE(fs::exists(report)) << bad;
+  }
+  EXPECT_NE(RunCommand(run + " --plan " + (dir_ / "missing.yaml").string()).err.find("missing.yaml"), std::string::npos);
 }
 
 }  // namespace

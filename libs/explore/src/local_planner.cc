@@ -106,6 +106,19 @@ core::Result<std::unique_ptr<planner::PlanningContext>> BaseContext(planner::Tas
                                           planner::ContextOptions(config, {"mrc_sdf"}));
 }
 
+core::Result<std::unique_ptr<planner::PlanningContext>> BaseContextOfTaskFile(const std::string& task_path,
+                                                                              const planner::PlannerConfig& config) {
+  planner::TaskSources sources;
+  sources.scene_given = true;
+  auto task = planner::LoadTask(task_path, sources);
+  if (!task.ok()) return task.status();
+  auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
+  if (!robot.ok()) return robot.status();
+  auto base = BaseContext(std::move(*task), std::move(*robot), config);
+  if (!base.ok()) return base.status().WithPrefix(task_path);
+  return base;
+}
+
 double LocalPlanner::PlannedSafetyDistance(double map_resolution) const {
   return base_.task().safety_distance + local_.tracking_margin + perception::VoxelBallRadius(map_resolution);
 }

@@ -96,6 +96,12 @@ void UseLocalPlanningDefaults(planner::PlannerConfig* config);
 core::Result<std::unique_ptr<planner::PlanningContext>> BaseContext(planner::Task task, robot::RobotModel robot,
                                                                     const planner::PlannerConfig& config);
 
+// The same from a task file whose scene is not read (its key may be left
+// out: the sensor gives the scene), nor robot loaded twice. Errors name the
+// file.
+core::Result<std::unique_ptr<planner::PlanningContext>> BaseContextOfTaskFile(const std::string& task_path,
+                                                                              const planner::PlannerConfig& config);
+
 enum class LocalPlanStatus {
   kToGoal,         // certified, to the task's goal
   kToLocalTarget,  // certified, to a local target
