@@ -229,7 +229,7 @@ int main(int argc, char** argv) {
     solver = std::move(*created);
     auto local = explore::LocalPlanner::Create(*base, planner::RunPlannerOptions(*config, 0.01, 1, false), *solver,
                                                explore::LocalPlannerOptions{});
-    if (!local.ok()) return Fail(plan_task_path + ": " + local.status().message());
+    if (!local.ok()) return Fail(local.status().message());  // (it names the task file)
     local_planner = std::move(*local);
     auto made = explore::RecordedReplanner::Create(*local_planner, base->task(), replan_options);
     if (!made.ok()) return Fail(made.status().message());

@@ -267,6 +267,13 @@ TEST_F(MapCliTest, ReplansOverTheRecordingToTheTasksGoal) {
     EXPECT_FALSE(fs::exists(report)) << bad;
   }
   EXPECT_NE(RunCommand(run + " --plan " + (dir_ / "missing.yaml").string()).err.find("missing.yaml"), std::string::npos);
+  // A tool goal is not flown under perception: refused, naming the task.
+  const std::string tool_task = (dir_ / "tool_task.yaml").string();
+  std::ofstream(tool_task) << testing::WindowCupTaskText();
+  const auto tool = RunCommand(run + " --plan " + tool_task);
+  EXPECT_EQ(tool.exit_code, 2) << tool.out << tool.err;
+  EXPECT_EQ(tool.err.rfind("quadhand-map: error: " + tool_task + ": under perception", 0), 0u) << tool.err;
+  EXPECT_FALSE(fs::exists(out));
 }
 
 }  // namespace
