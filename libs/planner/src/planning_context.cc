@@ -178,7 +178,7 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
   FrontEndOptions front_end_options = options.front_end;
   if (front_end_options.size_from_robot) {
     auto extents = robot::StowedHalfExtents(context->robot_);
-    if (!extents.ok()) return extents.status();
+    if (!extents.ok()) return extents.status().WithPrefix(t.robot_path);
     const double half_width = std::min(extents->x(), extents->y());
     if (half_width > 0.0) {
       front_end_options.inflation_radius = half_width;
