@@ -21,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app_options.h"
+#include "local_plan_report.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/core/statistics.h"
@@ -46,13 +47,6 @@ constexpr int kExitArrived = 0, kExitNotArrived = 1, kExitBadInput = 2, kExitLos
 int Fail(const std::string& message) {
   core::PrintError("quadhand-explore", message);
   return kExitBadInput;
-}
-
-nlohmann::json Stats(const std::vector<double>& values) {
-  return {{"count", values.size()},
-          {"median", core::RankQuantile(values, 0.5)},
-          {"p95", core::RankQuantile(values, 0.95)},
-          {"max", values.empty() ? 0.0 : *std::max_element(values.begin(), values.end())}};
 }
 
 }  // namespace
@@ -269,8 +263,7 @@ int main(int argc, char** argv) {
   for (const explore::ReplanRecord& r : flown->replans) {
     latency.push_back(r.total_ms);
     scene_points.push_back(static_cast<double>(r.scene_points));
-    const bool ok = r.status == explore::LocalPlanStatus::kToGoal || r.status == explore::LocalPlanStatus::kToLocalTarget;
-    certified += ok ? 1 : 0;
+    certified += explore::IsCertified(r.status) ? 1 : 0;
   }
   const perception::FrameCounts& counts = flown->frame_counts;
   const nlohmann::json frames_dropped = {{"malformed", counts.malformed},
@@ -314,11 +307,11 @@ int main(int argc, char** argv) {
         {"planned_safety_distance_m", (*planner)->PlannedSafetyDistance(options.map.resolution)},
         {"replans", flown->replans.size()},
         {"replans_certified", certified},
-        {"replan_latency_ms", Stats(latency)},
-        {"boundary_voxels", Stats(scene_points)},
+        {"replan_latency_ms", apps::CountMedianP95Max(latency)},
+        {"boundary_voxels", apps::CountMedianP95Max(scene_points)},
         {"frames", flown->frames},
         {"empty_frames", flown->empty_frames},
-        {"map_update_ms", Stats(flown->map_update_ms)},
+        {"map_update_ms", apps::CountMedianP95Max(flown->map_update_ms)},
         {"peak_map_bytes", flown->peak_map_bytes},
         {"frames_dropped", frames_dropped},
         {"returns_dropped", flown->dropped_points},
@@ -328,18 +321,9 @@ int main(int argc, char** argv) {
         {"wall_s", wall_s}};
     nlohmann::json replans = nlohmann::json::array();
     for (const explore::ReplanRecord& r : flown->replans) {
-      replans.push_back({{"t", r.t},
-                         {"status", explore::LocalPlanStatusName(r.status)},
-                         {"total_ms", r.total_ms},
-                         {"scene_ms", r.scene_ms},
-                         {"context_ms", r.context_ms},
-                         {"plan_ms", r.plan_ms},
-                         {"safety_distance", r.safety_distance},
-                         {"start_clearance", r.start_clearance},
-                         {"recovery", r.recovery},
-                         {"boundary_voxels", r.scene_points},
-                         {"targets_tried", r.targets_tried},
-                         {"message", r.message}});
+      nlohmann::json entry = apps::LocalPlanSummaryJson(r);
+      entry["t"] = r.t;
+      replans.push_back(entry);
     }
     report["replan_log"] = replans;
     if (core::Status s = core::WriteFileAtomically(report_path, report.dump(2) + "\n"); !s.ok()) return Fail(s.message());

@@ -29,6 +29,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "local_plan_report.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/core/statistics.h"
@@ -244,7 +245,7 @@ int main(int argc, char** argv) {
   // when its period has passed.
   auto map_frame = [&](double t, const std::vector<Vec3>& points, const Pose& sensor_to_world,
                        const std::vector<Vec3>& misses) -> core::Status {
-    if (replanner) replanner->BeforeFrame(map->get(), t, sensor_to_world);
+    if (replanner) replanner->BeforeFrame(map->get(), sensor_to_world);
     const auto start = std::chrono::steady_clock::now();
     (*map)->MoveWindow(sensor_to_world.translation());
     QUADHAND_RETURN_IF_ERROR((*map)->Insert(points, sensor_to_world.translation(), misses));
@@ -380,48 +381,32 @@ int main(int argc, char** argv) {
   for (const explore::RecordedReplan& r : replans) {
     const explore::LocalPlanResult& p = r.result;
     replan_ms.push_back(p.total_ms);
-    const bool ok = p.status == explore::LocalPlanStatus::kToGoal || p.status == explore::LocalPlanStatus::kToLocalTarget;
+    const bool ok = explore::IsCertified(p.status);
     certified += ok ? 1 : 0;
     to_goal += p.status == explore::LocalPlanStatus::kToGoal ? 1 : 0;
     recoveries += ok && p.recovery ? 1 : 0;
-    nlohmann::json entry = {{"t", r.t},
-                            {"position", {r.start.position.x(), r.start.position.y(), r.start.position.z()}},
-                            {"speed", r.start.velocity.norm()},
-                            {"status", explore::LocalPlanStatusName(p.status)},
-                            {"total_ms", p.total_ms},
-                            {"scene_ms", p.scene_ms},
-                            {"context_ms", p.context_ms},
-                            {"plan_ms", p.plan_ms},
-                            {"safety_distance", p.safety_distance},
-                            {"start_clearance", p.start_clearance},
-                            {"recovery", p.recovery},
-                            {"boundary_voxels", p.scene_points},
-                            {"targets_tried", p.targets_tried},
-                            {"message", p.message}};
+    nlohmann::json entry = apps::LocalPlanSummaryJson(p);
+    entry["t"] = r.t;
+    entry["position"] = {r.start.position.x(), r.start.position.y(), r.start.position.z()};
+    entry["speed"] = r.start.velocity.norm();
     if (ok) {
       entry["target"] = {p.target.x(), p.target.y(), p.target.z()};
       entry["duration_s"] = p.plan.trajectory ? p.plan.trajectory->duration() : 0.0;
     }
     replan_log.push_back(entry);
   }
-  auto stats = [](const std::vector<double>& values) {
-    return nlohmann::json{{"count", values.size()},
-                          {"median", core::RankQuantile(values, 0.5)},
-                          {"p95", core::RankQuantile(values, 0.95)},
-                          {"max", values.empty() ? 0.0 : *std::max_element(values.begin(), values.end())}};
-  };
   if (!report_path.empty()) {
     const nlohmann::json report = {{"source", source},
                                    {"task", plan_task_path},
                                    {"frames", update_ms.size()},
-                                   {"map_update_ms", stats(update_ms)},
+                                   {"map_update_ms", apps::CountMedianP95Max(update_ms)},
                                    {"replan_period_s", replan_options.replan_period},
                                    {"planned_safety_distance_m", local_planner->PlannedSafetyDistance(options.resolution)},
                                    {"replans", replans.size()},
                                    {"replans_certified", certified},
                                    {"replans_to_goal", to_goal},
                                    {"recoveries", recoveries},
-                                   {"replan_latency_ms", stats(replan_ms)},
+                                   {"replan_latency_ms", apps::CountMedianP95Max(replan_ms)},
                                    {"replan_log", replan_log}};
     if (core::Status s = core::WriteFileAtomically(report_path, report.dump(2) + "\n"); !s.ok()) return Fail(s.message());
   }

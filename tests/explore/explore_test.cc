@@ -401,7 +401,7 @@ TEST_F(ExploreTest, ReplansOverRecordedFramesFromWhereTheVehicleWas) {
     const Pose sensor_pose = MakePose(Vec3(0.0, 0.0, 1.2) + t * speed, Mat3::Identity()) * sensor.Mount();
     std::vector<Vec3> seen = (*renderer)->Render(sensor_pose);
     for (Vec3& q : seen) q = sensor_pose * q;
-    replanner->BeforeFrame(map->get(), t, sensor_pose);
+    replanner->BeforeFrame(map->get(), sensor_pose);
     (*map)->MoveWindow(sensor_pose.translation());
     ASSERT_TRUE((*map)->Insert(seen, sensor_pose.translation()).ok());
     if (auto r = replanner->AfterFrame(**map, t, sensor_pose)) replans.push_back(std::move(*r));

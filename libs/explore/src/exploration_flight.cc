@@ -289,7 +289,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       if (!planned.ok()) return planned.status();
       result.replans.push_back(ReplanRecord{{static_cast<const LocalPlanSummary&>(*planned)}, t});
       if (progress) progress(result.replans.back());
-      if (planned->status == LocalPlanStatus::kToGoal || planned->status == LocalPlanStatus::kToLocalTarget) {
+      if (IsCertified(planned->status)) {
         pending = FlownPlan{std::move(*planned->plan.trajectory), t_start, planned->status == LocalPlanStatus::kToGoal};
       }
       next_replan = t + options.replan_period;

@@ -33,12 +33,11 @@ core::Result<RecordedReplanner> RecordedReplanner::Create(const LocalPlanner& pl
   return RecordedReplanner(planner, task, options);
 }
 
-void RecordedReplanner::BeforeFrame(perception::RollingMap* map, double /*t*/, const Pose& sensor_to_world) {
+void RecordedReplanner::BeforeFrame(perception::RollingMap* map, const Pose& sensor_to_world) {
   if (started_ || map == nullptr) return;
   started_ = true;
-  const Vec3 base = (sensor_to_world * options_.mount.inverse()).translation();
   map->MoveWindow(sensor_to_world.translation());
-  map->MarkFree(base, options_.start_free_radius);
+  map->MarkFree(BaseOf(sensor_to_world).translation(), options_.start_free_radius);
 }
 
 planner::BoundaryState RecordedReplanner::StateAt(double t, const Pose& base) const {
@@ -63,7 +62,7 @@ planner::BoundaryState RecordedReplanner::StateAt(double t, const Pose& base) co
 
 std::optional<RecordedReplan> RecordedReplanner::AfterFrame(const perception::RollingMap& map, double t,
                                                             const Pose& sensor_to_world) {
-  const Pose base = sensor_to_world * options_.mount.inverse();
+  const Pose base = BaseOf(sensor_to_world);
   std::optional<RecordedReplan> replan;
   if (!last_replan_ || t - *last_replan_ >= options_.replan_period - 1e-9) {
     last_replan_ = t;

@@ -369,8 +369,7 @@ class OnlineController::Worker {
     done.record.scene_points = result->scene_points;
     done.record.recovery = result->recovery;
     done.record.start_clearance = result->start_clearance;
-    const bool planned = result->status == explore::LocalPlanStatus::kToGoal ||
-                         result->status == explore::LocalPlanStatus::kToLocalTarget;
+    const bool planned = explore::IsCertified(result->status);
     done.record.message = planned ? std::string() : std::string(explore::LocalPlanStatusName(result->status)) +
                                                         (result->message.empty() ? "" : ": " + result->message);
     if (!planned) {

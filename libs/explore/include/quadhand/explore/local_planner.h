@@ -109,6 +109,10 @@ enum class LocalPlanStatus {
   kFailed,         // every target tried failed its plan
 };
 const char* LocalPlanStatusName(LocalPlanStatus status);
+// A plan was made and certified (to the goal or to a local target).
+inline bool IsCertified(LocalPlanStatus status) {
+  return status == LocalPlanStatus::kToGoal || status == LocalPlanStatus::kToLocalTarget;
+}
 
 // What a local plan came to and cost: what a flight logs of each replan.
 struct LocalPlanSummary {

@@ -51,21 +51,23 @@ class RecordedReplanner {
   static core::Result<RecordedReplanner> Create(const LocalPlanner& planner, const planner::Task& task,
                                                 const RecordedReplanOptions& options);
 
-  // Before a frame of time `t` seen from `sensor_to_world` goes into `map`:
-  // the first one frees the vehicle's own space and moves the window.
-  void BeforeFrame(perception::RollingMap* map, double t, const Pose& sensor_to_world);
+  // Before a frame seen from `sensor_to_world` goes into `map`: the first
+  // one frees the vehicle's own space and moves the window.
+  void BeforeFrame(perception::RollingMap* map, const Pose& sensor_to_world);
   // After it went in: a replan when replan_period has passed since the
   // last (the first at the first frame).
   std::optional<RecordedReplan> AfterFrame(const perception::RollingMap& map, double t, const Pose& sensor_to_world);
 
  private:
   RecordedReplanner(const LocalPlanner& planner, const planner::Task& task, const RecordedReplanOptions& options)
-      : planner_(&planner), task_(&task), options_(options) {}
+      : planner_(&planner), task_(&task), options_(options), base_from_sensor_(options.mount.inverse()) {}
   planner::BoundaryState StateAt(double t, const Pose& base) const;
+  Pose BaseOf(const Pose& sensor_to_world) const { return sensor_to_world * base_from_sensor_; }
 
   const LocalPlanner* planner_;
   const planner::Task* task_;
   RecordedReplanOptions options_;
+  Pose base_from_sensor_;  // the mount's inverse
   bool started_ = false;
   std::optional<double> last_replan_;
   std::deque<std::pair<double, Vec3>> recent_;  // (t, base position) of the frames of the last window or so
