@@ -71,7 +71,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> silences;
   std::string appear_path;
   double appear_at = 0.0;
-  app.add_option("task", task_path, "Task file (YAML): robot, start, goal at rest, safety distance; its scene is the hidden world")
+  app.add_option("task", task_path, "Task file (YAML): robot, start, a goal at rest or a mission of reaches at rest, safety distance; its scene is the hidden world")
       ->required();
   app.add_option("--out", out_path, "The flown record (CSV, the plan file's columns)")->required();
   app.add_option("--report", report_path, "A JSON report: outcome, clearance, replans and their latency, map costs");
@@ -83,6 +83,12 @@ int main(int argc, char** argv) {
   app.add_option("--solver", solver_name, "Optimiser back-end (docs/solvers.md)")->capture_default_str();
   app.add_option("--seed", seed, "Seed of the simulator's and the sensor's noise")->capture_default_str();
   app.add_option("--resolution", options.map.resolution, "Rolling map voxel edge, m")->capture_default_str();
+  std::vector<double> map_window;
+  app.add_option("--window", map_window,
+                 "Half extents of the rolling map's window about the sensor, m (x,y,z; default 15,15,5; finer "
+                 "voxels need a smaller one)")
+      ->delimiter(',')
+      ->expected(3);
   app.add_option("--ray-threads", options.map.ray_threads, "Threads that walk each frame's rays into the map")
       ->capture_default_str();
   app.add_option("--replan-period", options.replan_period, "Seconds of flight between replans")->capture_default_str();
@@ -144,6 +150,7 @@ int main(int argc, char** argv) {
   }
   options.fault_seed = seed ^ 0x6661756c74ull;
   if (!(std::isfinite(appear_at) && appear_at >= 0.0)) return Fail("--appear-at must be a time >= 0 s");
+  if (!map_window.empty()) options.map.window_half_extent = Vec3(map_window[0], map_window[1], map_window[2]);
   if (std::string why; !options.IsValid(&why)) return Fail(why);
   if (std::string why; !local.IsValid(&why)) return Fail(why);
   for (const auto& [option, path] : {std::pair<std::string, std::string>{"--out", out_path}, {"--report", report_path}}) {
@@ -159,7 +166,7 @@ int main(int argc, char** argv) {
   auto config = planner::LoadPlannerConfigOrDefaults(config_path);
   if (!config.ok()) return Fail(config.status().message());
   // (explore::UseLocalPlanningDefaults, unless a configuration file is given.)
-  if (config_path.empty()) explore::UseLocalPlanningDefaults(&*config);
+  if (config_path.empty()) explore::UseLocalPlanningDefaults(&*config, options.map.resolution);
   auto sim_config = sim::LoadSimConfig(sim_config_path);
   if (!sim_config.ok()) return Fail(sim_config.status().message());
   auto task = planner::LoadTask(task_path);
@@ -192,15 +199,26 @@ int main(int argc, char** argv) {
                                                    planner::ContextOptions(*config, {}));
     if (!judge_after.ok()) return Fail(appear_path + ": " + judge_after.status().message());
   }
-  // The planner's base context: the robot and its SDFs for the local plans.
-  auto base = explore::BaseContext(*task, *robot, *config);
-  if (!base.ok()) return Fail(task_path + ": " + base.status().message());
+  // Each leg's base context (the robot and its SDFs, the leg's goal) and
+  // local planner: a goal at rest is one leg, a mission of reaches one per reach.
+  auto legs = explore::LegsOfTask(*task);
+  if (!legs.ok()) return Fail(legs.status().message());
   if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
   auto solver = opt::CreateSolver(solver_name);
   if (!solver.ok()) return Fail("--solver: " + solver.status().message());
   const planner::PlannerOptions planner_options = planner::RunPlannerOptions(*config, 0.01, seed, false);
-  auto planner = explore::LocalPlanner::Create(**base, planner_options, **solver, local);
-  if (!planner.ok()) return Fail(planner.status().message());
+  std::vector<std::unique_ptr<planner::PlanningContext>> bases;
+  std::vector<std::unique_ptr<explore::LocalPlanner>> planners;
+  std::vector<const explore::LocalPlanner*> leg_planners;
+  for (planner::Task& leg : *legs) {
+    auto base = explore::BaseContext(std::move(leg), *robot, *config);
+    if (!base.ok()) return Fail(task_path + ": " + base.status().message());
+    auto planner = explore::LocalPlanner::Create(**base, planner_options, **solver, local);
+    if (!planner.ok()) return Fail(planner.status().message());
+    bases.push_back(std::move(*base));
+    planners.push_back(std::move(*planner));
+    leg_planners.push_back(planners.back().get());
+  }
 
   sim::SensorConfig sensor = sim_config->sensor;
   auto kind = sim::ParseSensorKind(sensor_name);
@@ -223,10 +241,11 @@ int main(int argc, char** argv) {
 
   const auto wall_start = std::chrono::steady_clock::now();
   auto flown = explore::FlyExploration(
-      &simulator, sensor, hidden, **planner, (*base)->task(), options, [&](const explore::ReplanRecord& r) {
+      &simulator, sensor, hidden, leg_planners, bases.front()->task(), options, [&](const explore::ReplanRecord& r) {
         if (quiet) return;
-        std::fprintf(stderr, "\r  t %6.2f s: replan %-15s %6.1f ms, %6zu boundary voxels   ", r.t,
-                     explore::LocalPlanStatusName(r.status), r.total_ms, r.scene_points);
+        std::fprintf(stderr, "\r  t %6.2f s: leg %d/%zu, replan %-15s %6.1f ms, %6zu boundary voxels   ", r.t,
+                     r.leg + 1, leg_planners.size(), explore::LocalPlanStatusName(r.status), r.total_ms,
+                     r.scene_points);
       });
   if (!quiet) std::fprintf(stderr, "\n");
   if (!flown.ok()) return Fail(task_path + ": " + flown.status().message());
@@ -304,7 +323,9 @@ int main(int argc, char** argv) {
         {"min_clearance_t", least_t},
         {"min_clearance_link", closest},
         {"accepted_clearance_m", accepted},
-        {"planned_safety_distance_m", (*planner)->PlannedSafetyDistance(options.map.resolution)},
+        {"legs", flown->legs},
+        {"legs_arrived", flown->legs_arrived},
+        {"planned_safety_distance_m", planners.front()->PlannedSafetyDistance(options.map.resolution)},
         {"replans", flown->replans.size()},
         {"replans_certified", certified},
         {"replan_latency_ms", apps::CountMedianP95Max(latency)},
@@ -323,6 +344,7 @@ int main(int argc, char** argv) {
     for (const explore::ReplanRecord& r : flown->replans) {
       nlohmann::json entry = apps::LocalPlanSummaryJson(r);
       entry["t"] = r.t;
+      entry["leg"] = r.leg;
       replans.push_back(entry);
     }
     report["replan_log"] = replans;

@@ -220,7 +220,7 @@ int main(int argc, char** argv) {
   if (planning) {
     auto config = planner::LoadPlannerConfigOrDefaults(config_path);
     if (!config.ok()) return Fail(config.status().message());
-    if (config_path.empty()) explore::UseLocalPlanningDefaults(&*config);
+    if (config_path.empty()) explore::UseLocalPlanningDefaults(&*config, options.resolution);
     auto base_context = explore::BaseContextOfTaskFile(plan_task_path, *config);
     if (!base_context.ok()) return Fail(base_context.status().message());
     base = std::move(*base_context);

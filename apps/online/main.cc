@@ -495,7 +495,7 @@ int main(int argc, char** argv) {
   auto config = planner::LoadPlannerConfigOrDefaults(planner_config_path);
   if (!config.ok()) return Fail(config.status().message());
   if (threads >= 0) planner::SetWorkerThreads(threads, &*config);
-  if (perception_mode && planner_config_path.empty()) explore::UseLocalPlanningDefaults(&*config);
+  if (perception_mode && planner_config_path.empty()) explore::UseLocalPlanningDefaults(&*config, perception.map.resolution);
   robot::PrependRosPackagePath(package_path);
   auto context = perception_mode ? explore::BaseContextOfTaskFile(task_path, *config)
                                  : planner::PlanningContext::Load(task_path, planner::ContextOptions(*config, {"mrc_sdf"}));

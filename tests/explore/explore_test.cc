@@ -26,6 +26,7 @@
 #include "quadhand/planner/moving_scene.h"
 #include "quadhand/planner/planning_context.h"
 #include "quadhand/robot/kinematics.h"
+#include "quadhand/sim/plan_io.h"
 #include "quadhand/sim/sensor.h"
 #include "quadhand/scene/point_cloud.h"
 #include "quadhand/solvers/builtin_solvers.h"
@@ -370,6 +371,66 @@ TEST_F(ExploreTest, FliesPastPostsItHasNeverSeenAndKeepsTheClearance) {
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
+// A mission of reaches at rest is flown leg by leg on the same map: the
+// vehicle comes to rest at the first reach (past the first post) before it
+// plans for the second, and the whole flight keeps the clearance.
+TEST_F(ExploreTest, FliesAMissionOfReachesLegByLeg) {
+  const std::string cloud = (dir_ / "posts.pcd").string();
+  ASSERT_TRUE(scene::WritePcd(cloud, Posts()).ok());
+  const std::string task = (dir_ / "mission.yaml").string();
+  std::ofstream(task) << "robot: " << QUADHAND_SOURCE_DIR << "/meshes/quadhand/quadhand.urdf\n"
+                      << "sdf_dir: " << testing::CoarseSdfDir() << "\n"
+                      << "scene: " << cloud << "\n"
+                      << "start: {position: [0.0, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
+                      << "mission:\n"
+                      << "  - reach: {position: [4.2, 0.0, 1.2], yaw: 0.0, joints: [0.3, -0.2, 0.0]}\n"
+                      << "  - reach: {position: [8.0, 0.0, 1.4], yaw: 1.0, joints: [0.3, -0.2, 0.0]}\n"
+                      << "limits: {v_max: 2.0, a_max: 4.0, yaw_rate_max: 1.5, body_rate_xy_max: 3.0}\n"
+                      << "safety_distance: 0.03\n";
+  auto loaded = planner::LoadTask(task);
+  ASSERT_TRUE(loaded.ok()) << loaded.status().message();
+  auto legs = explore::LegsOfTask(*loaded);
+  ASSERT_TRUE(legs.ok()) << legs.status().message();
+  ASSERT_EQ(legs->size(), 2u);
+  EXPECT_TRUE((*legs)[1].start.position.isApprox(Vec3(4.2, 0.0, 1.2)));  // where the first leg ends
+  EXPECT_TRUE((*legs)[1].terminal->position.isApprox(Vec3(8.0, 0.0, 1.4)));
+
+  const std::string flown = (dir_ / "flown.csv").string(), report = (dir_ / "report.json").string();
+  const auto r = RunCommand(kExplore + " " + task + " --out " + flown + " --report " + report + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const nlohmann::json j = nlohmann::json::parse(testing::ReadAll(report));
+  EXPECT_EQ(j["outcome"], "arrived");
+  EXPECT_EQ(j["legs"], 2);
+  EXPECT_EQ(j["legs_arrived"], 2);
+  EXPECT_GE(j["min_clearance_m"].get<double>(), 0.028);
+  EXPECT_LT(j["goal_distance_m"].get<double>(), 0.15);
+  // Every replan of the second leg comes after the first leg's last.
+  double last_of_first = -1.0, first_of_second = 1e9;
+  for (const nlohmann::json& replan : j["replan_log"]) {
+    if (replan["leg"] == 0) last_of_first = std::max(last_of_first, replan["t"].get<double>());
+    if (replan["leg"] == 1) first_of_second = std::min(first_of_second, replan["t"].get<double>());
+  }
+  ASSERT_GE(last_of_first, 0.0);
+  ASSERT_LT(first_of_second, 1e9);
+  EXPECT_LT(last_of_first, first_of_second);
+  // The vehicle stood at the first reach when the second leg was planned.
+  auto robot = robot::RobotModel::LoadFromUrdfFile(loaded->robot_path);
+  ASSERT_TRUE(robot.ok());
+  auto record = sim::LoadPlanCsv(flown, robot->ActuatedJointNames());
+  ASSERT_TRUE(record.ok()) << record.status().message();
+  double nearest = 1e9, speed_there = 1e9;
+  for (const sim::PlanRow& sample : record->rows) {
+    if (std::abs(sample.t - first_of_second) < 0.006) {
+      nearest = (sample.position - Vec3(4.2, 0.0, 1.2)).norm();
+      speed_there = sample.velocity.norm();
+    }
+  }
+  EXPECT_LT(nearest, 0.15);
+  EXPECT_LT(speed_there, 0.1);
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+}
+
 // Frames recorded along a straight flight past the posts (rendered here as
 // a recording would hold them: the sensor's pose and its returns), replanned
 // over: a replan every period of the recording's time, from where its
@@ -588,6 +649,17 @@ TEST_F(ExploreTest, BadInputIsOneLineAndExitTwoWithNoOutput) {
   ASSERT_TRUE(scene::WritePcd(empty, {}).ok());
   const std::string mission = (dir_ / "mission.yaml").string();
   std::ofstream(mission) << testing::WindowCupMissionText("");
+  std::string hold_text = testing::ReadAll(task);
+  const size_t goal_at = hold_text.find("goal: ");
+  ASSERT_NE(goal_at, std::string::npos);
+  const size_t goal_end = hold_text.find('\n', goal_at);
+  ASSERT_NE(goal_end, std::string::npos);
+  hold_text.insert(goal_end + 1, "  - hold: {duration: 1.0}\n");
+  hold_text.replace(goal_at, 6, "mission:\n  - reach: ");
+  const std::string hold_mission = (dir_ / "hold.yaml").string();
+  std::ofstream(hold_mission) << hold_text;
+  const std::string tool_task = (dir_ / "tool.yaml").string();
+  std::ofstream(tool_task) << testing::WindowCupTaskText({});
   for (const Case& c : std::vector<Case>{
            {(dir_ / "missing.yaml").string() + " --out " + flown, "missing.yaml"},
            {task + " --out " + flown + " --sensor sonar", "--sensor"},
@@ -595,7 +667,11 @@ TEST_F(ExploreTest, BadInputIsOneLineAndExitTwoWithNoOutput) {
            {task + " --out " + flown + " --resolution nan", "resolution"},
            {task + " --out " + flown + " --world " + empty, "empty.pcd"},
            {task + " --out " + task, "input"},
-           {mission + " --out " + flown, "goal at rest"},
+           {mission + " --out " + flown, "mission step 1 (reach): a tool pose is not yet"},
+           {hold_mission + " --out " + flown, "mission step 2 (hold) is not yet"},
+           {tool_task + " --out " + flown, "a tool pose is not yet"},
+           {task + " --out " + flown + " --map-window 0,1,1", "window_half_extent"},
+           {task + " --out " + flown + " --map-window 1,1", "--map-window"},
            {task + " --out " + flown + " --silence 3-1", "--silence"},
            {task + " --out " + flown + " --bad-frames 1.5", "bad-frame probability"},
            {task + " --out " + flown + " --sensor-timeout 0", "sensor_timeout"},

@@ -150,6 +150,16 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
                                                const HiddenWorld& world, const LocalPlanner& planner,
                                                const planner::Task& task, const ExplorationOptions& options,
                                                const std::function<void(const ReplanRecord&)>& progress) {
+  return FlyExploration(simulator, sensor, world, std::vector<const LocalPlanner*>{&planner}, task, options, progress);
+}
+
+core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const sim::SensorConfig& sensor,
+                                               const HiddenWorld& world, const std::vector<const LocalPlanner*>& legs,
+                                               const planner::Task& task, const ExplorationOptions& options,
+                                               const std::function<void(const ReplanRecord&)>& progress) {
+  if (legs.empty() || std::find(legs.begin(), legs.end(), nullptr) != legs.end()) {
+    return core::Status::InvalidArgument("exploration: no local planner for a leg");
+  }
   if (simulator == nullptr || world.renderer == nullptr) {
     return core::Status::InvalidArgument("exploration: no simulator or sensor");
   }
@@ -169,8 +179,14 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   auto map = perception::RollingMap::Create(options.map);
   if (!map.ok()) return map.status();
 
-  const planner::BoundaryState& goal = planner.goal();
-  const double straight = (goal.position - task.start.position).norm();
+  size_t leg = 0;
+  const LocalPlanner* planner = legs[0];
+  double straight = 0.0;
+  Vec3 from = task.start.position;
+  for (const LocalPlanner* each : legs) {
+    straight += (each->goal().position - from).norm();
+    from = each->goal().position;
+  }
   const double time_limit =
       options.time_limit > 0.0 ? options.time_limit
                                : std::min(sim::kMaxSimulatedSeconds, 3.0 * straight / task.limits.v_max + 30.0);
@@ -189,9 +205,10 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   hold_sample.joint_rates = VecX::Zero(task.start.joints.size());
 
   ExplorationResult result;
+  result.legs = static_cast<int>(legs.size());
   std::optional<FlownPlan> flying, pending;
   SensorFaults faults(options.sensor_faults, options.fault_seed);
-  const double planned_distance = planner.PlannedSafetyDistance(options.map.resolution);
+  const double planned_distance = planner->PlannedSafetyDistance(options.map.resolution);
   perception::FrameGate gate(options.frame_gate);
   std::optional<SilenceRecord> silence;
   const double frame_period = 1.0 / sensor.rate();
@@ -240,16 +257,16 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
         record.t = t;
         record.new_obstacles = new_obstacles.size();
         bool invalid = false;
-        if (pending && planner.FirstConflict(pending->trajectory, 0.0, new_obstacles, planned_distance)) {
+        if (pending && planner->FirstConflict(pending->trajectory, 0.0, new_obstacles, planned_distance)) {
           pending.reset();
           invalid = true;
         }
         if (flying && !flying->Stopped(t)) {
           const double tau = flying->PlanTime(t);
-          if (const auto conflict = planner.FirstConflict(flying->trajectory, tau, new_obstacles, planned_distance)) {
+          if (const auto conflict = planner->FirstConflict(flying->trajectory, tau, new_obstacles, planned_distance)) {
             record.flown = true;
             record.conflict_in = *conflict - tau;
-            flying->Brake(t, planner.AccelerationLimit());
+            flying->Brake(t, planner->AccelerationLimit());
             record.stop_margin = *conflict - flying->PlanTime(flying->brake_t + flying->brake_s);
             pending.reset();
             invalid = true;
@@ -269,7 +286,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       record.from = t;
       pending.reset();
       if (flying) {
-        record.speed = flying->Brake(t, planner.AccelerationLimit());
+        record.speed = flying->Brake(t, planner->AccelerationLimit());
         if (flying->braked) record.brake_s = flying->brake_s;
       }
       silence = record;
@@ -285,9 +302,9 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
     if (!silence && !goal_held && !pending && t >= next_replan - 1e-9) {
       const double t_start = t + options.plan_ahead;
       const planner::BoundaryState start = flying ? flying->At(t_start).State() : hold_sample.State();
-      auto planned = planner.PlanFrom(**map, start);
+      auto planned = planner->PlanFrom(**map, start);
       if (!planned.ok()) return planned.status();
-      result.replans.push_back(ReplanRecord{{static_cast<const LocalPlanSummary&>(*planned)}, t});
+      result.replans.push_back(ReplanRecord{{static_cast<const LocalPlanSummary&>(*planned)}, t, static_cast<int>(leg)});
       if (progress) progress(result.replans.back());
       if (IsCertified(planned->status)) {
         pending = FlownPlan{std::move(*planned->plan.trajectory), t_start, planned->status == LocalPlanStatus::kToGoal};
@@ -295,10 +312,19 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       next_replan = t + options.replan_period;
     }
 
-    const double goal_distance = (state.position - goal.position).norm();
+    const double goal_distance = (state.position - planner->goal().position).norm();
     if (flying && flying->to_goal && flying->Ended(t) && goal_distance <= options.goal_tolerance) {
-      result.outcome = ExplorationOutcome::kArrived;
-      break;
+      ++result.legs_arrived;
+      if (leg + 1 == legs.size()) {
+        result.outcome = ExplorationOutcome::kArrived;
+        break;
+      }
+      // The next leg plans at once from where this one came to rest (the
+      // ended plan holds the vehicle there meanwhile).
+      planner = legs[++leg];
+      flying->to_goal = false;
+      next_replan = t;
+      last_new_plan = t;
     }
     if (t >= time_limit) {
       result.outcome = ExplorationOutcome::kTimeLimit;
@@ -330,7 +356,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   result.frame_counts = gate.counts();
   result.dropped_points = (*map)->dropped_points();
   result.injected = faults.counts();
-  result.goal_distance = (simulator->state().position - goal.position).norm();
+  result.goal_distance = (simulator->state().position - planner->goal().position).norm();
   return result;
 }
 

@@ -92,10 +92,42 @@ core::Result<std::unique_ptr<LocalPlanner>> LocalPlanner::Create(const planner::
   return planner;
 }
 
-void UseLocalPlanningDefaults(planner::PlannerConfig* config) {
-  config->representations.mrc_sdf.far_cell_size = 0.1;
-  config->representations.mrc_sdf.far_max_steps = 10;
-  config->front_end.voxel_size = 0.1;
+void UseLocalPlanningDefaults(planner::PlannerConfig* config, double map_resolution) {
+  const double cell = std::isfinite(map_resolution) ? std::clamp(map_resolution, 0.05, 0.1) : 0.1;
+  config->representations.mrc_sdf.far_cell_size = cell;
+  config->representations.mrc_sdf.far_max_steps = static_cast<int>(std::ceil(1.0 / cell - 1e-9));
+  config->front_end.voxel_size = cell;
+}
+
+core::Result<std::vector<planner::Task>> LegsOfTask(const planner::Task& task) {
+  const std::string refused = task.file +
+                              ": under perception only a goal at rest (goal.position, yaw, joints) or a mission of "
+                              "reaches at rest is flown; ";
+  if (task.mission.empty()) {
+    if (!task.terminal || task.tool) return core::Status::InvalidArgument(refused + "a tool pose is not yet");
+    return std::vector<planner::Task>{task};
+  }
+  std::vector<planner::Task> legs;
+  planner::BoundaryState start = task.start;
+  for (size_t k = 0; k < task.mission.size(); ++k) {
+    const planner::MissionStep& step = task.mission[k];
+    const std::string which = "mission step " + std::to_string(k + 1) + " (" + planner::StepKindName(step.kind) + ")";
+    if (step.kind != planner::StepKind::kReach) {
+      return core::Status::InvalidArgument(refused + which + " is not yet");
+    }
+    if (!step.reach_state || step.reach_tool) {
+      return core::Status::InvalidArgument(refused + which + ": a tool pose is not yet");
+    }
+    planner::Task leg = task;
+    leg.mission.clear();
+    leg.vias.clear();
+    leg.tool.reset();
+    leg.start = start;
+    leg.terminal = *step.reach_state;
+    start = *step.reach_state;
+    legs.push_back(std::move(leg));
+  }
+  return legs;
 }
 
 core::Result<std::unique_ptr<planner::PlanningContext>> BaseContext(planner::Task task, robot::RobotModel robot,

@@ -78,6 +78,7 @@ const char* ExplorationOutcomeName(ExplorationOutcome outcome);
 
 struct ReplanRecord : LocalPlanSummary {
   double t = 0.0;  // simulated time it was asked at
+  int leg = 0;     // the leg (goal) it planned towards, from 0
 };
 
 // The hidden world the simulated sensor renders: `renderer` from the start,
@@ -123,7 +124,9 @@ struct ExplorationResult {
   std::vector<SilenceRecord> silences;
   std::vector<InvalidationRecord> invalidations;
   size_t peak_map_bytes = 0;  // sampled every 30th frame taken, and at the end
-  double goal_distance = 0.0;  // at the end, m
+  double goal_distance = 0.0;  // at the end, to the goal of the leg being flown, m
+  int legs = 1;                // goals to reach in turn (LegsOfTask)
+  int legs_arrived = 0;        // of them, reached (all of them: kArrived)
 };
 
 // One flight. `simulator` is reset to the task's start; `world` renders
@@ -131,6 +134,17 @@ struct ExplorationResult {
 // called after each replan. Errors only for inconsistent input.
 core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const sim::SensorConfig& sensor,
                                                const HiddenWorld& world, const LocalPlanner& planner,
+                                               const planner::Task& task, const ExplorationOptions& options,
+                                               const std::function<void(const ReplanRecord&)>& progress = nullptr);
+
+// The same through goals in turn (a mission of reaches: LegsOfTask), one
+// local planner per leg, each planning to its own goal. The map and the
+// vehicle carry on from leg to leg: once a leg's plan to its goal has been
+// flown to its end within goal_tolerance, the next leg plans at once from
+// there. Arrived when the last leg has; the time limit (0: from the
+// straight lines between the goals) is for the whole flight.
+core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const sim::SensorConfig& sensor,
+                                               const HiddenWorld& world, const std::vector<const LocalPlanner*>& legs,
                                                const planner::Task& task, const ExplorationOptions& options,
                                                const std::function<void(const ReplanRecord&)>& progress = nullptr);
 

@@ -84,10 +84,12 @@ struct LocalPlannerOptions {
 
 // The configuration local plans use when the user gives none: the model
 // and the front end's map are built at every replan over a box full of
-// boundary voxels, which lie on the rolling map's 0.1 m lattice, so
-// MRC-SDF's far grid is 0.1 m, searched out to 1 m only, and the front
-// end's voxels are 0.1 m (docs/configuration.md).
-void UseLocalPlanningDefaults(planner::PlannerConfig* config);
+// boundary voxels, which lie on the rolling map's lattice (voxels
+// `map_resolution` m), so MRC-SDF's far grid and the front end's voxels
+// are the map's voxel, kept within [0.05, 0.1] m (finer grows the front
+// end's grid by the cube; coarser closes gaps), and the far grid is
+// searched out to 1 m only (docs/configuration.md).
+void UseLocalPlanningDefaults(planner::PlannerConfig* config, double map_resolution = 0.1);
 
 // The context local plans are made from (LocalPlanner::Create's `base`):
 // the task's robot, its link SDFs (MRC-SDF) and goal. It never plans
@@ -101,6 +103,14 @@ core::Result<std::unique_ptr<planner::PlanningContext>> BaseContext(planner::Tas
 // file.
 core::Result<std::unique_ptr<planner::PlanningContext>> BaseContextOfTaskFile(const std::string& task_path,
                                                                               const planner::PlannerConfig& config);
+
+// The legs a task is flown as under perception, each a task whose goal is
+// one terminal state at rest: the task itself when its goal is one, or each
+// reach of a mission of reaches in turn (a reach with a whole-body state
+// and no tool pose), every leg starting where the one before ends. A tool
+// pose, grasp, release, move, via, hold or moving target is refused
+// (InvalidArgument naming the task file): not flown under perception yet.
+core::Result<std::vector<planner::Task>> LegsOfTask(const planner::Task& task);
 
 enum class LocalPlanStatus {
   kToGoal,         // certified, to the task's goal
