@@ -16,6 +16,8 @@ namespace {
 
 // m: a start inside the tracking margin plans with this less than it has.
 constexpr double kStartSlack = 1e-3;
+// m: a local target's hop shorter than this sideways has no heading of its own.
+constexpr double kLeastHeading = 0.2;
 
 bool Fail(std::string* why, const std::string& message) {
   if (why != nullptr) *why = message;
@@ -367,8 +369,14 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
       const bool candidate_is_goal = score < 0.0;
       if (!candidate_is_goal) {
         candidate_leg.terminal->position = candidate;
-        const Vec3 heading = candidate - start.position;
-        candidate_leg.terminal->yaw = std::atan2(heading.y(), heading.x());
+        // The camera looks where the vehicle goes. A hop mostly up or down
+        // has no heading of its own (atan2 of its few centimetres sideways
+        // is noise, and turned a vehicle's back to the goal for good): it
+        // faces the goal instead, or keeps the start's yaw right under it.
+        Eigen::Vector2d heading = (candidate - start.position).head<2>();
+        if (heading.norm() < kLeastHeading) heading = (goal_.position - start.position).head<2>();
+        candidate_leg.terminal->yaw =
+            heading.norm() < kLeastHeading ? start.yaw : std::atan2(heading.y(), heading.x());
       }
       // The planner's yaw is continuous: the terminal yaw nearest the start's.
       candidate_leg.terminal->yaw = start.yaw + std::remainder(candidate_leg.terminal->yaw - start.yaw, 2.0 * M_PI);
