@@ -168,14 +168,15 @@ def main():
                                 f"{length:g}", "--seed", str(seed), "--out", work], check=True,
                                stdout=subprocess.DEVNULL)
                 stem = os.path.join(work, f"room_s{seed}")
-            task = stem + ".yaml"
-            if args.kind == "gap":
+            else:
                 # The bundled narrow-gap crossing from start `seed` (1-7): the
                 # gap is seen only on arrival, through it the goal.
                 task = os.path.join(ROOT, "data", "tasks", "missions", "narrow_gap", f"start_{seed}.yaml")
                 if not os.path.exists(task):
                     sys.exit(f"perception_bench: {task} is missing (the narrow-gap starts are 1-7)")
                 stem = os.path.join(work, f"gap_start_{seed}")
+            if args.kind != "gap":
+                task = stem + ".yaml"
             record, report = stem + f"_{args.sensor}_flown.csv", stem + f"_{args.sensor}_explore.json"
             if args.online:
                 record = stem + f"_{args.sensor}_online_sim_flown.csv"

@@ -22,6 +22,7 @@
 
 #include "app_options.h"
 #include "local_plan_report.h"
+#include "sensor_world.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/core/statistics.h"
@@ -225,6 +226,7 @@ int main(int argc, char** argv) {
   if (!kind.ok()) return Fail("--sensor: " + kind.status().message());
   sensor.kind = *kind;
   if (robot->LinkIndex(sensor.link) < 0) return Fail(sim_config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
+  if (!quiet) apps::WarnWhenTheSensorSeesThrough("quadhand-explore", world_path, *world, sensor);
   auto renderer = sim::SensorRenderer::Create(*world, sensor, seed ^ 0x73656e73ull);
   if (!renderer.ok()) return Fail(sim_config_path + ": " + renderer.status().message());
   explore::HiddenWorld hidden{renderer->get(), {}};

@@ -20,6 +20,7 @@
 #include <CLI/CLI.hpp>
 
 #include "app_options.h"
+#include "sensor_world.h"
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/log.h"
 #include "quadhand/core/text.h"
@@ -295,6 +296,7 @@ int main(int argc, char** argv) {
     auto world = planner::LoadWorldPoints(world_path);
     if (!world.ok()) return Fail(world.status().message());
     if (world->empty()) return Fail("--world " + world_path + ": no finite points");
+    if (!quiet) apps::WarnWhenTheSensorSeesThrough("quadhand-sim", world_path, *world, sensor);
     auto made = sim::SensorRenderer::Create(*world, sensor, seed ^ 0x73656e73ull);
     if (!made.ok()) return Fail(config_path + ": " + made.status().message());
     renderer = std::move(*made);

@@ -48,6 +48,41 @@ TEST(SensorTest, ADepthCameraSeesAWallAtItsDistanceAndFillsItsImage) {
   }
 }
 
+// A wall sampled every 4 cm: PointSpacing measures 0.04 m (duplicates are
+// not neighbours), and that is what decides whether the camera sees
+// through it: discs of 0.02 m leave holes (the holes of a 4 cm grid are
+// 0.028 m from its points), discs of 0.029 m (what quadhand-explore's
+// warning asks) fill the image.
+TEST(SensorTest, ThePointSpacingSaysWhenTheDiscsLeaveHoles) {
+  std::vector<Vec3> wall = Wall(3.0, 4.0, 0.04);
+  EXPECT_NEAR(PointSpacing(wall), 0.04, 1e-9);
+  EXPECT_NEAR(PointSpacing(wall, 0.5), 0.04, 1e-9);
+  const size_t n = wall.size();
+  for (size_t i = 0; i < n; i += 2) wall.push_back(wall[i]);  // duplicates
+  EXPECT_NEAR(PointSpacing(wall), 0.04, 1e-9);
+  // Nine in ten on a 1 cm grid, a tenth alone 0.5 m away: the 0.9 quantile
+  // is the grid's, the largest the lone points'.
+  std::vector<Vec3> mixed = Wall(3.0, 0.5, 0.01);
+  const size_t dense = mixed.size();
+  for (size_t k = 0; k < dense / 9 + 20; ++k) mixed.emplace_back(10.0 + 0.5 * static_cast<double>(k), 0.0, 0.0);
+  EXPECT_NEAR(PointSpacing(mixed, 0.8), 0.01, 1e-9);
+  EXPECT_NEAR(PointSpacing(mixed, 1.0), 0.5, 1e-9);
+  EXPECT_EQ(PointSpacing({}), 0.0);
+  EXPECT_EQ(PointSpacing({Vec3(0, 0, 0), Vec3(0, 0, 0)}), 0.0);
+  EXPECT_EQ(PointSpacing({Vec3(0, 0, 0), Vec3(5, 0, 0)}), 0.0);  // none within 2 m
+
+  SensorConfig thin = Depth();
+  thin.splat_radius = 0.02;
+  auto holes = SensorRenderer::Create(Wall(3.0, 4.0, 0.04), thin, 1);
+  ASSERT_TRUE(holes.ok());
+  EXPECT_LT((*holes)->Render(CameraAlongX()).size(), 160u * 120u);
+  SensorConfig covering = Depth();
+  covering.splat_radius = 0.029;
+  auto filled = SensorRenderer::Create(Wall(3.0, 4.0, 0.04), covering, 1);
+  ASSERT_TRUE(filled.ok());
+  EXPECT_EQ((*filled)->Render(CameraAlongX()).size(), 160u * 120u);
+}
+
 TEST(SensorTest, TheNearestSurfaceOccludesWhatIsBehindIt) {
   // A 1 m wide panel at 2 m in front of a wall at 4 m.
   std::vector<Vec3> world = Wall(4.0, 4.0, 0.01);

@@ -127,6 +127,33 @@ SensorRenderer::~SensorRenderer() = default;
 
 const SensorConfig& SensorRenderer::config() const { return impl_->config; }
 
+double PointSpacing(const std::vector<Vec3>& world, double quantile, size_t samples) {
+  if (world.size() < 2 || samples == 0 || !(quantile >= 0.0 && quantile <= 1.0)) return 0.0;
+  const scene::PointGrid grid(world, 0.05);
+  const size_t stride = std::max<size_t>(1, world.size() / samples);
+  std::vector<double> nearest;
+  for (size_t i = 0; i < world.size(); i += stride) {
+    const Vec3& p = world[i];
+    if (!p.allFinite()) continue;
+    for (double reach = 0.05; reach <= 2.0; reach *= 2.0) {
+      double best = std::numeric_limits<double>::infinity();
+      grid.VisitBox(p - Vec3::Constant(reach), p + Vec3::Constant(reach), [&](const Vec3& q) {
+        const double d = (q - p).norm();
+        if (d > 1e-9 && d < best) best = d;
+      });
+      // Only a neighbour within the box's inscribed ball is surely the nearest.
+      if (best <= reach) {
+        nearest.push_back(best);
+        break;
+      }
+    }
+  }
+  if (nearest.empty()) return 0.0;
+  const size_t at = std::min(nearest.size() - 1, static_cast<size_t>(quantile * static_cast<double>(nearest.size())));
+  std::nth_element(nearest.begin(), nearest.begin() + static_cast<long>(at), nearest.end());
+  return nearest[at];
+}
+
 core::Result<std::unique_ptr<SensorRenderer>> SensorRenderer::Create(const std::vector<Vec3>& world,
                                                                      const SensorConfig& config, std::uint64_t seed) {
   if (std::string why; !config.IsValid(&why)) return core::Status::InvalidArgument("sensor: " + why);

@@ -72,6 +72,15 @@ Pose DefaultMount(SensorKind kind);
 // "depth" or "lidar" (InvalidArgument otherwise).
 core::Result<SensorKind> ParseSensorKind(const std::string& name);
 
+// The distance within which the given fraction of the world's points
+// have their nearest other point (over up to `samples` of them, evenly
+// strided; duplicates are not neighbours): 0.9 gives the spacing of all
+// but the sparsest tenth. 0 for fewer than two distinct points, or none
+// within 2 m. A surface sampled on a square grid of spacing s has holes
+// s / sqrt(2) from its points: discs of a smaller splat_radius let the
+// sensor see through them (docs/sim.md, "Points as discs").
+double PointSpacing(const std::vector<Vec3>& world, double quantile = 0.9, size_t samples = 4000);
+
 class SensorRenderer {
  public:
   // The world's points are indexed once. InvalidArgument for bad options,
