@@ -52,8 +52,12 @@ TEST(RollingMapTest, AWallIsOccupiedTheSpaceBeforeItFreeAndBehindItUnknown) {
 // A new obstacle in space seen free is reported once, by the frame that
 // turns its voxels occupied; one where nothing had been seen is not (it was
 // an obstacle to every plan already), nor one seen again.
-TEST(RollingMapTest, NewlyBlockedAreTheVoxelsThatTurnFromFreeToOccupied) {
-  auto map = Map();
+// With OctoMap's model alone a voxel seen free changes its mind in a few
+// frames; by default (returns_stay_occupied) the first return does it.
+void ExpectNewlyBlockedOnce(bool returns_stay_occupied) {
+  RollingMapOptions options;
+  options.returns_stay_occupied = returns_stay_occupied;
+  auto map = Map(options);
   for (int k = 0; k < 5; ++k) ASSERT_TRUE(map->Insert(Wall(3.0), Vec3::Zero()).ok());
   EXPECT_TRUE(map->NewlyBlocked().empty());  // the wall was unknown before its first frame
   ASSERT_EQ(map->State(Vec3(1.55, 0.05, 0.05)), VoxelState::kFree);
@@ -73,7 +77,16 @@ TEST(RollingMapTest, NewlyBlockedAreTheVoxelsThatTurnFromFreeToOccupied) {
     EXPECT_NEAR((centre - Vec3(1.55, 0.05, 0.05)).norm(), 0.0, 0.5 * std::sqrt(3.0) * 0.1 + 1e-12);
     EXPECT_EQ(map->State(centre), VoxelState::kOccupied);
   }
-  EXPECT_GE(reported_at, 1);  // a free voxel changes its mind in a few frames, not one
+  if (returns_stay_occupied) {
+    EXPECT_EQ(reported_at, 0);
+  } else {
+    EXPECT_GE(reported_at, 1);  // a free voxel changes its mind in a few frames, not one
+  }
+}
+
+TEST(RollingMapTest, NewlyBlockedAreTheVoxelsThatTurnFromFreeToOccupied) {
+  ExpectNewlyBlockedOnce(true);
+  ExpectNewlyBlockedOnce(false);
 }
 
 TEST(RollingMapTest, UnknownVoxelsAreTheOnesNoRayCrossed) {
@@ -101,8 +114,12 @@ TEST(RollingMapTest, AReturnBeyondTheRangeFreesTheRayButOccupiesNothing) {
   EXPECT_TRUE(map->OccupiedPoints().empty());
 }
 
-TEST(RollingMapTest, LaterFramesFreeAVoxelThatWasOccupied) {
-  auto map = Map();
+// OctoMap's model alone (returns_stay_occupied off): an obstacle that has
+// gone is freed by the rays that now pass through it.
+TEST(RollingMapTest, LaterFramesFreeAVoxelThatWasOccupiedUnderOctoMapsModel) {
+  RollingMapOptions options;
+  options.returns_stay_occupied = false;
+  auto map = Map(options);
   ASSERT_TRUE(map->Insert(Wall(3.0, 0.3), Vec3::Zero()).ok());
   ASSERT_EQ(map->State(Vec3(3.0, 0.0, 0.0)), VoxelState::kOccupied);
   // The panel has gone: the rays now reach a wall at 5 m through it. One
@@ -114,6 +131,39 @@ TEST(RollingMapTest, LaterFramesFreeAVoxelThatWasOccupied) {
   EXPECT_EQ(map->State(Vec3(3.0, 0.0, 0.0)), VoxelState::kFree);
   EXPECT_EQ(map->State(Vec3(5.0, 0.0, 0.0)), VoxelState::kOccupied);
   for (const Vec3& p : map->OccupiedPoints()) EXPECT_DOUBLE_EQ(p.x(), 5.0);
+}
+
+// By default a voxel a return has ended in stays occupied: rays passing
+// a surface's edge through the edge's voxel would otherwise free it, and
+// the edge would lie in "free" space. Here the rays pass a wall's edge,
+// inside its voxels, for twenty frames, and the edge's voxels stay
+// occupied; the same with OctoMap's model alone frees them.
+TEST(RollingMapTest, RaysPastAnEdgeDoNotFreeTheEdgesVoxels) {
+  // A wall at x = 3.02 that ends at y = 0.03, inside the voxel [0, 0.1) of y;
+  // beyond it a far wall at 5 m, which the rays past the edge reach.
+  std::vector<Vec3> edge_frame;
+  for (double y = -1.0; y <= 0.03 + 1e-9; y += 0.01) {
+    for (double z = -0.2; z <= 0.2 + 1e-9; z += 0.01) edge_frame.emplace_back(3.02, y, z);
+  }
+  std::vector<Vec3> past_frame;  // the rays that pass the edge, inside its voxels
+  for (double y = 0.04; y <= 1.0 + 1e-9; y += 0.01) {
+    for (double z = -0.2; z <= 0.2 + 1e-9; z += 0.01) past_frame.emplace_back(5.0, y * 5.0 / 3.02, z * 5.0 / 3.02);
+  }
+  for (bool sticky : {true, false}) {
+    RollingMapOptions options;
+    options.returns_stay_occupied = sticky;
+    auto map = Map(options);
+    ASSERT_TRUE(map->Insert(edge_frame, Vec3::Zero()).ok());
+    const Vec3 edge(3.02, 0.03, 0.0);
+    ASSERT_EQ(map->State(edge), VoxelState::kOccupied);
+    for (int k = 0; k < 20; ++k) ASSERT_TRUE(map->Insert(past_frame, Vec3::Zero()).ok());
+    EXPECT_EQ(map->State(edge), sticky ? VoxelState::kOccupied : VoxelState::kFree) << "sticky " << sticky;
+    // A voxel seen free first is occupied at its first return.
+    const Vec3 later(4.0, 0.5, 0.0);
+    ASSERT_EQ(map->State(later), VoxelState::kFree);
+    ASSERT_TRUE(map->Insert({later}, Vec3::Zero()).ok());
+    EXPECT_EQ(map->State(later), sticky ? VoxelState::kOccupied : VoxelState::kFree) << "sticky " << sticky;
+  }
 }
 
 TEST(RollingMapTest, WhatLeavesTheWindowIsForgotten) {

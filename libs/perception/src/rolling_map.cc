@@ -72,6 +72,7 @@ struct RollingMap::Impl {
     hit = LogOddsUnits(o.probability_hit);
     miss = LogOddsUnits(o.probability_miss);
     threshold = LogOddsUnits(o.occupied_threshold);
+    occupied_floor = static_cast<std::int8_t>(std::min(threshold + 1, static_cast<int>(kClampHigh)));
     low = LowFor(Vec3::Zero());
     swept_low = low;
   }
@@ -142,6 +143,16 @@ struct RollingMap::Impl {
     const int before = cells[cell].value == kUnknown ? 0 : cells[cell].value;
     cells[cell].value = static_cast<std::int8_t>(std::clamp(before + delta, kClampLow, kClampHigh));
   }
+  // A return ended in the voxel this frame.
+  void Hit(size_t cell) {
+    Update(cell, hit);
+    if (options.returns_stay_occupied) cells[cell].value = std::max(cells[cell].value, occupied_floor);
+  }
+  // A ray crossed the voxel without ending there.
+  void Miss(size_t cell) {
+    if (options.returns_stay_occupied && cells[cell].value != kUnknown && cells[cell].value > threshold) return;
+    Update(cell, miss);
+  }
   // A ray crossed the voxel: missed once this frame, unless it is an end
   // voxel. With several threads walking rays, the one whose compare-and-swap
   // marks the voxel owns it for the frame: only it writes the voxel's value.
@@ -159,7 +170,7 @@ struct RollingMap::Impl {
       mark = 2;
     }
     crossed->push_back(cell);
-    Update(cell, miss);
+    Miss(cell);
   }
   // Walks rays first, first + stride, ... (Amanatides and Woo), in plain
   // integers: the voxel's place in the window (for the inside test) and in
@@ -184,6 +195,7 @@ struct RollingMap::Impl {
   std::vector<Eigen::Vector3i> end_voxels;  // the end voxels of touched's first entries, this frame
   std::vector<Vec3> newly_blocked;          // NewlyBlocked()
   int hit = 0, miss = 0, threshold = 0;
+  std::int8_t occupied_floor = 0;  // the least occupied value (returns_stay_occupied)
   std::unordered_map<std::int64_t, std::vector<Vec3>> raw;  // by voxel key: the newest returns there
   size_t swept_size = 1024;  // raw's size after its last sweep (MoveWindow),
   Eigen::Vector3i swept_low = Eigen::Vector3i::Zero();  // and the window's low then
@@ -244,7 +256,7 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
   for (size_t i = 0; i < m.touched.size(); ++i) {
     const size_t cell = m.touched[i];
     const std::int8_t before = m.cells[cell].value;
-    m.Update(cell, m.hit);
+    m.Hit(cell);
     if (before != kUnknown && before <= m.threshold && m.cells[cell].value > m.threshold) {
       m.newly_blocked.push_back((m.end_voxels[i].cast<double>().array() + 0.5).matrix() * res);
     }
