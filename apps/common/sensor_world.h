@@ -13,19 +13,19 @@
 namespace quadhand::apps {
 
 // One warning line on stderr when the world's points lie farther apart than
-// the sensor's discs cover (sim::PointSpacing: nine in ten of its points have a neighbour that near): the sensor would see
-// through its surfaces and free the space behind them, which no real
-// sensor does. A world is not refused for it: the verdicts are still
-// against the true points.
+// the sensor's discs cover (sim::PointSpacing at 0.9: the spacing of all
+// but its sparsest tenth): the sensor would see through its surfaces and
+// free the space behind them, which no real sensor does. A world is not
+// refused for it: the verdicts are still against the true points.
 inline void WarnWhenTheSensorSeesThrough(const char* program, const std::string& world_path,
                                          const std::vector<Vec3>& world, const sim::SensorConfig& sensor) {
   const double spacing = sim::PointSpacing(world, 0.9);
   const double needed = spacing / std::sqrt(2.0);
   if (spacing <= 0.0 || sensor.splat_radius >= needed) return;
   std::fprintf(stderr,
-               "%s: warning: %s: a tenth of its points are %.3f m or more from their nearest, and discs of sensor.splat_radius %.3f m "
-               "leave holes between them that the simulated sensor sees through (docs/sim.md, \"Points as "
-               "discs\"); a radius of %.3f m or more covers them\n",
+               "%s: warning: %s: a tenth of its points are %.3f m or more from their nearest, and discs of "
+               "sensor.splat_radius %.3f m leave holes between them that the simulated sensor sees through "
+               "(docs/sim.md, \"Points as discs\"); a radius of %.3f m or more covers them\n",
                program, world_path.c_str(), spacing, sensor.splat_radius, std::ceil(needed * 1000.0) / 1000.0);
 }
 

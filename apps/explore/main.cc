@@ -72,7 +72,9 @@ int main(int argc, char** argv) {
   std::vector<std::string> silences;
   std::string appear_path;
   double appear_at = 0.0;
-  app.add_option("task", task_path, "Task file (YAML): robot, start, a goal at rest or a mission of reaches at rest, safety distance; its scene is the hidden world")
+  app.add_option("task", task_path,
+                 "Task file (YAML): robot, start, a goal at rest or a mission of reaches at rest, safety distance; "
+                 "its scene is the hidden world")
       ->required();
   app.add_option("--out", out_path, "The flown record (CSV, the plan file's columns)")->required();
   app.add_option("--report", report_path, "A JSON report: outcome, clearance, replans and their latency, map costs");
