@@ -207,6 +207,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   ExplorationResult result;
   result.legs = static_cast<int>(legs.size());
   std::optional<FlownPlan> flying, pending;
+  std::vector<Vec3> failed_at_rest;  // targets that failed from where the vehicle holds
   SensorFaults faults(options.sensor_faults, options.fault_seed);
   const double planned_distance = planner->PlannedSafetyDistance(options.map.resolution);
   perception::FrameGate gate(options.frame_gate);
@@ -302,12 +303,24 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
     if (!silence && !goal_held && !pending && t >= next_replan - 1e-9) {
       const double t_start = t + options.plan_ahead;
       const planner::BoundaryState start = flying ? flying->At(t_start).State() : hold_sample.State();
-      auto planned = planner->PlanFrom(**map, start);
+      auto planned = planner->PlanFrom(**map, start, failed_at_rest);
       if (!planned.ok()) return planned.status();
       result.replans.push_back(ReplanRecord{{static_cast<const LocalPlanSummary&>(*planned)}, t, static_cast<int>(leg)});
       if (progress) progress(result.replans.back());
       if (IsCertified(planned->status)) {
         pending = FlownPlan{std::move(*planned->plan.trajectory), t_start, planned->status == LocalPlanStatus::kToGoal};
+        failed_at_rest.clear();
+      } else if (!flying || flying->Stopped(t_start)) {
+        // From rest on an unchanged map the same targets fail the same
+        // way: the next replans try others first, and all again once
+        // nothing new is left to try.
+        if (planned->tried_targets.empty()) {
+          failed_at_rest.clear();
+        } else {
+          failed_at_rest.insert(failed_at_rest.end(), planned->tried_targets.begin(), planned->tried_targets.end());
+        }
+      } else {
+        failed_at_rest.clear();
       }
       next_replan = t + options.replan_period;
     }
@@ -323,6 +336,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       // ended plan holds the vehicle there meanwhile).
       planner = legs[++leg];
       flying->to_goal = false;
+      failed_at_rest.clear();
       next_replan = t;
       last_new_plan = t;
     }

@@ -195,9 +195,10 @@ double LocalPlanner::AccelerationLimit() const {
 }
 
 core::Result<LocalPlanResult> LocalPlanner::PlanFrom(const perception::RollingMap& map,
-                                                     const planner::BoundaryState& start) const {
+                                                     const planner::BoundaryState& start,
+                                                     const std::vector<Vec3>& avoid) const {
   if (!start.position.allFinite()) return core::Status::InvalidArgument("local plan: the start state is not finite");
-  return PlanIn(Snapshot(map, start.position), start);
+  return PlanIn(Snapshot(map, start.position), start, 0.0, avoid);
 }
 
 LocalMapSnapshot LocalPlanner::Snapshot(const perception::RollingMap& map, const Vec3& start) const {
@@ -253,7 +254,8 @@ LocalMapSnapshot LocalPlanner::Snapshot(const perception::RollingMap& map, const
 }
 
 core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snapshot,
-                                                   const planner::BoundaryState& start, double v_max) const {
+                                                   const planner::BoundaryState& start, double v_max,
+                                                   const std::vector<Vec3>& avoid) const {
   const auto begin = std::chrono::steady_clock::now();
   const planner::Task& base_task = base_.task();
   if (!start.position.allFinite() || !start.velocity.allFinite() || !start.acceleration.allFinite() ||
@@ -350,7 +352,8 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
   // Attempt a takes the best target within horizon / 2^a of the start: when
   // the far targets fail (a turn through a door the solve cannot make in
   // one plan), a shorter hop towards them still moves the vehicle on.
-  std::vector<Vec3> tried;
+  // The targets to avoid count as tried already (but are not reported).
+  std::vector<Vec3> tried = avoid;
   int checks = 0;
   const auto plan_start = std::chrono::steady_clock::now();
   for (int attempt = 0; attempt < local_.max_targets && checks < local_.max_target_checks; ++attempt) {
@@ -403,7 +406,8 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
     result.status = is_goal ? LocalPlanStatus::kToGoal : LocalPlanStatus::kToLocalTarget;
     break;
   }
-  result.targets_tried = static_cast<int>(tried.size());
+  result.tried_targets.assign(tried.begin() + static_cast<long>(avoid.size()), tried.end());
+  result.targets_tried = static_cast<int>(result.tried_targets.size());
   result.plan_ms = MsSince(plan_start);
   if (result.status == LocalPlanStatus::kFailed && result.message.empty()) result.message = "no target planned";
   result.total_ms = MsSince(begin) + snapshot.ms;

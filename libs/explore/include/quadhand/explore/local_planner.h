@@ -166,6 +166,8 @@ struct LocalMapSnapshot {
 struct LocalPlanResult : LocalPlanSummary {
   planner::PlanResult plan;  // the certified plan (kToGoal, kToLocalTarget)
   Vec3 target = Vec3::Zero();
+  // Every target a plan was tried to, in order (the certified one last).
+  std::vector<Vec3> tried_targets;
 };
 
 class LocalPlanner {
@@ -182,13 +184,17 @@ class LocalPlanner {
   // A plan from `start` (world ENU; usually a state on the plan being flown)
   // in what `map` has seen. Ordinary outcomes are statuses; errors only for
   // inconsistent input (joint counts, non-finite states).
-  core::Result<LocalPlanResult> PlanFrom(const perception::RollingMap& map, const planner::BoundaryState& start) const;
+  // `avoid`: targets (the goal among them) within target_separation of
+  // these are not tried, e.g. the ones that failed from the same state at
+  // rest before: the same map and start would fail them again.
+  core::Result<LocalPlanResult> PlanFrom(const perception::RollingMap& map, const planner::BoundaryState& start,
+                                         const std::vector<Vec3>& avoid = {}) const;
   // PlanFrom in two steps: the map's part (a few ms), and the plan from it
   // (no map needed, so in any thread). Snapshot needs only the start's
   // position. `v_max` > 0 lowers the speed limit further (a slow link).
   LocalMapSnapshot Snapshot(const perception::RollingMap& map, const Vec3& start) const;
   core::Result<LocalPlanResult> PlanIn(const LocalMapSnapshot& snapshot, const planner::BoundaryState& start,
-                                       double v_max = 0.0) const;
+                                       double v_max = 0.0, const std::vector<Vec3>& avoid = {}) const;
 
   const planner::BoundaryState& goal() const { return goal_; }
   const LocalPlannerOptions& options() const { return local_; }
