@@ -230,17 +230,8 @@ int main(int argc, char** argv) {
   if (robot->LinkIndex(sensor.link) < 0) return Fail(sim_config_path + ": sensor.link: the robot has no link '" + sensor.link + "'");
   if (!quiet) {
     apps::WarnWhenTheSensorSeesThrough("quadhand-explore", world_path, *world, sensor);
-    // The take-off ball is free by assumption (no sensor sees it): a world
-    // point inside it is space the planner takes as free.
-    double nearest = std::numeric_limits<double>::infinity();
-    for (const Vec3& p : *world) nearest = std::min(nearest, (p - task->start.position).norm());
-    if (nearest < options.start_free_radius) {
-      std::fprintf(stderr,
-                   "quadhand-explore: warning: %s: a point of the world lies %.3f m from the start, inside "
-                   "--start-free-radius %.3f m, which the map takes as free (docs/perception.md, \"Planning from "
-                   "the map\")\n",
-                   world_path.c_str(), nearest, options.start_free_radius);
-    }
+    apps::WarnWhenTheStartBallHoldsTheWorld("quadhand-explore", world_path, *world, task->start.position,
+                                            options.start_free_radius);
   }
   auto renderer = sim::SensorRenderer::Create(*world, sensor, seed ^ 0x73656e73ull);
   if (!renderer.ok()) return Fail(sim_config_path + ": " + renderer.status().message());

@@ -2,12 +2,13 @@
 // map"): what a range sensor has seen, in voxels that are occupied, free or
 // unknown, within a window that follows the vehicle. Each frame's rays mark
 // the voxels they cross free and the voxels they end in occupied: log-odds
-// occupancy with OctoMap's sensor model and clamping (so a voxel seen often
-// changes its mind in a bounded number of frames), each voxel updated once
-// per frame, an end voxel never also missed; by default a voxel a return
-// ended in stays occupied (RollingMapOptions::returns_stay_occupied). The window is a dense ring of
-// voxels (moving it clears only the slabs that leave); the raw points that
-// ended in occupied voxels are kept (a few per voxel) for the exact checks.
+// occupancy with OctoMap's sensor model and clamping, each voxel updated
+// once per frame, an end voxel never also missed. By default a voxel a
+// return ended in stays occupied (RollingMapOptions::returns_stay_occupied);
+// under OctoMap's model alone a voxel seen often changes its mind in a
+// bounded number of frames. The window is a dense ring of voxels (moving it
+// clears only the slabs that leave); the raw points that ended in occupied
+// voxels are kept (a few per voxel) for the exact checks.
 // What leaves the window is forgotten: the memory is bounded by the window,
 // not by the flight.
 //
