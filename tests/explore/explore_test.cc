@@ -57,6 +57,8 @@ class ExploreTest : public ::testing::Test {
     dir_ = fs::temp_directory_path() / ("quadhand_explore_" + std::to_string(getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
+    flown_ = (dir_ / "flown.csv").string();
+    report_ = (dir_ / "report.json").string();
   }
   void TearDown() override { fs::remove_all(dir_); }
 
@@ -103,7 +105,15 @@ class ExploreTest : public ::testing::Test {
     return p;
   }
 
+  // quadhand-explore flies `task` (`args` added, --quiet): its flown record
+  // into flown_, its report into report_, both in the test's folder.
+  testing::CommandResult Explore(const std::string& task, const std::string& args = "") const {
+    return RunCommand(kExplore + " " + task + " --out " + flown_ + " --report " + report_ + " " + args + " --quiet");
+  }
+  nlohmann::json Report() const { return nlohmann::json::parse(testing::ReadAll(report_)); }
+
   fs::path dir_;
+  std::string flown_, report_;
 };
 
 std::unique_ptr<perception::RollingMap> MapOf(const std::vector<Vec3>& seen, const Vec3& origin) {
@@ -337,14 +347,12 @@ TEST_F(ExploreTest, LeavesADeadEndAlongTheGuide) {
     text.replace(text.find(from), from.size(), to);
     std::ofstream(task) << text;
   }
-  const std::string flown = (dir_ / "flown.csv").string(), report = (dir_ / "report.json").string();
-  const auto r = RunCommand(kExplore + " " + task + " --out " + flown + " --report " + report +
-                            " --guide-cell 0.4 --quiet");
+  const auto r = Explore(task, "--guide-cell 0.4");
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  const nlohmann::json j = nlohmann::json::parse(testing::ReadAll(report));
+  const nlohmann::json j = Report();
   EXPECT_EQ(j["outcome"], "arrived");
   EXPECT_TRUE(j["kept_clearance"].get<bool>());
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
   // (Without the guide, the default, the same flight ends stuck in the
   // pocket: docs/perception.md. Not run here: it takes a minute to fail.)
@@ -355,10 +363,9 @@ std::vector<Vec3> Posts() { return testing::PostsWorld(/*with_floor=*/false); }
 
 TEST_F(ExploreTest, FliesPastPostsItHasNeverSeenAndKeepsTheClearance) {
   const std::string task = WriteTask(Posts(), Vec3(8.0, 0.0, 1.2));
-  const std::string flown = (dir_ / "flown.csv").string(), report = (dir_ / "report.json").string();
-  const auto r = RunCommand(kExplore + " " + task + " --out " + flown + " --report " + report + " --quiet");
+  const auto r = Explore(task);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  const nlohmann::json j = nlohmann::json::parse(testing::ReadAll(report));
+  const nlohmann::json j = Report();
   EXPECT_EQ(j["outcome"], "arrived");
   EXPECT_TRUE(j["success"].get<bool>());
   EXPECT_TRUE(j["kept_clearance"].get<bool>());
@@ -367,7 +374,7 @@ TEST_F(ExploreTest, FliesPastPostsItHasNeverSeenAndKeepsTheClearance) {
   EXPECT_GT(j["replans_certified"].get<int>(), 1);  // it did not see the goal from the start
   EXPECT_GT(j["frames"].get<int>(), 10);
   // The independent judge agrees.
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
@@ -395,10 +402,9 @@ TEST_F(ExploreTest, FliesAMissionOfReachesLegByLeg) {
   EXPECT_TRUE((*legs)[1].start.position.isApprox(Vec3(4.2, 0.0, 1.2)));  // where the first leg ends
   EXPECT_TRUE((*legs)[1].terminal->position.isApprox(Vec3(8.0, 0.0, 1.4)));
 
-  const std::string flown = (dir_ / "flown.csv").string(), report = (dir_ / "report.json").string();
-  const auto r = RunCommand(kExplore + " " + task + " --out " + flown + " --report " + report + " --quiet");
+  const auto r = Explore(task);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  const nlohmann::json j = nlohmann::json::parse(testing::ReadAll(report));
+  const nlohmann::json j = Report();
   EXPECT_EQ(j["outcome"], "arrived");
   EXPECT_EQ(j["legs"], 2);
   EXPECT_EQ(j["legs_arrived"], 2);
@@ -416,7 +422,7 @@ TEST_F(ExploreTest, FliesAMissionOfReachesLegByLeg) {
   // The vehicle stood at the first reach when the second leg was planned.
   auto robot = robot::RobotModel::LoadFromUrdfFile(loaded->robot_path);
   ASSERT_TRUE(robot.ok());
-  auto record = sim::LoadPlanCsv(flown, robot->ActuatedJointNames());
+  auto record = sim::LoadPlanCsv(flown_, robot->ActuatedJointNames());
   ASSERT_TRUE(record.ok()) << record.status().message();
   double nearest = 1e9, speed_there = 1e9;
   for (const sim::PlanRow& sample : record->rows) {
@@ -427,7 +433,7 @@ TEST_F(ExploreTest, FliesAMissionOfReachesLegByLeg) {
   }
   EXPECT_LT(nearest, 0.15);
   EXPECT_LT(speed_there, 0.1);
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
@@ -469,15 +475,13 @@ TEST_F(ExploreTest, FliesThroughANarrowGapItHasNeverSeenOnAFinerMap) {
     }
   }
   const std::string task = WriteTask(world, Vec3(3.2, 0.0, 1.2));
-  const std::string flown = (dir_ / "flown.csv").string(), report = (dir_ / "report.json").string();
-  const auto r = RunCommand(kExplore + " " + task + " --out " + flown + " --report " + report +
-                            " --resolution 0.05 --tracking-margin 0 --window 6,6,3 --quiet");
+  const auto r = Explore(task, "--resolution 0.05 --tracking-margin 0 --window 6,6,3");
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  const nlohmann::json j = nlohmann::json::parse(testing::ReadAll(report));
+  const nlohmann::json j = Report();
   EXPECT_EQ(j["outcome"], "arrived");
   EXPECT_GE(j["min_clearance_m"].get<double>(), 0.028);
   EXPECT_NEAR(j["planned_safety_distance_m"].get<double>(), 0.03 + std::sqrt(3.0) * 0.025, 1e-9);
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
@@ -556,11 +560,9 @@ TEST_F(ExploreTest, ReplansOverRecordedFramesFromWhereTheVehicleWas) {
 // the flight still arrives with its clearance.
 TEST_F(ExploreTest, BrakesAndHoldsWhileTheSensorIsSilentAndDropsBadFrames) {
   const std::string task = WriteTask(Posts(), Vec3(8.0, 0.0, 1.2));
-  const std::string flown = (dir_ / "flown.csv").string(), report = (dir_ / "report.json").string();
-  const auto r = RunCommand(kExplore + " " + task + " --out " + flown + " --report " + report +
-                            " --silence 1.5-3.5 --bad-frames 0.3 --quiet");
+  const auto r = Explore(task, "--silence 1.5-3.5 --bad-frames 0.3");
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  const nlohmann::json j = nlohmann::json::parse(testing::ReadAll(report));
+  const nlohmann::json j = Report();
   EXPECT_TRUE(j["success"].get<bool>());
   EXPECT_GE(j["min_clearance_m"].get<double>(), 0.028);
 
@@ -594,7 +596,7 @@ TEST_F(ExploreTest, BrakesAndHoldsWhileTheSensorIsSilentAndDropsBadFrames) {
   ASSERT_LT(stopped, 3.0);
   // Held: from half a second after the brake ends until frames return, the
   // vehicle's own states barely move.
-  std::ifstream csv(flown);
+  std::ifstream csv(flown_);
   std::string line;
   std::getline(csv, line);
   const std::vector<std::string> header = core::TrimmedFields(line);
@@ -613,7 +615,7 @@ TEST_F(ExploreTest, BrakesAndHoldsWhileTheSensorIsSilentAndDropsBadFrames) {
     ++held;
   }
   EXPECT_GT(held, 20);
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
@@ -630,11 +632,9 @@ TEST_F(ExploreTest, APlanCrossedByANewObstacleBrakesAndReplansAroundIt) {
   }
   const std::string appear = (dir_ / "patch.pcd").string();
   ASSERT_TRUE(scene::WritePcd(appear, patch).ok());
-  const std::string flown = (dir_ / "flown.csv").string(), report = (dir_ / "report.json").string();
-  const auto r = RunCommand(kExplore + " " + task + " --out " + flown + " --report " + report + " --appear " + appear +
-                            " --appear-at 0.5 --replan-period 4 --time-limit 80 --quiet");
-  ASSERT_EQ(r.exit_code, 0) << r.out << r.err << testing::ReadAll(report);
-  const nlohmann::json j = nlohmann::json::parse(testing::ReadAll(report));
+  const auto r = Explore(task, "--appear " + appear + " --appear-at 0.5 --replan-period 4 --time-limit 80");
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err << testing::ReadAll(report_);
+  const nlohmann::json j = Report();
   EXPECT_TRUE(j["success"].get<bool>());
   ASSERT_FALSE(j["invalidations"].empty());
   const nlohmann::json& first = j["invalidations"][0];
@@ -649,7 +649,7 @@ TEST_F(ExploreTest, APlanCrossedByANewObstacleBrakesAndReplansAroundIt) {
   std::vector<Vec3> with_patch = Posts();
   with_patch.insert(with_patch.end(), patch.begin(), patch.end());
   const std::string judged = WriteTask(with_patch, Vec3(8.0, 0.0, 1.2), "with_patch");
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + judged + " " + flown);
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + judged + " " + flown_);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
