@@ -404,6 +404,10 @@ core::Result<bool> FindFrontEndPath(const PlanningScene& scene, const Task& task
     whole.goal_escaped = path->goal_escaped;
     from = stops[k];
   }
+  // A terminal where the start stands (a turn in place, an arm's motion
+  // at a hover) is a path of one point, which the guess needs twice.
+  if (whole.raw.size() == 1) whole.raw.push_back(whole.raw.front());
+  if (whole.shortcut.size() == 1) whole.shortcut.push_back(whole.shortcut.front());
   result->front_end_ms = MillisecondsSince(front_start);
   result->path = std::move(whole);
   return true;
@@ -423,6 +427,12 @@ core::Result<InitialGuess> GuessFromPath(const robot::RobotModel& robot, const T
   InitialGuess guess;
   QUADHAND_RETURN_IF_ERROR(
       InitialGuessFromPath(corners, pieces, cruise, acceleration, &guess.position_waypoints, &guess.durations));
+  // A short path with a wide turn (a turn in place: none at all): the
+  // guess takes long enough to turn at two thirds of the yaw rate limit.
+  const double turn_s = 1.5 * std::abs(result.terminal.yaw - task.start.yaw) / task.limits.yaw_rate_max;
+  if (std::isfinite(turn_s) && guess.durations.sum() > 0.0 && guess.durations.sum() < turn_s) {
+    guess.durations *= turn_s / guess.durations.sum();
+  }
   const VecX& durations = guess.durations;
   const int n = robot.num_actuated();
   MatX& aux_waypoints = guess.aux_waypoints;
