@@ -113,6 +113,9 @@ int main(int argc, char** argv) {
   app.add_option("--start-free-radius", options.start_free_radius,
                  "The space within this of the start is taken as free (the vehicle stands there), m")
       ->capture_default_str();
+  bool no_look_round = false;
+  app.add_flag("--no-look-round", no_look_round,
+               "At rest with no target, hold instead of turning in place to look along headings not yet seen");
   app.add_option("--miss-stride", options.miss_stride,
                  "Rays with no return free the map along every this-many-th pixel of each image axis (1-64)")
       ->capture_default_str();
@@ -152,6 +155,7 @@ int main(int argc, char** argv) {
     options.sensor_faults.silences.push_back(window);
   }
   options.fault_seed = seed ^ 0x6661756c74ull;
+  options.look_round = !no_look_round;
   if (!(std::isfinite(appear_at) && appear_at >= 0.0)) return Fail("--appear-at must be a time >= 0 s");
   if (!map_window.empty()) options.map.window_half_extent = Vec3(map_window[0], map_window[1], map_window[2]);
   if (std::string why; !options.IsValid(&why)) return Fail(why);

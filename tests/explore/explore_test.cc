@@ -18,6 +18,7 @@
 #include "quadhand/core/text.h"
 #include "quadhand/explore/guide.h"
 #include "quadhand/explore/local_planner.h"
+#include "quadhand/explore/look_round.h"
 #include "quadhand/explore/recorded_replans.h"
 #include "quadhand/explore/sensor_faults.h"
 #include "quadhand/opt/solver_registry.h"
@@ -252,6 +253,105 @@ TEST_F(ExploreTest, NothingSeenGivesNoPlan) {
   planner::BoundaryState bad = p.base->task().start;
   bad.joints.resize(1);
   EXPECT_FALSE(p.local->PlanFrom(*map, bad).ok());
+}
+
+// A turn in place (LocalPlanner::PlanTurnFrom) from rest in the vehicle's
+// own seen-free ball: certified, the base held within centimetres of where
+// it stands, the sensor's heading brought to the one asked; a non-finite
+// heading is an error.
+TEST_F(ExploreTest, TurnsInPlaceWithinWhatItHasSeenFree) {
+  Planner p = MakePlanner(WriteTask(WallAt(5.0), Vec3(8.0, 0.0, 1.2)));
+  auto map = MapOf({}, Vec3(0.0, 0.0, 1.2));
+  const planner::BoundaryState& from = p.base->task().start;
+  auto turned = p.local->PlanTurnFrom(*map, from, 2.0);
+  ASSERT_TRUE(turned.ok()) << turned.status().message();
+  ASSERT_EQ(turned->status, explore::LocalPlanStatus::kTurnInPlace) << turned->message;
+  ASSERT_TRUE(turned->plan.trajectory.has_value());
+  EXPECT_TRUE(explore::IsCertified(turned->status));
+  const planner::WholeBodyTrajectory& trajectory = *turned->plan.trajectory;
+  double farthest = 0.0;
+  for (double t = 0.0; t <= trajectory.duration(); t += 0.02) {
+    farthest = std::max(farthest, (trajectory.Sample(t).position - from.position).norm());
+  }
+  EXPECT_LT(farthest, 0.1);
+  EXPECT_NEAR(std::remainder(trajectory.Sample(trajectory.duration()).yaw - 2.0, 2.0 * M_PI), 0.0, 0.01);
+  ExpectInSeenFreeSpace(trajectory, *map);
+  EXPECT_FALSE(p.local->PlanTurnFrom(*map, from, std::nan("")).ok());
+}
+
+// Looking round (explore/look_round.h): the goal's bearing first, then the
+// rest of the horizon in turns that each take in new headings, until every
+// heading has been looked along; a LiDAR's one frame looks all round.
+TEST(LookRoundTest, LooksTowardsTheGoalThenRoundTheRestAndStops) {
+  const double fov = 87.0 * M_PI / 180.0;
+  explore::LookRound look(fov);
+  EXPECT_FALSE(look.WasLooked(0.0));
+  look.Looked(0.0);
+  EXPECT_TRUE(look.WasLooked(0.0) && look.WasLooked(0.7) && look.WasLooked(-0.7));
+  EXPECT_FALSE(look.WasLooked(0.9) || look.WasLooked(-0.9) || look.WasLooked(M_PI));
+  // The goal behind: turn to face it.
+  auto next = look.Next(0.0, 3.0);
+  ASSERT_TRUE(next.has_value());
+  EXPECT_NEAR(*next, 3.0, 1e-9);
+  look.Looked(*next);
+  // Then round the rest, each turn taking in the unlooked heading nearest
+  // the goal's bearing, until nothing is left.
+  double now = *next;
+  int turns = 0;
+  while (auto heading = look.Next(now, 3.0)) {
+    ASSERT_LT(++turns, 8) << "looking round does not end";
+    // The view, turned there, takes in a heading not looked along before.
+    bool new_heading = false;
+    for (double a = -0.5 * fov; a <= 0.5 * fov; a += 0.01) new_heading = new_heading || !look.WasLooked(*heading + a);
+    EXPECT_TRUE(new_heading) << *heading;
+    look.Looked(*heading);
+    now = *heading;
+  }
+  EXPECT_GE(turns, 2);  // 87 + 87 degrees leave 186 to look along
+  for (double a = -M_PI; a < M_PI; a += 0.01) EXPECT_TRUE(look.WasLooked(a)) << a;
+  look.Clear();
+  EXPECT_FALSE(look.WasLooked(0.0));
+  EXPECT_FALSE(look.Next(std::nan(""), 0.0).has_value());
+
+  explore::LookRound lidar(2.0 * M_PI);
+  lidar.Looked(1.0);
+  EXPECT_FALSE(lidar.Next(1.0, -2.0).has_value());
+  // A sensor looking straight down has no heading.
+  EXPECT_FALSE(explore::LookRound::HeadingOf(MakePose(Vec3::Zero(), Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY()).toRotationMatrix()),
+                                             Vec3::UnitX())
+                   .has_value());
+  EXPECT_NEAR(*explore::LookRound::HeadingOf(MakePose(Vec3::Zero(), Eigen::AngleAxisd(1.0, Vec3::UnitZ()).toRotationMatrix()),
+                                             Vec3::UnitX()),
+              1.0, 1e-12);
+}
+
+// A vehicle put down facing a wall 0.9 m ahead, its goal 3 m behind it: it
+// turns in place to look along the goal's bearing (a plan from rest brings
+// the goal no nearer by enough, or none is certified), then flies there,
+// and flightcheck agrees; with --no-look-round it holds until it ends stuck.
+TEST_F(ExploreTest, TurnsRoundWhenFacingAWallWithTheGoalBehind) {
+  const std::string task = WriteTask(WallAt(0.9), Vec3(-3.0, 0.0, 1.2));
+  const std::string common = "--stuck-time 3 --time-limit 40";
+  const auto r = Explore(task, common);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  nlohmann::json j = Report();
+  EXPECT_EQ(j["outcome"], "arrived");
+  auto turns = [](const nlohmann::json& report) {
+    int n = 0;
+    for (const nlohmann::json& replan : report["replan_log"]) n += replan["status"] == "turn_in_place";
+    return n;
+  };
+  EXPECT_GE(turns(j), 1);
+  EXPECT_GE(j["min_clearance_m"].get<double>(), 0.028);
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+
+  // Without looking round, what it sees leaves no way on: it holds.
+  const auto held = Explore(task, common + " --no-look-round");
+  EXPECT_EQ(held.exit_code, 1) << held.out << held.err;
+  j = Report();
+  EXPECT_EQ(j["outcome"], "stuck");
+  EXPECT_EQ(turns(j), 0);
 }
 
 // The guide (explore/guide.h) against exact lengths: in open space it is

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <optional>
 
+#include "quadhand/explore/look_round.h"
 #include "quadhand/robot/kinematics.h"
 
 namespace quadhand::explore {
@@ -39,6 +40,10 @@ struct FlownPlan {
   planner::WholeBodyTrajectory trajectory;
   double t0 = 0.0;
   bool to_goal = false;
+  // A plan to the goal or nearer it (LocalPlanResult::progress): the
+  // headings looked along before it are from elsewhere.
+  bool progress = false;
+  bool turn = false;  // a turn in place: flown to its end before the next replan
   bool braked = false;
   double brake_t = 0.0, brake_tau = 0.0, brake_s = 0.0;
 
@@ -208,6 +213,14 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   result.legs = static_cast<int>(legs.size());
   std::optional<FlownPlan> flying, pending;
   std::vector<Vec3> failed_at_rest;  // targets that failed from where the vehicle holds
+  // The headings looked along from where the vehicle holds, and the
+  // sensor's axis (its frame's) and horizontal field of view.
+  const bool depth = sensor.kind == sim::SensorKind::kDepth;
+  const Vec3 sensor_axis = depth ? Vec3::UnitZ() : Vec3::UnitX();
+  LookRound look(depth ? sensor.depth.horizontal_fov_deg * M_PI / 180.0 : 2.0 * M_PI);
+  auto sensor_pose_of = [&](const Vec3& position, const Quat& attitude, const VecX& joints) {
+    return robot::LinkPose(robot, MakePose(position, attitude.toRotationMatrix()), joints, link) * sensor.Mount();
+  };
   SensorFaults faults(options.sensor_faults, options.fault_seed);
   const double planned_distance = planner->PlannedSafetyDistance(options.map.resolution);
   perception::FrameGate gate(options.frame_gate);
@@ -221,11 +234,12 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       flying = std::move(pending);
       pending.reset();
       last_new_plan = t;
+      if (flying->progress) look.Clear();
     }
     const sim::VehicleState& state = simulator->state();
     if (t >= next_frame - 1e-9) {
-      const Pose base = MakePose(state.position, state.attitude.toRotationMatrix());
-      const Pose sensor_pose = robot::LinkPose(robot, base, state.joints, link) * sensor.Mount();
+      const Pose sensor_pose = sensor_pose_of(state.position, state.attitude, state.joints);
+      if (const auto heading = LookRound::HeadingOf(sensor_pose, sensor_axis)) look.Looked(*heading);
       perception::SensorFrame sent;
       sent.t = t;
       perception::SetSensorPose(sensor_pose, &sent);
@@ -300,17 +314,48 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       last_new_plan = t;
     }
     const bool goal_held = (flying && flying->to_goal && !flying->braked) || (pending && pending->to_goal);
-    if (!silence && !goal_held && !pending && t >= next_replan - 1e-9) {
+    const bool turning = flying && flying->turn && !flying->Stopped(t);
+    if (!silence && !goal_held && !turning && !pending && t >= next_replan - 1e-9) {
       const double t_start = t + options.plan_ahead;
       const planner::BoundaryState start = flying ? flying->At(t_start).State() : hold_sample.State();
       auto planned = planner->PlanFrom(**map, start, failed_at_rest);
       if (!planned.ok()) return planned.status();
       result.replans.push_back(ReplanRecord{{static_cast<const LocalPlanSummary&>(*planned)}, t, static_cast<int>(leg)});
       if (progress) progress(result.replans.back());
-      if (IsCertified(planned->status)) {
+      const bool at_rest = !flying || flying->Stopped(t_start);
+      const bool certified = IsCertified(planned->status);
+      bool turned = false;
+      // Nothing certified from rest, or only a hop along the frontier that
+      // brings the goal no nearer: a heading not looked along since the
+      // last progress may show a way on, so the vehicle turns to it first.
+      if (options.look_round && ((!certified && at_rest) || (certified && !planned->progress))) {
+        const Vec3 to_goal = planner->goal().position - start.position;
+        const Pose now =
+            sensor_pose_of(start.position, Quat(Eigen::AngleAxisd(start.yaw, Vec3::UnitZ())), start.joints);
+        const auto heading = LookRound::HeadingOf(now, sensor_axis);
+        const double bearing = to_goal.head<2>().norm() > 1e-6 ? std::atan2(to_goal.y(), to_goal.x()) : start.yaw;
+        if (const auto next = heading ? look.Next(*heading, bearing) : std::nullopt) {
+          // The body turns by what the sensor's heading must.
+          auto turn = planner->PlanTurnFrom(**map, start, start.yaw + std::remainder(*next - *heading, 2.0 * M_PI));
+          if (!turn.ok()) return turn.status();
+          result.replans.push_back(ReplanRecord{{static_cast<const LocalPlanSummary&>(*turn)}, t, static_cast<int>(leg)});
+          if (progress) progress(result.replans.back());
+          if (IsCertified(turn->status)) {
+            pending = FlownPlan{std::move(*turn->plan.trajectory), t_start, false};
+            pending->turn = true;
+            failed_at_rest.clear();
+            turned = true;
+          } else {
+            look.Looked(*next);  // a heading it cannot turn to is not tried again from here
+          }
+        }
+      }
+      if (turned) {
+      } else if (certified) {
         pending = FlownPlan{std::move(*planned->plan.trajectory), t_start, planned->status == LocalPlanStatus::kToGoal};
+        pending->progress = planned->progress;
         failed_at_rest.clear();
-      } else if (!flying || flying->Stopped(t_start)) {
+      } else if (at_rest) {
         // From rest on an unchanged map the same targets fail the same
         // way: the next replans try others first, and all again once
         // nothing new is left to try.

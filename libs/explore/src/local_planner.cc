@@ -67,6 +67,7 @@ const char* LocalPlanStatusName(LocalPlanStatus status) {
     case LocalPlanStatus::kToLocalTarget: return "to_local_target";
     case LocalPlanStatus::kNoTarget: return "no_target";
     case LocalPlanStatus::kFailed: return "failed";
+    case LocalPlanStatus::kTurnInPlace: return "turn_in_place";
   }
   return "unknown";
 }
@@ -242,21 +243,31 @@ LocalMapSnapshot LocalPlanner::Snapshot(const perception::RollingMap& map, const
   snapshot.seen_free_rank.reserve(snapshot.seen_free.size());
   if (local_.guide_cell > 0.0 && !snapshot.seen_free.empty()) {
     const Guide guide = Guide::Compute(map, goal_.position, local_.guide_cell, local_.max_height_offset);
-    for (const Vec3& p : snapshot.seen_free) {
+    auto rank = [&](const Vec3& p) {
       const double cost = guide.CostAt(p);
-      snapshot.seen_free_rank.push_back(std::isfinite(cost) ? cost : kUnreachableRank + (p - goal_.position).norm());
-    }
+      return std::isfinite(cost) ? cost : kUnreachableRank + (p - goal_.position).norm();
+    };
+    for (const Vec3& p : snapshot.seen_free) snapshot.seen_free_rank.push_back(rank(p));
+    snapshot.start_rank = rank(start);
   } else {
     for (const Vec3& p : snapshot.seen_free) snapshot.seen_free_rank.push_back((p - goal_.position).norm());
+    snapshot.start_rank = (start - goal_.position).norm();
   }
   snapshot.ms = MsSince(begin);
   return snapshot;
 }
 
-core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snapshot,
-                                                   const planner::BoundaryState& start, double v_max,
-                                                   const std::vector<Vec3>& avoid) const {
-  const auto begin = std::chrono::steady_clock::now();
+// What PlanIn and PlanTurnIn share: the task of a plan from `start` in the
+// snapshot's boundary, its context, and the safety distance the start
+// allows (a recovery from a start nearer than the certificate's floor).
+struct LocalPlanner::Prepared {
+  planner::Task task;
+  std::unique_ptr<planner::PlanningContext> context;
+  planner::PlannerOptions options;
+};
+
+core::Result<bool> LocalPlanner::Prepare(const LocalMapSnapshot& snapshot, const planner::BoundaryState& start,
+                                         double v_max, LocalPlanResult* result, Prepared* prepared) const {
   const planner::Task& base_task = base_.task();
   if (!start.position.allFinite() || !start.velocity.allFinite() || !start.acceleration.allFinite() ||
       !start.jerk.allFinite() || !std::isfinite(start.yaw) || !std::isfinite(start.yaw_rate) ||
@@ -269,31 +280,30 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
   if (snapshot.boundary == nullptr || (snapshot.start - start.position).norm() > 1e-9) {
     return core::Status::InvalidArgument("local plan: the map's snapshot was taken about another start");
   }
-  LocalPlanResult result;
-  const Vec3 lo = snapshot.lo, hi = snapshot.hi;
-  result.scene_points = snapshot.boundary->size();
-  result.scene_ms = snapshot.ms;
+  result->scene_points = snapshot.boundary->size();
+  result->scene_ms = snapshot.ms;
 
-  planner::Task task = base_task;
+  planner::Task& task = prepared->task;
+  task = base_task;
   task.scans.clear();
   task.start = start;
   task.safety_distance = PlannedSafetyDistance(snapshot.resolution);
   task.limits.v_max = std::min(task.limits.v_max, local_.max_speed);
   if (v_max > 0.0) task.limits.v_max = std::min(task.limits.v_max, v_max);
   task.limits.a_max = AccelerationLimit();
-  auto in_box = [&](const Vec3& p) { return ((p - lo).array() >= 0.0).all() && ((hi - p).array() >= 0.0).all(); };
-  const bool goal_in_box = in_box(goal_.position);
+  const bool goal_in_box = ((goal_.position - snapshot.lo).array() >= 0.0).all() &&
+                           ((snapshot.hi - goal_.position).array() >= 0.0).all();
   task.terminal = goal_;
   if (!goal_in_box) task.terminal->position = start.position;  // only what the front-end map must cover
   const auto context_start = std::chrono::steady_clock::now();
   auto context = base_.ForLocalScene(task, snapshot.boundary);
-  result.context_ms = MsSince(context_start);
+  result->context_ms = MsSince(context_start);
   if (!context.ok()) {
-    result.status = LocalPlanStatus::kFailed;
-    result.message = context.status().message();
-    result.total_ms = MsSince(begin) + snapshot.ms;
-    return result;
+    result->status = LocalPlanStatus::kFailed;
+    result->message = context.status().message();
+    return false;
   }
+  prepared->context = std::move(*context);
   // A start inside the tracking margin: a brake that could not stop short
   // of a new obstacle leaves the vehicle there, and refusing every plan
   // from it would hold the vehicle there for good. The tracking margin is
@@ -301,24 +311,51 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
   // radius is), so it shrinks to what the start has, never below that.
   // A start inside that floor plans a recovery: never nearer the boundary
   // than it starts, and at the planned distance after recovery_time.
-  const planner::PlanningScene scene = (*context)->Scene(0);
-  planner::PlannerOptions options = options_;
-  result.start_clearance =
+  const planner::PlanningScene scene = prepared->context->Scene(0);
+  prepared->options = options_;
+  result->start_clearance =
       planner::StateClearance(scene, start, options_.cost.flatness, planner::ClearanceSearchReach(task));
-  if (result.start_clearance < task.safety_distance) {
+  if (result->start_clearance < task.safety_distance) {
     const double floor = base_task.safety_distance + perception::VoxelBallRadius(snapshot.resolution);
-    if (result.start_clearance - kStartSlack >= floor) {
-      task.safety_distance = result.start_clearance - kStartSlack;
+    if (result->start_clearance - kStartSlack >= floor) {
+      task.safety_distance = result->start_clearance - kStartSlack;
     } else {
-      result.recovery = true;
-      options.post_check.recovery_time = local_.recovery_time;
+      result->recovery = true;
+      prepared->options.post_check.recovery_time = local_.recovery_time;
       // From rest (a braked plan's stop) nothing needs braking; a start
       // moving towards the boundary may not go past its centres.
-      options.post_check.recovery_min_clearance = 0.0;
+      prepared->options.post_check.recovery_min_clearance = 0.0;
     }
   }
-  result.safety_distance = task.safety_distance;
-  const planner::FrontEndMap& front_end = (*context)->front_end();
+  result->safety_distance = task.safety_distance;
+  return true;
+}
+
+bool LocalPlanner::HoverClears(const Prepared& prepared, const planner::BoundaryState& terminal, double margin,
+                               robot::KinematicsState* kinematics) const {
+  robot::ComputeKinematics(prepared.context->robot(), planner::HoverPose(terminal.position, terminal.yaw),
+                           terminal.joints, kinematics);
+  const double needed = prepared.task.safety_distance + margin;
+  return planner::StillAndMovingClearance(*kinematics, prepared.context->exact(), nullptr, Pose::Identity(),
+                                          needed + 0.01) >= needed;
+}
+
+core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snapshot,
+                                                   const planner::BoundaryState& start, double v_max,
+                                                   const std::vector<Vec3>& avoid) const {
+  const auto begin = std::chrono::steady_clock::now();
+  LocalPlanResult result;
+  Prepared prepared;
+  auto ready = Prepare(snapshot, start, v_max, &result, &prepared);
+  if (!ready.ok()) return ready.status();
+  if (!*ready) {
+    result.total_ms = MsSince(begin) + snapshot.ms;
+    return result;
+  }
+  const planner::Task& task = prepared.task;
+  const planner::PlanningScene scene = prepared.context->Scene(0);
+  const planner::PlannerOptions& options = prepared.options;
+  const planner::FrontEndMap& front_end = prepared.context->front_end();
 
   // The targets, best first: the goal when it is seen free and open to the
   // front end, then the lattice's seen-free points nearest the goal.
@@ -340,14 +377,10 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
     return result;
   }
 
-  const robot::RobotModel& robot = (*context)->robot();
   robot::KinematicsState kinematics;
   // The robot at rest at the target: clear of the boundary, or not tried.
   auto hover_clears = [&](const planner::BoundaryState& terminal, double margin) {
-    robot::ComputeKinematics(robot, planner::HoverPose(terminal.position, terminal.yaw), terminal.joints, &kinematics);
-    const double needed = task.safety_distance + margin;
-    return planner::StillAndMovingClearance(kinematics, (*context)->exact(), nullptr, Pose::Identity(), needed + 0.01) >=
-           needed;
+    return HoverClears(prepared, terminal, margin, &kinematics);
   };
   // Attempt a takes the best target within horizon / 2^a of the start: when
   // the far targets fail (a turn through a door the solve cannot make in
@@ -361,6 +394,7 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
     std::optional<planner::Task> leg;
     bool is_goal = false;
     Vec3 target = Vec3::Zero();
+    double target_rank = 0.0;
     for (const auto& [score, candidate] : candidates) {
       if (checks >= local_.max_target_checks) break;
       if ((candidate - start.position).norm() > reach) continue;
@@ -388,6 +422,7 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
       leg = std::move(candidate_leg);
       is_goal = candidate_is_goal;
       target = candidate;
+      target_rank = score;
       break;
     }
     if (!leg) continue;
@@ -404,12 +439,59 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
     result.plan = std::move(*planned);
     result.target = target;
     result.status = is_goal ? LocalPlanStatus::kToGoal : LocalPlanStatus::kToLocalTarget;
+    result.progress = is_goal || target_rank < snapshot.start_rank - local_.min_progress;
     break;
   }
   result.tried_targets.assign(tried.begin() + static_cast<long>(avoid.size()), tried.end());
   result.targets_tried = static_cast<int>(result.tried_targets.size());
   result.plan_ms = MsSince(plan_start);
-  if (result.status == LocalPlanStatus::kFailed && result.message.empty()) result.message = "no target planned";
+  if (result.status == LocalPlanStatus::kFailed && result.message.empty()) {
+    result.message = checks > 0 ? "no seen-free target leaves the robot room to hover" : "no target planned";
+  }
+  result.total_ms = MsSince(begin) + snapshot.ms;
+  return result;
+}
+
+core::Result<LocalPlanResult> LocalPlanner::PlanTurnFrom(const perception::RollingMap& map,
+                                                         const planner::BoundaryState& start, double yaw) const {
+  if (!start.position.allFinite()) return core::Status::InvalidArgument("local plan: the start state is not finite");
+  return PlanTurnIn(Snapshot(map, start.position), start, yaw);
+}
+
+core::Result<LocalPlanResult> LocalPlanner::PlanTurnIn(const LocalMapSnapshot& snapshot,
+                                                       const planner::BoundaryState& start, double yaw,
+                                                       double v_max) const {
+  const auto begin = std::chrono::steady_clock::now();
+  if (!std::isfinite(yaw)) return core::Status::InvalidArgument("local plan: the turn's heading is not finite");
+  LocalPlanResult result;
+  Prepared prepared;
+  auto ready = Prepare(snapshot, start, v_max, &result, &prepared);
+  if (!ready.ok()) return ready.status();
+  if (*ready) {
+    planner::Task turn = prepared.task;
+    turn.terminal = start;
+    turn.terminal->velocity = turn.terminal->acceleration = turn.terminal->jerk = Vec3::Zero();
+    turn.terminal->yaw_rate = 0.0;
+    turn.terminal->yaw = start.yaw + std::remainder(yaw - start.yaw, 2.0 * M_PI);
+    robot::KinematicsState kinematics;
+    const auto plan_start = std::chrono::steady_clock::now();
+    if (!HoverClears(prepared, *turn.terminal, 0.0, &kinematics)) {
+      result.message = "the robot turned to that heading would not clear what is not seen free";
+    } else {
+      auto planned = planner::Plan(prepared.context->Scene(0), turn, prepared.options, solver_);
+      if (!planned.ok()) {
+        result.message = planned.status().message();
+      } else if (!planned->success) {
+        result.message = planned->message;
+      } else {
+        result.plan = std::move(*planned);
+        result.target = start.position;
+        result.status = LocalPlanStatus::kTurnInPlace;
+      }
+      result.targets_tried = 1;
+    }
+    result.plan_ms = MsSince(plan_start);
+  }
   result.total_ms = MsSince(begin) + snapshot.ms;
   return result;
 }

@@ -15,7 +15,9 @@
 //          safety distance of the plan ahead: brake, and replan at once)
 //   every replan period (until a plan to the goal is held):
 //          plan from the flown plan's state at t + plan_ahead; a certified
-//          plan replaces the flown one there; a failed one leaves it
+//          plan replaces the flown one there; a failed one leaves it; at
+//          rest, a failed one turns the vehicle in place to look round
+//          (look_round), once per heading not yet looked along from there
 //   arrived: the plan to the goal flown to its end, and the vehicle within
 //          goal_tolerance of the goal
 //
@@ -58,6 +60,9 @@ struct ExplorationOptions {
   bool free_misses = true;
   int miss_stride = 8;
   double goal_tolerance = 0.15;  // m
+  // At rest with no target: turn in place to look along headings not yet
+  // seen from there (look_round.h), nearest the goal's bearing first.
+  bool look_round = true;
   perception::FrameGateOptions frame_gate;
   // s without a frame taken before the vehicle brakes and holds.
   double sensor_timeout = 0.3;

@@ -27,6 +27,10 @@
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
 
+namespace quadhand::robot {
+struct KinematicsState;
+}  // namespace quadhand::robot
+
 namespace quadhand::explore {
 
 struct LocalPlannerOptions {
@@ -117,11 +121,13 @@ enum class LocalPlanStatus {
   kToLocalTarget,  // certified, to a local target
   kNoTarget,       // no seen-free point of the box is a target
   kFailed,         // every target tried failed its plan
+  kTurnInPlace,    // certified, a turn in place to look round (PlanTurnIn)
 };
 const char* LocalPlanStatusName(LocalPlanStatus status);
-// A plan was made and certified (to the goal or to a local target).
+// A plan was made and certified (to the goal, to a local target, or a turn).
 inline bool IsCertified(LocalPlanStatus status) {
-  return status == LocalPlanStatus::kToGoal || status == LocalPlanStatus::kToLocalTarget;
+  return status == LocalPlanStatus::kToGoal || status == LocalPlanStatus::kToLocalTarget ||
+         status == LocalPlanStatus::kTurnInPlace;
 }
 
 // What a local plan came to and cost: what a flight logs of each replan.
@@ -160,6 +166,8 @@ struct LocalMapSnapshot {
   // without a guide (guide_cell 0) its straight distance to the goal; one
   // the guide cannot reach ranks after every other, by straight distance.
   std::vector<double> seen_free_rank;
+  double start_rank = 0.0;           // the start's, alike
+
   double ms = 0.0;                   // taking it
 };
 
@@ -168,6 +176,11 @@ struct LocalPlanResult : LocalPlanSummary {
   Vec3 target = Vec3::Zero();
   // Every target a plan was tried to, in order (the certified one last).
   std::vector<Vec3> tried_targets;
+  // Certified to the goal, or to a target that ranks nearer the goal than
+  // the start by at least min_progress. A certified plan without it hops
+  // along the frontier where the vehicle is (a local minimum): a vehicle
+  // there looks round first (exploration_flight.h).
+  bool progress = false;
 };
 
 class LocalPlanner {
@@ -196,6 +209,17 @@ class LocalPlanner {
   core::Result<LocalPlanResult> PlanIn(const LocalMapSnapshot& snapshot, const planner::BoundaryState& start,
                                        double v_max = 0.0, const std::vector<Vec3>& avoid = {}) const;
 
+  // A turn in place from `start` (at rest) to the heading `yaw` (rad; the
+  // turn goes the shorter way), its joints kept: certified like any local
+  // plan, so the arm's sweep stays clear of what the map has not seen free.
+  // What a vehicle at rest does when no target is seen (look_round.h): a
+  // camera sees a narrow view, and a wall 0.7 m ahead hides every way on.
+  // kTurnInPlace when certified, else kFailed with the reason.
+  core::Result<LocalPlanResult> PlanTurnFrom(const perception::RollingMap& map, const planner::BoundaryState& start,
+                                             double yaw) const;
+  core::Result<LocalPlanResult> PlanTurnIn(const LocalMapSnapshot& snapshot, const planner::BoundaryState& start,
+                                           double yaw, double v_max = 0.0) const;
+
   const planner::BoundaryState& goal() const { return goal_; }
   const LocalPlannerOptions& options() const { return local_; }
   // The first plan time in [from, the plan's end] (sampled every `step` s,
@@ -216,6 +240,15 @@ class LocalPlanner {
  private:
   LocalPlanner(const planner::PlanningContext& base, const planner::PlannerOptions& options, const opt::Solver& solver,
                const LocalPlannerOptions& local);
+  struct Prepared;
+  // The plan's task and context from the snapshot; false (result's status
+  // and message set) when the context cannot be built.
+  core::Result<bool> Prepare(const LocalMapSnapshot& snapshot, const planner::BoundaryState& start, double v_max,
+                             LocalPlanResult* result, Prepared* prepared) const;
+  // The robot hovering at `terminal` clears the boundary by the prepared
+  // safety distance plus `margin` (exact meshes).
+  bool HoverClears(const Prepared& prepared, const planner::BoundaryState& terminal, double margin,
+                   robot::KinematicsState* kinematics) const;
   const planner::PlanningContext& base_;
   planner::PlannerOptions options_;
   const opt::Solver& solver_;
