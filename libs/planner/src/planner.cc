@@ -427,11 +427,12 @@ core::Result<InitialGuess> GuessFromPath(const robot::RobotModel& robot, const T
   InitialGuess guess;
   QUADHAND_RETURN_IF_ERROR(
       InitialGuessFromPath(corners, pieces, cruise, acceleration, &guess.position_waypoints, &guess.durations));
-  // A short path with a wide turn (a turn in place: none at all): the
-  // guess takes long enough to turn at two thirds of the yaw rate limit.
-  const double turn_s = 1.5 * std::abs(result.terminal.yaw - task.start.yaw) / task.limits.yaw_rate_max;
-  if (std::isfinite(turn_s) && guess.durations.sum() > 0.0 && guess.durations.sum() < turn_s) {
-    guess.durations *= turn_s / guess.durations.sum();
+  // A guess too short to make its turn within the yaw rate limit (a turn
+  // in place has no path to time it by) takes long enough to turn at two
+  // thirds of the limit; a guess that can make it is left as it is.
+  const double least_turn_s = std::abs(result.terminal.yaw - task.start.yaw) / task.limits.yaw_rate_max;
+  if (std::isfinite(least_turn_s) && guess.durations.sum() > 0.0 && guess.durations.sum() < least_turn_s) {
+    guess.durations *= 1.5 * least_turn_s / guess.durations.sum();
   }
   const VecX& durations = guess.durations;
   const int n = robot.num_actuated();
