@@ -351,6 +351,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
         }
       }
       if (turned) {
+        // The turn is flown; a hop it was offered instead is dropped.
       } else if (certified) {
         pending = FlownPlan{std::move(*planned->plan.trajectory), t_start, planned->status == LocalPlanStatus::kToGoal};
         pending->progress = planned->progress;

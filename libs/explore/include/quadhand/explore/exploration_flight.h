@@ -60,8 +60,10 @@ struct ExplorationOptions {
   bool free_misses = true;
   int miss_stride = 8;
   double goal_tolerance = 0.15;  // m
-  // At rest with no target: turn in place to look along headings not yet
-  // seen from there (look_round.h), nearest the goal's bearing first.
+  // At rest with nothing certified, or offered only a hop that brings the
+  // goal no nearer (LocalPlanResult::progress): turn in place first to a
+  // heading not looked along since the last progress (look_round.h),
+  // nearest the goal's bearing first.
   bool look_round = true;
   perception::FrameGateOptions frame_gate;
   // s without a frame taken before the vehicle brakes and holds.
