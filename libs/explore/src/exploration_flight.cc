@@ -213,6 +213,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   result.legs = static_cast<int>(legs.size());
   std::optional<FlownPlan> flying, pending;
   std::vector<Vec3> failed_at_rest;  // targets that failed from where the vehicle holds
+  int stalled = 0;  // replans in a row without a certified plan that makes progress
   // The headings looked along from where the vehicle holds, and the
   // sensor's axis (its frame's) and horizontal field of view.
   const bool depth = sensor.kind == sim::SensorKind::kDepth;
@@ -325,10 +326,13 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       const bool at_rest = !flying || flying->Stopped(t_start);
       const bool certified = IsCertified(planned->status);
       bool turned = false;
+      stalled = certified && planned->progress ? 0 : stalled + 1;
       // Nothing certified from rest, or only a hop along the frontier that
       // brings the goal no nearer: a heading not looked along since the
       // last progress may show a way on, so the vehicle turns to it first.
-      if (options.look_round && ((!certified && at_rest) || (certified && !planned->progress))) {
+      // Not at the first such replan: a few more frames from where it is
+      // (the first replan has one) often show a way on without turning.
+      if (options.look_round && stalled >= 2 && ((!certified && at_rest) || (certified && !planned->progress))) {
         const Vec3 to_goal = planner->goal().position - start.position;
         const Pose now =
             sensor_pose_of(start.position, Quat(Eigen::AngleAxisd(start.yaw, Vec3::UnitZ())), start.joints);
@@ -345,6 +349,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
             pending->turn = true;
             failed_at_rest.clear();
             turned = true;
+            stalled = 0;
           } else {
             look.Looked(*next);  // a heading it cannot turn to is not tried again from here
           }
@@ -383,6 +388,8 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       planner = legs[++leg];
       flying->to_goal = false;
       failed_at_rest.clear();
+      stalled = 0;
+      look.Clear();
       next_replan = t;
       last_new_plan = t;
     }
