@@ -88,6 +88,43 @@ TEST(PlanTest, WithoutSettlingTheInitialYawTurnsLinearlyInTime) {
   }
 }
 
+// A terminal where the start stands, at another heading (a turn in place,
+// what a vehicle at a dead end does to look round): the front end's path is
+// one point, the guess takes long enough to make the turn within the yaw
+// rate limit, and the plan passes its post-check with the base held where it
+// stands.
+TEST(PlanTest, ATurnInPlaceIsPlannedAndCertified) {
+  Task task = WindowCup().task;
+  task.tool.reset();
+  task.mission.clear();
+  task.vias.clear();
+  task.terminal = task.start;
+  task.terminal->yaw = task.start.yaw + 2.0;
+  const double least = 2.0 / task.limits.yaw_rate_max;
+
+  PlannerOptions guess_only = DefaultPlannerOptions();
+  guess_only.solver.max_iterations = 0;
+  guess_only.max_attempts = 1;
+  guess_only.alternative_guesses = 0;
+  solvers::LbfgsSolver solver;
+  auto guess = Plan(WindowCup().Scene(), task, guess_only, solver);
+  ASSERT_TRUE(guess.ok()) << guess.status().message();
+  ASSERT_TRUE(guess->trajectory.has_value());
+  EXPECT_GE(guess->trajectory->duration(), least);
+
+  auto result = Plan(WindowCup().Scene(), task, DefaultPlannerOptions(), solver);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  ASSERT_TRUE(result->success) << result->message;
+  const WholeBodyTrajectory& trajectory = *result->trajectory;
+  EXPECT_GE(trajectory.duration(), least);
+  double farthest = 0.0;
+  for (double t = 0.0; t <= trajectory.duration(); t += 0.01) {
+    farthest = std::max(farthest, (trajectory.Sample(t).position - task.start.position).norm());
+  }
+  EXPECT_LT(farthest, 0.1);
+  EXPECT_NEAR(trajectory.Sample(trajectory.duration()).yaw, task.start.yaw + 2.0, 0.01);
+}
+
 // The default stopping rule (relative decrease over a window) ends the first
 // solve before the iteration cap on the default task, and the plan passes.
 TEST(PlanTest, DefaultSolveStopsOnTheRelativeDecreaseBeforeTheCap) {
