@@ -47,7 +47,9 @@ struct LocalPlannerOptions {
   double target_spacing = 0.25;
   int max_targets = 3;
   double target_separation = 1.0;
-  // A local target nearer the start than this is not worth a plan, m.
+  // A local target nearer the start than this is not worth a plan, m; and
+  // one that ranks no nearer the goal than the start by this much is no
+  // progress (LocalPlanResult::progress).
   double min_progress = 0.3;
   // Targets are ranked by their straight distance to the goal, or with
   // guide_cell > 0 by the guide's way to the goal (guide.h: through the
@@ -167,7 +169,6 @@ struct LocalMapSnapshot {
   // the guide cannot reach ranks after every other, by straight distance.
   std::vector<double> seen_free_rank;
   double start_rank = 0.0;           // the start's, alike
-
   double ms = 0.0;                   // taking it
 };
 
@@ -212,8 +213,8 @@ class LocalPlanner {
   // A turn in place from `start` (at rest) to the heading `yaw` (rad; the
   // turn goes the shorter way), its joints kept: certified like any local
   // plan, so the arm's sweep stays clear of what the map has not seen free.
-  // What a vehicle at rest does when no target is seen (look_round.h): a
-  // camera sees a narrow view, and a wall 0.7 m ahead hides every way on.
+  // What a vehicle at a dead end does to look round (look_round.h): a
+  // camera sees a narrow view, and a wall ahead can hide every way on.
   // kTurnInPlace when certified, else kFailed with the reason.
   core::Result<LocalPlanResult> PlanTurnFrom(const perception::RollingMap& map, const planner::BoundaryState& start,
                                              double yaw) const;
