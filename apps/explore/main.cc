@@ -290,11 +290,12 @@ int main(int argc, char** argv) {
     return Fail(s.message());
   }
   std::vector<double> latency, planned_latency, scene_points;
-  int certified = 0;
+  int certified = 0, turns = 0;
   for (const explore::ReplanRecord& r : flown->replans) {
     latency.push_back(r.total_ms);
     scene_points.push_back(static_cast<double>(r.scene_points));
     certified += explore::IsCertified(r.status) ? 1 : 0;
+    turns += r.status == explore::LocalPlanStatus::kTurnInPlace ? 1 : 0;
   }
   const perception::FrameCounts& counts = flown->frame_counts;
   const nlohmann::json frames_dropped = {{"malformed", counts.malformed},
@@ -340,6 +341,7 @@ int main(int argc, char** argv) {
         {"planned_safety_distance_m", planners.front()->PlannedSafetyDistance(options.map.resolution)},
         {"replans", flown->replans.size()},
         {"replans_certified", certified},
+        {"turns_in_place", turns},
         {"replan_latency_ms", apps::CountMedianP95Max(latency)},
         {"boundary_voxels", apps::CountMedianP95Max(scene_points)},
         {"frames", flown->frames},
@@ -366,13 +368,13 @@ int main(int argc, char** argv) {
     std::printf(
         "%s after %.2f s simulated (%.1f s wall), %.2f m from the goal\n"
         "clearance against the true world: least %.4f m at t %.2f s (%s), accepted %.4f m: %s\n"
-        "replans: %zu, %d certified; latency median %.1f ms, p95 %.1f ms, max %.1f ms\n"
+        "replans: %zu, %d certified (%d turns in place to look round); latency median %.1f ms, p95 %.1f ms, max %.1f ms\n"
         "map: %ld frames (%ld empty), update median %.2f ms, p95 %.2f ms; peak %.1f MB\n"
         "frames dropped: %ld (malformed %ld, bad pose %ld, from the future %ld, out of order %ld, stale %ld); "
         "returns dropped: %ld; sensor silences (braked and held): %zu; plans crossed by new obstacles: %zu\n"
         "out: %s\n",
         explore::ExplorationOutcomeName(flown->outcome), flown->flight_s, wall_s, flown->goal_distance, least, least_t,
-        closest.c_str(), accepted, kept ? "kept" : "CLEARANCE LOST", flown->replans.size(), certified,
+        closest.c_str(), accepted, kept ? "kept" : "CLEARANCE LOST", flown->replans.size(), certified, turns,
         core::RankQuantile(latency, 0.5), core::RankQuantile(latency, 0.95),
         latency.empty() ? 0.0 : *std::max_element(latency.begin(), latency.end()), flown->frames, flown->empty_frames,
         core::RankQuantile(flown->map_update_ms, 0.5), core::RankQuantile(flown->map_update_ms, 0.95), flown->peak_map_bytes / 1e6,

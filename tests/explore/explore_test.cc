@@ -342,6 +342,7 @@ TEST_F(ExploreTest, TurnsRoundWhenFacingAWallWithTheGoalBehind) {
     return n;
   };
   EXPECT_GE(turns(j), 1);
+  EXPECT_EQ(j["turns_in_place"], turns(j));
   EXPECT_GE(j["min_clearance_m"].get<double>(), 0.028);
   const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
