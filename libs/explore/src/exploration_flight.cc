@@ -319,8 +319,14 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
     if (!silence && !goal_held && !turning && !pending && t >= next_replan - 1e-9) {
       const double t_start = t + options.plan_ahead;
       const planner::BoundaryState start = flying ? flying->At(t_start).State() : hold_sample.State();
-      auto planned = planner->PlanFrom(**map, start, failed_at_rest);
+      if (!start.position.allFinite()) {
+        return core::Status::InvalidArgument("exploration: the state to plan from is not finite");
+      }
+      // One snapshot of the map serves the replan and a turn after it.
+      LocalMapSnapshot snapshot = planner->Snapshot(**map, start.position);
+      auto planned = planner->PlanIn(snapshot, start, 0.0, failed_at_rest);
       if (!planned.ok()) return planned.status();
+      snapshot.ms = 0.0;  // its time is the replan's, counted there
       result.replans.push_back(ReplanRecord{{static_cast<const LocalPlanSummary&>(*planned)}, t, static_cast<int>(leg)});
       if (progress) progress(result.replans.back());
       const bool at_rest = !flying || flying->Stopped(t_start);
@@ -340,7 +346,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
         const double bearing = to_goal.head<2>().norm() > 1e-6 ? std::atan2(to_goal.y(), to_goal.x()) : start.yaw;
         if (const auto next = heading ? look.Next(*heading, bearing) : std::nullopt) {
           // The body turns by what the sensor's heading must.
-          auto turn = planner->PlanTurnFrom(**map, start, start.yaw + std::remainder(*next - *heading, 2.0 * M_PI));
+          auto turn = planner->PlanTurnIn(snapshot, start, start.yaw + std::remainder(*next - *heading, 2.0 * M_PI));
           if (!turn.ok()) return turn.status();
           result.replans.push_back(ReplanRecord{{static_cast<const LocalPlanSummary&>(*turn)}, t, static_cast<int>(leg)});
           if (progress) progress(result.replans.back());
