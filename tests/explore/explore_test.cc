@@ -112,6 +112,11 @@ class ExploreTest : public ::testing::Test {
     return RunCommand(kExplore + " " + task + " --out " + flown_ + " --report " + report_ + " " + args + " --quiet");
   }
   nlohmann::json Report() const { return nlohmann::json::parse(testing::ReadAll(report_)); }
+  // quadhand-flightcheck's independent verdict on the flown record against
+  // `task`'s scene.
+  testing::CommandResult Flightcheck(const std::string& task) const {
+    return RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
+  }
 
   fs::path dir_;
   std::string flown_, report_;
@@ -344,7 +349,7 @@ TEST_F(ExploreTest, TurnsRoundWhenFacingAWallWithTheGoalBehind) {
   EXPECT_GE(turns(j), 1);
   EXPECT_EQ(j["turns_in_place"], turns(j));
   EXPECT_GE(j["min_clearance_m"].get<double>(), 0.028);
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
+  const auto check = Flightcheck(task);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 
   // Without looking round, what it sees leaves no way on: it holds.
@@ -453,7 +458,7 @@ TEST_F(ExploreTest, LeavesADeadEndAlongTheGuide) {
   const nlohmann::json j = Report();
   EXPECT_EQ(j["outcome"], "arrived");
   EXPECT_TRUE(j["kept_clearance"].get<bool>());
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
+  const auto check = Flightcheck(task);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
   // (Without the guide, the default, the same flight ends stuck in the
   // pocket: docs/perception.md. Not run here: it takes a minute to fail.)
@@ -475,7 +480,7 @@ TEST_F(ExploreTest, FliesPastPostsItHasNeverSeenAndKeepsTheClearance) {
   EXPECT_GT(j["replans_certified"].get<int>(), 1);  // it did not see the goal from the start
   EXPECT_GT(j["frames"].get<int>(), 10);
   // The independent judge agrees.
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
+  const auto check = Flightcheck(task);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
@@ -534,7 +539,7 @@ TEST_F(ExploreTest, FliesAMissionOfReachesLegByLeg) {
   }
   EXPECT_LT(nearest, 0.15);
   EXPECT_LT(speed_there, 0.1);
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
+  const auto check = Flightcheck(task);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
@@ -582,7 +587,7 @@ TEST_F(ExploreTest, FliesThroughANarrowGapItHasNeverSeenOnAFinerMap) {
   EXPECT_EQ(j["outcome"], "arrived");
   EXPECT_GE(j["min_clearance_m"].get<double>(), 0.028);
   EXPECT_NEAR(j["planned_safety_distance_m"].get<double>(), 0.03 + std::sqrt(3.0) * 0.025, 1e-9);
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
+  const auto check = Flightcheck(task);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
@@ -716,7 +721,7 @@ TEST_F(ExploreTest, BrakesAndHoldsWhileTheSensorIsSilentAndDropsBadFrames) {
     ++held;
   }
   EXPECT_GT(held, 20);
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown_);
+  const auto check = Flightcheck(task);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 
@@ -750,7 +755,7 @@ TEST_F(ExploreTest, APlanCrossedByANewObstacleBrakesAndReplansAroundIt) {
   std::vector<Vec3> with_patch = Posts();
   with_patch.insert(with_patch.end(), patch.begin(), patch.end());
   const std::string judged = WriteTask(with_patch, Vec3(8.0, 0.0, 1.2), "with_patch");
-  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + judged + " " + flown_);
+  const auto check = Flightcheck(judged);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
 }
 

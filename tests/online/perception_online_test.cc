@@ -203,53 +203,53 @@ TEST_F(PerceptionOnlineTest, AnObstacleAppearingAcrossThePlanBrakesItAndAFreshPl
   EXPECT_GE(Judge(flight, *controller, with_patch).min_clearance, 0.028) << flight.Events();
 }
 
-// The flight is judged against the map's last word on each voxel: returns
-// that made a voxel occupied once (a far, noisy view) and whose voxel the
-// sensor later saw through are not among the points judged against.
-// What was seen is the map's last word on each voxel: by default a voxel
-// a return ended in stays occupied (RollingMapOptions::returns_stay_occupied),
-// so a blob seen and then seen through stays; under OctoMap's model alone
-// the rays through it free it.
+// The flight is judged against the map's last word on each voxel. By
+// default a voxel a return ended in stays occupied
+// (RollingMapOptions::returns_stay_occupied), so a blob seen and then seen
+// through stays among the points judged against; under OctoMap's model
+// alone the rays through it free it, and its returns (a far, noisy view)
+// are not judged against.
 TEST_F(PerceptionOnlineTest, WhatWasSeenIsTheMapsLastWordOnEachVoxel) {
   for (bool sticky : {true, false}) {
+    SCOPED_TRACE(sticky ? "returns stay occupied" : "OctoMap's model alone");
     perception::RollingMapOptions map;
     map.returns_stay_occupied = sticky;
     auto controller = Controller({}, map);
     ASSERT_NE(controller, nullptr);
-  std::vector<Vec3> wall;  // 3 m ahead along the sensor's z
-  for (double x = -1.0; x <= 1.0 + 1e-9; x += 0.02) {
-    for (double y = -1.0; y <= 1.0 + 1e-9; y += 0.02) wall.emplace_back(x, y, 3.0);
-  }
-  const Vec3 blob(0.02, 0.03, 1.53);  // in front of it
-  double t = 0.0;
-  auto frame = [&](bool with_blob) {
-    t += 0.04;
-    perception::SensorFrame f;
-    f.t = t;
-    perception::SetSensorPose(Pose::Identity(), &f);
-    f.points = wall;
-    if (with_blob) f.points.insert(f.points.end(), 20, blob);
-    controller->OnSensorFrame(t, std::move(f));
-    controller->WaitForMap();
-  };
-  auto near_blob = [&](const std::vector<Vec3>& points) {
-    size_t n = 0;
-    for (const Vec3& p : points) n += (p - blob).norm() < 0.05;
-    return n;
-  };
-  for (int k = 0; k < 5; ++k) frame(true);
-  const std::vector<Vec3> before = controller->SeenPoints();
-  EXPECT_GT(near_blob(before), 0u);  // seen occupied
-  for (int k = 0; k < 30; ++k) frame(false);
-  const std::vector<Vec3> after = controller->SeenPoints();
-  if (sticky) {
-    EXPECT_GT(near_blob(after), 0u);  // a return's voxel stays occupied
-  } else {
-    EXPECT_EQ(near_blob(after), 0u);  // since seen through: free
-  }
-  size_t on_wall = 0;
-  for (const Vec3& p : after) on_wall += std::abs(p.z() - 3.0) < 1e-9;
-  EXPECT_GT(on_wall, 1000u);
+    std::vector<Vec3> wall;  // 3 m ahead along the sensor's z
+    for (double x = -1.0; x <= 1.0 + 1e-9; x += 0.02) {
+      for (double y = -1.0; y <= 1.0 + 1e-9; y += 0.02) wall.emplace_back(x, y, 3.0);
+    }
+    const Vec3 blob(0.02, 0.03, 1.53);  // in front of it
+    double t = 0.0;
+    auto frame = [&](bool with_blob) {
+      t += 0.04;
+      perception::SensorFrame f;
+      f.t = t;
+      perception::SetSensorPose(Pose::Identity(), &f);
+      f.points = wall;
+      if (with_blob) f.points.insert(f.points.end(), 20, blob);
+      controller->OnSensorFrame(t, std::move(f));
+      controller->WaitForMap();
+    };
+    auto near_blob = [&](const std::vector<Vec3>& points) {
+      size_t n = 0;
+      for (const Vec3& p : points) n += (p - blob).norm() < 0.05;
+      return n;
+    };
+    for (int k = 0; k < 5; ++k) frame(true);
+    const std::vector<Vec3> before = controller->SeenPoints();
+    EXPECT_GT(near_blob(before), 0u);  // seen occupied
+    for (int k = 0; k < 30; ++k) frame(false);
+    const std::vector<Vec3> after = controller->SeenPoints();
+    if (sticky) {
+      EXPECT_GT(near_blob(after), 0u);  // a return's voxel stays occupied
+    } else {
+      EXPECT_EQ(near_blob(after), 0u);  // since seen through: free
+    }
+    size_t on_wall = 0;
+    for (const Vec3& p : after) on_wall += std::abs(p.z() - 3.0) < 1e-9;
+    EXPECT_GT(on_wall, 1000u);
   }
 }
 
