@@ -427,5 +427,63 @@ TEST(RollingMapTest, SeveralRayThreadsBuildTheMapOneThreadBuilds) {
   EXPECT_FALSE(RollingMap::Create(bad).ok());
 }
 
+// A small window about a place the sensor looks at from outside it (the
+// grasp map about an object) holds there what a window holding the sensor
+// holds: rays are walked from where they enter it, and a return beyond it
+// frees what its ray crossed in it.
+TEST(RollingMapTest, ASmallWindowAwayFromTheSensorHoldsWhatALargeOneHoldsThere) {
+  RollingMapOptions large, small;
+  large.resolution = small.resolution = 0.02;
+  large.window_half_extent = Vec3(4.0, 4.0, 2.0);
+  small.window_half_extent = Vec3(0.3, 0.4, 0.25);
+  auto whole = Map(large), part = Map(small);
+  const Vec3 centre(2.5, 0.3, 0.1);
+  part->MoveWindow(centre);
+  // A post in the small window, a wall behind it, seen from three origins.
+  std::vector<Vec3> scene = Wall(3.6, 1.5, 0.015);
+  for (double z = -0.5; z <= 0.5; z += 0.008) {
+    for (int k = 0; k < 64; ++k) {
+      const double a = 2.0 * M_PI * k / 64.0;
+      scene.emplace_back(2.5 + 0.05 * std::cos(a), 0.3 + 0.05 * std::sin(a), z);
+    }
+  }
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> angle(-0.6, 0.6);
+  long skipped_rays = 0;
+  for (const Vec3& origin : {Vec3(0.0, 0.0, 0.0), Vec3(0.5, -0.6, 0.3), Vec3(1.0, 1.0, -0.2)}) {
+    std::vector<Vec3> points;
+    // Each ray's return: the nearest scene point within 1 cm of the ray.
+    for (int k = 0; k < 4000; ++k) {
+      const double a = angle(rng), e = angle(rng);
+      const Vec3 u(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
+      double best = std::numeric_limits<double>::infinity();
+      for (const Vec3& q : scene) {
+        const double along = (q - origin).dot(u);
+        if (along > 0.0 && along < best && ((q - origin) - along * u).norm() < 0.01) best = along;
+      }
+      if (std::isfinite(best)) points.push_back(origin + best * u);
+    }
+    ASSERT_TRUE(whole->Insert(points, origin).ok());
+    for (const Vec3& p : points) skipped_rays += ((p - centre).cwiseAbs().array() > 0.5).any() ? 1 : 0;
+    ASSERT_TRUE(part->Insert(points, origin).ok());
+  }
+  EXPECT_GT(skipped_rays, 1000);
+  int differ = 0, known = 0, occupied = 0;
+  for (double x = -0.27; x < 0.28; x += 0.02) {
+    for (double y = -0.37; y < 0.38; y += 0.02) {
+      for (double z = -0.23; z < 0.24; z += 0.02) {
+        const Vec3 p = centre + Vec3(x, y, z);
+        const VoxelState state = part->State(p);
+        differ += state != whole->State(p) ? 1 : 0;
+        known += state != VoxelState::kUnknown ? 1 : 0;
+        occupied += state == VoxelState::kOccupied ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_EQ(differ, 0);
+  EXPECT_GT(known, 1000);
+  EXPECT_GT(occupied, 20);
+}
+
 }  // namespace
 }  // namespace quadhand::perception

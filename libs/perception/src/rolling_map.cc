@@ -7,6 +7,7 @@
 #include <limits>
 #include <thread>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace quadhand::perception {
 namespace {
@@ -219,6 +220,7 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
   // End voxels first: each once, and never missed in this frame.
   std::vector<std::pair<Vec3, bool>> rays;  // the ray's far end, and whether it ends in a return
   rays.reserve(points.size());
+  std::unordered_set<std::int64_t> beyond;  // the end voxels outside the window, this frame
   for (const Vec3& p : points) {
     if (!p.allFinite()) {
       ++m.dropped;
@@ -230,7 +232,12 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
       continue;
     }
     const Eigen::Vector3i v = m.VoxelOf(p);
-    if (!m.Inside(v)) continue;
+    if (!m.Inside(v)) {
+      // Beyond the window: its ray still crossed the window's voxels. One
+      // ray per end voxel, as inside it.
+      if (beyond.insert(Impl::Key(v)).second) rays.emplace_back(p, false);
+      continue;
+    }
     const size_t cell = m.Cell(v);
     std::vector<Vec3>& kept = m.raw[Impl::Key(v)];
     if (kept.size() < cap) {
@@ -290,31 +297,59 @@ void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, 
   const double res = options.resolution;
   const int nx = dims.x(), ny = dims.y(), nz = dims.z();
   const Eigen::Vector3i start = VoxelOf(origin);
+  const int size[3] = {nx, ny, nz};
+  const bool origin_inside = Inside(start);
   for (size_t r = first; r < rays.size(); r += stride) {
     const auto& [end, returned] = rays[r];
     const Eigen::Vector3i last = VoxelOf(end);
     const Vec3 d = end - origin;
+    // A sensor outside the window (a small window about a place the vehicle
+    // looks at from afar): the walk starts where the ray enters the window,
+    // or not at all. The voxels skipped lie outside it, where nothing is done.
+    Vec3 from = origin;
+    Eigen::Vector3i first_voxel = start;
+    if (!origin_inside) {
+      double t_in = 0.0, t_out = 1.0;
+      for (int a = 0; a < 3; ++a) {
+        const double lo = low[a] * res, hi = (low[a] + size[a]) * res;
+        if (d[a] == 0.0) {
+          if (origin[a] < lo || origin[a] >= hi) t_in = 2.0;
+          continue;
+        }
+        const double t0 = (lo - origin[a]) / d[a], t1 = (hi - origin[a]) / d[a];
+        t_in = std::max(t_in, std::min(t0, t1));
+        t_out = std::min(t_out, std::max(t0, t1));
+      }
+      if (t_in > t_out) continue;
+      from = origin + t_in * d;
+      first_voxel = VoxelOf(from);
+    }
     int step[3], rel[3], ring[3];
     double t_max[3], t_delta[3];
-    const int size[3] = {nx, ny, nz};
     for (int a = 0; a < 3; ++a) {
       step[a] = d[a] > 0.0 ? 1 : (d[a] < 0.0 ? -1 : 0);
-      rel[a] = start[a] - low[a];
-      ring[a] = Mod(start[a], size[a]);
+      rel[a] = first_voxel[a] - low[a];
+      ring[a] = Mod(first_voxel[a], size[a]);
       if (step[a] == 0) {
         t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
         continue;
       }
-      const double boundary = (start[a] + (step[a] > 0 ? 1 : 0)) * res;
-      t_max[a] = (boundary - origin[a]) / d[a];
+      const double boundary = (first_voxel[a] + (step[a] > 0 ? 1 : 0)) * res;
+      t_max[a] = (boundary - from[a]) / d[a];
       t_delta[a] = res / std::abs(d[a]);
     }
-    // At most the voxels a straight line crosses between the two.
-    const int steps = std::abs(last.x() - start.x()) + std::abs(last.y() - start.y()) + std::abs(last.z() - start.z());
+    // At most the voxels a straight line crosses between the two; a line
+    // leaves a box once, so the walk ends where it leaves the window.
+    const int steps = std::abs(last.x() - first_voxel.x()) + std::abs(last.y() - first_voxel.y()) +
+                      std::abs(last.z() - first_voxel.z());
+    bool entered = false;
     for (int n = 0; n < steps; ++n) {
       if (static_cast<unsigned>(rel[0]) < static_cast<unsigned>(nx) && static_cast<unsigned>(rel[1]) < static_cast<unsigned>(ny) &&
           static_cast<unsigned>(rel[2]) < static_cast<unsigned>(nz)) {
         Cross<kShared>(CellOfRing(ring[0], ring[1], ring[2]), crossed);
+        entered = true;
+      } else if (entered) {
+        break;
       }
       const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
       rel[axis] += step[axis];
