@@ -238,9 +238,11 @@ Status ParseInto(const YAML::Node& root, const std::string& base_dir, const std:
   if (r.Has("sensor")) {
     const Reader p = r.Child("sensor");
     SensorConfig& sensor = c->sensor;
-    QUADHAND_RETURN_IF_ERROR(p.CheckKeys({"link", "mount", "splat_radius", "depth", "lidar"}));
+    QUADHAND_RETURN_IF_ERROR(
+        p.CheckKeys({"link", "mount", "splat_radius", "splat_spacing_factor", "depth", "lidar"}));
     QUADHAND_RETURN_IF_ERROR(p.Get("link", &sensor.link));
     QUADHAND_RETURN_IF_ERROR(p.Get("splat_radius", &sensor.splat_radius));
+    QUADHAND_RETURN_IF_ERROR(p.Get("splat_spacing_factor", &sensor.splat_spacing_factor));
     if (p.Has("mount")) {
       const Reader m = p.Child("mount");
       QUADHAND_RETURN_IF_ERROR(m.CheckKeys({"position", "orientation"}));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <random>
 
 #include "quadhand/core/text.h"
@@ -88,6 +89,9 @@ bool SensorConfig::IsValid(std::string* why) const {
   if (link.empty()) return Fail(why, "link must name a link of the robot");
   if (!mount.matrix().allFinite()) return Fail(why, "mount must be finite");
   if (!In(splat_radius, 1e-4, 1.0)) return Fail(why, "splat_radius must be in [0.0001, 1] m");
+  if (!(splat_spacing_factor == 0.0 || In(splat_spacing_factor, 0.5, 10.0))) {
+    return Fail(why, "splat_spacing_factor must be 0 (off) or in [0.5, 10]");
+  }
   return true;
 }
 
@@ -110,13 +114,47 @@ core::Result<SensorKind> ParseSensorKind(const std::string& name) {
   return core::Status::InvalidArgument("sensor: expected depth or lidar, not '" + name + "'");
 }
 
+// The world's points by the radius of their discs (splat_spacing_factor):
+// one layer of all of them at splat_radius, or one per radius, the radii
+// rounded up to the millimetre so that the layers are few.
+struct SplatLayer {
+  double radius = 0.0;
+  scene::PointGrid points;
+};
+
+std::vector<SplatLayer> SplatLayers(const std::vector<Vec3>& world, const SensorConfig& config) {
+  std::vector<SplatLayer> layers;
+  if (config.splat_spacing_factor <= 0.0) {
+    layers.push_back(SplatLayer{config.splat_radius, scene::PointGrid(world, 0.25)});
+    return layers;
+  }
+  const double cap = config.splat_radius;
+  // A neighbour farther than cap / factor leaves the disc at the cap.
+  const double reach = cap / config.splat_spacing_factor;
+  const scene::PointGrid grid(world, std::max(reach, 0.01));
+  std::map<long, std::vector<Vec3>> by_radius;  // in millimetres, rounded up
+  for (const Vec3& p : world) {
+    double nearest = std::numeric_limits<double>::infinity();
+    grid.VisitBox(p - Vec3::Constant(reach), p + Vec3::Constant(reach), [&](const Vec3& q) {
+      const double d = (q - p).norm();
+      if (d > 1e-9 && d < nearest) nearest = d;
+    });
+    const double radius = std::min(cap, config.splat_spacing_factor * nearest);
+    by_radius[static_cast<long>(std::ceil(radius * 1000.0 - 1e-9))].push_back(p);
+  }
+  for (auto& [millimetres, points] : by_radius) {
+    layers.push_back(SplatLayer{std::min(cap, millimetres / 1000.0), scene::PointGrid(points, 0.25)});
+  }
+  return layers;
+}
+
 struct SensorRenderer::Impl {
   SensorConfig config;
-  scene::PointGrid world;
+  std::vector<SplatLayer> layers;
   std::mt19937_64 rng;
   std::vector<float> nearest;  // per pixel or beam: the nearest return, m (infinity: none)
   Impl(const std::vector<Vec3>& points, const SensorConfig& c, std::uint64_t seed)
-      : config(c), world(points, 0.25), rng(seed) {}
+      : config(c), layers(SplatLayers(points, c)), rng(seed) {}
 
   std::vector<Vec3> RenderDepth(const Pose& sensor_in_world);
   std::vector<Vec3> RenderLidar(const Pose& sensor_in_world);
@@ -206,8 +244,9 @@ std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world)
   nearest.assign(static_cast<size_t>(o.width) * o.height, none);
   const Pose world_to_sensor = sensor_in_world.inverse();
   const Vec3 reach = Vec3::Constant(o.max_range + config.splat_radius);
-  const double splat = config.splat_radius;
-  world.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
+  for (const SplatLayer& layer : layers) {
+  const double splat = layer.radius;
+  layer.points.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
     const Vec3 q = world_to_sensor * p;
     const double z = q.z();
     // A point too near to measure still covers its pixels: they return
@@ -231,6 +270,7 @@ std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world)
       }
     }
   });
+  }
   std::normal_distribution<double> unit(0.0, 1.0);
   std::vector<Vec3> points;
   for (int row = 0; row < o.height; ++row) {
@@ -254,7 +294,8 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
   nearest.assign(static_cast<size_t>(o.channels) * columns, none);
   const Pose world_to_sensor = sensor_in_world.inverse();
   const Vec3 reach = Vec3::Constant(o.max_range + config.splat_radius);
-  world.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
+  for (const SplatLayer& layer : layers) {
+  layer.points.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
     const Vec3 q = world_to_sensor * p;
     const double range = q.norm();
     // As the camera's: a point too near still covers its beams (0 below).
@@ -263,7 +304,7 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
     const float value = too_near ? 0.0f : static_cast<float>(range);
     // The disc's angular radius about the point's direction: the beams
     // within it hit it.
-    const double spread = std::asin(std::min(1.0, config.splat_radius / range));
+    const double spread = std::asin(std::min(1.0, layer.radius / range));
     const double azimuth = std::atan2(q.y(), q.x()), elevation = std::asin(q.z() / range);
     int c0 = 0, c1 = 0;
     if (o.channels > 1) {
@@ -286,6 +327,7 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
       }
     }
   });
+  }
   std::normal_distribution<double> unit(0.0, 1.0);
   std::vector<Vec3> points;
   for (int channel = 0; channel < o.channels; ++channel) {

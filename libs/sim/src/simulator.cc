@@ -269,7 +269,9 @@ core::Result<TrackResult> TrackPlan(Simulator* sim, const Plan& plan, const Trac
 }
 
 std::string FlownCsv(const std::vector<FlownSample>& samples, const std::vector<std::string>& joint_names) {
-  std::string out = PlanCsvHeader(joint_names) +
+  // A mission's record says when the gripper closed (its rows' gripper).
+  const bool gripper = !samples.empty() && samples.front().flown.gripper >= 0;
+  std::string out = PlanCsvHeader(joint_names, gripper) +
                     ",err_x,err_y,err_z,err_pos,err_yaw,cog_x,cog_y,cog_z,arm_fx,arm_fy,arm_fz,arm_tx,arm_ty,arm_tz,"
                     "thrust\n";
   for (const FlownSample& f : samples) {

@@ -132,8 +132,9 @@ core::Result<TrackResult> TrackPlan(Simulator* simulator, const Plan& plan, cons
 
 TrackingErrorStats ComputeErrorStats(const std::vector<FlownSample>& samples);
 
-// The flown file: the plan columns, then err_x,err_y,err_z,err_pos,err_yaw,
-// cog_x,cog_y,cog_z,arm_fx,arm_fy,arm_fz,arm_tx,arm_ty,arm_tz,thrust.
+// The flown file: the plan columns (with `gripper` when the samples have
+// it), then err_x,err_y,err_z,err_pos,err_yaw, cog_x,cog_y,cog_z,arm_fx,
+// arm_fy,arm_fz,arm_tx,arm_ty,arm_tz,thrust.
 std::string FlownCsv(const std::vector<FlownSample>& samples, const std::vector<std::string>& joint_names);
 
 }  // namespace quadhand::sim
