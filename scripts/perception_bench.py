@@ -13,14 +13,21 @@ sends them beside MAVLink, quadhand-online --perception plans from them alone
 against what the sensor saw, and quadhand-flightcheck judges the simulator's
 own record against the true world.
 
-Usage: python3 scripts/perception_bench.py [--kind forest|room|gap] [--seeds 1-20] [--length 30]
+Usage: python3 scripts/perception_bench.py [--kind forest|room|gap|grasp] [--seeds 1-20] [--length 30]
        [--sensor depth|lidar] [--build build] [--keep DIR] [--online]
        [-- extra quadhand-explore (or, --online, quadhand-online) options]
 Worlds: scripts/make_forest.py (Poisson trunks, 0.15 per m^2, 8 m wide) or
 scripts/make_room.py (inner walls, each with a door or a window), or with
 --kind gap the bundled narrow-gap crossing's starts (data/tasks/missions/
 narrow_gap/start_N.yaml, --seeds 1-7), a mission of one reach through a
-0.6 x 0.35 m gap the vehicle sees only on arrival.
+0.6 x 0.35 m gap the vehicle sees only on arrival; with --kind grasp the
+paper's gap-crossing grasp (data/tasks/missions/gap_crossing_grasp.yaml)
+from start k drawn with seed k as quadhand-bench draws it
+(data/bench/gap_crossing_grasp.yaml: position and yaw; the task's joints),
+judged also by where the flown tool was when the gripper closed (within
+1 cm of the reach's tool point). The grasp's world is drawn with discs no
+wider than its sampling (sensor.splat_spacing_factor 0.75: its cup is
+sampled every 5 mm).
 Exit code 0 when every flight kept its clearance, 1 otherwise.
 """
 import argparse
@@ -116,6 +123,38 @@ def judged_row(check, task, record, length, seed, r, peak_kb, clearance_note, mo
     return check_code
 
 
+def grasp_task(work, seed):
+    """The gap-crossing grasp from start `seed`, drawn as quadhand-bench draws
+    it (its position and yaw; the task's joints), and a simulator
+    configuration whose discs are no wider than the world's sampling.
+    Returns the task's and the configuration's paths."""
+    import random
+    import yaml
+    bench = yaml.safe_load(open(os.path.join(ROOT, "data", "bench", "gap_crossing_grasp.yaml")))
+    source = os.path.join(ROOT, "data", "tasks", "missions", "gap_crossing_grasp.yaml")
+    task = yaml.safe_load(open(source))
+    for key in ("robot", "sdf_dir", "scene"):
+        task[key] = os.path.normpath(os.path.join(os.path.dirname(source), task[key]))
+    rng = random.Random(seed)
+    lo, hi = bench["start_box"]["min"], bench["start_box"]["max"]
+    # The box lies at least 0.5 m from every wall, the floor and the
+    # ceiling: the 0.45 m take-off ball never holds the world.
+    task["start"]["position"] = [rng.uniform(lo[i], hi[i]) for i in range(3)]
+    task["start"]["yaw"] = rng.uniform(*bench["yaw"])
+    path = os.path.join(work, f"grasp_start_{seed}.yaml")
+    with open(path, "w") as f:
+        f.write(f"# The gap-crossing grasp from start {seed} (scripts/perception_bench.py --kind grasp)\n")
+        yaml.safe_dump(task, f, sort_keys=False)
+    sim_config = os.path.join(work, "grasp_sim.yaml")
+    text = open(os.path.join(ROOT, "data", "sim", "quadhand_sim.yaml")).read()
+    text = re.sub(r"(\n  splat_radius:[^\n]*)", r"\1\n  splat_spacing_factor: 0.75", text, count=1)
+    if "splat_spacing_factor: 0.75" not in text:
+        sys.exit("perception_bench: data/sim/quadhand_sim.yaml has no sensor.splat_radius line to follow")
+    with open(sim_config, "w") as f:
+        f.write(text)
+    return path, sim_config
+
+
 def main():
     argv = sys.argv[1:]
     extra = []
@@ -123,7 +162,7 @@ def main():
         extra = argv[argv.index("--") + 1:]
         argv = argv[:argv.index("--")]
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--kind", choices=["forest", "room", "gap"], default="forest",
+    parser.add_argument("--kind", choices=["forest", "room", "gap", "grasp"], default="forest",
                         help="gap: the bundled narrow-gap crossing's starts (--seeds 1-7) through the 0.6 x 0.35 m "
                              "gap, on a 0.05 m map with no tracking margin and a 0.45 m take-off ball unless given "
                              "after --")
@@ -142,12 +181,12 @@ def main():
     for tool in (explore, check) + ((sim, online) if args.online else ()):
         if not os.access(tool, os.X_OK):
             sys.exit(f"perception_bench: {tool} is missing")
-    length = args.length if args.length is not None else {"forest": 30.0, "room": 12.0, "gap": 2.6}[args.kind]
+    length = args.length if args.length is not None else {"forest": 30.0, "room": 12.0, "gap": 2.6, "grasp": 2.2}[args.kind]
     # A 0.35 m gap is closed to a 0.1 m map's certificate (0.147 m from every
     # voxel centre not seen free, data/scenes/gap_crossing.pcd's gap
     # docs/perception.md): 0.05 m voxels and no tracking margin open it.
     gap_options = []
-    if args.kind == "gap" and not args.online:
+    if args.kind in ("gap", "grasp") and not args.online:
         # Every narrow-gap start is at least 0.5 m from the scene: the
         # take-off ball, taken as free, must not reach it.
         for option, value in (("--resolution", "0.05"), ("--tracking-margin", "0"), ("--window", "6,6,3"),
@@ -172,6 +211,9 @@ def main():
                                 f"{length:g}", "--seed", str(seed), "--out", work], check=True,
                                stdout=subprocess.DEVNULL)
                 stem = os.path.join(work, f"room_s{seed}")
+            elif args.kind == "grasp":
+                task, sim_config = grasp_task(work, seed)
+                stem = os.path.join(work, f"grasp_start_{seed}")
             else:
                 # The bundled narrow-gap crossing from start `seed` (1-7): the
                 # gap is seen only on arrival, through it the goal.
@@ -179,7 +221,7 @@ def main():
                 if not os.path.exists(task):
                     sys.exit(f"perception_bench: {task} is missing (the narrow-gap starts are 1-7)")
                 stem = os.path.join(work, f"gap_start_{seed}")
-            if args.kind != "gap":
+            if args.kind not in ("gap", "grasp"):
                 task = stem + ".yaml"
             record, report = stem + f"_{args.sensor}_flown.csv", stem + f"_{args.sensor}_explore.json"
             if args.online:
@@ -192,18 +234,30 @@ def main():
                                         f"longest setpoint gap {r['setpoint_gap_ms']:.0f} ms")
                 rows.append((r, check_code))
                 continue
+            sim_options = ["--sim-config", sim_config] if args.kind == "grasp" and "--sim-config" not in extra else []
             code, peak_kb, wall, out = run([explore, task, "--out", record, "--report", report,
-                                            "--sensor", args.sensor, "--seed", str(seed), "--quiet"] + extra + gap_options)
+                                            "--sensor", args.sensor, "--seed", str(seed), "--quiet"] + extra +
+                                           gap_options + sim_options)
             if not os.path.exists(report):
                 print(f"| {length:g} m | {seed} | exit {code} | - | - | - | - | - | - | {peak_kb / 1024:.0f} |"
                       f" {out.strip().splitlines()[-1][:160] if out.strip() else ''}")
                 rows.append(None)
                 continue
             r = json.load(open(report))
-            check_code = judged_row(check, task, record, length, seed, r, peak_kb, "", "")
+            more = ""
+            if "grasp" in r:
+                g = r["grasp"]
+                tried = len(g["attempts"])
+                more = (f" grasp closed {1000 * g['tool_error_m']:.1f} mm from the tool point" if g["closed"]
+                        else " grasp not closed") + f" ({tried} plan{'s' if tried != 1 else ''} of it)"
+            check_code = judged_row(check, task, record, length, seed, r, peak_kb, "", more)
             rows.append((r, check_code))
     done = [x for x in rows if x is not None]
     arrived = sum(1 for r, c in done if r["arrived"] and c == 0)
+    if args.kind == "grasp":
+        grasped = sum(1 for r, c in done if r["arrived"] and c == 0 and r["grasp"]["closed"]
+                      and r["grasp"]["tool_error_m"] <= 0.01)
+        print(f"\n{grasped} of {len(rows)} grasped the cup with the tool within 1 cm and kept the clearance")
     lost = sum(1 for r, c in done if c != 0)
     print(f"\n{len(rows)} worlds: {arrived} arrived with the clearance kept (quadhand-flightcheck), "
           f"{lost} lost it or could not be judged, {len(rows) - len(done)} gave no report")

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -138,6 +139,13 @@ int main(int argc, char** argv) {
                  "Fault: each frame is spoiled with this probability (NaN pose, unnormalised attitude, stamp 1 s "
                  "ahead, delivered late, or a tenth of its returns NaN)")
       ->capture_default_str();
+  explore::GraspOptions grasp_options;
+  app.add_option("--grasp-resolution", grasp_options.resolution,
+                 "A mission's grasp is flown on a map of this voxel edge about its work, m")
+      ->capture_default_str();
+  app.add_option("--grasp-approach", grasp_options.approach,
+                 "The grasp's last metres before the insertion are flown on the grasp map, m")
+      ->capture_default_str();
   app.add_option("--tolerance", tolerance, "The verdict accepts the safety distance less this, m")->capture_default_str();
   apps::AddPackagePathOption(&app, &package_path);
   app.add_flag("--quiet", quiet, "Print only errors");
@@ -160,6 +168,7 @@ int main(int argc, char** argv) {
   if (!map_window.empty()) options.map.window_half_extent = Vec3(map_window[0], map_window[1], map_window[2]);
   if (std::string why; !options.IsValid(&why)) return Fail(why);
   if (std::string why; !local.IsValid(&why)) return Fail(why);
+  if (std::string why; !grasp_options.IsValid(&why)) return Fail(why);
   for (const auto& [option, path] : {std::pair<std::string, std::string>{"--out", out_path}, {"--report", report_path}}) {
     if (path.empty()) continue;
     if (core::Status s = core::CheckOutputPathAndFolder(path); !s.ok()) return Fail(option + ": " + s.message());
@@ -208,7 +217,9 @@ int main(int argc, char** argv) {
   }
   // Each leg's base context (the robot and its SDFs, the leg's goal) and
   // local planner: a goal at rest is one leg, a mission of reaches one per reach.
-  auto legs = explore::LegsOfTask(*task);
+  auto grasp_work = explore::GraspWorkOfTask(*task, *robot, grasp_options);
+  if (!grasp_work.ok()) return Fail(grasp_work.status().message());
+  auto legs = explore::LegsOfTask(*task, grasp_work->has_value() ? &**grasp_work : nullptr);
   if (!legs.ok()) return Fail(legs.status().message());
   if (core::Status s = solvers::RegisterBuiltinSolvers(); !s.ok()) return Fail(s.message());
   auto solver = opt::CreateSolver(solver_name);
@@ -251,9 +262,18 @@ int main(int argc, char** argv) {
   if (!model.ok()) return Fail(sim_config_path + ": " + model.status().message());
   sim::Simulator simulator(std::move(*model), seed);
 
+  // A grasp is planned on the grasp map with the whole task's mission.
+  std::optional<explore::GraspPlanner> grasp_planner;
+  explore::GraspFlight grasp;
+  if (grasp_work->has_value()) {
+    grasp_planner.emplace(*bases.front(), *task, **grasp_work, planner_options, **solver, local.tracking_margin);
+    grasp.work = &**grasp_work;
+    grasp.planner = &*grasp_planner;
+    grasp.options = grasp_options;
+  }
   const auto wall_start = std::chrono::steady_clock::now();
   auto flown = explore::FlyExploration(
-      &simulator, sensor, hidden, leg_planners, bases.front()->task(), options, [&](const explore::ReplanRecord& r) {
+      &simulator, sensor, hidden, leg_planners, bases.front()->task(), options, grasp, [&](const explore::ReplanRecord& r) {
         if (quiet) return;
         std::fprintf(stderr, "\r  t %6.2f s: leg %d/%zu, replan %-15s %6.1f ms, %6zu boundary voxels   ", r.t,
                      r.leg + 1, leg_planners.size(), explore::LocalPlanStatusName(r.status), r.total_ms,
@@ -362,6 +382,24 @@ int main(int argc, char** argv) {
       replans.push_back(entry);
     }
     report["replan_log"] = replans;
+    if (grasp.work != nullptr) {
+      nlohmann::json attempts = nlohmann::json::array();
+      for (const explore::GraspAttempt& a : flown->grasp_attempts) {
+        attempts.push_back({{"t", a.t}, {"certified", a.certified}, {"message", a.message},
+                            {"obstacles", a.obstacles}, {"ms", a.ms}});
+      }
+      const bool closed = std::isfinite(flown->grasp_closed_t);
+      report["grasp"] = {{"resolution_m", grasp_options.resolution},
+                         {"approach_m", grasp_options.approach},
+                         {"box_min", {grasp.work->box_lo.x(), grasp.work->box_lo.y(), grasp.work->box_lo.z()}},
+                         {"box_max", {grasp.work->box_hi.x(), grasp.work->box_hi.y(), grasp.work->box_hi.z()}},
+                         {"planned_safety_distance_m", grasp.planner->PlannedSafetyDistance(grasp_options.resolution)},
+                         {"attempts", attempts},
+                         {"closed", closed},
+                         {"closed_t", closed ? nlohmann::json(flown->grasp_closed_t) : nlohmann::json(nullptr)},
+                         {"tool_error_m", closed ? nlohmann::json(flown->grasp_tool_error) : nlohmann::json(nullptr)},
+                         {"map_update_ms", apps::CountMedianP95Max(flown->grasp_map_update_ms)}};
+    }
     if (core::Status s = core::WriteFileAtomically(report_path, report.dump(2) + "\n"); !s.ok()) return Fail(s.message());
   }
   if (!quiet) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <optional>
 
 #include "quadhand/explore/look_round.h"
@@ -139,6 +140,7 @@ const char* ExplorationOutcomeName(ExplorationOutcome outcome) {
     case ExplorationOutcome::kTimeLimit: return "time_limit";
     case ExplorationOutcome::kStuck: return "stuck";
     case ExplorationOutcome::kDiverged: return "diverged";
+    case ExplorationOutcome::kGraspNotCertified: return "grasp_not_certified";
   }
   return "unknown";
 }
@@ -162,6 +164,17 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
                                                const HiddenWorld& world, const std::vector<const LocalPlanner*>& legs,
                                                const planner::Task& task, const ExplorationOptions& options,
                                                const std::function<void(const ReplanRecord&)>& progress) {
+  return FlyExploration(simulator, sensor, world, legs, task, options, GraspFlight{}, progress);
+}
+
+core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const sim::SensorConfig& sensor,
+                                               const HiddenWorld& world, const std::vector<const LocalPlanner*>& legs,
+                                               const planner::Task& task, const ExplorationOptions& options,
+                                               const GraspFlight& grasp,
+                                               const std::function<void(const ReplanRecord&)>& progress) {
+  if ((grasp.work == nullptr) != (grasp.planner == nullptr) || grasp.attempts < 1) {
+    return core::Status::InvalidArgument("exploration: a grasp needs its work, its planner and at least one attempt");
+  }
   if (legs.empty() || std::find(legs.begin(), legs.end(), nullptr) != legs.end()) {
     return core::Status::InvalidArgument("exploration: no local planner for a leg");
   }
@@ -183,6 +196,20 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   }
   auto map = perception::RollingMap::Create(options.map);
   if (!map.ok()) return map.status();
+  std::unique_ptr<GraspMap> grasp_map;
+  int tool_link = -1;
+  if (grasp.work != nullptr) {
+    auto created = GraspMap::Create(*grasp.work, grasp.options, options.map);
+    if (!created.ok()) return created.status();
+    grasp_map = std::move(*created);
+    tool_link = robot.LinkIndex(task.tool_link);
+    if (tool_link < 0) return core::Status::InvalidArgument("exploration: the robot has no tool link '" + task.tool_link + "'");
+  }
+  // The grasp's phase: planning it at rest (grasping), then flying it.
+  bool grasping = false, grasp_flying = false, gripper_closed = false;
+  std::map<double, std::vector<Vec3>> grasp_misses;  // the grasp map's frames' misses, by the frame's time
+  double next_grasp_frame = 0.0;
+  double next_grasp_try = 0.0, grasp_close_t = 0.0;
 
   size_t leg = 0;
   const LocalPlanner* planner = legs[0];
@@ -247,6 +274,15 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       sim::SensorRenderer* renderer = world.At(t);
       sent.points = renderer->Render(sensor_pose);
       if (options.free_misses) sent.misses = renderer->LastMisses(options.miss_stride);
+      // The grasp map's voxels are finer than a pixel's footprint at a few
+      // metres: it takes every pixel that saw nothing, kept beside the
+      // frame until the frame is taken (or given up).
+      const bool to_grasp_map = grasp_map != nullptr && t >= next_grasp_frame - 1e-9;
+      if (to_grasp_map) {
+        next_grasp_frame = t + 1.0 / grasp.options.frame_rate;
+        grasp_misses.emplace(t, options.free_misses ? renderer->LastMisses(grasp.options.miss_stride)
+                                                    : std::vector<Vec3>{});
+      }
       std::vector<Vec3> new_obstacles;
       for (perception::SensorFrame& frame : faults.Pass(std::move(sent), t)) {
         if (gate.Admit(frame, t) != perception::FrameDrop::kNone) continue;
@@ -264,11 +300,25 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
         ++result.frames;
         const std::vector<Vec3>& blocked = (*map)->NewlyBlocked();
         new_obstacles.insert(new_obstacles.end(), blocked.begin(), blocked.end());
+        if (grasp_map != nullptr) {
+          const auto grasp_start = std::chrono::steady_clock::now();
+          // Only the frames rendered for it (grasp_misses holds them).
+          if (const auto found = grasp_misses.find(frame.t); found != grasp_misses.end()) {
+            std::vector<Vec3> misses = std::move(found->second);
+            grasp_misses.erase(found);
+            for (Vec3& p : misses) p = pose * p;
+            QUADHAND_RETURN_IF_ERROR(grasp_map->Insert(frame.points, pose.translation(), misses));
+            result.grasp_map_update_ms.push_back(
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - grasp_start).count());
+          }
+        }
       }
       next_frame += frame_period;
+      // A frame later than this is dropped as stale by the gate.
+      while (!grasp_misses.empty() && grasp_misses.begin()->first < t - 2.0) grasp_misses.erase(grasp_misses.begin());
       // The plans ahead were certified against a map that saw these voxels
       // free: each is checked again against them.
-      if (!new_obstacles.empty() && (flying || pending)) {
+      if (!new_obstacles.empty() && (flying || pending) && !grasp_flying) {
         InvalidationRecord record;
         record.t = t;
         record.new_obstacles = new_obstacles.size();
@@ -382,9 +432,50 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       next_replan = t + options.replan_period;
     }
 
+    if (grasping && !grasp_flying && !silence && t >= next_grasp_try - 1e-9) {
+      // From where the ended plan holds the vehicle, on what the grasp map has seen.
+      auto planned = grasp.planner->Plan(*grasp_map, flying->At(t).State());
+      if (!planned.ok()) return planned.status();
+      result.grasp_attempts.push_back(GraspAttempt{t, planned->certified, planned->message, planned->obstacles, planned->ms});
+      if (planned->certified && planned->plan.steps.size() > 1) {
+        flying = FlownPlan{std::move(*planned->plan.trajectory), t, true};
+        grasp_flying = true;
+        grasp_close_t = t + planned->plan.steps[1].start_s;  // the work's steps: its reach, then the grasp
+      } else if (static_cast<int>(result.grasp_attempts.size()) >= grasp.attempts) {
+        result.outcome = ExplorationOutcome::kGraspNotCertified;
+        break;
+      } else {
+        next_grasp_try = t + options.replan_period;
+      }
+    }
+    if (grasp_flying && !gripper_closed && t >= grasp_close_t - 1e-9 && !flying->braked) {
+      // The gripper closes on the object where the flown tool is: the
+      // simulator carries its declared mass there from now on.
+      const Pose tool = robot::LinkPose(robot, MakePose(state.position, state.attitude.toRotationMatrix()),
+                                        state.joints, tool_link);
+      result.grasp_closed_t = t;
+      result.grasp_tool_error = (tool.translation() - grasp.work->tool_position).norm();
+      QUADHAND_RETURN_IF_ERROR(
+          simulator->SetPayload(grasp.work->object.mass, tool.inverse() * grasp.work->object.pose.translation()));
+      gripper_closed = true;
+    }
+    if (grasp_flying && flying->braked && flying->Stopped(t)) {
+      result.outcome = ExplorationOutcome::kStuck;  // a silence braked the grasp's plan
+      break;
+    }
+    if (grasp_flying && flying->Ended(t)) {
+      result.outcome = ExplorationOutcome::kArrived;
+      break;
+    }
     const double goal_distance = (state.position - planner->goal().position).norm();
-    if (flying && flying->to_goal && flying->Ended(t) && goal_distance <= options.goal_tolerance) {
+    if (!grasping && flying && flying->to_goal && flying->Ended(t) && goal_distance <= options.goal_tolerance) {
       ++result.legs_arrived;
+      if (leg + 1 == legs.size() && grasp_map != nullptr) {
+        // The staging state: the grasp is planned from here.
+        grasping = true;
+        next_grasp_try = t;
+        continue;
+      }
       if (leg + 1 == legs.size()) {
         result.outcome = ExplorationOutcome::kArrived;
         break;
@@ -411,6 +502,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
     const planner::WholeBodySample reference = flying ? flying->At(t) : hold_sample;
     if (t >= next_record - 1e-9) {
       sim::FlownSample f = sim::RecordFlown(*simulator, reference.position, reference.yaw);
+      if (grasp_map != nullptr) f.flown.gripper = gripper_closed ? 1 : 0;
       result.samples.push_back(std::move(f));
       next_record += options.record_period;
     }

@@ -1,5 +1,7 @@
 #include "quadhand/explore/local_planner.h"
 
+#include "quadhand/explore/grasp_under_perception.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -102,7 +104,7 @@ void UseLocalPlanningDefaults(planner::PlannerConfig* config, double map_resolut
   config->front_end.voxel_size = cell;
 }
 
-core::Result<std::vector<planner::Task>> LegsOfTask(const planner::Task& task) {
+core::Result<std::vector<planner::Task>> LegsOfTask(const planner::Task& task, const GraspWork* grasp) {
   const std::string refused = task.file +
                               ": under perception only a goal at rest (goal.position, yaw, joints) or a mission of "
                               "reaches at rest is flown; ";
@@ -112,7 +114,8 @@ core::Result<std::vector<planner::Task>> LegsOfTask(const planner::Task& task) {
   }
   std::vector<planner::Task> legs;
   planner::BoundaryState start = task.start;
-  for (size_t k = 0; k < task.mission.size(); ++k) {
+  const size_t explored = grasp != nullptr ? std::min(grasp->reach_step, task.mission.size()) : task.mission.size();
+  for (size_t k = 0; k < explored; ++k) {
     const planner::MissionStep& step = task.mission[k];
     const std::string which = "mission step " + std::to_string(k + 1) + " (" + planner::StepKindName(step.kind) + ")";
     if (step.kind != planner::StepKind::kReach) {
@@ -128,6 +131,15 @@ core::Result<std::vector<planner::Task>> LegsOfTask(const planner::Task& task) {
     leg.start = start;
     leg.terminal = *step.reach_state;
     start = *step.reach_state;
+    legs.push_back(std::move(leg));
+  }
+  if (grasp != nullptr) {
+    planner::Task leg = task;
+    leg.mission.clear();
+    leg.vias.clear();
+    leg.tool.reset();
+    leg.start = start;
+    leg.terminal = grasp->staging;
     legs.push_back(std::move(leg));
   }
   return legs;

@@ -89,6 +89,25 @@ struct RollingMap::Impl {
   bool Inside(const Eigen::Vector3i& v) const {
     return ((v - low).array() >= 0).all() && ((v - low).array() < dims.array()).all();
   }
+  // Whether the segment from `from` to `to` crosses the window's box, and
+  // where it enters it (the fraction of the way along, in [0, 1]).
+  bool CrossesWindow(const Vec3& from, const Vec3& to, double* t_in = nullptr) const {
+    const double res = options.resolution;
+    const Vec3 d = to - from;
+    double enter = 0.0, leave = 1.0;
+    for (int a = 0; a < 3; ++a) {
+      const double lo = low[a] * res, hi = (low[a] + dims[a]) * res;
+      if (d[a] == 0.0) {
+        if (from[a] < lo || from[a] >= hi) return false;
+        continue;
+      }
+      const double t0 = (lo - from[a]) / d[a], t1 = (hi - from[a]) / d[a];
+      enter = std::max(enter, std::min(t0, t1));
+      leave = std::min(leave, std::max(t0, t1));
+    }
+    if (t_in != nullptr) *t_in = enter;
+    return enter <= leave;
+  }
   static int Mod(int a, int n) { return ((a % n) + n) % n; }
   size_t CellOfRing(int x, int y, int z) const {
     return (static_cast<size_t>(x) * dims.y() + y) * dims.z() + z;
@@ -221,6 +240,7 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
   std::vector<std::pair<Vec3, bool>> rays;  // the ray's far end, and whether it ends in a return
   rays.reserve(points.size());
   std::unordered_set<std::int64_t> beyond;  // the end voxels outside the window, this frame
+  const bool origin_inside = m.Inside(m.VoxelOf(origin));
   for (const Vec3& p : points) {
     if (!p.allFinite()) {
       ++m.dropped;
@@ -228,14 +248,17 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
     }
     const double range = (p - origin).norm();
     if (range > m.options.max_range) {
-      rays.emplace_back(origin + (p - origin) * (m.options.max_range / range), false);
+      const Vec3 end = origin + (p - origin) * (m.options.max_range / range);
+      if (origin_inside || m.CrossesWindow(origin, end)) rays.emplace_back(end, false);
       continue;
     }
     const Eigen::Vector3i v = m.VoxelOf(p);
     if (!m.Inside(v)) {
-      // Beyond the window: its ray still crossed the window's voxels. One
+      // Beyond the window: its ray may still cross the window's voxels. One
       // ray per end voxel, as inside it.
-      if (beyond.insert(Impl::Key(v)).second) rays.emplace_back(p, false);
+      if ((origin_inside || m.CrossesWindow(origin, p)) && beyond.insert(Impl::Key(v)).second) {
+        rays.emplace_back(p, false);
+      }
       continue;
     }
     const size_t cell = m.Cell(v);
@@ -257,7 +280,8 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
       continue;
     }
     const double range = (p - origin).norm();
-    rays.emplace_back(range > m.options.max_range ? origin + (p - origin) * (m.options.max_range / range) : p, false);
+    const Vec3 end = range > m.options.max_range ? origin + (p - origin) * (m.options.max_range / range) : p;
+    if (origin_inside || m.CrossesWindow(origin, end)) rays.emplace_back(end, false);
   }
   m.newly_blocked.clear();
   for (size_t i = 0; i < m.touched.size(); ++i) {
@@ -309,18 +333,8 @@ void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, 
     Vec3 from = origin;
     Eigen::Vector3i first_voxel = start;
     if (!origin_inside) {
-      double t_in = 0.0, t_out = 1.0;
-      for (int a = 0; a < 3; ++a) {
-        const double lo = low[a] * res, hi = (low[a] + size[a]) * res;
-        if (d[a] == 0.0) {
-          if (origin[a] < lo || origin[a] >= hi) t_in = 2.0;
-          continue;
-        }
-        const double t0 = (lo - origin[a]) / d[a], t1 = (hi - origin[a]) / d[a];
-        t_in = std::max(t_in, std::min(t0, t1));
-        t_out = std::min(t_out, std::max(t0, t1));
-      }
-      if (t_in > t_out) continue;
+      double t_in = 0.0;
+      if (!CrossesWindow(origin, end, &t_in)) continue;
       from = origin + t_in * d;
       first_voxel = VoxelOf(from);
     }

@@ -121,6 +121,20 @@ core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForLocalScene(
   return local;
 }
 
+core::Result<std::unique_ptr<PlanningContext>> PlanningContext::ForLocalMission(
+    Task task, std::shared_ptr<const std::vector<Vec3>> points) const {
+  if (task.robot_path != task_.robot_path || task.sdf_dir != task_.sdf_dir) {
+    return core::Status::InvalidArgument("a local mission's task must have its context's robot and sdf_dir");
+  }
+  if (MovingToolGoal(task) != nullptr) {
+    return core::Status::InvalidArgument("a local mission's task may not have a moving target");
+  }
+  auto local = Build(std::move(task), robot_, std::move(points), 0, options_, nullptr, {}, /*mission_phase=*/false,
+                     nullptr, nullptr, /*same_robot=*/this);
+  if (local.ok()) (*local)->scene_load_seconds_ = 0.0;
+  return local;
+}
+
 core::Result<std::unique_ptr<PlanningContext>> PlanningContext::Build(
     Task task, robot::RobotModel robot, std::shared_ptr<const std::vector<Vec3>> points, long dropped_non_finite,
     const PlanningContextOptions& options, std::shared_ptr<const std::vector<Vec3>> checked_points,

@@ -30,11 +30,13 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "quadhand/core/status.h"
+#include "quadhand/explore/grasp_under_perception.h"
 #include "quadhand/explore/local_planner.h"
 #include "quadhand/explore/sensor_faults.h"
 #include "quadhand/perception/rolling_map.h"
@@ -80,7 +82,10 @@ struct ExplorationOptions {
   bool IsValid(std::string* why) const;
 };
 
-enum class ExplorationOutcome { kArrived, kTimeLimit, kStuck, kDiverged };
+// kGraspNotCertified: the vehicle came to the grasp's staging state, but
+// no plan of the grasp was certified on the grasp map in
+// GraspFlight::attempts tries.
+enum class ExplorationOutcome { kArrived, kTimeLimit, kStuck, kDiverged, kGraspNotCertified };
 const char* ExplorationOutcomeName(ExplorationOutcome outcome);
 
 struct ReplanRecord : LocalPlanSummary {
@@ -118,6 +123,27 @@ struct SilenceRecord {
   double brake_s = 0.0; // s: the brake's duration (0: nothing to brake)
 };
 
+// A grasp flown under perception once the last leg has arrived at its
+// staging state (grasp_under_perception.h): the grasp map is fed every
+// frame from take-off; the work is planned on it from where the vehicle
+// rests, again a replan period later (after more frames) while it is not
+// certified, and a certified plan is flown to its end, the gripper closing
+// at its grasp step (the simulator then carries the object's mass where
+// the flown tool holds it). Not checked again against new obstacles while
+// flown. A silence of the sensor brakes it and ends the flight unarrived.
+struct GraspFlight {
+  const GraspWork* work = nullptr;
+  const GraspPlanner* planner = nullptr;
+  GraspOptions options;
+  int attempts = 6;
+};
+struct GraspAttempt {
+  double t = 0.0;  // simulated time it was asked at
+  bool certified = false;
+  std::string message;
+  size_t obstacles = 0;  // grasp-map boundary voxels planned against
+  double ms = 0.0;       // wall time
+};
 struct ExplorationResult {
   ExplorationOutcome outcome = ExplorationOutcome::kTimeLimit;
   double flight_s = 0.0;  // simulated: to the arrival, or until it ended
@@ -134,6 +160,13 @@ struct ExplorationResult {
   double goal_distance = 0.0;  // at the end, to the goal of the leg being flown, m
   int legs = 1;                // goals to reach in turn (LegsOfTask)
   int legs_arrived = 0;        // of them, reached (all of them: kArrived)
+  // With a grasp (GraspFlight): each plan of it, the grasp map's update
+  // time per frame, and when the gripper closed and the flown tool's
+  // distance from the reach's tool point then (NaN: never closed).
+  std::vector<GraspAttempt> grasp_attempts;
+  std::vector<double> grasp_map_update_ms;
+  double grasp_closed_t = std::numeric_limits<double>::quiet_NaN();
+  double grasp_tool_error = std::numeric_limits<double>::quiet_NaN();
 };
 
 // One flight. `simulator` is reset to the task's start; `world` renders
@@ -153,6 +186,12 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
 core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const sim::SensorConfig& sensor,
                                                const HiddenWorld& world, const std::vector<const LocalPlanner*>& legs,
                                                const planner::Task& task, const ExplorationOptions& options,
+                                               const std::function<void(const ReplanRecord&)>& progress = nullptr);
+// The same, then the grasp (the legs from LegsOfTask(task, grasp.work)).
+core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const sim::SensorConfig& sensor,
+                                               const HiddenWorld& world, const std::vector<const LocalPlanner*>& legs,
+                                               const planner::Task& task, const ExplorationOptions& options,
+                                               const GraspFlight& grasp,
                                                const std::function<void(const ReplanRecord&)>& progress = nullptr);
 
 }  // namespace quadhand::explore

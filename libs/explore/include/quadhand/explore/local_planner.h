@@ -110,13 +110,18 @@ core::Result<std::unique_ptr<planner::PlanningContext>> BaseContext(planner::Tas
 core::Result<std::unique_ptr<planner::PlanningContext>> BaseContextOfTaskFile(const std::string& task_path,
                                                                               const planner::PlannerConfig& config);
 
+struct GraspWork;
+
 // The legs a task is flown as under perception, each a task whose goal is
 // one terminal state at rest: the task itself when its goal is one, or each
 // reach of a mission of reaches in turn (a reach with a whole-body state
-// and no tool pose), every leg starting where the one before ends. A tool
-// pose, grasp, release, move, via, hold or moving target is refused
-// (InvalidArgument naming the task file): not flown under perception yet.
-core::Result<std::vector<planner::Task>> LegsOfTask(const planner::Task& task);
+// and no tool pose), every leg starting where the one before ends. With
+// `grasp` (GraspWorkOfTask), the steps from its reach on are the grasp's,
+// flown on the grasp map, and the last leg ends at its staging state.
+// Anything else (a tool pose, grasp, release, move, via, hold or moving
+// target) is refused (InvalidArgument naming the task file): not flown
+// under perception yet.
+core::Result<std::vector<planner::Task>> LegsOfTask(const planner::Task& task, const GraspWork* grasp = nullptr);
 
 enum class LocalPlanStatus {
   kToGoal,         // certified, to the task's goal

@@ -97,6 +97,12 @@ class PlanningContext {
   // mission or a moving target.
   core::Result<std::unique_ptr<PlanningContext>> ForLocalScene(Task task,
                                                                std::shared_ptr<const std::vector<Vec3>> points) const;
+  // The same for a task with a mission (no moving target): the close work
+  // of a grasp under perception (explore/grasp_map.h), planned by PlanTask
+  // on what a fine map about the object has seen. Its objects are checked
+  // as a loaded task's are.
+  core::Result<std::unique_ptr<PlanningContext>> ForLocalMission(Task task,
+                                                                 std::shared_ptr<const std::vector<Vec3>> points) const;
 
   const PlanningContextOptions& options() const { return options_; }
   const Task& task() const { return task_; }
