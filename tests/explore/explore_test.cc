@@ -286,6 +286,30 @@ TEST_F(ExploreTest, TurnsInPlaceWithinWhatItHasSeenFree) {
   EXPECT_FALSE(p.local->PlanTurnFrom(*map, from, std::nan("")).ok());
 }
 
+// In a seen-free ball of 0.6 m the robot with its arm out (reaching about
+// 0.5 m, kept 0.147 m from the voxel centres not seen free on the default
+// map) cannot turn; folded to the joints that hold it nearest its base it
+// can, and the turn does.
+TEST_F(ExploreTest, FoldsTheArmToTurnInASmallBall) {
+  Planner p = MakePlanner(WriteTask(WallAt(5.0), Vec3(8.0, 0.0, 1.2)));
+  auto map = perception::RollingMap::Create(perception::RollingMapOptions{});
+  ASSERT_TRUE(map.ok());
+  const planner::BoundaryState& from = p.base->task().start;
+  (*map)->MoveWindow(from.position);
+  (*map)->MarkFree(from.position, 0.6);
+  auto turned = p.local->PlanTurnFrom(**map, from, 2.0);
+  ASSERT_TRUE(turned.ok()) << turned.status().message();
+  ASSERT_EQ(turned->status, explore::LocalPlanStatus::kTurnInPlace) << turned->message;
+  const planner::WholeBodyTrajectory& trajectory = *turned->plan.trajectory;
+  const planner::WholeBodySample end = trajectory.Sample(trajectory.duration());
+  EXPECT_GT((end.joints - from.joints).norm(), 0.3) << end.joints.transpose();
+  EXPECT_NEAR(std::remainder(end.yaw - 2.0, 2.0 * M_PI), 0.0, 0.01);
+  for (double t = 0.0; t <= trajectory.duration(); t += 0.02) {
+    ASSERT_LT((trajectory.Sample(t).position - from.position).norm(), 0.1) << t;
+  }
+  ExpectInSeenFreeSpace(trajectory, **map);
+}
+
 // Looking round (explore/look_round.h): the goal's bearing first, then the
 // rest of the horizon in turns that each take in new headings, until every
 // heading has been looked along; a LiDAR's one frame looks all round.

@@ -1,7 +1,5 @@
 #include "quadhand/explore/local_planner.h"
 
-#include "quadhand/explore/grasp_under_perception.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,9 +7,11 @@
 
 #include "quadhand/core/text.h"
 #include "quadhand/env/exact_mesh_model.h"
+#include "quadhand/explore/grasp_under_perception.h"
 #include "quadhand/explore/guide.h"
 #include "quadhand/planner/moving_scene.h"
 #include "quadhand/robot/kinematics.h"
+#include "quadhand/robot/link_meshes.h"
 
 namespace quadhand::explore {
 namespace {
@@ -94,7 +94,61 @@ core::Result<std::unique_ptr<LocalPlanner>> LocalPlanner::Create(const planner::
   capped.alternative_guesses = std::min(options.alternative_guesses, local.alternative_guesses);
   std::unique_ptr<LocalPlanner> planner(new LocalPlanner(base, capped, solver, local));
   planner->goal_ = *task.terminal;
+  // The compact joints: a grid over the joints' limits (at most about 2000
+  // configurations), the one whose collision vertices lie nearest the base.
+  const robot::RobotModel& robot = base.robot();
+  planner->link_vertices_.resize(static_cast<size_t>(robot.num_links()));
+  for (int link = 0; link < robot.num_links(); ++link) {
+    if (robot.link(link).collisions.empty()) continue;
+    auto elements = robot::LinkCollisionElements(robot, link);
+    if (!elements.ok()) return elements.status().WithPrefix(task.robot_path);
+    for (const geometry::TriangleMesh& mesh : *elements) {
+      planner->link_vertices_[static_cast<size_t>(link)].insert(planner->link_vertices_[static_cast<size_t>(link)].end(),
+                                                                mesh.vertices.begin(), mesh.vertices.end());
+    }
+  }
+  const long n = robot.num_actuated();
+  planner->compact_joints_ = task.terminal->joints;
+  planner->compact_radius_ = planner->RadiusAt(planner->compact_joints_);
+  if (n > 0 && n == task.terminal->joints.size()) {
+    const int per_joint = std::max(2, static_cast<int>(std::floor(std::pow(2000.0, 1.0 / static_cast<double>(n)))));
+    VecX lower = robot.LowerLimits(), upper = robot.UpperLimits();
+    for (long j = 0; j < n; ++j) {
+      if (!std::isfinite(lower[j]) || !std::isfinite(upper[j])) {
+        lower[j] = -M_PI;
+        upper[j] = M_PI;
+      }
+    }
+    std::vector<int> index(static_cast<size_t>(n), 0);
+    VecX joints(n);
+    while (true) {
+      for (long j = 0; j < n; ++j) {
+        joints[j] = lower[j] + (upper[j] - lower[j]) * index[static_cast<size_t>(j)] / (per_joint - 1);
+      }
+      const double radius = planner->RadiusAt(joints);
+      // Nearly as small and nearer the zero configuration wins.
+      if (radius < planner->compact_radius_ - 1e-3 ||
+          (radius < planner->compact_radius_ + 1e-3 && joints.norm() < planner->compact_joints_.norm())) {
+        planner->compact_radius_ = std::min(planner->compact_radius_, radius);
+        planner->compact_joints_ = joints;
+      }
+      long j = 0;
+      while (j < n && ++index[static_cast<size_t>(j)] == per_joint) index[static_cast<size_t>(j++)] = 0;
+      if (j == n) break;
+    }
+    planner->compact_radius_ = planner->RadiusAt(planner->compact_joints_);
+  }
   return planner;
+}
+
+double LocalPlanner::RadiusAt(const VecX& joints) const {
+  robot::KinematicsState kinematics;
+  robot::ComputeKinematics(base_.robot(), Pose::Identity(), joints, &kinematics);
+  double radius = 0.0;
+  for (size_t link = 0; link < link_vertices_.size(); ++link) {
+    for (const Vec3& v : link_vertices_[link]) radius = std::max(radius, (kinematics.link_poses[link] * v).norm());
+  }
+  return radius;
 }
 
 void UseLocalPlanningDefaults(planner::PlannerConfig* config, double map_resolution) {
@@ -484,12 +538,22 @@ core::Result<LocalPlanResult> LocalPlanner::PlanTurnIn(const LocalMapSnapshot& s
     turn.terminal = start;
     turn.terminal->velocity = turn.terminal->acceleration = turn.terminal->jerk = Vec3::Zero();
     turn.terminal->yaw_rate = 0.0;
+    turn.terminal->joint_rates = VecX();
     turn.terminal->yaw = start.yaw + std::remainder(yaw - start.yaw, 2.0 * M_PI);
+    std::vector<VecX> arms;
+    if (compact_joints_.size() == start.joints.size() && compact_radius_ < RadiusAt(start.joints) - 0.01) {
+      arms.push_back(compact_joints_);
+    }
+    arms.push_back(start.joints);
     robot::KinematicsState kinematics;
     const auto plan_start = std::chrono::steady_clock::now();
-    if (!HoverClears(prepared, *turn.terminal, 0.0, &kinematics)) {
-      result.message = "the robot turned to that heading would not clear what is not seen free";
-    } else {
+    for (const VecX& arm : arms) {
+      turn.terminal->joints = arm;
+      if (!HoverClears(prepared, *turn.terminal, 0.0, &kinematics)) {
+        result.message = "the robot turned to that heading would not clear what is not seen free";
+        continue;
+      }
+      ++result.targets_tried;
       auto planned = planner::Plan(prepared.context->Scene(0), turn, prepared.options, solver_);
       if (!planned.ok()) {
         result.message = planned.status().message();
@@ -499,8 +563,9 @@ core::Result<LocalPlanResult> LocalPlanner::PlanTurnIn(const LocalMapSnapshot& s
         result.plan = std::move(*planned);
         result.target = start.position;
         result.status = LocalPlanStatus::kTurnInPlace;
+        result.message.clear();
+        break;
       }
-      result.targets_tried = 1;
     }
     result.plan_ms = MsSince(plan_start);
   }

@@ -216,8 +216,11 @@ class LocalPlanner {
                                        double v_max = 0.0, const std::vector<Vec3>& avoid = {}) const;
 
   // A turn in place from `start` (at rest) to the heading `yaw` (rad; the
-  // turn goes the shorter way), its joints kept: certified like any local
-  // plan, so the arm's sweep stays clear of what the map has not seen free.
+  // turn goes the shorter way): certified like any local plan, so the arm's
+  // sweep stays clear of what the map has not seen free. The arm folds to
+  // the joints that hold the robot nearest its base, where that makes it
+  // more than 1 cm smaller (a vehicle with its arm out cannot turn in a
+  // small seen-free ball), else, or when that turn fails, keeps its joints.
   // What a vehicle at a dead end does to look round (look_round.h): a
   // camera sees a narrow view, and a wall ahead can hide every way on.
   // kTurnInPlace when certified, else kFailed with the reason.
@@ -260,6 +263,13 @@ class LocalPlanner {
   const opt::Solver& solver_;
   LocalPlannerOptions local_;
   planner::BoundaryState goal_;
+  // The robot's collision vertices per link (link frame), and its joints
+  // that hold them nearest the base: a turn in place folds the arm to them
+  // first where that makes the robot smaller (PlanTurnIn).
+  std::vector<std::vector<Vec3>> link_vertices_;
+  VecX compact_joints_;
+  double compact_radius_ = 0.0;
+  double RadiusAt(const VecX& joints) const;
 };
 
 }  // namespace quadhand::explore
