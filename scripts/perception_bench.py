@@ -147,9 +147,9 @@ def grasp_task(work, seed):
         yaml.safe_dump(task, f, sort_keys=False)
     sim_config = os.path.join(work, "grasp_sim.yaml")
     text = open(os.path.join(ROOT, "data", "sim", "quadhand_sim.yaml")).read()
-    text = re.sub(r"(\n  splat_radius:[^\n]*)", r"\1\n  splat_spacing_factor: 0.75", text, count=1)
-    if "splat_spacing_factor: 0.75" not in text:
-        sys.exit("perception_bench: data/sim/quadhand_sim.yaml has no sensor.splat_radius line to follow")
+    text, count = re.subn(r"\n  splat_spacing_factor:[^\n]*", "\n  splat_spacing_factor: 0.75", text, count=1)
+    if count != 1:
+        sys.exit("perception_bench: data/sim/quadhand_sim.yaml has no sensor.splat_spacing_factor line")
     with open(sim_config, "w") as f:
         f.write(text)
     return path, sim_config

@@ -31,6 +31,7 @@
 #include "quadhand/explore/exploration_flight.h"
 #include "quadhand/explore/local_planner.h"
 #include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/mission_plan.h"
 #include "quadhand/planner/moving_scene.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
@@ -74,7 +75,8 @@ int main(int argc, char** argv) {
   std::string appear_path;
   double appear_at = 0.0;
   app.add_option("task", task_path,
-                 "Task file (YAML): robot, start, a goal at rest or a mission of reaches at rest, safety distance; "
+                 "Task file (YAML): robot, start, a goal at rest or a mission of reaches at rest (and a grasp: its "
+                 "reach with a state, a tool pose and an insertion, then moves and holds), safety distance; "
                  "its scene is the hidden world")
       ->required();
   app.add_option("--out", out_path, "The flown record (CSV, the plan file's columns)")->required();
@@ -284,17 +286,40 @@ int main(int argc, char** argv) {
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
 
   // The verdict on the vehicle's own (true) states, against the true world.
+  // A grasp changes the world where the flown tool closed on the object
+  // (it leaves the scene, and is judged as held: never into it), as
+  // quadhand-flightcheck replays it.
   const robot::RobotModel& judged_robot = (*judge)->robot();
   robot::KinematicsState kinematics;
   double least = std::numeric_limits<double>::infinity(), least_t = 0.0;
+  double least_held = std::numeric_limits<double>::infinity();
   std::string closest;
+  std::unique_ptr<planner::MissionReplay> replay;
+  if (grasp.work != nullptr) {
+    auto started = planner::MissionReplay::Start(**judge, config->planner.mission);
+    if (!started.ok()) return Fail(started.status().message());
+    replay = std::move(*started);
+  }
+  int gripper = 0;
   for (const sim::FlownSample& s : flown->samples) {
-    robot::ComputeKinematics(judged_robot, MakePose(s.flown.position, s.flown.attitude.toRotationMatrix()),
-                             s.flown.joints, &kinematics);
+    const Pose base = MakePose(s.flown.position, s.flown.attitude.toRotationMatrix());
     int link = -1;
-    const planner::PlanningContext& judged =
-        !changed_world.empty() && s.flown.t >= appear_at ? **judge_after : **judge;
-    const double d = planner::StillAndMovingClearance(kinematics, judged.exact(), nullptr, Pose::Identity(), 1.0, &link);
+    double d = 0.0;
+    if (replay) {
+      if (s.flown.gripper == 1 && gripper == 0) {
+        if (core::Status closed = replay->GripperClosed(base, s.flown.joints); !closed.ok()) return Fail(closed.message());
+        gripper = 1;
+      }
+      const planner::MissionReplay::Clearances c = replay->Measure(base, s.flown.joints, 1.0);
+      d = c.robot;
+      link = c.robot_link;
+      least_held = std::min(least_held, c.object);
+    } else {
+      robot::ComputeKinematics(judged_robot, base, s.flown.joints, &kinematics);
+      const planner::PlanningContext& judged =
+          !changed_world.empty() && s.flown.t >= appear_at ? **judge_after : **judge;
+      d = planner::StillAndMovingClearance(kinematics, judged.exact(), nullptr, Pose::Identity(), 1.0, &link);
+    }
     if (d < least) {
       least = d;
       least_t = s.flown.t;
@@ -302,7 +327,7 @@ int main(int argc, char** argv) {
     }
   }
   const double accepted = planner::AcceptedClearance(*task, tolerance);
-  const bool kept = least >= accepted;
+  const bool kept = least >= accepted && least_held >= -tolerance;
   const bool arrived = flown->outcome == explore::ExplorationOutcome::kArrived;
 
   if (core::Status s = core::WriteFileAtomically(out_path, sim::FlownCsv(flown->samples, robot->ActuatedJointNames()));
@@ -398,6 +423,8 @@ int main(int argc, char** argv) {
                          {"closed", closed},
                          {"closed_t", closed ? nlohmann::json(flown->grasp_closed_t) : nlohmann::json(nullptr)},
                          {"tool_error_m", closed ? nlohmann::json(flown->grasp_tool_error) : nlohmann::json(nullptr)},
+                         {"held_object_min_clearance_m",
+                          std::isfinite(least_held) ? nlohmann::json(least_held) : nlohmann::json(nullptr)},
                          {"map_update_ms", apps::CountMedianP95Max(flown->grasp_map_update_ms)}};
     }
     if (core::Status s = core::WriteFileAtomically(report_path, report.dump(2) + "\n"); !s.ok()) return Fail(s.message());
@@ -418,6 +445,17 @@ int main(int argc, char** argv) {
         core::RankQuantile(flown->map_update_ms, 0.5), core::RankQuantile(flown->map_update_ms, 0.95), flown->peak_map_bytes / 1e6,
         counts.dropped(), counts.malformed, counts.bad_pose, counts.from_the_future, counts.out_of_order, counts.stale,
         flown->dropped_points, flown->silences.size(), flown->invalidations.size(), out_path.c_str());
+    if (grasp.work != nullptr) {
+      const size_t plans = flown->grasp_attempts.size();
+      if (std::isfinite(flown->grasp_closed_t)) {
+        std::printf("grasp: closed at t %.2f s with the tool %.1f mm from the reach's tool point (%zu plan%s of it); "
+                    "held object: least %.4f m\n",
+                    flown->grasp_closed_t, 1e3 * flown->grasp_tool_error, plans, plans == 1 ? "" : "s", least_held);
+      } else {
+        std::printf("grasp: not closed (%zu plan%s of it%s%s)\n", plans, plans == 1 ? "" : "s",
+                    plans > 0 ? "; the last: " : "", plans > 0 ? flown->grasp_attempts.back().message.c_str() : "");
+      }
+    }
   }
   if (!kept) return kExitLost;
   return arrived ? kExitArrived : kExitNotArrived;

@@ -996,9 +996,9 @@ TEST_F(ExploreTest, GraspsACupOnTheGraspMap) {
   const std::string task = (dir_ / "grasp.yaml").string();
   std::ofstream(task) << text;
   std::string sim = testing::ReadAll(std::string(QUADHAND_SOURCE_DIR) + "/data/sim/quadhand_sim.yaml");
-  const size_t splat = sim.find("\n  splat_radius:");
+  const size_t splat = sim.find("\n  splat_spacing_factor:");
   ASSERT_NE(splat, std::string::npos);
-  sim.insert(sim.find('\n', splat + 1) + 1, "  splat_spacing_factor: 0.75\n");
+  sim.replace(splat + 1, sim.find('\n', splat + 1) - splat - 1, "  splat_spacing_factor: 0.75");
   const std::string dense = (dir_ / "sim.yaml").string();
   std::ofstream(dense) << sim;
   const std::string options = "--resolution 0.05 --tracking-margin 0 --window 6,6,3";
