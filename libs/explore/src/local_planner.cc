@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "quadhand/core/text.h"
@@ -95,7 +96,11 @@ core::Result<std::unique_ptr<LocalPlanner>> LocalPlanner::Create(const planner::
   std::unique_ptr<LocalPlanner> planner(new LocalPlanner(base, capped, solver, local));
   planner->goal_ = *task.terminal;
   // The compact joints: a grid over the joints' limits (at most about 2000
-  // configurations), the one whose collision vertices lie nearest the base.
+  // configurations, and the goal's value of each joint), the one whose
+  // collision vertices lie nearest the base; within 1 cm of that, the one
+  // nearest the goal's joints, so that folding and unfolding move the arm
+  // no more than they must (a wrist rolled half a turn for a millimetre
+  // swings the base's yaw).
   const robot::RobotModel& robot = base.robot();
   planner->link_vertices_.resize(static_cast<size_t>(robot.num_links()));
   for (int link = 0; link < robot.num_links(); ++link) {
@@ -119,24 +124,32 @@ core::Result<std::unique_ptr<LocalPlanner>> LocalPlanner::Create(const planner::
         upper[j] = M_PI;
       }
     }
+    const VecX& goal = task.terminal->joints;
+    // Each joint's samples: the grid, then the goal's value.
+    auto sample = [&](long j, int k) {
+      return k == per_joint ? std::clamp(goal[j], lower[j], upper[j])
+                            : lower[j] + (upper[j] - lower[j]) * k / (per_joint - 1);
+    };
+    std::vector<std::pair<double, VecX>> configurations;
     std::vector<int> index(static_cast<size_t>(n), 0);
     VecX joints(n);
+    double smallest = planner->compact_radius_;
     while (true) {
-      for (long j = 0; j < n; ++j) {
-        joints[j] = lower[j] + (upper[j] - lower[j]) * index[static_cast<size_t>(j)] / (per_joint - 1);
-      }
+      for (long j = 0; j < n; ++j) joints[j] = sample(j, index[static_cast<size_t>(j)]);
       const double radius = planner->RadiusAt(joints);
-      // Nearly as small and nearer the zero configuration wins.
-      if (radius < planner->compact_radius_ - 1e-3 ||
-          (radius < planner->compact_radius_ + 1e-3 && joints.norm() < planner->compact_joints_.norm())) {
-        planner->compact_radius_ = std::min(planner->compact_radius_, radius);
-        planner->compact_joints_ = joints;
-      }
+      smallest = std::min(smallest, radius);
+      configurations.emplace_back(radius, joints);
       long j = 0;
-      while (j < n && ++index[static_cast<size_t>(j)] == per_joint) index[static_cast<size_t>(j++)] = 0;
+      while (j < n && ++index[static_cast<size_t>(j)] == per_joint + 1) index[static_cast<size_t>(j++)] = 0;
       if (j == n) break;
     }
-    planner->compact_radius_ = planner->RadiusAt(planner->compact_joints_);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const auto& [radius, candidate] : configurations) {
+      if (radius > smallest + 0.01 || (candidate - goal).norm() >= nearest) continue;
+      nearest = (candidate - goal).norm();
+      planner->compact_joints_ = candidate;
+      planner->compact_radius_ = radius;
+    }
   }
   return planner;
 }
