@@ -490,7 +490,9 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       next_replan = t;
       last_new_plan = t;
     }
-    if (t >= time_limit) {
+    // The limit bounds the search for a way, not a certified grasp being
+    // flown: that ends by itself, and a vehicle left mid-lift holds nothing.
+    if (t >= time_limit && !grasp_flying) {
       result.outcome = ExplorationOutcome::kTimeLimit;
       break;
     }
