@@ -274,9 +274,10 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       sim::SensorRenderer* renderer = world.At(t);
       sent.points = renderer->Render(sensor_pose);
       if (options.free_misses) sent.misses = renderer->LastMisses(options.miss_stride);
-      // The grasp map's voxels are finer than a pixel's footprint at a few
-      // metres: it takes every pixel that saw nothing, kept beside the
-      // frame until the frame is taken (or given up).
+      // The grasp map's voxels are a few pixels' footprint wide at a few
+      // metres, so it takes denser misses than the exploration map's, at its
+      // own rate (GraspOptions), kept beside the frame until the frame is
+      // taken or given up.
       const bool to_grasp_map = grasp_map != nullptr && t >= next_grasp_frame - 1e-9;
       if (to_grasp_map) {
         next_grasp_frame = t + 1.0 / grasp.options.frame_rate;
@@ -314,8 +315,10 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
         }
       }
       next_frame += frame_period;
-      // A frame later than this is dropped as stale by the gate.
-      while (!grasp_misses.empty() && grasp_misses.begin()->first < t - 2.0) grasp_misses.erase(grasp_misses.begin());
+      // A frame older than max_age on arrival is dropped as stale by the gate.
+      while (!grasp_misses.empty() && grasp_misses.begin()->first < t - options.frame_gate.max_age - 1.0) {
+        grasp_misses.erase(grasp_misses.begin());
+      }
       // The plans ahead were certified against a map that saw these voxels
       // free: each is checked again against them.
       if (!new_obstacles.empty() && (flying || pending) && !grasp_flying) {
