@@ -107,9 +107,9 @@ core::Result<std::optional<GraspWork>> GraspWorkOfTask(const planner::Task& task
   work.staging.position -= direction * (length + options.approach);
   // Every state the work passes at rest: the staging, the insertion's
   // start and end, and each move's end (the arm and yaw held).
-  std::vector<planner::BoundaryState> states = {work.staging, at};
-  states.push_back(at);
-  states[1].position -= direction * length;
+  planner::BoundaryState insertion_start = at;
+  insertion_start.position -= direction * length;
+  std::vector<planner::BoundaryState> states = {work.staging, insertion_start, at};
   for (size_t k = grasp + 1; k < mission.size(); ++k) {
     if (mission[k].kind != planner::StepKind::kMove) continue;
     const Vec3 along = mission[k].move_direction ? *mission[k].move_direction : Vec3(-direction);
