@@ -19,20 +19,16 @@ bool Fail(std::string* why, const std::string& message) {
 // The box of the robot's collision geometry hovering at each of `states`.
 core::Status GrowByRobot(const robot::RobotModel& robot, const std::vector<planner::BoundaryState>& states, Vec3* lo,
                          Vec3* hi) {
+  auto vertices = robot::LinkCollisionVertices(robot);
+  if (!vertices.ok()) return vertices.status();
   robot::KinematicsState kinematics;
-  for (int link = 0; link < robot.num_links(); ++link) {
-    if (robot.link(link).collisions.empty()) continue;
-    auto elements = robot::LinkCollisionElements(robot, link);
-    if (!elements.ok()) return elements.status();
-    for (const planner::BoundaryState& state : states) {
-      robot::ComputeKinematics(robot, planner::HoverPose(state.position, state.yaw), state.joints, &kinematics);
-      const Pose& pose = kinematics.link_poses[static_cast<size_t>(link)];
-      for (const geometry::TriangleMesh& mesh : *elements) {
-        for (const Vec3& v : mesh.vertices) {
-          const Vec3 w = pose * v;
-          *lo = lo->cwiseMin(w);
-          *hi = hi->cwiseMax(w);
-        }
+  for (const planner::BoundaryState& state : states) {
+    robot::ComputeKinematics(robot, planner::HoverPose(state.position, state.yaw), state.joints, &kinematics);
+    for (size_t link = 0; link < vertices->size(); ++link) {
+      for (const Vec3& v : (*vertices)[link]) {
+        const Vec3 w = kinematics.link_poses[link] * v;
+        *lo = lo->cwiseMin(w);
+        *hi = hi->cwiseMax(w);
       }
     }
   }

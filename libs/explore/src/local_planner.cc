@@ -102,16 +102,9 @@ core::Result<std::unique_ptr<LocalPlanner>> LocalPlanner::Create(const planner::
   // no more than they must (a wrist rolled half a turn for a millimetre
   // swings the base's yaw).
   const robot::RobotModel& robot = base.robot();
-  planner->link_vertices_.resize(static_cast<size_t>(robot.num_links()));
-  for (int link = 0; link < robot.num_links(); ++link) {
-    if (robot.link(link).collisions.empty()) continue;
-    auto elements = robot::LinkCollisionElements(robot, link);
-    if (!elements.ok()) return elements.status().WithPrefix(task.robot_path);
-    for (const geometry::TriangleMesh& mesh : *elements) {
-      planner->link_vertices_[static_cast<size_t>(link)].insert(planner->link_vertices_[static_cast<size_t>(link)].end(),
-                                                                mesh.vertices.begin(), mesh.vertices.end());
-    }
-  }
+  auto vertices = robot::LinkCollisionVertices(robot);
+  if (!vertices.ok()) return vertices.status().WithPrefix(task.robot_path);
+  planner->link_vertices_ = std::move(*vertices);
   const long n = robot.num_actuated();
   planner->compact_joints_ = task.terminal->joints;
   planner->compact_radius_ = planner->RadiusAt(planner->compact_joints_);

@@ -285,6 +285,17 @@ Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int li
   return soup;
 }
 
+core::Result<std::vector<std::vector<Vec3>>> LinkCollisionVertices(const RobotModel& model) {
+  std::vector<std::vector<Vec3>> vertices(static_cast<size_t>(model.num_links()));
+  for (int link : model.CollisionLinks()) {
+    auto elements = LinkCollisionElements(model, link);
+    if (!elements.ok()) return elements.status();
+    std::vector<Vec3>& own = vertices[static_cast<size_t>(link)];
+    for (const geometry::TriangleMesh& mesh : *elements) own.insert(own.end(), mesh.vertices.begin(), mesh.vertices.end());
+  }
+  return vertices;
+}
+
 core::Result<Vec3> StowedHalfExtents(const RobotModel& model) {
   VecX q(model.num_actuated());
   for (int i = 0; i < model.num_actuated(); ++i) {
@@ -293,13 +304,11 @@ core::Result<Vec3> StowedHalfExtents(const RobotModel& model) {
   }
   KinematicsState state;
   ComputeKinematics(model, Pose::Identity(), q, &state);
+  auto vertices = LinkCollisionVertices(model);
+  if (!vertices.ok()) return vertices.status();
   Vec3 reach = Vec3::Zero();
-  for (int link : model.CollisionLinks()) {
-    auto elements = LinkCollisionElements(model, link);
-    if (!elements.ok()) return elements.status();
-    for (const geometry::TriangleMesh& mesh : *elements) {
-      for (const Vec3& v : mesh.vertices) reach = reach.cwiseMax((state.link_poses[link] * v).cwiseAbs());
-    }
+  for (size_t link = 0; link < vertices->size(); ++link) {
+    for (const Vec3& v : (*vertices)[link]) reach = reach.cwiseMax((state.link_poses[link] * v).cwiseAbs());
   }
   return reach;
 }

@@ -245,31 +245,31 @@ std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world)
   const Pose world_to_sensor = sensor_in_world.inverse();
   const Vec3 reach = Vec3::Constant(o.max_range + config.splat_radius);
   for (const SplatLayer& layer : layers) {
-  const double splat = layer.radius;
-  layer.points.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
-    const Vec3 q = world_to_sensor * p;
-    const double z = q.z();
-    // A point too near to measure still covers its pixels: they return
-    // nothing (0 below), and are no misses, since it hides what is behind.
-    const bool too_near = z > 1e-6 && z < o.min_range;
-    if (!too_near && !(z >= o.min_range && z <= o.max_range)) return;
-    const float value = too_near ? 0.0f : static_cast<float>(z);
-    // The point's disc, facing the camera, covers a square of half-width r
-    // pixels about its projection (a circle: the corners are dropped).
-    const double u = cx + fx * q.x() / z, v = cy + fy * q.y() / z;
-    const double ru = fx * splat / z, rv = fy * splat / z;
-    const int u0 = std::max(0, static_cast<int>(std::floor(u - ru))), u1 = std::min(o.width - 1, static_cast<int>(std::floor(u + ru)));
-    const int v0 = std::max(0, static_cast<int>(std::floor(v - rv))), v1 = std::min(o.height - 1, static_cast<int>(std::floor(v + rv)));
-    for (int row = v0; row <= v1; ++row) {
-      const double dv = (row + 0.5 - v) / rv;
-      for (int col = u0; col <= u1; ++col) {
-        const double du = (col + 0.5 - u) / ru;
-        if (du * du + dv * dv > 1.0) continue;
-        float& depth = nearest[static_cast<size_t>(row) * o.width + col];
-        depth = std::min(depth, value);
+    const double splat = layer.radius;
+    layer.points.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
+      const Vec3 q = world_to_sensor * p;
+      const double z = q.z();
+      // A point too near to measure still covers its pixels: they return
+      // nothing (0 below), and are no misses, since it hides what is behind.
+      const bool too_near = z > 1e-6 && z < o.min_range;
+      if (!too_near && !(z >= o.min_range && z <= o.max_range)) return;
+      const float value = too_near ? 0.0f : static_cast<float>(z);
+      // The point's disc, facing the camera, covers a square of half-width r
+      // pixels about its projection (a circle: the corners are dropped).
+      const double u = cx + fx * q.x() / z, v = cy + fy * q.y() / z;
+      const double ru = fx * splat / z, rv = fy * splat / z;
+      const int u0 = std::max(0, static_cast<int>(std::floor(u - ru))), u1 = std::min(o.width - 1, static_cast<int>(std::floor(u + ru)));
+      const int v0 = std::max(0, static_cast<int>(std::floor(v - rv))), v1 = std::min(o.height - 1, static_cast<int>(std::floor(v + rv)));
+      for (int row = v0; row <= v1; ++row) {
+        const double dv = (row + 0.5 - v) / rv;
+        for (int col = u0; col <= u1; ++col) {
+          const double du = (col + 0.5 - u) / ru;
+          if (du * du + dv * dv > 1.0) continue;
+          float& depth = nearest[static_cast<size_t>(row) * o.width + col];
+          depth = std::min(depth, value);
+        }
       }
-    }
-  });
+    });
   }
   std::normal_distribution<double> unit(0.0, 1.0);
   std::vector<Vec3> points;
@@ -295,38 +295,38 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
   const Pose world_to_sensor = sensor_in_world.inverse();
   const Vec3 reach = Vec3::Constant(o.max_range + config.splat_radius);
   for (const SplatLayer& layer : layers) {
-  layer.points.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
-    const Vec3 q = world_to_sensor * p;
-    const double range = q.norm();
-    // As the camera's: a point too near still covers its beams (0 below).
-    const bool too_near = range > 1e-6 && range < o.min_range;
-    if (!too_near && !(range >= o.min_range && range <= o.max_range)) return;
-    const float value = too_near ? 0.0f : static_cast<float>(range);
-    // The disc's angular radius about the point's direction: the beams
-    // within it hit it.
-    const double spread = std::asin(std::min(1.0, layer.radius / range));
-    const double azimuth = std::atan2(q.y(), q.x()), elevation = std::asin(q.z() / range);
-    int c0 = 0, c1 = 0;
-    if (o.channels > 1) {
-      c0 = std::max(0, static_cast<int>(std::ceil((elevation - spread - low) / channel_step)));
-      c1 = std::min(o.channels - 1, static_cast<int>(std::floor((elevation + spread - low) / channel_step)));
-    } else if (std::abs(elevation) > spread) {
-      return;
-    }
-    const double horizontal = std::min(M_PI, spread / std::max(1e-9, std::cos(elevation)));
-    const int a0 = static_cast<int>(std::ceil((azimuth - horizontal) / column_step));
-    const int a1 = static_cast<int>(std::floor((azimuth + horizontal) / column_step));
-    for (int channel = c0; channel <= c1; ++channel) {
-      for (int a = a0; a <= a1; ++a) {
-        // The angle between the beam and the point's direction.
-        const Vec3 beam = beams.PointAt(channel, a, 1.0);
-        if (beam.dot(q) < range * std::cos(spread)) continue;
-        const int column = ((a % columns) + columns) % columns;
-        float& hit = nearest[static_cast<size_t>(channel) * columns + column];
-        hit = std::min(hit, value);
+    layer.points.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
+      const Vec3 q = world_to_sensor * p;
+      const double range = q.norm();
+      // As the camera's: a point too near still covers its beams (0 below).
+      const bool too_near = range > 1e-6 && range < o.min_range;
+      if (!too_near && !(range >= o.min_range && range <= o.max_range)) return;
+      const float value = too_near ? 0.0f : static_cast<float>(range);
+      // The disc's angular radius about the point's direction: the beams
+      // within it hit it.
+      const double spread = std::asin(std::min(1.0, layer.radius / range));
+      const double azimuth = std::atan2(q.y(), q.x()), elevation = std::asin(q.z() / range);
+      int c0 = 0, c1 = 0;
+      if (o.channels > 1) {
+        c0 = std::max(0, static_cast<int>(std::ceil((elevation - spread - low) / channel_step)));
+        c1 = std::min(o.channels - 1, static_cast<int>(std::floor((elevation + spread - low) / channel_step)));
+      } else if (std::abs(elevation) > spread) {
+        return;
       }
-    }
-  });
+      const double horizontal = std::min(M_PI, spread / std::max(1e-9, std::cos(elevation)));
+      const int a0 = static_cast<int>(std::ceil((azimuth - horizontal) / column_step));
+      const int a1 = static_cast<int>(std::floor((azimuth + horizontal) / column_step));
+      for (int channel = c0; channel <= c1; ++channel) {
+        for (int a = a0; a <= a1; ++a) {
+          // The angle between the beam and the point's direction.
+          const Vec3 beam = beams.PointAt(channel, a, 1.0);
+          if (beam.dot(q) < range * std::cos(spread)) continue;
+          const int column = ((a % columns) + columns) % columns;
+          float& hit = nearest[static_cast<size_t>(channel) * columns + column];
+          hit = std::min(hit, value);
+        }
+      }
+    });
   }
   std::normal_distribution<double> unit(0.0, 1.0);
   std::vector<Vec3> points;

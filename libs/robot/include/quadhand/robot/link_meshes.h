@@ -52,6 +52,11 @@ std::vector<std::string> TakeMeshRepairReports();
 // LinkCollisionElements does.
 core::Result<geometry::TriangleMesh> LinkCollisionMesh(const RobotModel& model, int link);
 
+// The vertices of every collision element of each link, in the link's
+// frame, indexed by link (empty for a link without collision geometry):
+// what bounds the robot's extent in a configuration. Fails as
+// LinkCollisionElements does.
+core::Result<std::vector<std::vector<Vec3>>> LinkCollisionVertices(const RobotModel& model);
 // The largest |x|, |y| and |z| of the collision elements' vertices in the
 // root link's frame with every joint at its value nearest zero within its
 // limits (the arm stowed); zero for a robot without collision geometry.
