@@ -308,6 +308,27 @@ TEST_F(ExploreTest, FoldsTheArmToTurnInASmallBall) {
     ASSERT_LT((trajectory.Sample(t).position - from.position).norm(), 0.1) << t;
   }
   ExpectInSeenFreeSpace(trajectory, **map);
+
+  // A hop from the folded arm keeps it folded (only the plan to the goal
+  // unfolds it); the goal, 8 m off, is out of the seen-free ball.
+  (*map)->MarkFree(from.position, 1.5);
+  planner::BoundaryState folded = end.State();
+  folded.velocity = folded.acceleration = folded.jerk = Vec3::Zero();
+  folded.yaw_rate = 0.0;
+  folded.joint_rates = VecX::Zero(folded.joints.size());
+  auto hop = p.local->PlanFrom(**map, folded);
+  ASSERT_TRUE(hop.ok()) << hop.status().message();
+  ASSERT_EQ(hop->status, explore::LocalPlanStatus::kToLocalTarget) << hop->message;
+  const planner::WholeBodyTrajectory& hopped = *hop->plan.trajectory;
+  EXPECT_LT((hopped.Sample(hopped.duration()).joints - folded.joints).norm(), 1e-6);
+  EXPECT_GT((hopped.Sample(hopped.duration()).position - from.position).norm(), 0.3);
+  ExpectInSeenFreeSpace(hopped, **map);
+  // From the goal's joints a hop ends with them.
+  auto unfolded = p.local->PlanFrom(**map, from);
+  ASSERT_TRUE(unfolded.ok()) << unfolded.status().message();
+  ASSERT_EQ(unfolded->status, explore::LocalPlanStatus::kToLocalTarget) << unfolded->message;
+  EXPECT_LT((unfolded->plan.trajectory->Sample(unfolded->plan.trajectory->duration()).joints -
+             p.local->goal().joints).norm(), 1e-6);
 }
 
 // Looking round (explore/look_round.h): the goal's bearing first, then the

@@ -459,6 +459,12 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
   // one plan), a shorter hop towards them still moves the vehicle on.
   // The targets to avoid count as tried already (but are not reported).
   std::vector<Vec3> tried = avoid;
+  // A hop ends with the goal's joints, but one from the folded arm (a turn
+  // in place left it so) keeps it folded: only the plan to the goal
+  // unfolds it. Unfolding inside every hop swings the arm out near the
+  // walls the fold was for, and those hops failed their clearance.
+  const bool folded = compact_joints_.size() == start.joints.size() && compact_joints_ != goal_.joints &&
+                      (start.joints - compact_joints_).cwiseAbs().maxCoeff() < 1e-9;
   int checks = 0;
   const auto plan_start = std::chrono::steady_clock::now();
   for (int attempt = 0; attempt < local_.max_targets && checks < local_.max_target_checks; ++attempt) {
@@ -478,6 +484,7 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
       const bool candidate_is_goal = score < 0.0;
       if (!candidate_is_goal) {
         candidate_leg.terminal->position = candidate;
+        if (folded) candidate_leg.terminal->joints = start.joints;
         // The camera looks where the vehicle goes. A hop mostly up or down
         // has no heading of its own (atan2 of its few centimetres sideways
         // is noise, and turned a vehicle's back to the goal for good): it
