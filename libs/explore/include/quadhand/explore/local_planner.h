@@ -62,7 +62,8 @@ struct LocalPlannerOptions {
   // lattice covers the box otherwise).
   double max_height_offset = 1.0;
   // A local target is tried only where the robot hovering there (heading
-  // from the start, the goal's joints) clears the boundary by the planned
+  // from the start; the goal's joints, or the start's when the arm is
+  // folded) clears the boundary by the planned
   // safety distance plus this, m (exact meshes): room for the optimiser.
   double target_clearance_margin = 0.05;
   // At most this many targets are tested that way per plan.
@@ -221,6 +222,8 @@ class LocalPlanner {
   // the joints that hold the robot nearest its base, where that makes it
   // more than 1 cm smaller (a vehicle with its arm out cannot turn in a
   // small seen-free ball), else, or when that turn fails, keeps its joints.
+  // Hops from the folded joints keep them (PlanIn); the plan to the goal
+  // unfolds the arm.
   // What a vehicle at a dead end does to look round (look_round.h): a
   // camera sees a narrow view, and a wall ahead can hide every way on.
   // kTurnInPlace when certified, else kFailed with the reason.
