@@ -294,11 +294,18 @@ int main(int argc, char** argv) {
   double least = std::numeric_limits<double>::infinity(), least_t = 0.0;
   double least_held = std::numeric_limits<double>::infinity();
   std::string closest;
-  std::unique_ptr<planner::MissionReplay> replay;
+  // (One replay of the world before --appear's points and one after, each
+  // told of the gripper's close.)
+  std::unique_ptr<planner::MissionReplay> replay, replay_after;
   if (grasp.work != nullptr) {
     auto started = planner::MissionReplay::Start(**judge, config->planner.mission);
     if (!started.ok()) return Fail(started.status().message());
     replay = std::move(*started);
+    if (!changed_world.empty()) {
+      auto after = planner::MissionReplay::Start(**judge_after, config->planner.mission);
+      if (!after.ok()) return Fail(after.status().message());
+      replay_after = std::move(*after);
+    }
   }
   int gripper = 0;
   for (const sim::FlownSample& s : flown->samples) {
@@ -307,10 +314,14 @@ int main(int argc, char** argv) {
     double d = 0.0;
     if (replay) {
       if (s.flown.gripper == 1 && gripper == 0) {
-        if (core::Status closed = replay->GripperClosed(base, s.flown.joints); !closed.ok()) return Fail(closed.message());
+        for (planner::MissionReplay* each : {replay.get(), replay_after.get()}) {
+          if (each == nullptr) continue;
+          if (core::Status closed = each->GripperClosed(base, s.flown.joints); !closed.ok()) return Fail(closed.message());
+        }
         gripper = 1;
       }
-      const planner::MissionReplay::Clearances c = replay->Measure(base, s.flown.joints, 1.0);
+      planner::MissionReplay& judged = replay_after && s.flown.t >= appear_at ? *replay_after : *replay;
+      const planner::MissionReplay::Clearances c = judged.Measure(base, s.flown.joints, 1.0);
       d = c.robot;
       link = c.robot_link;
       least_held = std::min(least_held, c.object);
@@ -361,6 +372,7 @@ int main(int argc, char** argv) {
   for (const explore::InvalidationRecord& r : flown->invalidations) {
     invalidation_log.push_back({{"t", r.t},
                                 {"flown_plan", r.flown},
+                                {"grasp_plan", r.grasp},
                                 {"conflict_in_s", r.conflict_in},
                                 {"stop_margin_s", r.stop_margin},
                                 {"new_obstacle_voxels", r.new_obstacles}});
@@ -452,8 +464,15 @@ int main(int argc, char** argv) {
                     "held object: least %.4f m\n",
                     flown->grasp_closed_t, 1e3 * flown->grasp_tool_error, plans, plans == 1 ? "" : "s", least_held);
       } else {
-        std::printf("grasp: not closed (%zu plan%s of it%s%s)\n", plans, plans == 1 ? "" : "s",
-                    plans > 0 ? "; the last: " : "", plans > 0 ? flown->grasp_attempts.back().message.c_str() : "");
+        const auto braked = std::find_if(flown->invalidations.begin(), flown->invalidations.end(),
+                                         [](const explore::InvalidationRecord& r) { return r.grasp; });
+        if (braked != flown->invalidations.end()) {
+          std::printf("grasp: not closed; its plan braked at t %.2f s for %zu voxels the grasp map saw in its way\n",
+                      braked->t, braked->new_obstacles);
+        } else {
+          std::printf("grasp: not closed (%zu plan%s of it%s%s)\n", plans, plans == 1 ? "" : "s",
+                      plans > 0 ? "; the last: " : "", plans > 0 ? flown->grasp_attempts.back().message.c_str() : "");
+        }
       }
     }
   }

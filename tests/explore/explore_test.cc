@@ -110,6 +110,75 @@ class ExploreTest : public ::testing::Test {
 
   // quadhand-explore flies `task` (`args` added, --quiet): its flown record
   // into flown_, its report into report_, both in the test's folder.
+  // The gap-crossing grasp's cup (70/80 mm, 0.10 m, its walls every 5 mm)
+  // on its 0.5 m cube about (-2.2, 0, 0.25), on a floor, and nothing else.
+  static std::vector<Vec3> CupOnCubeWorld() {
+    std::vector<Vec3> world;
+    for (double x = -3.0; x <= 0.5 + 1e-9; x += 0.02) {
+      for (double y = -1.5; y <= 1.5 + 1e-9; y += 0.02) world.emplace_back(x, y, 0.0);
+    }
+    for (double u = -0.25; u <= 0.25 + 1e-9; u += 0.01) {
+      for (double v = -0.25; v <= 0.25 + 1e-9; v += 0.01) {
+        for (double side : {-0.25, 0.25}) {
+          world.emplace_back(-2.2 + side, u, 0.25 + v);
+          world.emplace_back(-2.2 + u, side, 0.25 + v);
+          world.emplace_back(-2.2 + u, v, 0.25 + side);
+        }
+      }
+    }
+    for (double z = 0.5; z <= 0.6 + 1e-9; z += 0.005) {
+      for (const double radius : {0.04, 0.035}) {
+        const int around = static_cast<int>(std::round(2.0 * M_PI * radius / 0.005));
+        for (int k = 0; k < around; ++k) {
+          const double a = 2.0 * M_PI * k / around;
+          world.emplace_back(-2.2 + radius * std::cos(a), radius * std::sin(a), z);
+        }
+      }
+    }
+    for (int k = 0; k < 50; ++k) {
+      const double a = 2.0 * M_PI * k / 50.0;
+      world.emplace_back(-2.2 + 0.0375 * std::cos(a), 0.0375 * std::sin(a), 0.6);
+    }
+    return world;
+  }
+  // The bundled gap-crossing grasp on `world` (written as `name`.pcd), its
+  // start's lines replaced by `start` (each "key: value" at the start's
+  // indentation).
+  std::string WriteGraspTask(const std::vector<Vec3>& world, const std::string& name,
+                             const std::vector<std::string>& start) {
+    const std::string cloud = (dir_ / (name + ".pcd")).string();
+    EXPECT_TRUE(scene::WritePcd(cloud, world).ok());
+    std::string text = testing::ReadAll(std::string(QUADHAND_SOURCE_DIR) + "/data/tasks/missions/gap_crossing_grasp.yaml");
+    auto replace_line = [&](const std::string& key, const std::string& line) {
+      const size_t at = text.find("\n" + key);
+      ASSERT_NE(at, std::string::npos) << key;
+      text.replace(at + 1, text.find('\n', at + 1) - at - 1, line);
+    };
+    replace_line("robot:", std::string("robot: ") + QUADHAND_SOURCE_DIR + "/meshes/quadhand/quadhand.urdf");
+    replace_line("sdf_dir:", "sdf_dir: " + testing::CoarseSdfDir());
+    replace_line("scene:", "scene: " + cloud);
+    for (const std::string& line : start) replace_line("  " + line.substr(0, line.find(':') + 1), "  " + line);
+    const std::string path = (dir_ / (name + ".yaml")).string();
+    std::ofstream(path) << text;
+    return path;
+  }
+  // The bundled simulator's configuration with these sensor lines replaced
+  // (each "key: value", at the sensor's indentation; a commented key too).
+  std::string WriteSimConfig(const std::vector<std::string>& sensor_lines) {
+    std::string sim = testing::ReadAll(std::string(QUADHAND_SOURCE_DIR) + "/data/sim/quadhand_sim.yaml");
+    for (const std::string& line : sensor_lines) {
+      const std::string key = line.substr(0, line.find(':') + 1);
+      size_t at = sim.find("\n  " + key);
+      if (at == std::string::npos) at = sim.find("\n  # " + key);
+      EXPECT_NE(at, std::string::npos) << key;
+      if (at == std::string::npos) continue;
+      sim.replace(at + 1, sim.find('\n', at + 1) - at - 1, "  " + line);
+    }
+    const std::string path = (dir_ / "sim.yaml").string();
+    std::ofstream(path) << sim;
+    return path;
+  }
+
   testing::CommandResult Explore(const std::string& task, const std::string& args = "") const {
     return RunCommand(kExplore + " " + task + " --out " + flown_ + " --report " + report_ + " " + args + " --quiet");
   }
@@ -976,52 +1045,8 @@ TEST(GraspUnderPerceptionTest, TheGraspMapLeavesOutOnlyTheObjectsVoxels) {
 // 2 cm fatter than it is, and the grasp is not certified (the fingers pass
 // 3.5 cm from it).
 TEST_F(ExploreTest, GraspsACupOnTheGraspMap) {
-  std::vector<Vec3> world;
-  for (double x = -3.0; x <= 0.5 + 1e-9; x += 0.02) {
-    for (double y = -1.5; y <= 1.5 + 1e-9; y += 0.02) world.emplace_back(x, y, 0.0);
-  }
-  for (double u = -0.25; u <= 0.25 + 1e-9; u += 0.01) {  // the cube (0.5 m) about (-2.2, 0, 0.25)
-    for (double v = -0.25; v <= 0.25 + 1e-9; v += 0.01) {
-      for (double side : {-0.25, 0.25}) {
-        world.emplace_back(-2.2 + side, u, 0.25 + v);
-        world.emplace_back(-2.2 + u, side, 0.25 + v);
-        world.emplace_back(-2.2 + u, v, 0.25 + side);
-      }
-    }
-  }
-  for (double z = 0.5; z <= 0.6 + 1e-9; z += 0.005) {  // the cup: its walls every 5 mm, its rim
-    for (const double radius : {0.04, 0.035}) {
-      const int around = static_cast<int>(std::round(2.0 * M_PI * radius / 0.005));
-      for (int k = 0; k < around; ++k) {
-        const double a = 2.0 * M_PI * k / around;
-        world.emplace_back(-2.2 + radius * std::cos(a), radius * std::sin(a), z);
-      }
-    }
-  }
-  for (int k = 0; k < 50; ++k) {
-    const double a = 2.0 * M_PI * k / 50.0;
-    world.emplace_back(-2.2 + 0.0375 * std::cos(a), 0.0375 * std::sin(a), 0.6);
-  }
-  const std::string cloud = (dir_ / "cup.pcd").string();
-  ASSERT_TRUE(scene::WritePcd(cloud, world).ok());
-  std::string text = testing::ReadAll(std::string(QUADHAND_SOURCE_DIR) + "/data/tasks/missions/gap_crossing_grasp.yaml");
-  auto replace_line = [&](const std::string& key, const std::string& line) {
-    const size_t at = text.find("\n" + key);
-    ASSERT_NE(at, std::string::npos) << key;
-    text.replace(at + 1, text.find('\n', at + 1) - at - 1, line);
-  };
-  replace_line("robot:", std::string("robot: ") + QUADHAND_SOURCE_DIR + "/meshes/quadhand/quadhand.urdf");
-  replace_line("sdf_dir:", "sdf_dir: " + testing::CoarseSdfDir());
-  replace_line("scene:", "scene: " + cloud);
-  replace_line("  position: [0.0, 0.2, 1.2]", "  position: [-0.7, 0.1, 1.15]");
-  const std::string task = (dir_ / "grasp.yaml").string();
-  std::ofstream(task) << text;
-  std::string sim = testing::ReadAll(std::string(QUADHAND_SOURCE_DIR) + "/data/sim/quadhand_sim.yaml");
-  const size_t splat = sim.find("\n  splat_spacing_factor:");
-  ASSERT_NE(splat, std::string::npos);
-  sim.replace(splat + 1, sim.find('\n', splat + 1) - splat - 1, "  splat_spacing_factor: 0.75");
-  const std::string dense = (dir_ / "sim.yaml").string();
-  std::ofstream(dense) << sim;
+  const std::string task = WriteGraspTask(CupOnCubeWorld(), "grasp", {"position: [-0.7, 0.1, 1.15]"});
+  const std::string dense = WriteSimConfig({"splat_spacing_factor: 0.75"});
   const std::string options = "--resolution 0.05 --tracking-margin 0 --window 6,6,3";
 
   const auto r = Explore(task, options + " --sim-config " + dense);
@@ -1052,6 +1077,62 @@ TEST_F(ExploreTest, GraspsACupOnTheGraspMap) {
   EXPECT_EQ(j["outcome"], "grasp_not_certified");
   EXPECT_FALSE(j["grasp"]["closed"].get<bool>());
   EXPECT_GE(j["min_clearance_m"].get<double>(), 0.028);
+}
+
+// The grasp's plan is checked again, while it is flown, against what the
+// grasp map finds in space it had seen free: a ring (6.5 cm about the cup,
+// 2.5 cm from it, as tall as the cup) appears 1 s into the grasp, in the
+// fingers' way. The camera is pitched 70 degrees down (the bundled one looks
+// ahead, and from the staging state sees nothing near the cup), and the
+// flight starts at the staging state. The grasp brakes along its path, the
+// gripper never closes, the flight ends stuck (exit 1), and the clearance
+// against the world with the ring is kept, by quadhand-explore's verdict and
+// by quadhand-flightcheck's. Without the check the fingers pass 7 mm from
+// the ring (exit 6, clearance lost).
+TEST_F(ExploreTest, BrakesTheGraspForWhatAppearsInItsWay) {
+  std::vector<Vec3> world = CupOnCubeWorld();
+  const std::string task = WriteGraspTask(world, "grasp", {"position: [-1.994932877, 0.0, 1.237928495]",
+                                                           "joints: [0.6, 0.9707963268, 0.0]"});
+  for (double z = 0.5; z <= 0.63 + 1e-9; z += 0.004) {
+    const int around = static_cast<int>(std::round(2.0 * M_PI * 0.065 / 0.004));
+    for (int k = 0; k < around; ++k) {
+      const double a = 2.0 * M_PI * k / around;
+      world.emplace_back(-2.2 + 0.065 * std::cos(a), 0.065 * std::sin(a), z);
+    }
+  }
+  const std::string with_ring = WriteGraspTask(world, "ring", {"position: [-1.994932877, 0.0, 1.237928495]",
+                                                               "joints: [0.6, 0.9707963268, 0.0]"});
+  // The camera's x, y, z (right, down, ahead) in the base: (0, -1, 0),
+  // (-sin 70, 0, -cos 70), (cos 70, 0, -sin 70).
+  const double pitch = 70.0 * M_PI / 180.0;
+  Mat3 axes;
+  axes << 0.0, -std::sin(pitch), std::cos(pitch),  //
+      -1.0, 0.0, 0.0,                               //
+      0.0, -std::cos(pitch), -std::sin(pitch);
+  const Quat mount(axes);
+  const std::string sim = WriteSimConfig(
+      {"splat_spacing_factor: 0.75",
+       core::Format("mount: {position: [0.1, 0, 0], orientation: [%.12f, %.12f, %.12f, %.12f]}", mount.w(), mount.x(),
+                    mount.y(), mount.z())});
+  const auto r = Explore(task, "--resolution 0.05 --tracking-margin 0 --window 6,6,3 --sim-config " + sim +
+                                   " --appear " + with_ring + " --appear-at 1.0");
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  const nlohmann::json j = Report();
+  EXPECT_EQ(j["outcome"], "stuck");
+  EXPECT_FALSE(j["grasp"]["closed"].get<bool>());
+  ASSERT_EQ(j["grasp"]["attempts"].size(), 1u);
+  EXPECT_TRUE(j["grasp"]["attempts"][0]["certified"].get<bool>());
+  EXPECT_LT(j["grasp"]["attempts"][0]["t"].get<double>(), 1.0);
+  ASSERT_EQ(j["invalidations"].size(), 1u);
+  const nlohmann::json& braked = j["invalidations"][0];
+  EXPECT_TRUE(braked["grasp_plan"].get<bool>());
+  EXPECT_TRUE(braked["flown_plan"].get<bool>());
+  EXPECT_GT(braked["stop_margin_s"].get<double>(), 0.0);
+  EXPECT_TRUE(j["kept_clearance"].get<bool>());
+  EXPECT_GE(j["min_clearance_m"].get<double>(), 0.034);
+  const auto check = Flightcheck(with_ring);
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+  EXPECT_NE(check.out.find("0 gripper events"), std::string::npos) << check.out;
 }
 
 TEST_F(ExploreTest, BadInputIsOneLineAndExitTwoWithNoOutput) {

@@ -210,6 +210,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   std::map<double, std::vector<Vec3>> grasp_misses;  // the grasp map's frames' misses, by the frame's time
   double next_grasp_frame = 0.0;
   double next_grasp_try = 0.0, grasp_close_t = 0.0;
+  Pose object_in_tool = Pose::Identity();  // the held object, from the gripper's close
 
   size_t leg = 0;
   const LocalPlanner* planner = legs[0];
@@ -228,6 +229,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   simulator->Reset(initial, 0.0);
   (*map)->MoveWindow(task.start.position);
   (*map)->MarkFree(task.start.position, options.start_free_radius);
+  if (grasp_map != nullptr) grasp_map->MarkFree(task.start.position, options.start_free_radius);
 
   planner::WholeBodySample hold_sample;
   hold_sample.position = task.start.position;
@@ -284,7 +286,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
         grasp_misses.emplace(t, options.free_misses ? renderer->LastMisses(grasp.options.miss_stride)
                                                     : std::vector<Vec3>{});
       }
-      std::vector<Vec3> new_obstacles;
+      std::vector<Vec3> new_obstacles, new_grasp_obstacles;
       for (perception::SensorFrame& frame : faults.Pass(std::move(sent), t)) {
         if (gate.Admit(frame, t) != perception::FrameDrop::kNone) continue;
         const Pose pose = perception::SensorPose(frame);
@@ -311,6 +313,15 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
             QUADHAND_RETURN_IF_ERROR(grasp_map->Insert(frame.points, pose.translation(), misses));
             result.grasp_map_update_ms.push_back(
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - grasp_start).count());
+            if (grasp_flying) {
+              std::optional<Pose> held;
+              if (gripper_closed) {
+                held = robot::LinkPose(robot, MakePose(state.position, state.attitude.toRotationMatrix()),
+                                       state.joints, tool_link) * object_in_tool;
+              }
+              const std::vector<Vec3> seen = grasp_map->NewObstacles(held);
+              new_grasp_obstacles.insert(new_grasp_obstacles.end(), seen.begin(), seen.end());
+            }
           }
         }
       }
@@ -346,6 +357,25 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
           result.invalidations.push_back(record);
         }
       }
+      // The grasp's plan was certified on the grasp map: what that map
+      // finds in space it had seen free is checked against the rest of it,
+      // and a conflict brakes it along its path (the gripper then never
+      // closes, and the flight ends stuck: nothing is planned round it).
+      if (!new_grasp_obstacles.empty() && grasp_flying && !flying->braked && !flying->Ended(t)) {
+        const double tau = flying->PlanTime(t);
+        const double distance = grasp.planner->PlannedSafetyDistance(grasp.options.resolution);
+        if (const auto conflict = planner->FirstConflict(flying->trajectory, tau, new_grasp_obstacles, distance)) {
+          InvalidationRecord record;
+          record.t = t;
+          record.new_obstacles = new_grasp_obstacles.size();
+          record.flown = true;
+          record.grasp = true;
+          record.conflict_in = *conflict - tau;
+          flying->Brake(t, planner->AccelerationLimit());
+          record.stop_margin = *conflict - flying->PlanTime(flying->brake_t + flying->brake_s);
+          result.invalidations.push_back(record);
+        }
+      }
     }
     // The sensor's silence: brake, hold, and plan nothing until it speaks.
     // (Counted from take-off until the first frame is taken.)
@@ -369,7 +399,9 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
     }
     const bool goal_held = (flying && flying->to_goal && !flying->braked) || (pending && pending->to_goal);
     const bool turning = flying && flying->turn && !flying->Stopped(t);
-    if (!silence && !goal_held && !turning && !pending && t >= next_replan - 1e-9) {
+    // From the staging state on, only the grasp is planned (a braked grasp
+    // holds where it stopped).
+    if (!grasping && !silence && !goal_held && !turning && !pending && t >= next_replan - 1e-9) {
       const double t_start = t + options.plan_ahead;
       const planner::BoundaryState start = flying ? flying->At(t_start).State() : hold_sample.State();
       if (!start.position.allFinite()) {
@@ -460,10 +492,11 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       result.grasp_tool_error = (tool.translation() - grasp.work->tool_position).norm();
       QUADHAND_RETURN_IF_ERROR(
           simulator->SetPayload(grasp.work->object.mass, tool.inverse() * grasp.work->object.pose.translation()));
+      object_in_tool = tool.inverse() * grasp.work->object.pose;
       gripper_closed = true;
     }
     if (grasp_flying && flying->braked && flying->Stopped(t)) {
-      result.outcome = ExplorationOutcome::kStuck;  // a silence braked the grasp's plan
+      result.outcome = ExplorationOutcome::kStuck;  // a silence or a new obstacle braked the grasp's plan
       break;
     }
     if (grasp_flying && flying->Ended(t)) {

@@ -140,6 +140,8 @@ core::Result<std::unique_ptr<GraspMap>> GraspMap::Create(const GraspWork& work, 
   return std::unique_ptr<GraspMap>(new GraspMap(work, std::move(*rolling)));
 }
 
+void GraspMap::MarkFree(const Vec3& centre, double radius) { map_->MarkFree(centre, radius); }
+
 core::Status GraspMap::Insert(const std::vector<Vec3>& points, const Vec3& origin, const std::vector<Vec3>& misses) {
   return map_->Insert(points, origin, misses);
 }
@@ -151,6 +153,20 @@ std::vector<Vec3> GraspMap::Obstacles() const {
     if (planner::DistanceToObjectSurface(work_.object, centre) > keep_off) obstacles.push_back(centre);
   }
   return obstacles;
+}
+
+std::vector<Vec3> GraspMap::NewObstacles(const std::optional<Pose>& held) const {
+  const double keep_off = work_.scene_margin + BallRadius();
+  planner::MissionObject held_object = work_.object;
+  if (held) held_object.pose = *held;
+  std::vector<Vec3> found;
+  for (const Vec3& centre : map_->NewlyBlocked()) {
+    if (((centre - work_.box_lo).array() < 0.0).any() || ((work_.box_hi - centre).array() < 0.0).any()) continue;
+    if (planner::DistanceToObjectSurface(work_.object, centre) <= keep_off) continue;
+    if (held && planner::DistanceToObjectSurface(held_object, centre) <= keep_off) continue;
+    found.push_back(centre);
+  }
+  return found;
 }
 
 GraspPlanner::GraspPlanner(const planner::PlanningContext& base, const planner::Task& task, const GraspWork& work,

@@ -112,6 +112,7 @@ struct InvalidationRecord {
   double conflict_in = 0.0;   // s of the plan's own time until the conflict (the flown plan)
   double stop_margin = 0.0;   // s of plan time between the brake's stop and the conflict (negative: past it)
   size_t new_obstacles = 0;   // voxels
+  bool grasp = false;         // the grasp's plan, against the grasp map's new obstacles
 };
 
 // A time the sensor was silent, and the brake it caused.

@@ -95,12 +95,21 @@ class GraspMap {
   // replaced by the grasp's). InvalidArgument for bad options.
   static core::Result<std::unique_ptr<GraspMap>> Create(const GraspWork& work, const GraspOptions& options,
                                                         const perception::RollingMapOptions& map);
+  // The take-off ball, taken as free (RollingMap::MarkFree), as on the
+  // exploration map.
+  void MarkFree(const Vec3& centre, double radius);
   // One frame (world frame), as RollingMap::Insert.
   core::Status Insert(const std::vector<Vec3>& points, const Vec3& origin, const std::vector<Vec3>& misses);
   // What a plan of the work keeps its distance from: the centres of the
   // map's obstacle boundary in the box (every face of the box among them),
   // less the voxels taken to be the object's (above).
   std::vector<Vec3> Obstacles() const;
+  // What the last Insert found in space the map had seen free (RollingMap::
+  // NewlyBlocked) in the box, less the object's voxels: where it was, and
+  // where it is held when `held` gives its pose now (a held object seen
+  // moving with the tool is not a new obstacle). A plan certified before
+  // is checked again against these while it is flown.
+  std::vector<Vec3> NewObstacles(const std::optional<Pose>& held = std::nullopt) const;
   double BallRadius() const { return map_->BoundaryBallRadius(); }
   const perception::RollingMap& map() const { return *map_; }
 
