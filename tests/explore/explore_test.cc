@@ -108,8 +108,6 @@ class ExploreTest : public ::testing::Test {
     return p;
   }
 
-  // quadhand-explore flies `task` (`args` added, --quiet): its flown record
-  // into flown_, its report into report_, both in the test's folder.
   // The gap-crossing grasp's cup (70/80 mm, 0.10 m, its walls every 5 mm)
   // on its 0.5 m cube about (-2.2, 0, 0.25), on a floor, and nothing else.
   static std::vector<Vec3> CupOnCubeWorld() {
@@ -179,6 +177,8 @@ class ExploreTest : public ::testing::Test {
     return path;
   }
 
+  // quadhand-explore flies `task` (`args` added, --quiet): its flown record
+  // into flown_, its report into report_, both in the test's folder.
   testing::CommandResult Explore(const std::string& task, const std::string& args = "") const {
     return RunCommand(kExplore + " " + task + " --out " + flown_ + " --report " + report_ + " " + args + " --quiet");
   }
