@@ -31,6 +31,7 @@
 #include "quadhand/explore/exploration_flight.h"
 #include "quadhand/explore/local_planner.h"
 #include "quadhand/opt/solver_registry.h"
+#include "quadhand/planner/flight_verdict.h"
 #include "quadhand/planner/mission_plan.h"
 #include "quadhand/planner/moving_scene.h"
 #include "quadhand/planner/planner_config.h"
@@ -289,54 +290,20 @@ int main(int argc, char** argv) {
   // A grasp changes the world where the flown tool closed on the object
   // (it leaves the scene, and is judged as held: never into it), as
   // quadhand-flightcheck replays it.
-  const robot::RobotModel& judged_robot = (*judge)->robot();
-  robot::KinematicsState kinematics;
-  double least = std::numeric_limits<double>::infinity(), least_t = 0.0;
-  double least_held = std::numeric_limits<double>::infinity();
-  std::string closest;
-  // (One replay of the world before --appear's points and one after, each
-  // told of the gripper's close.)
-  std::unique_ptr<planner::MissionReplay> replay, replay_after;
-  if (grasp.work != nullptr) {
-    auto started = planner::MissionReplay::Start(**judge, config->planner.mission);
-    if (!started.ok()) return Fail(started.status().message());
-    replay = std::move(*started);
-    if (!changed_world.empty()) {
-      auto after = planner::MissionReplay::Start(**judge_after, config->planner.mission);
-      if (!after.ok()) return Fail(after.status().message());
-      replay_after = std::move(*after);
-    }
-  }
-  int gripper = 0;
+  auto verdict = planner::FlightJudge::Create(**judge, config->planner.mission,
+                                             changed_world.empty() ? nullptr : judge_after->get(), appear_at);
+  if (!verdict.ok()) return Fail(verdict.status().message());
   for (const sim::FlownSample& s : flown->samples) {
-    const Pose base = MakePose(s.flown.position, s.flown.attitude.toRotationMatrix());
-    int link = -1;
-    double d = 0.0;
-    if (replay) {
-      if (s.flown.gripper == 1 && gripper == 0) {
-        for (planner::MissionReplay* each : {replay.get(), replay_after.get()}) {
-          if (each == nullptr) continue;
-          if (core::Status closed = each->GripperClosed(base, s.flown.joints); !closed.ok()) return Fail(closed.message());
-        }
-        gripper = 1;
-      }
-      planner::MissionReplay& judged = replay_after && s.flown.t >= appear_at ? *replay_after : *replay;
-      const planner::MissionReplay::Clearances c = judged.Measure(base, s.flown.joints, 1.0);
-      d = c.robot;
-      link = c.robot_link;
-      least_held = std::min(least_held, c.object);
-    } else {
-      robot::ComputeKinematics(judged_robot, base, s.flown.joints, &kinematics);
-      const planner::PlanningContext& judged =
-          !changed_world.empty() && s.flown.t >= appear_at ? **judge_after : **judge;
-      d = planner::StillAndMovingClearance(kinematics, judged.exact(), nullptr, Pose::Identity(), 1.0, &link);
-    }
-    if (d < least) {
-      least = d;
-      least_t = s.flown.t;
-      closest = link >= 0 ? judged_robot.link(link).name : "";
-    }
+    planner::FlownState state;
+    state.t = s.flown.t;
+    state.base = MakePose(s.flown.position, s.flown.attitude.toRotationMatrix());
+    state.joints = s.flown.joints;
+    state.gripper = s.flown.gripper;
+    if (core::Status added = (*verdict)->Add(state); !added.ok()) return Fail(added.message());
   }
+  const double least = (*verdict)->least(), least_t = (*verdict)->least_t();
+  const double least_held = (*verdict)->least_held();
+  const std::string& closest = (*verdict)->closest_link();
   const double accepted = planner::AcceptedClearance(*task, tolerance);
   const bool kept = least >= accepted && least_held >= -tolerance;
   const bool arrived = flown->outcome == explore::ExplorationOutcome::kArrived;

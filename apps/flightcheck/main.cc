@@ -26,6 +26,7 @@
 #include "app_options.h"
 #include "quadhand/core/log.h"
 #include "quadhand/core/text.h"
+#include "quadhand/planner/flight_verdict.h"
 #include "quadhand/planner/mission_plan.h"
 #include "quadhand/planner/planner_config.h"
 #include "quadhand/planner/planning_context.h"
@@ -93,13 +94,10 @@ int main(int argc, char** argv) {
   if (!flown.ok()) return Fail(flown.status().message());
   // A mission's flight changes its scene and its robot at every grasp and
   // release: they are replayed at the gripper events of the record, with
-  // the tool where it was then (planner::MissionReplay).
-  std::unique_ptr<planner::MissionReplay> replay;
-  int gripper = 0;
-  if (!planner::PlansAsGoal(ctx.task())) {
-    auto started = planner::MissionReplay::Start(ctx, config->planner.mission);
-    if (!started.ok()) return Fail(started.status().message());
-    replay = std::move(*started);
+  // the tool where it was then (planner::FlightJudge).
+  auto judge = planner::FlightJudge::Create(ctx, config->planner.mission);
+  if (!judge.ok()) return Fail(judge.status().message());
+  if ((*judge)->replays_mission()) {
     bool acts = false;
     for (const planner::MissionStep& step : ctx.task().mission) {
       acts = acts || step.kind == planner::StepKind::kRelease ||
@@ -109,7 +107,6 @@ int main(int argc, char** argv) {
       return Fail(flown_path + ": no 'gripper' column, and the mission of " + task_path +
                   " grasps or releases: the record must say when (quadhand-sim --log writes it)");
     }
-    gripper = replay->held_step() >= 0 ? 1 : 0;
   }
   // A moving target is judged where the record has it (its target_*
   // columns: the simulator's true pose, a plan's prediction, an online
@@ -135,23 +132,21 @@ int main(int argc, char** argv) {
     return record_has_target ? Pose::Identity() : moving->motion->Displacement(row.t);
   };
   robot::KinematicsState kinematics;
-  double least = 1e300, least_time = std::nan(""), gap = 0.0, gap_time = std::nan(""), last_time = 0.0;
-  double least_object = std::numeric_limits<double>::infinity(), least_object_time = std::nan("");
-  std::string closest;
+  double gap = 0.0, gap_time = std::nan(""), last_time = 0.0;
   long judged = 0;
-  int gripper_events = 0;
   const sim::PlanRow* last = nullptr;
   for (const sim::PlanRow& row : flown->rows) {
-    const Pose base = MakePose(row.position, row.attitude.toRotationMatrix());
-    if (replay && row.gripper >= 0 && row.gripper != gripper) {
-      const core::Status changed =
-          row.gripper == 1 ? replay->GripperClosed(base, row.joints, displacement_at(row))
-                           : replay->GripperOpened(base, row.joints);
-      if (!changed.ok()) return Fail(flown_path + core::Format(": t = %.3f s: ", row.t) + changed.message());
-      gripper = row.gripper;
-      ++gripper_events;
+    planner::FlownState state;
+    state.t = row.t;
+    state.base = MakePose(row.position, row.attitude.toRotationMatrix());
+    state.joints = row.joints;
+    state.gripper = row.gripper;
+    state.target = displacement_at(row);
+    const bool in_window = row.t >= from && row.t <= until;
+    if (core::Status added = (*judge)->Add(state, in_window); !added.ok()) {
+      return Fail(flown_path + core::Format(": t = %.3f s: ", row.t) + added.message());
     }
-    if (row.t < from || row.t > until) continue;
+    if (!in_window) continue;
     if (judged > 0 && row.t - last_time > gap) {
       gap = row.t - last_time;
       gap_time = row.t;
@@ -159,30 +154,11 @@ int main(int argc, char** argv) {
     last_time = row.t;
     ++judged;
     last = &row;
-    int link = -1;
-    double d = 0.0;
-    if (replay) {
-      const planner::MissionReplay::Clearances c =
-          replay->Measure(base, row.joints, 1.0, displacement_at(row));
-      d = c.robot;
-      link = c.robot_link;
-      if (c.object < least_object) {
-        least_object = c.object;
-        least_object_time = row.t;
-      }
-    } else {
-      robot::ComputeKinematics(robot, base, row.joints, &kinematics);
-      // A moving target's points, where they are at the row's time.
-      const bool points_move = moving != nullptr && moving->has_points();
-      d = planner::StillAndMovingClearance(kinematics, ctx.exact(), points_move ? moving->exact : nullptr,
-                                           points_move ? displacement_at(row) : Pose::Identity(), 1.0, &link);
-    }
-    if (d < least) {
-      least = d;
-      least_time = row.t;
-      closest = link >= 0 ? robot.link(link).name : "";
-    }
   }
+  const double least = (*judge)->least(), least_time = (*judge)->least_t();
+  const std::string& closest = (*judge)->closest_link();
+  const double least_object = (*judge)->least_held(), least_object_time = (*judge)->least_held_t();
+  const int gripper_events = (*judge)->gripper_events();
   if (judged == 0) return Fail(flown_path + ": no row between --from and --until");
 
   double tool_error = std::nan(""), base_error = std::nan("");
@@ -233,7 +209,7 @@ int main(int argc, char** argv) {
                             .c_str()
                       : "");
     }
-    if (replay) {
+    if ((*judge)->replays_mission()) {
       std::printf("  mission: %d gripper events; held object: %s\n", gripper_events,
                   held ? core::Format("min exact clearance %.4f m (t = %.2f s; it must stay out of the scene, "
                                       ">= %.4f m)",
