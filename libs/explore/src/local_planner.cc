@@ -461,8 +461,8 @@ core::Result<LocalPlanResult> LocalPlanner::PlanIn(const LocalMapSnapshot& snaps
   std::vector<Vec3> tried = avoid;
   // A hop ends with the goal's joints, but one from the folded arm (a turn
   // in place left it so) keeps it folded: only the plan to the goal
-  // unfolds it. Unfolding inside every hop swings the arm out near the
-  // walls the fold was for, and those hops failed their clearance.
+  // unfolds it: unfolding inside a hop swings the arm out near the walls
+  // the fold was for.
   const bool folded = compact_joints_.size() == start.joints.size() && compact_joints_ != goal_.joints &&
                       (start.joints - compact_joints_).cwiseAbs().maxCoeff() < 1e-9;
   int checks = 0;

@@ -42,9 +42,10 @@ class FlightJudge {
                                                            double after_t = std::numeric_limits<double>::infinity());
   ~FlightJudge();
 
-  // The next row: a change of the gripper is replayed (an error, naming
-  // nothing but the problem, when it cannot be: a close with nothing left to
-  // grasp), and when `judged` its clearances are measured.
+  // The next row, in time order: a change of the gripper is replayed (an
+  // error when it cannot be, such as a close with nothing left to grasp;
+  // the caller names the row), and when `judged` its clearances are
+  // measured. Rows not judged (outside a window) still change the gripper.
   core::Status Add(const FlownState& row, bool judged = true);
 
   // Whether the task is a mission (its gripper events are replayed).
