@@ -434,8 +434,10 @@ int main(int argc, char** argv) {
         const auto braked = std::find_if(flown->invalidations.begin(), flown->invalidations.end(),
                                          [](const explore::InvalidationRecord& r) { return r.grasp; });
         if (braked != flown->invalidations.end()) {
-          std::printf("grasp: not closed; its plan braked at t %.2f s for %zu voxels the grasp map saw in its way\n",
-                      braked->t, braked->new_obstacles);
+          std::printf("grasp: not closed; a plan of it braked at t %.2f s for %zu voxels the grasp map saw in its "
+                      "way (%zu plan%s of it; the last: %s)\n",
+                      braked->t, braked->new_obstacles, plans, plans == 1 ? "" : "s",
+                      flown->grasp_attempts.back().message.c_str());
         } else {
           std::printf("grasp: not closed (%zu plan%s of it%s%s)\n", plans, plans == 1 ? "" : "s",
                       plans > 0 ? "; the last: " : "", plans > 0 ? flown->grasp_attempts.back().message.c_str() : "");

@@ -359,8 +359,8 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       }
       // The grasp's plan was certified on the grasp map: what that map
       // finds in space it had seen free is checked against the rest of it,
-      // and a conflict brakes it along its path (the gripper then never
-      // closes, and the flight ends stuck: nothing is planned round it).
+      // and a conflict brakes it along its path (planned again from its
+      // stop before the gripper closes; below).
       if (!new_grasp_obstacles.empty() && grasp_flying && !flying->braked && !flying->Ended(t)) {
         const double tau = flying->PlanTime(t);
         const double distance = grasp.planner->PlannedSafetyDistance(grasp.options.resolution);
@@ -496,8 +496,16 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       gripper_closed = true;
     }
     if (grasp_flying && flying->braked && flying->Stopped(t)) {
-      result.outcome = ExplorationOutcome::kStuck;  // a silence or a new obstacle braked the grasp's plan
-      break;
+      // A silence or a new obstacle braked the grasp's plan. Before the
+      // gripper closed, the grasp is planned again from where it stopped, on
+      // what the grasp map has seen since (within its attempts); the rest
+      // of a grasp already closed is not.
+      if (gripper_closed) {
+        result.outcome = ExplorationOutcome::kStuck;
+        break;
+      }
+      grasp_flying = false;
+      next_grasp_try = t;
     }
     if (grasp_flying && flying->Ended(t)) {
       result.outcome = ExplorationOutcome::kArrived;
