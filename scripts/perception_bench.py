@@ -248,8 +248,10 @@ def main():
             if "grasp" in r:
                 g = r["grasp"]
                 tried = len(g["attempts"])
+                braked = sum(1 for i in r.get("invalidations", []) if i.get("grasp_plan"))
                 more = (f" grasp closed {1000 * g['tool_error_m']:.1f} mm from the tool point" if g["closed"]
-                        else " grasp not closed") + f" ({tried} plan{'s' if tried != 1 else ''} of it)"
+                        else " grasp not closed") + f" ({tried} plan{'s' if tried != 1 else ''} of it" + (
+                        f"; braked {braked} time{'s' if braked != 1 else ''} for new obstacles" if braked else "") + ")"
             check_code = judged_row(check, task, record, length, seed, r, peak_kb, "", more)
             rows.append((r, check_code))
     done = [x for x in rows if x is not None]
