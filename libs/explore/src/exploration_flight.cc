@@ -251,6 +251,11 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   auto sensor_pose_of = [&](const Vec3& position, const Quat& attitude, const VecX& joints) {
     return robot::LinkPose(robot, MakePose(position, attitude.toRotationMatrix()), joints, link) * sensor.Mount();
   };
+  // The flown tool's pose now (the vehicle's own state).
+  auto tool_pose = [&]() {
+    const sim::VehicleState& now = simulator->state();
+    return robot::LinkPose(robot, MakePose(now.position, now.attitude.toRotationMatrix()), now.joints, tool_link);
+  };
   SensorFaults faults(options.sensor_faults, options.fault_seed);
   const double planned_distance = planner->PlannedSafetyDistance(options.map.resolution);
   perception::FrameGate gate(options.frame_gate);
@@ -314,11 +319,8 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
             result.grasp_map_update_ms.push_back(
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - grasp_start).count());
             if (grasp_flying) {
-              std::optional<Pose> held;
-              if (gripper_closed) {
-                held = robot::LinkPose(robot, MakePose(state.position, state.attitude.toRotationMatrix()),
-                                       state.joints, tool_link) * object_in_tool;
-              }
+              const std::optional<Pose> held =
+                  gripper_closed ? std::optional<Pose>(tool_pose() * object_in_tool) : std::nullopt;
               const std::vector<Vec3> seen = grasp_map->NewObstacles(held);
               new_grasp_obstacles.insert(new_grasp_obstacles.end(), seen.begin(), seen.end());
             }
@@ -330,6 +332,14 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
       while (!grasp_misses.empty() && grasp_misses.begin()->first < t - options.frame_gate.max_age - 1.0) {
         grasp_misses.erase(grasp_misses.begin());
       }
+      // Brakes the flown plan for a conflict at plan time `conflict` (it is
+      // at `tau` now), and records how far ahead it was and where it stops.
+      auto brake_for = [&](double conflict, double tau, InvalidationRecord* record) {
+        record->flown = true;
+        record->conflict_in = conflict - tau;
+        flying->Brake(t, planner->AccelerationLimit());
+        record->stop_margin = conflict - flying->PlanTime(flying->brake_t + flying->brake_s);
+      };
       // The plans ahead were certified against a map that saw these voxels
       // free: each is checked again against them.
       if (!new_obstacles.empty() && (flying || pending) && !grasp_flying) {
@@ -344,10 +354,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
         if (flying && !flying->Stopped(t)) {
           const double tau = flying->PlanTime(t);
           if (const auto conflict = planner->FirstConflict(flying->trajectory, tau, new_obstacles, planned_distance)) {
-            record.flown = true;
-            record.conflict_in = *conflict - tau;
-            flying->Brake(t, planner->AccelerationLimit());
-            record.stop_margin = *conflict - flying->PlanTime(flying->brake_t + flying->brake_s);
+            brake_for(*conflict, tau, &record);
             pending.reset();
             invalid = true;
           }
@@ -368,11 +375,8 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
           InvalidationRecord record;
           record.t = t;
           record.new_obstacles = new_grasp_obstacles.size();
-          record.flown = true;
           record.grasp = true;
-          record.conflict_in = *conflict - tau;
-          flying->Brake(t, planner->AccelerationLimit());
-          record.stop_margin = *conflict - flying->PlanTime(flying->brake_t + flying->brake_s);
+          brake_for(*conflict, tau, &record);
           result.invalidations.push_back(record);
         }
       }
@@ -486,8 +490,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
     if (grasp_flying && !gripper_closed && t >= grasp_close_t - 1e-9 && !flying->braked) {
       // The gripper closes on the object where the flown tool is: the
       // simulator carries its declared mass there from now on.
-      const Pose tool = robot::LinkPose(robot, MakePose(state.position, state.attitude.toRotationMatrix()),
-                                        state.joints, tool_link);
+      const Pose tool = tool_pose();
       result.grasp_closed_t = t;
       result.grasp_tool_error = (tool.translation() - grasp.work->tool_position).norm();
       QUADHAND_RETURN_IF_ERROR(

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <random>
 
 #include "quadhand/core/text.h"
@@ -50,6 +51,16 @@ struct BeamPattern {
   int columns;
   double column_step, low, channel_step;
 };
+
+// What a point at `measure` (the camera's depth, the LiDAR's range) writes
+// into the pixels or beams its disc covers: 0 when it is too near to
+// measure (it still hides what is behind it, so they are no misses), none
+// when it is out of range.
+std::optional<float> SplatValue(double measure, double min_range, double max_range) {
+  const bool too_near = measure > 1e-6 && measure < min_range;
+  if (!too_near && !(measure >= min_range && measure <= max_range)) return std::nullopt;
+  return too_near ? 0.0f : static_cast<float>(measure);
+}
 
 }  // namespace
 
@@ -249,11 +260,8 @@ std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world)
     layer.points.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
       const Vec3 q = world_to_sensor * p;
       const double z = q.z();
-      // A point too near to measure still covers its pixels: they return
-      // nothing (0 below), and are no misses, since it hides what is behind.
-      const bool too_near = z > 1e-6 && z < o.min_range;
-      if (!too_near && !(z >= o.min_range && z <= o.max_range)) return;
-      const float value = too_near ? 0.0f : static_cast<float>(z);
+      const std::optional<float> value = SplatValue(z, o.min_range, o.max_range);
+      if (!value) return;
       // The point's disc, facing the camera, covers a square of half-width r
       // pixels about its projection (a circle: the corners are dropped).
       const double u = cx + fx * q.x() / z, v = cy + fy * q.y() / z;
@@ -266,7 +274,7 @@ std::vector<Vec3> SensorRenderer::Impl::RenderDepth(const Pose& sensor_in_world)
           const double du = (col + 0.5 - u) / ru;
           if (du * du + dv * dv > 1.0) continue;
           float& depth = nearest[static_cast<size_t>(row) * o.width + col];
-          depth = std::min(depth, value);
+          depth = std::min(depth, *value);
         }
       }
     });
@@ -298,10 +306,8 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
     layer.points.VisitBox(sensor_in_world.translation() - reach, sensor_in_world.translation() + reach, [&](const Vec3& p) {
       const Vec3 q = world_to_sensor * p;
       const double range = q.norm();
-      // As the camera's: a point too near still covers its beams (0 below).
-      const bool too_near = range > 1e-6 && range < o.min_range;
-      if (!too_near && !(range >= o.min_range && range <= o.max_range)) return;
-      const float value = too_near ? 0.0f : static_cast<float>(range);
+      const std::optional<float> value = SplatValue(range, o.min_range, o.max_range);
+      if (!value) return;
       // The disc's angular radius about the point's direction: the beams
       // within it hit it.
       const double spread = std::asin(std::min(1.0, layer.radius / range));
@@ -323,7 +329,7 @@ std::vector<Vec3> SensorRenderer::Impl::RenderLidar(const Pose& sensor_in_world)
           if (beam.dot(q) < range * std::cos(spread)) continue;
           const int column = ((a % columns) + columns) % columns;
           float& hit = nearest[static_cast<size_t>(channel) * columns + column];
-          hit = std::min(hit, value);
+          hit = std::min(hit, *value);
         }
       }
     });
