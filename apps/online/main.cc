@@ -231,6 +231,10 @@ int main(int argc, char** argv) {
   app.add_option("--replan-period", options.replan_period,
                  "Seconds between replans while on track (continuous replanning; 0: only above the threshold)")
       ->capture_default_str();
+  app.add_option("--periodic-max-velocity-error", options.periodic_max_velocity_error,
+                 "Periodic replans wait while the vehicle's velocity is further than this (m/s) from its reference's "
+                 "(a push being damped: not on track)")
+      ->capture_default_str();
   app.add_flag("--no-replan", no_replan, "Never replan (fly the first plan only)");
   app.add_option("--hold-time", options.hold_time, "Seconds of hold setpoints before OFFBOARD is requested (>= 1, PX4's rule)")
       ->capture_default_str();
@@ -394,6 +398,9 @@ int main(int argc, char** argv) {
   }
   if (!(std::isfinite(options.replan_threshold) && options.replan_threshold > 0.0)) return Fail("--replan-threshold must be positive");
   if (!(std::isfinite(options.replan_period) && options.replan_period >= 0.0)) return Fail("--replan-period must be >= 0 (0: off)");
+  if (!(std::isfinite(options.periodic_max_velocity_error) && options.periodic_max_velocity_error > 0.0)) {
+    return Fail("--periodic-max-velocity-error must be positive");
+  }
   if (!(std::isfinite(options.hold_time) && options.hold_time >= 1.0 && options.hold_time <= 60.0)) return Fail("--hold-time must be in [1, 60] s");
   if (!(std::isfinite(max_duration) && max_duration >= 0.0)) return Fail("--max-duration must be >= 0");
   if (!(std::isfinite(options.arrival_hold) && options.arrival_hold >= 0.0 && options.arrival_hold <= 60.0)) {
@@ -747,7 +754,7 @@ int main(int argc, char** argv) {
               controller.autopilot_armed() ? "armed" : "disarmed");
   if (send_errors > 0) std::printf("  %ld sends failed (first: %s)\n", send_errors, first_send_error.c_str());
   std::vector<double> replan_ms, warm_ms;
-  int replan_failures = 0, fallbacks = 0;
+  int replan_failures = 0, fallbacks = 0, dropped_as_slower = 0;
   for (const online::PlanRecord& r : stats.plans) {
     if (!r.replan) {
       std::printf("  first plan: %s in %.1f ms%s%s\n", planner::PlanStatusName(r.status), r.latency_ms, r.success ? "" : ": ",
@@ -758,9 +765,12 @@ int main(int argc, char** argv) {
     warm_ms.push_back(r.warm_ms);
     replan_failures += !r.success && r.status != planner::PlanStatus::kInsertionInProgress;
     fallbacks += r.cold_fallback;
+    dropped_as_slower += r.dropped_as_slower;
   }
-  std::printf("  replans: %d triggered (%d periodic), %d spliced, %d failed, %d cold fallbacks",
-              stats.replans_triggered, stats.periodic_replans, stats.splices, replan_failures, fallbacks);
+  std::printf("  replans: %d triggered (%d periodic), %d spliced, %d failed, %d cold fallbacks, %d periodic dropped as "
+              "slower than the current plan",
+              stats.replans_triggered, stats.periodic_replans, stats.splices, replan_failures, fallbacks,
+              dropped_as_slower);
   // (--perception: local plans, no warm start; their figures are below.)
   if (!replan_ms.empty() && !perception_mode) {
     std::printf("; latency median %.1f ms, p95 %.1f ms (warm start alone: median %.1f ms)", Quantile(replan_ms, 0.5),

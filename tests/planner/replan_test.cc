@@ -114,7 +114,7 @@ TEST(RemainderGuessTest, KeepsTheRemainingPiecesAndTheirJunctions) {
   }
 }
 
-TEST(RemainderGuessTest, MergesAShortFirstPieceIntoTheNext) {
+TEST(RemainderGuessTest, MergesAShortFirstPieceIntoTheNextOnes) {
   const WholeBodyTrajectory& trajectory = *DefaultPlan().trajectory;
   const VecX& T = trajectory.position().durations();
   const double t_from = T[0] + T[1] - 0.05;  // 50 ms before the end of piece 1
@@ -127,6 +127,12 @@ TEST(RemainderGuessTest, MergesAShortFirstPieceIntoTheNext) {
   EXPECT_NEAR(durations[0], 0.05 + T[2], 1e-9);
   EXPECT_NEAR(durations.sum(), trajectory.duration() - t_from, 1e-9);
   EXPECT_LT((position.col(0) - trajectory.Sample(T[0] + T[1] + T[2]).position).norm(), 1e-9);
+  // Several short pieces are merged until the first is long enough.
+  const double longer = 0.05 + T[2] + 0.5 * T[3];
+  ASSERT_TRUE(RemainderGuess(trajectory, t_from, longer, &position, &aux, &durations, &first).ok());
+  ASSERT_EQ(durations.size(), T.size() - 3);  // pieces 2 and 3 folded in
+  EXPECT_NEAR(durations[0], 0.05 + T[2] + T[3], 1e-9);
+  EXPECT_NEAR(durations.sum(), trajectory.duration() - t_from, 1e-9);
   // Outside the plan: an error, not a guess.
   EXPECT_FALSE(RemainderGuess(trajectory, trajectory.duration(), 0.15, &position, &aux, &durations, &first).ok());
   EXPECT_FALSE(RemainderGuess(trajectory, -0.1, 0.15, &position, &aux, &durations, &first).ok());
@@ -507,13 +513,16 @@ TEST(ReplanTest, RejoinsAtTheLastJunctionWhenNoneIsAHorizonAhead) {
   solvers::LbfgsSolver solver;
   const ReplanOptions replan = DefaultReplanOptions();
   const double t_from = InsertionStart(plan) - 0.5 * replan.horizon;
+  // 1 cm off: 4 cm off, the single new piece meets the junction's state only
+  // by a detour, which is refused (RefusesARejoinThatDetours...).
   BoundaryState start = StateOnPlan(old, t_from);
-  start.position += Vec3(0.03, 0.02, -0.02);
+  start.position += Vec3(0.008, 0.005, -0.004);
   auto result = Replan(WindowCup().Scene(), task, DefaultPlannerOptions(), replan, solver, plan, t_from, start);
   ASSERT_TRUE(result.ok()) << result.status().message();
   ASSERT_TRUE(result->success) << result->message;
   ASSERT_GT(result->rejoined_at, 0.0) << "not rejoined";
   const WholeBodyTrajectory& fresh = *result->trajectory;
+  EXPECT_LT(fresh.duration(), old.duration() - t_from + 0.1) << "no detour";
   const double insertion = old.position().durations()[old.num_pieces() - 1];
   EXPECT_NEAR(fresh.duration() - result->rejoined_at, insertion, 1e-9) << "the kept part is the insertion piece";
   for (int k = 0; k <= 20; ++k) {
@@ -561,6 +570,47 @@ TEST(ReplanTest, ReplansTheWholeRemainderWhereTheKeptPartIsNotCertified) {
   EXPECT_TRUE(whole->success) << whole->message;
   EXPECT_LT(whole->rejoined_at, 0.0);
   EXPECT_EQ(whole->trajectory->duration() > 0.0, true);
+}
+
+// A vehicle ahead of its plan (the reference lags it) less than a horizon
+// before the insertion: the only rejoin junction is the insertion's start,
+// which it nearly has reached. Meeting that junction's state from there is a
+// detour: on past it, turn and come back through the window, certified but
+// three times as long as the plan left. It is refused, and the whole
+// remainder is replanned instead.
+TEST(ReplanTest, RefusesARejoinThatDetoursAndReplansTheWholeRemainder) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& old = *plan.trajectory;
+  solvers::LbfgsSolver solver;
+  const double t_from = InsertionStart(plan) - 0.4;
+  const BoundaryState start = StateOnPlan(old, t_from + 0.2);
+  const double remaining = old.duration() - t_from;
+
+  // Unguarded, the rejoin is the detour this test is about.
+  ReplanOptions unguarded = DefaultReplanOptions();
+  unguarded.max_rejoin_stretch = 1e6;
+  auto detour = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), unguarded, solver, plan, t_from,
+                       start);
+  ASSERT_TRUE(detour.ok()) << detour.status().message();
+  ASSERT_TRUE(detour->success) << detour->message;
+  ASSERT_GT(detour->rejoined_at, 0.0);
+  ASSERT_GT(detour->trajectory->duration(), 2.0 * remaining) << "the scenario no longer detours";
+
+  auto result = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(), solver,
+                       plan, t_from, start);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  ASSERT_TRUE(result->success) << result->message;
+  EXPECT_TRUE(result->rejoin_refused_as_detour);
+  EXPECT_LT(result->rejoined_at, 0.0);
+  EXPECT_LT(result->trajectory->duration(), remaining + 0.5);
+  EXPECT_TRUE(result->post_check.certified) << result->post_check.FirstFailure();
+  EXPECT_GE(BruteForceClearance(*result->trajectory, 0.002),
+            WindowCup().task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance);
+  EXPECT_LT((result->trajectory->Sample(1e9).position - plan.terminal.position).norm(), 0.01);
+
+  ReplanOptions invalid = DefaultReplanOptions();
+  invalid.max_rejoin_stretch = 0.9;
+  EXPECT_FALSE(invalid.IsValid(nullptr));
 }
 
 // The default scene split as a moving target's task splits it: the cup and

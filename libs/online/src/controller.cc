@@ -103,6 +103,7 @@ bool OnlineOptions::IsValid(std::string* why) const {
   if (!(std::isfinite(min_replan_interval) && min_replan_interval >= 0.0)) return fail("min_replan_interval must be >= 0");
   if (!(std::isfinite(replan_lead) && replan_lead >= 0.0)) return fail("replan_lead must be >= 0");
   if (!(std::isfinite(replan_period) && replan_period >= 0.0)) return fail("replan_period must be >= 0 (0: off)");
+  if (!positive(periodic_max_velocity_error)) return fail("periodic_max_velocity_error must be positive");
   if (!positive(blend_window)) return fail("blend_window must be positive");
   if (!positive(start_tolerance)) return fail("start_tolerance must be positive");
   if (!(std::isfinite(settle_timeout) && settle_timeout >= 0.0)) return fail("settle_timeout must be >= 0");
@@ -346,6 +347,16 @@ class OnlineController::Worker {
     done.record.message = result->message;
     done.record.solve_ms = result->solve_ms;
     done.record.iterations = result->iterations;
+    if (job.replan && job.periodic && result->success && result->trajectory) {
+      const double left = job.base->trajectory->duration() - job.t_from;
+      const double allowed = setup_.replan_options.max_rejoin_stretch * std::max(left, setup_.replan_options.horizon);
+      if (result->trajectory->duration() > allowed) {
+        done.record.dropped_as_slower = true;
+        done.record.message = core::Format("%.2f s long for the %.2f s left of the current plan",
+                                           result->trajectory->duration(), left);
+        return done;
+      }
+    }
     // Only a plan that passed the post-check is handed over.
     if (result->success && result->trajectory) done.plan = std::make_shared<const planner::PlanResult>(std::move(*result));
     return done;
@@ -822,6 +833,7 @@ void OnlineController::OnPosition(double t, const Vec3& estimate, const Vec3& ve
   if (!reference) return;
   const double error = (position - reference->position).norm();
   last_error_ = error;
+  last_velocity_error_ = (velocity - reference->velocity).norm();
   stats_.max_tracking_error = std::max(stats_.max_tracking_error, error);
   stats_.sum_tracking_error += error;
   stats_.sum_squared_tracking_error += error * error;
@@ -1400,6 +1412,8 @@ void OnlineController::CollectPlan(double t) {
                         setup_.task->safety_distance - record.start_clearance)));
   } else if (record.status == planner::PlanStatus::kInsertionInProgress) {
     Event("not replanned: the insertion has begun");
+  } else if (record.dropped_as_slower) {
+    Event("the periodic replan was certified but " + record.message + ": dropped, flying on with the current plan");
   } else if (record.periodic) {
     // On track when it started: the current plan is still certified.
     Event(FailedPlanWords("the periodic replan failed", record) + "; flying on with the current plan");
@@ -1881,7 +1895,8 @@ void OnlineController::CheckTracking(double t) {
     MaybeReplan(t, false, last_error_);
   } else if (perceiving() ? t - std::max(last_trigger_, to_.start) >= PerceptionReplanPeriod()
                           : options_.replan_period > 0.0 && tracker_ == nullptr &&
-                                t - std::max(last_trigger_, to_.start) >= options_.replan_period) {
+                                t - std::max(last_trigger_, to_.start) >= options_.replan_period &&
+                                last_velocity_error_ <= options_.periodic_max_velocity_error) {
     MaybeReplan(t, true, last_error_);
   }
 }

@@ -133,6 +133,8 @@ void Visit(Config& c, Visitor&& v) {
   v("replan.recovery_time", r.recovery_time);
   v("replan.horizon", r.horizon);
   v("replan.horizon_attempts", r.horizon_attempts);
+  v("replan.max_rejoin_stretch", r.max_rejoin_stretch);
+  v("replan.max_rejoin_tries", r.max_rejoin_tries);
   solver("replan.solver.", r.solver);
 
   v("meshes.repair_tolerance", c.mesh_repair_tolerance);

@@ -42,6 +42,14 @@ bool ReplanOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "replan horizon_attempts must be at least 1";
     return false;
   }
+  if (!(std::isfinite(max_rejoin_stretch) && max_rejoin_stretch >= 1.0)) {
+    if (why != nullptr) *why = "replan max_rejoin_stretch must be finite and at least 1";
+    return false;
+  }
+  if (max_rejoin_tries < 1) {
+    if (why != nullptr) *why = "replan max_rejoin_tries must be at least 1";
+    return false;
+  }
   return true;
 }
 
@@ -76,7 +84,7 @@ core::Status RemainderGuess(const WholeBodyTrajectory& trajectory, double t_from
   double first_duration = std::max(0.0, T[piece] - local);
   // `last` is the last old piece folded into the new first piece.
   int last = piece;
-  if (first_duration < min_piece_duration && piece + 1 < N) {
+  while (first_duration < min_piece_duration && last + 1 < N) {
     ++last;
     first_duration += T[last];
   }
@@ -111,11 +119,12 @@ struct Rejoin {
 };
 
 // The rejoin point for `guess` (the remainder from t_from): its first
-// junction at least `horizon` ahead, else its last junction. Nothing when
-// rejoining is off, the remainder is a single piece, or the current plan's
+// junction at least `horizon` ahead and at least `min_new_pieces` pieces
+// on, else its last junction. Nothing when rejoining is off, no such
+// junction is left (the remainder is a single piece), or the current plan's
 // certificate does not carry the rest at the full safety distance.
 std::optional<Rejoin> FindRejoin(const PlanResult& current, const Task& task, const PostCheckOptions& check,
-                                 const VecX& guess_durations, double t_from, double horizon) {
+                                 const VecX& guess_durations, double t_from, double horizon, int min_new_pieces) {
   if (horizon <= 0.0 || !current.success || !current.trajectory) return std::nullopt;
   const WholeBodyTrajectory& trajectory = *current.trajectory;
   const int old_pieces = trajectory.num_pieces();
@@ -125,13 +134,13 @@ std::optional<Rejoin> FindRejoin(const PlanResult& current, const Task& task, co
   double planned = 0.0;
   for (int k = 1; k < remaining; ++k) {  // k < remaining: at least one piece is kept
     planned += guess_durations[k - 1];
-    if (planned >= horizon || k == remaining - 1) {
+    if ((planned >= horizon && k >= min_new_pieces) || k == remaining - 1) {
       rejoin.new_pieces = k;
       rejoin.junction_piece = last_merged + k - 1;
       break;
     }
   }
-  if (rejoin.new_pieces == 0) return std::nullopt;
+  if (rejoin.new_pieces < std::max(1, min_new_pieces)) return std::nullopt;
   rejoin.old_time = t_from + planned;
   const std::vector<CertifiedInterval>& intervals = current.post_check.certified_intervals;
   if (intervals.empty() || intervals.back().t1 < trajectory.duration() - 1e-9) return std::nullopt;
@@ -263,6 +272,16 @@ core::Result<bool> SolveRejoining(const PlanningScene& scene, const Task& task, 
   result->evaluations += part.evaluations;
   result->attempts.insert(result->attempts.end(), part.attempts.begin(), part.attempts.end());
   if (!part.success) return false;
+  // A new part far slower than the current plan's way to the same junction
+  // is a detour: past (or too close to) the junction, the fixed rejoin
+  // state's velocity can only be met by flying on, turning and coming back.
+  // Such a plan is certified, but it crosses the obstacles near the junction
+  // twice more, and every crossing risks the tracking error there.
+  const double allowed = replan.max_rejoin_stretch * std::max(guess.durations.sum(), replan.horizon);
+  if (part.trajectory->duration() > allowed) {
+    result->rejoin_refused_as_detour = true;
+    return false;
+  }
   const WholeBodyTrajectory& kept = *current.trajectory;
   auto position = traj::Minco::Joined(part.trajectory->position(), kept.position(), rejoin.junction_piece + 1);
   if (!position.ok()) return position.status();
@@ -400,14 +419,22 @@ core::Result<PlanResult> Replan(const PlanningScene& scene, const Task& task, co
   checked.resolve_sample_factor = 1;
 
   // A moving goal moves the whole remainder's end: nothing of the current
-  // plan can be kept.
-  if (auto rejoin = moving ? std::nullopt
-                           : FindRejoin(current, task, checked.post_check, guess.durations, t_from, replan.horizon)) {
+  // plan can be kept. A part refused as a detour is tried again to a later
+  // junction (more pieces to absorb the offset), up to max_rejoin_tries
+  // times; a part that fails its checks, or the last try, falls back to the
+  // whole remainder.
+  int min_new_pieces = 1;
+  for (int tries = 0; !moving && tries < replan.max_rejoin_tries; ++tries) {
+    const auto rejoin =
+        FindRejoin(current, task, checked.post_check, guess.durations, t_from, replan.horizon, min_new_pieces);
+    if (!rejoin) break;
     auto rejoined = SolveRejoining(scene, replan_task, checked, replan, solver, current, guess, *rejoin, &result);
     if (!rejoined.ok()) return rejoined.status();
     if (*rejoined) return result;
     result.trajectory.reset();
     result.post_check = PostCheckReport{};
+    if (!result.rejoin_refused_as_detour) break;
+    min_new_pieces = rejoin->new_pieces + 1;
   }
 
   result.num_pieces = static_cast<int>(guess.durations.size());

@@ -41,8 +41,11 @@
 // t_splice). Also every replan_period s while on track (continuous
 // replanning, the same way but with the tracking error below the threshold):
 // such a replan corrects the drift before it grows, usually rejoining the
-// current plan after replan_options.horizon (replan.h); when it fails, the
-// current plan (still certified) is kept and flown on. The new plan's time 0 is t_splice; it is blended in over
+// current plan after replan_options.horizon (replan.h); when it fails, or
+// its plan is far slower than what is left of the current one
+// (PlanRecord::dropped_as_slower), the current plan (still certified) is
+// kept and flown on. Periodic replans wait while the velocity is off the
+// reference (periodic_max_velocity_error). The new plan's time 0 is t_splice; it is blended in over
 // blend_window s from t_splice (or from its arrival, when it comes late) as
 // setpoint.h describes. A replan that fails, or fails the post-check, is
 // never streamed: the controller holds at the last setpoint streamed. A start
@@ -110,6 +113,15 @@ struct OnlineOptions {
   // s between periodic replans while on track (0: replan only above the
   // threshold). A periodic replan that fails keeps the current plan.
   double replan_period = 1.0;
+  // m/s: on track also means a velocity this close to the reference's. A
+  // periodic replan waits while the vehicle is further off (a push being
+  // damped): its start is predicted with the tracking error held constant
+  // over replan_lead, which the vehicle's own controller is then busy
+  // shrinking, so the new plan would start from a state the vehicle never
+  // reaches (measured, docs/online.md: a 0.8 m/s push met by a periodic
+  // replan left the vehicle 23 cm under its new reference). Normal flights
+  // keep within 0.16 m/s (p95 0.10-0.12).
+  double periodic_max_velocity_error = 0.3;
   double blend_window = 0.5;         // s of old -> new blending
   // When the warm-started replan fails (solver or post-check), plan again from
   // the same start with the full pipeline (front end, cold solve): slower
@@ -489,6 +501,11 @@ struct PlanRecord {
   bool replan = false;
   bool periodic = false;      // replans: started by replan_period, not by the threshold
   bool success = false;
+  // A periodic replan certified but dropped: its plan takes more than
+  // replan_options.max_rejoin_stretch times what is left of the current
+  // plan (or its horizon, when longer). On track, the current plan is still
+  // certified; a far slower one from there is a detour (docs/online.md).
+  bool dropped_as_slower = false;
   planner::PlanStatus status = planner::PlanStatus::kInvalidInput;  // kInvalidInput: Plan()/Replan() refused the request
   std::string message;
   double latency_ms = 0.0;    // wall time of Plan()/Replan() (both, with a cold fallback)
@@ -952,6 +969,7 @@ class OnlineController {
   bool position_checked_ = true;    // the newest position was looked at by CheckTracking
   bool age_noted_ = true;           // the newest position's age is in the stats
   double last_error_ = 0.0;         // tracking error of the newest position
+  double last_velocity_error_ = 0.0;  // m/s, of the newest velocity against the reference's
   double planned_speed_limit_ = 0.0;  // v_max of the plan being flown (the task's, or the link's)
   int tool_link_ = -1;                 // the task's tool link in the robot (-1: none)
   bool link_hold_ = false;          // braking / holding for the link (phase flying)

@@ -213,6 +213,10 @@ struct PlanResult {
   // the trajectory is the current plan's unchanged pieces; negative when the
   // whole trajectory is new.
   double rejoined_at = -1.0;
+  // A replan with a certified rejoining part refused as a detour
+  // (ReplanOptions::max_rejoin_stretch); it rejoined at a later junction
+  // (rejoined_at >= 0) or replanned the whole remainder.
+  bool rejoin_refused_as_detour = false;
   // A task with a mission: one entry per step, in order (PlanTask()), and
   // the time spent making each phase's scene after a grasp or a release
   // (its representations, front-end map and the held object's SDF).

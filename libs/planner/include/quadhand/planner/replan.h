@@ -5,7 +5,8 @@
 //   initial guess: durations (T_i - s, T_{i+1}, .., T_{N-1}), waypoints the
 //                  current plan's junctions after t_from (position, yaw and
 //                  joints); a first piece shorter than min_piece_duration is
-//                  merged into the next one (its junction dropped)
+//                  merged into the next ones until it is that long (their
+//                  junctions dropped)
 //   start boundary: the given (measured) state; goal: the current terminal
 //   solve with warm-start settings (few iterations, loose stopping rule)
 //   -> the same post-check as Plan() -> raise violated weights and resume
@@ -39,7 +40,11 @@
 // recovery stretch). A new part that fails its attempts falls back to a
 // replan of the whole remainder (the usual path above); the result's times
 // and attempts include both. result.rejoined_at says where the kept pieces
-// start (negative: not rejoined).
+// start (negative: not rejoined). A certified new part much slower than the
+// current plan's way to the junction is a detour and is refused
+// (ReplanOptions::max_rejoin_stretch, result.rejoin_refused_as_detour): the
+// next junction is tried, with one more new piece to absorb the offset,
+// up to max_rejoin_tries rejoins in all, then the whole remainder.
 //
 // A moving target (docs/moving_targets.md, current.moving_target): `scene`'s
 // moving part is the new prediction of the target, its clock starting at
@@ -72,8 +77,8 @@ struct ReplanOptions {
   // The re-solves after a failed post-check use the planner's own stopping
   // rules (PlannerOptions::solver): with raised weights they need more steps.
   // A remaining first piece shorter than this (s) is merged into the next
-  // one: a very short piece cannot absorb the start-state offset without
-  // extreme accelerations.
+  // ones until it is this long: a very short piece cannot absorb the
+  // start-state offset without extreme accelerations.
   double min_piece_duration = 0.15;
   // Recovery from a start inside the safety margin (see the header comment).
   // The deepest start (m inside the scene's points, exact link meshes) still
@@ -94,6 +99,22 @@ struct ReplanOptions {
   // failed, so a failure goes straight to the whole remainder.
   double horizon = 1.0;
   int horizon_attempts = 1;
+  // A certified new part longer than this times the current plan's time to
+  // the rejoin junction (or the horizon, when that is longer) is refused as
+  // a detour, and a later junction (max_rejoin_tries) or the whole remainder
+  // is planned to instead. The new part must meet
+  // the junction's full state; from a start near or past it, the solve
+  // often finds only a slow loop (on past the junction, round and back
+  // through whatever lies there). Measured (docs/online.md): from 5-20 cm
+  // off the default plan, the median certified part took 1.10 times its
+  // guess and a third took 1.6-12 times; in real time, the narrow gap's
+  // periodic replans stretched a 0.13 s part to 3.4 s and crossed the gap
+  // four more times.
+  double max_rejoin_stretch = 1.5;
+  // Rejoins tried before the whole remainder is replanned: after a detour,
+  // the next try rejoins one junction later (one more piece to absorb the
+  // offset, the kept tail the current plan's smooth one).
+  int max_rejoin_tries = 3;
 
   bool IsValid(std::string* why) const;
 };
