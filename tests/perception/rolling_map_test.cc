@@ -427,6 +427,46 @@ TEST(RollingMapTest, SeveralRayThreadsBuildTheMapOneThreadBuilds) {
   EXPECT_FALSE(RollingMap::Create(bad).ok());
 }
 
+// Rays from a sensor a voxel or more inside the window to ends as deep in
+// it are walked without a bounds test a step; the others with one. Both
+// must mark the same voxels: a window whose first layer holds the sensor
+// (every ray walked with the test) holds what a window the rays lie deep
+// inside holds (walked without), frame after frame, with the sensor moving
+// and the scene changing.
+TEST(RollingMapTest, RaysWalkedWithAndWithoutTheBoundsTestMarkTheSameVoxels) {
+  RollingMapOptions edge_options, wide;
+  edge_options.window_half_extent = Vec3(3.0, 3.0, 2.0);
+  wide.window_half_extent = Vec3(20.0, 20.0, 10.0);
+  auto edge = Map(edge_options), deep = Map(wide);
+  edge->MoveWindow(Vec3(3.0, 0.0, 0.0));  // voxels x in [0, 6.1): the sensor at x = 0.05 is in its first layer
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> angle(-1.2, 1.2), depth(0.3, 6.0);
+  for (int frame = 0; frame < 10; ++frame) {
+    const Vec3 origin(0.05, -0.03 * frame, 0.02 * frame);
+    std::vector<Vec3> points, misses;
+    for (int k = 0; k < 1500; ++k) {
+      const double a = angle(rng), e = 0.6 * angle(rng), d = depth(rng);
+      const Vec3 p = origin + d * Vec3(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
+      (k % 5 == 0 ? misses : points).push_back(p);
+    }
+    if (frame == 5) points = Wall(1.5, 1.0, 0.02);
+    ASSERT_TRUE(edge->Insert(points, origin, misses).ok());
+    ASSERT_TRUE(deep->Insert(points, origin, misses).ok());
+  }
+  int differ = 0, known = 0;
+  for (double x = 0.05; x < 6.0; x += 0.1) {
+    for (double y = -2.95; y < 3.0; y += 0.1) {
+      for (double z = -1.95; z < 2.0; z += 0.1) {
+        const Vec3 p(x, y, z);
+        differ += edge->State(p) != deep->State(p) ? 1 : 0;
+        known += edge->State(p) != VoxelState::kUnknown ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_EQ(differ, 0);
+  EXPECT_GT(known, 3000);
+}
+
 // A small window about a place the sensor looks at from outside it (the
 // grasp map about an object) holds there what a window holding the sensor
 // holds: rays are walked from where they enter it, and a return beyond it

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <thread>
@@ -56,6 +57,55 @@ bool RollingMapOptions::IsValid(std::string* why) const {
   if (ray_threads < 1 || ray_threads > 64) return Fail(why, "ray_threads must be in [1, 64]");
   return true;
 }
+
+// A frame's end voxels by cell: open addressing, linear probing, cleared
+// per frame. Keyed by the ring's cell (unique within the window) and
+// holding the voxel's slot in the frame's lists; much cheaper per return
+// than a node-based table.
+class FrameVoxelTable {
+ public:
+  // The slot stored for `cell`, or `slot` stored for it now (second: true).
+  std::pair<int, bool> FindOrInsert(size_t cell, int slot) {
+    if (2 * (used_ + 1) > keys_.size()) Grow();
+    size_t at = Hash(cell);
+    while (true) {
+      if (keys_[at] == kEmpty) {
+        keys_[at] = cell;
+        slots_[at] = slot;
+        ++used_;
+        return {slot, true};
+      }
+      if (keys_[at] == cell) return {slots_[at], false};
+      at = (at + 1) & mask_;
+    }
+  }
+  void Clear() {
+    if (used_ == 0) return;
+    std::fill(keys_.begin(), keys_.end(), kEmpty);
+    used_ = 0;
+  }
+
+ private:
+  static constexpr size_t kEmpty = std::numeric_limits<size_t>::max();
+  size_t Hash(size_t cell) const { return (cell * 0x9E3779B97F4A7C15ull) >> shift_; }
+  void Grow() {
+    std::vector<size_t> keys = std::move(keys_);
+    std::vector<int> slots = std::move(slots_);
+    const size_t capacity = std::max<size_t>(1024, 2 * keys.size());
+    keys_.assign(capacity, kEmpty);
+    slots_.assign(capacity, 0);
+    mask_ = capacity - 1;
+    shift_ = 64 - static_cast<int>(std::log2(static_cast<double>(capacity)) + 0.5);
+    used_ = 0;
+    for (size_t i = 0; i < keys.size(); ++i) {
+      if (keys[i] != kEmpty) FindOrInsert(keys[i], slots[i]);
+    }
+  }
+  std::vector<size_t> keys_;
+  std::vector<int> slots_;
+  size_t used_ = 0, mask_ = 0;
+  int shift_ = 64;
+};
 
 // The voxels of a box and which of them are free.
 struct FreeBox {
@@ -163,6 +213,33 @@ struct RollingMap::Impl {
     const int before = cells[cell].value == kUnknown ? 0 : cells[cell].value;
     cells[cell].value = static_cast<std::int8_t>(std::clamp(before + delta, kClampLow, kClampHigh));
   }
+  // The frame's returns kept in their voxels' raw points (each voxel's in
+  // the frame's order: the first max_points_per_voxel, then each one after
+  // replacing the frame's slot), one table look-up per end voxel rather
+  // than per return: grouped by a counting sort on the voxels' slots.
+  void KeepReturns(const std::vector<Vec3>& points, size_t cap) {
+    const size_t voxels = end_voxels.size();
+    group_start.assign(voxels + 1, 0);
+    for (const auto& [slot, index] : point_slots) ++group_start[static_cast<size_t>(slot) + 1];
+    for (size_t k = 0; k < voxels; ++k) group_start[k + 1] += group_start[k];
+    grouped.resize(point_slots.size());
+    group_fill.assign(group_start.begin(), group_start.end() - 1);
+    for (const auto& [slot, index] : point_slots) grouped[group_fill[static_cast<size_t>(slot)]++] = index;
+    const size_t replaced = static_cast<size_t>(frames) % cap;
+    for (size_t k = 0; k < voxels; ++k) {
+      std::vector<Vec3>& kept = raw[Key(end_voxels[k])];
+      for (int g = group_start[k]; g < group_start[k + 1]; ++g) {
+        const Vec3& p = points[static_cast<size_t>(grouped[static_cast<size_t>(g)])];
+        if (kept.size() < cap) {
+          kept.push_back(p);
+        } else {
+          kept[replaced] = p;
+        }
+      }
+    }
+    point_slots.clear();
+    frame_voxels.Clear();
+  }
   // A return ended in the voxel this frame.
   void Hit(size_t cell) {
     Update(cell, hit);
@@ -217,6 +294,11 @@ struct RollingMap::Impl {
   int hit = 0, miss = 0, threshold = 0;
   std::int8_t occupied_floor = 0;  // the least occupied value (returns_stay_occupied)
   std::unordered_map<std::int64_t, std::vector<Vec3>> raw;  // by voxel key: the newest returns there
+  // This frame's end voxels (cell -> slot in touched and end_voxels), each
+  // return's slot and index, and KeepReturns' grouping of them.
+  FrameVoxelTable frame_voxels;
+  std::vector<std::pair<int, int>> point_slots;
+  std::vector<int> group_start, group_fill, grouped;
   size_t swept_size = 1024;  // raw's size after its last sweep (MoveWindow),
   Eigen::Vector3i swept_low = Eigen::Vector3i::Zero();  // and the window's low then
   long frames = 0;
@@ -262,18 +344,15 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
       continue;
     }
     const size_t cell = m.Cell(v);
-    std::vector<Vec3>& kept = m.raw[Impl::Key(v)];
-    if (kept.size() < cap) {
-      kept.push_back(p);
-    } else {
-      kept[static_cast<size_t>(m.frames) % cap] = p;
-    }
-    if (m.cells[cell].mark == 1) continue;  // this voxel's ray is cast already
+    const auto [slot, first] = m.frame_voxels.FindOrInsert(cell, static_cast<int>(m.touched.size()));
+    m.point_slots.emplace_back(slot, static_cast<int>(&p - points.data()));
+    if (!first) continue;  // this voxel's ray is cast already
     m.cells[cell].mark = 1;
     m.touched.push_back(cell);
     m.end_voxels.push_back(v);
     rays.emplace_back(p, true);
   }
+  m.KeepReturns(points, cap);
   for (const Vec3& p : misses) {
     if (!p.allFinite()) {
       ++m.dropped;
@@ -322,7 +401,11 @@ void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, 
   const int nx = dims.x(), ny = dims.y(), nz = dims.z();
   const Eigen::Vector3i start = VoxelOf(origin);
   const int size[3] = {nx, ny, nz};
+  const std::ptrdiff_t cell_stride[3] = {static_cast<std::ptrdiff_t>(ny) * nz, nz, 1};
   const bool origin_inside = Inside(start);
+  auto interior = [&](const Eigen::Vector3i& v) {
+    return ((v - low).array() >= 1).all() && ((v - low).array() < dims.array() - 1).all();
+  };
   for (size_t r = first; r < rays.size(); r += stride) {
     const auto& [end, returned] = rays[r];
     const Eigen::Vector3i last = VoxelOf(end);
@@ -340,10 +423,15 @@ void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, 
     }
     int step[3], rel[3], ring[3];
     double t_max[3], t_delta[3];
+    // The cell moves by a stride a step, and back by the ring's span where
+    // the ring wraps: no multiplication a step.
+    std::ptrdiff_t forward[3], wrap[3];
     for (int a = 0; a < 3; ++a) {
       step[a] = d[a] > 0.0 ? 1 : (d[a] < 0.0 ? -1 : 0);
       rel[a] = first_voxel[a] - low[a];
       ring[a] = Mod(first_voxel[a], size[a]);
+      forward[a] = step[a] * cell_stride[a];
+      wrap[a] = -step[a] * static_cast<std::ptrdiff_t>(size[a] - 1) * cell_stride[a];
       if (step[a] == 0) {
         t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
         continue;
@@ -356,21 +444,43 @@ void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, 
     // leaves a box once, so the walk ends where it leaves the window.
     const int steps = std::abs(last.x() - first_voxel.x()) + std::abs(last.y() - first_voxel.y()) +
                       std::abs(last.z() - first_voxel.z());
+    std::ptrdiff_t cell = static_cast<std::ptrdiff_t>(CellOfRing(ring[0], ring[1], ring[2]));
+    auto advance = [&](int axis) {
+      rel[axis] += step[axis];
+      ring[axis] += step[axis];
+      if (ring[axis] == size[axis]) {
+        ring[axis] = 0;
+        cell += wrap[axis];
+      } else if (ring[axis] < 0) {
+        ring[axis] = size[axis] - 1;
+        cell += wrap[axis];
+      } else {
+        cell += forward[axis];
+      }
+      t_max[axis] += t_delta[axis];
+    };
+    if (interior(start) && interior(last)) {
+      // Both ends a voxel inside the window: so is every voxel the walk
+      // visits (it stays in the box of its two ends but for one step past
+      // an end where rounding breaks a near tie, and the window is a box),
+      // so no test a step.
+      for (int n = 0; n < steps; ++n) {
+        Cross<kShared>(static_cast<size_t>(cell), crossed);
+        advance(t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2));
+      }
+      if (!returned) Cross<kShared>(Cell(last), crossed);  // a ray cut at max_range: crossed, not hit
+      continue;
+    }
     bool entered = false;
     for (int n = 0; n < steps; ++n) {
       if (static_cast<unsigned>(rel[0]) < static_cast<unsigned>(nx) && static_cast<unsigned>(rel[1]) < static_cast<unsigned>(ny) &&
           static_cast<unsigned>(rel[2]) < static_cast<unsigned>(nz)) {
-        Cross<kShared>(CellOfRing(ring[0], ring[1], ring[2]), crossed);
+        Cross<kShared>(static_cast<size_t>(cell), crossed);
         entered = true;
       } else if (entered) {
         break;
       }
-      const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
-      rel[axis] += step[axis];
-      ring[axis] += step[axis];
-      if (ring[axis] == size[axis]) ring[axis] = 0;
-      if (ring[axis] < 0) ring[axis] = size[axis] - 1;
-      t_max[axis] += t_delta[axis];
+      advance(t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2));
     }
     if (!returned && Inside(last)) Cross<kShared>(Cell(last), crossed);  // a ray cut at max_range: crossed, not hit
   }

@@ -101,11 +101,11 @@ struct ReplanOptions {
   int horizon_attempts = 1;
   // A certified new part longer than this times the current plan's time to
   // the rejoin junction (or the horizon, when that is longer) is refused as
-  // a detour, and a later junction (max_rejoin_tries) or the whole remainder
-  // is planned to instead. The new part must meet
-  // the junction's full state; from a start near or past it, the solve
-  // often finds only a slow loop (on past the junction, round and back
-  // through whatever lies there). Measured (docs/online.md): from 5-20 cm
+  // a detour, and a later junction (max_rejoin_tries) or the whole
+  // remainder is planned to instead. The new part must meet the junction's
+  // full state; from a start near or past it, the solve often finds only a
+  // slow loop (on past the junction, round and back through whatever lies
+  // there). Measured (docs/online.md): from 5-20 cm
   // off the default plan, the median certified part took 1.10 times its
   // guess and a third took 1.6-12 times; in real time, the narrow gap's
   // periodic replans stretched a 0.13 s part to 3.4 s and crossed the gap
