@@ -613,6 +613,54 @@ TEST(ReplanTest, RefusesARejoinThatDetoursAndReplansTheWholeRemainder) {
   EXPECT_FALSE(invalid.IsValid(nullptr));
 }
 
+// Earlier in the flight a detour's refusal is met one junction later: a
+// vehicle 0.35 s ahead of its plan rejoins it past one more junction, the
+// new part absorbing the offset in two pieces, and keeps the rest of the
+// plan. With one try only, the whole remainder is replanned instead.
+TEST(ReplanTest, AfterADetourRejoinsAtALaterJunction) {
+  const PlanResult& plan = DefaultPlan();
+  const WholeBodyTrajectory& old = *plan.trajectory;
+  solvers::LbfgsSolver solver;
+  const double t_from = 0.3 * InsertionStart(plan);
+  const BoundaryState start = StateOnPlan(old, t_from + 0.35);
+  const double left = old.duration() - t_from;
+
+  ReplanOptions unguarded = DefaultReplanOptions();
+  unguarded.max_rejoin_stretch = 1e6;
+  auto detour = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), unguarded, solver, plan, t_from,
+                       start);
+  ASSERT_TRUE(detour.ok()) << detour.status().message();
+  ASSERT_TRUE(detour->success) << detour->message;
+  ASSERT_GT(detour->trajectory->duration(), left + 1.0) << "the first junction no longer gives a detour";
+
+  auto result = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(), solver,
+                       plan, t_from, start);
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  ASSERT_TRUE(result->success) << result->message;
+  EXPECT_TRUE(result->rejoin_refused_as_detour);
+  ASSERT_GT(result->rejoined_at, 0.0) << "not rejoined";
+  const WholeBodyTrajectory& fresh = *result->trajectory;
+  EXPECT_LT(fresh.duration(), left + 0.3);
+  const double kept = fresh.duration() - result->rejoined_at;
+  for (int k = 0; k <= 20; ++k) {
+    const double tau = kept * k / 20.0;
+    EXPECT_LT((fresh.Sample(result->rejoined_at + tau).position - old.Sample(old.duration() - kept + tau).position).norm(),
+              1e-9)
+        << tau;
+  }
+  EXPECT_TRUE(result->post_check.certified) << result->post_check.FirstFailure();
+  EXPECT_GE(BruteForceClearance(fresh, 0.002),
+            WindowCup().task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance);
+
+  ReplanOptions one_try = DefaultReplanOptions();
+  one_try.max_rejoin_tries = 1;
+  auto whole = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), one_try, solver, plan, t_from,
+                      start);
+  ASSERT_TRUE(whole.ok()) << whole.status().message();
+  EXPECT_TRUE(whole->rejoin_refused_as_detour);
+  EXPECT_LT(whole->rejoined_at, 0.0);
+}
+
 // The default scene split as a moving target's task splits it: the cup and
 // its pedestal (data/tasks/moving_cup.yaml's box) move, the rest stands.
 struct MovingCupScene {
