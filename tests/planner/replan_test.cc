@@ -572,6 +572,28 @@ TEST(ReplanTest, ReplansTheWholeRemainderWhereTheKeptPartIsNotCertified) {
   EXPECT_EQ(whole->trajectory->duration() > 0.0, true);
 }
 
+// A replan of the default plan with `replan`'s options, from `start` at
+// t_from on the plan's clock.
+core::Result<PlanResult> ReplanDefault(const ReplanOptions& replan, double t_from, const BoundaryState& start) {
+  solvers::LbfgsSolver solver;
+  return Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), replan, solver, DefaultPlan(), t_from,
+                start);
+}
+
+// The default options without the detour rule: any certified rejoin is kept.
+ReplanOptions WithoutTheDetourRule() {
+  ReplanOptions replan = DefaultReplanOptions();
+  replan.max_rejoin_stretch = 1e6;
+  return replan;
+}
+
+// Certified, and the clearance kept at every 2 ms.
+void ExpectCertifiedAndClear(const PlanResult& result) {
+  EXPECT_TRUE(result.post_check.certified) << result.post_check.FirstFailure();
+  EXPECT_GE(BruteForceClearance(*result.trajectory, 0.002),
+            WindowCup().task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance);
+}
+
 // A vehicle ahead of its plan (the reference lags it) less than a horizon
 // before the insertion: the only rejoin junction is the insertion's start,
 // which it nearly has reached. Meeting that junction's state from there is a
@@ -580,32 +602,24 @@ TEST(ReplanTest, ReplansTheWholeRemainderWhereTheKeptPartIsNotCertified) {
 // remainder is replanned instead.
 TEST(ReplanTest, RefusesARejoinThatDetoursAndReplansTheWholeRemainder) {
   const PlanResult& plan = DefaultPlan();
-  const WholeBodyTrajectory& old = *plan.trajectory;
-  solvers::LbfgsSolver solver;
   const double t_from = InsertionStart(plan) - 0.4;
-  const BoundaryState start = StateOnPlan(old, t_from + 0.2);
-  const double remaining = old.duration() - t_from;
+  const BoundaryState start = StateOnPlan(*plan.trajectory, t_from + 0.2);
+  const double remaining = plan.trajectory->duration() - t_from;
 
-  // Unguarded, the rejoin is the detour this test is about.
-  ReplanOptions unguarded = DefaultReplanOptions();
-  unguarded.max_rejoin_stretch = 1e6;
-  auto detour = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), unguarded, solver, plan, t_from,
-                       start);
+  // Without the rule, the rejoin is the detour this test is about.
+  auto detour = ReplanDefault(WithoutTheDetourRule(), t_from, start);
   ASSERT_TRUE(detour.ok()) << detour.status().message();
   ASSERT_TRUE(detour->success) << detour->message;
   ASSERT_GT(detour->rejoined_at, 0.0);
   ASSERT_GT(detour->trajectory->duration(), 2.0 * remaining) << "the scenario no longer detours";
 
-  auto result = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(), solver,
-                       plan, t_from, start);
+  auto result = ReplanDefault(DefaultReplanOptions(), t_from, start);
   ASSERT_TRUE(result.ok()) << result.status().message();
   ASSERT_TRUE(result->success) << result->message;
   EXPECT_TRUE(result->rejoin_refused_as_detour);
   EXPECT_LT(result->rejoined_at, 0.0);
   EXPECT_LT(result->trajectory->duration(), remaining + 0.5);
-  EXPECT_TRUE(result->post_check.certified) << result->post_check.FirstFailure();
-  EXPECT_GE(BruteForceClearance(*result->trajectory, 0.002),
-            WindowCup().task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance);
+  ExpectCertifiedAndClear(*result);
   EXPECT_LT((result->trajectory->Sample(1e9).position - plan.terminal.position).norm(), 0.01);
 
   ReplanOptions invalid = DefaultReplanOptions();
@@ -620,21 +634,16 @@ TEST(ReplanTest, RefusesARejoinThatDetoursAndReplansTheWholeRemainder) {
 TEST(ReplanTest, AfterADetourRejoinsAtALaterJunction) {
   const PlanResult& plan = DefaultPlan();
   const WholeBodyTrajectory& old = *plan.trajectory;
-  solvers::LbfgsSolver solver;
   const double t_from = 0.3 * InsertionStart(plan);
   const BoundaryState start = StateOnPlan(old, t_from + 0.35);
   const double left = old.duration() - t_from;
 
-  ReplanOptions unguarded = DefaultReplanOptions();
-  unguarded.max_rejoin_stretch = 1e6;
-  auto detour = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), unguarded, solver, plan, t_from,
-                       start);
+  auto detour = ReplanDefault(WithoutTheDetourRule(), t_from, start);
   ASSERT_TRUE(detour.ok()) << detour.status().message();
   ASSERT_TRUE(detour->success) << detour->message;
   ASSERT_GT(detour->trajectory->duration(), left + 1.0) << "the first junction no longer gives a detour";
 
-  auto result = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), DefaultReplanOptions(), solver,
-                       plan, t_from, start);
+  auto result = ReplanDefault(DefaultReplanOptions(), t_from, start);
   ASSERT_TRUE(result.ok()) << result.status().message();
   ASSERT_TRUE(result->success) << result->message;
   EXPECT_TRUE(result->rejoin_refused_as_detour);
@@ -648,14 +657,11 @@ TEST(ReplanTest, AfterADetourRejoinsAtALaterJunction) {
               1e-9)
         << tau;
   }
-  EXPECT_TRUE(result->post_check.certified) << result->post_check.FirstFailure();
-  EXPECT_GE(BruteForceClearance(fresh, 0.002),
-            WindowCup().task.safety_distance - DefaultPlannerOptions().post_check.clearance_tolerance);
+  ExpectCertifiedAndClear(*result);
 
   ReplanOptions one_try = DefaultReplanOptions();
   one_try.max_rejoin_tries = 1;
-  auto whole = Replan(WindowCup().Scene(), WindowCup().task, DefaultPlannerOptions(), one_try, solver, plan, t_from,
-                      start);
+  auto whole = ReplanDefault(one_try, t_from, start);
   ASSERT_TRUE(whole.ok()) << whole.status().message();
   EXPECT_TRUE(whole->rejoin_refused_as_detour);
   EXPECT_LT(whole->rejoined_at, 0.0);
