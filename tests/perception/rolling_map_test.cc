@@ -32,6 +32,29 @@ std::unique_ptr<RollingMap> Map(RollingMapOptions options = {}) {
   return std::move(*map);
 }
 
+// Two maps compared at the points centre + (x, y, z), each of x, y, z from
+// `from` in steps of `step` while below `to`: where their states differ,
+// and where `a` knows a state (and an occupied one).
+struct StateComparison {
+  int differ = 0, known = 0, occupied = 0;
+};
+StateComparison CompareStates(const RollingMap& a, const RollingMap& b, const Vec3& centre, const Vec3& from,
+                              const Vec3& to, double step) {
+  StateComparison c;
+  for (double x = from.x(); x < to.x(); x += step) {
+    for (double y = from.y(); y < to.y(); y += step) {
+      for (double z = from.z(); z < to.z(); z += step) {
+        const Vec3 p = centre + Vec3(x, y, z);
+        const VoxelState state = a.State(p);
+        c.differ += state != b.State(p) ? 1 : 0;
+        c.known += state != VoxelState::kUnknown ? 1 : 0;
+        c.occupied += state == VoxelState::kOccupied ? 1 : 0;
+      }
+    }
+  }
+  return c;
+}
+
 TEST(RollingMapTest, AWallIsOccupiedTheSpaceBeforeItFreeAndBehindItUnknown) {
   auto map = Map();
   ASSERT_TRUE(map->Insert(Wall(3.0), Vec3::Zero()).ok());
@@ -409,18 +432,10 @@ TEST(RollingMapTest, SeveralRayThreadsBuildTheMapOneThreadBuilds) {
     EXPECT_EQ(parallel->NewlyBlocked().size(), serial->NewlyBlocked().size()) << frame;
     EXPECT_EQ(parallel->num_known_voxels(), serial->num_known_voxels()) << frame;
   }
-  int differ = 0, known = 0;
-  for (double x = -4.95; x < 5.0; x += 0.1) {
-    for (double y = -4.95; y < 5.0; y += 0.1) {
-      for (double z = -2.95; z < 3.0; z += 0.1) {
-        const Vec3 p(x, y, z);
-        differ += serial->State(p) != parallel->State(p) ? 1 : 0;
-        known += serial->State(p) != VoxelState::kUnknown ? 1 : 0;
-      }
-    }
-  }
-  EXPECT_EQ(differ, 0);
-  EXPECT_GT(known, 10000);
+  const StateComparison c =
+      CompareStates(*serial, *parallel, Vec3::Zero(), Vec3(-4.95, -4.95, -2.95), Vec3(5.0, 5.0, 3.0), 0.1);
+  EXPECT_EQ(c.differ, 0);
+  EXPECT_GT(c.known, 10000);
   EXPECT_EQ(serial->OccupiedPoints().size(), parallel->OccupiedPoints().size());
   RollingMapOptions bad;
   bad.ray_threads = 0;
@@ -453,18 +468,9 @@ TEST(RollingMapTest, RaysWalkedWithAndWithoutTheBoundsTestMarkTheSameVoxels) {
     ASSERT_TRUE(edge->Insert(points, origin, misses).ok());
     ASSERT_TRUE(deep->Insert(points, origin, misses).ok());
   }
-  int differ = 0, known = 0;
-  for (double x = 0.05; x < 6.0; x += 0.1) {
-    for (double y = -2.95; y < 3.0; y += 0.1) {
-      for (double z = -1.95; z < 2.0; z += 0.1) {
-        const Vec3 p(x, y, z);
-        differ += edge->State(p) != deep->State(p) ? 1 : 0;
-        known += edge->State(p) != VoxelState::kUnknown ? 1 : 0;
-      }
-    }
-  }
-  EXPECT_EQ(differ, 0);
-  EXPECT_GT(known, 3000);
+  const StateComparison c = CompareStates(*edge, *deep, Vec3::Zero(), Vec3(0.05, -2.95, -1.95), Vec3(6.0, 3.0, 2.0), 0.1);
+  EXPECT_EQ(c.differ, 0);
+  EXPECT_GT(c.known, 3000);
 }
 
 // A small window about a place the sensor looks at from outside it (the
@@ -508,21 +514,11 @@ TEST(RollingMapTest, ASmallWindowAwayFromTheSensorHoldsWhatALargeOneHoldsThere) 
     ASSERT_TRUE(part->Insert(points, origin).ok());
   }
   EXPECT_GT(skipped_rays, 1000);
-  int differ = 0, known = 0, occupied = 0;
-  for (double x = -0.27; x < 0.28; x += 0.02) {
-    for (double y = -0.37; y < 0.38; y += 0.02) {
-      for (double z = -0.23; z < 0.24; z += 0.02) {
-        const Vec3 p = centre + Vec3(x, y, z);
-        const VoxelState state = part->State(p);
-        differ += state != whole->State(p) ? 1 : 0;
-        known += state != VoxelState::kUnknown ? 1 : 0;
-        occupied += state == VoxelState::kOccupied ? 1 : 0;
-      }
-    }
-  }
-  EXPECT_EQ(differ, 0);
-  EXPECT_GT(known, 1000);
-  EXPECT_GT(occupied, 20);
+  const StateComparison c =
+      CompareStates(*part, *whole, centre, Vec3(-0.27, -0.37, -0.23), Vec3(0.28, 0.38, 0.24), 0.02);
+  EXPECT_EQ(c.differ, 0);
+  EXPECT_GT(c.known, 1000);
+  EXPECT_GT(c.occupied, 20);
 }
 
 }  // namespace

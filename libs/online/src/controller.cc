@@ -349,8 +349,7 @@ class OnlineController::Worker {
     done.record.iterations = result->iterations;
     if (job.replan && job.periodic && result->success && result->trajectory) {
       const double left = job.base->trajectory->duration() - job.t_from;
-      const double allowed = setup_.replan_options.max_rejoin_stretch * std::max(left, setup_.replan_options.horizon);
-      if (result->trajectory->duration() > allowed) {
+      if (result->trajectory->duration() > setup_.replan_options.DetourLimit(left)) {
         done.record.dropped_as_slower = true;
         done.record.message = core::Format("%.2f s long for the %.2f s left of the current plan",
                                            result->trajectory->duration(), left);

@@ -406,6 +406,7 @@ void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, 
   auto interior = [&](const Eigen::Vector3i& v) {
     return ((v - low).array() >= 1).all() && ((v - low).array() < dims.array() - 1).all();
   };
+  const bool origin_interior = interior(start);
   for (size_t r = first; r < rays.size(); r += stride) {
     const auto& [end, returned] = rays[r];
     const Eigen::Vector3i last = VoxelOf(end);
@@ -445,7 +446,9 @@ void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, 
     const int steps = std::abs(last.x() - first_voxel.x()) + std::abs(last.y() - first_voxel.y()) +
                       std::abs(last.z() - first_voxel.z());
     std::ptrdiff_t cell = static_cast<std::ptrdiff_t>(CellOfRing(ring[0], ring[1], ring[2]));
-    auto advance = [&](int axis) {
+    // One step of the walk, along the axis whose boundary comes first.
+    auto advance = [&]() {
+      const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
       rel[axis] += step[axis];
       ring[axis] += step[axis];
       if (ring[axis] == size[axis]) {
@@ -459,28 +462,28 @@ void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, 
       }
       t_max[axis] += t_delta[axis];
     };
-    if (interior(start) && interior(last)) {
+    if (origin_interior && interior(last)) {
       // Both ends a voxel inside the window: so is every voxel the walk
       // visits (it stays in the box of its two ends but for one step past
       // an end where rounding breaks a near tie, and the window is a box),
       // so no test a step.
       for (int n = 0; n < steps; ++n) {
         Cross<kShared>(static_cast<size_t>(cell), crossed);
-        advance(t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2));
+        advance();
       }
-      if (!returned) Cross<kShared>(Cell(last), crossed);  // a ray cut at max_range: crossed, not hit
-      continue;
-    }
-    bool entered = false;
-    for (int n = 0; n < steps; ++n) {
-      if (static_cast<unsigned>(rel[0]) < static_cast<unsigned>(nx) && static_cast<unsigned>(rel[1]) < static_cast<unsigned>(ny) &&
-          static_cast<unsigned>(rel[2]) < static_cast<unsigned>(nz)) {
-        Cross<kShared>(static_cast<size_t>(cell), crossed);
-        entered = true;
-      } else if (entered) {
-        break;
+    } else {
+      bool entered = false;
+      for (int n = 0; n < steps; ++n) {
+        if (static_cast<unsigned>(rel[0]) < static_cast<unsigned>(nx) &&
+            static_cast<unsigned>(rel[1]) < static_cast<unsigned>(ny) &&
+            static_cast<unsigned>(rel[2]) < static_cast<unsigned>(nz)) {
+          Cross<kShared>(static_cast<size_t>(cell), crossed);
+          entered = true;
+        } else if (entered) {
+          break;
+        }
+        advance();
       }
-      advance(t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2));
     }
     if (!returned && Inside(last)) Cross<kShared>(Cell(last), crossed);  // a ray cut at max_range: crossed, not hit
   }

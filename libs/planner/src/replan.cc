@@ -277,8 +277,7 @@ core::Result<bool> SolveRejoining(const PlanningScene& scene, const Task& task, 
   // state's velocity can only be met by flying on, turning and coming back.
   // Such a plan is certified, but it crosses the obstacles near the junction
   // twice more, and every crossing risks the tracking error there.
-  const double allowed = replan.max_rejoin_stretch * std::max(guess.durations.sum(), replan.horizon);
-  if (part.trajectory->duration() > allowed) {
+  if (part.trajectory->duration() > replan.DetourLimit(guess.durations.sum())) {
     result->rejoin_refused_as_detour = true;
     return false;
   }

@@ -59,6 +59,7 @@
 // World ENU, metres, radians, seconds.
 #pragma once
 
+#include <algorithm>
 #include <string>
 
 #include "quadhand/core/status.h"
@@ -115,6 +116,11 @@ struct ReplanOptions {
   // the next try rejoins one junction later (one more piece to absorb the
   // offset, the kept tail the current plan's smooth one).
   int max_rejoin_tries = 3;
+
+  // The longest a certified plan for a stretch the current plan flies in
+  // `planned` seconds may take before it counts as a detour
+  // (max_rejoin_stretch times planned, or times the horizon when longer).
+  double DetourLimit(double planned) const { return max_rejoin_stretch * std::max(planned, horizon); }
 
   bool IsValid(std::string* why) const;
 };
