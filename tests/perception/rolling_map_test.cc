@@ -521,5 +521,82 @@ TEST(RollingMapTest, ASmallWindowAwayFromTheSensorHoldsWhatALargeOneHoldsThere) 
   EXPECT_GT(c.occupied, 20);
 }
 
+// A prior map adds obstacles where the sensor has seen nothing, and never
+// frees anything: the space before a prior wall stays unknown, and a prior
+// point inside space already seen free is ignored.
+TEST(RollingMapTest, APriorOccupiesOnlyUnseenVoxelsAndFreesNothing) {
+  auto map = Map();
+  map->MarkFree(Vec3::Zero(), 0.5);
+  std::vector<Vec3> prior = Wall(3.0, 0.5);
+  prior.emplace_back(0.1, 0.05, 0.05);  // where the vehicle stands, seen free
+  prior.emplace_back(std::nan(""), 0.0, 0.0);
+  ASSERT_TRUE(map->SetPrior(prior).ok());
+  EXPECT_EQ(map->prior_points(), prior.size() - 1);
+  EXPECT_EQ(map->dropped_points(), 1);
+  EXPECT_EQ(map->State(Vec3(3.0, 0.0, 0.0)), VoxelState::kOccupied);
+  EXPECT_EQ(map->State(Vec3(3.0, 0.45, -0.45)), VoxelState::kOccupied);
+  EXPECT_EQ(map->State(Vec3(0.1, 0.05, 0.05)), VoxelState::kFree);
+  for (double x : {1.0, 2.0, 2.8, 3.5}) EXPECT_EQ(map->State(Vec3(x, 0.0, 0.0)), VoxelState::kUnknown) << x;
+  // The prior's own points are what its voxels keep, for the exact checks.
+  const std::vector<Vec3> kept = map->OccupiedPoints();
+  ASSERT_FALSE(kept.empty());
+  for (const Vec3& p : kept) EXPECT_DOUBLE_EQ(p.x(), 3.0);
+  EXPECT_TRUE(map->NewlyBlocked().empty());
+  EXPECT_FALSE(map->SetPrior(Wall(4.0)).ok());
+}
+
+// What the sensor sees wins over the prior: rays through a prior wall that
+// is not there free it (the returns_stay_occupied rule keeps only the
+// sensor's own returns), and a prior voxel a return ends in becomes the
+// sensor's, which later rays through it no longer free.
+TEST(RollingMapTest, TheSensorFreesAPriorWallThatIsNotThereAndKeepsOneItSees) {
+  auto map = Map();
+  std::vector<Vec3> prior = Wall(2.0, 0.4);  // gone since the prior was made
+  const std::vector<Vec3> seen = Wall(3.0, 0.4);
+  prior.insert(prior.end(), seen.begin(), seen.end());
+  ASSERT_TRUE(map->SetPrior(prior).ok());
+  ASSERT_EQ(map->State(Vec3(2.0, 0.0, 0.0)), VoxelState::kOccupied);
+  ASSERT_TRUE(map->Insert(Wall(3.0), Vec3::Zero()).ok());
+  EXPECT_EQ(map->State(Vec3(2.0, 0.0, 0.0)), VoxelState::kFree);
+  EXPECT_EQ(map->State(Vec3(2.0, 0.2, -0.1)), VoxelState::kFree);
+  EXPECT_EQ(map->State(Vec3(3.0, 0.0, 0.0)), VoxelState::kOccupied);
+  EXPECT_TRUE(map->NewlyBlocked().empty());  // the prior's voxels were obstacles already
+  // The sensor now sees past x = 3 (the wall at 3 moved away): its voxels
+  // had returns, so they stay occupied, as any voxel with returns does.
+  ASSERT_TRUE(map->Insert(Wall(5.0), Vec3::Zero()).ok());
+  EXPECT_EQ(map->State(Vec3(3.0, 0.0, 0.0)), VoxelState::kOccupied);
+  for (const Vec3& p : map->OccupiedPoints()) EXPECT_GT(p.x(), 2.5);
+}
+
+// The window brings the prior back wherever it moves: after any sequence
+// of moves the map holds what a map whose prior was set at the last place
+// holds, voxel by voxel and point by point (the slabs a move brings in are
+// seeded once each, whatever the moves' directions).
+TEST(RollingMapTest, TheWindowBringsThePriorBackWhereverItMoves) {
+  RollingMapOptions options;
+  options.window_half_extent = Vec3(4.0, 3.0, 2.0);
+  std::vector<Vec3> prior;
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> along(-12.0, 12.0), across(-6.0, 6.0), up(-3.0, 3.0);
+  for (int k = 0; k < 4000; ++k) prior.emplace_back(along(random), across(random), up(random));
+  auto moved = Map(options);
+  ASSERT_TRUE(moved->SetPrior(prior).ok());
+  EXPECT_EQ(moved->State(Vec3(10.0, 0.0, 0.0)), VoxelState::kUnknown);
+  const std::vector<Vec3> centres = {Vec3(0.35, 0.0, 0.0), Vec3(3.0, 1.1, -0.4), Vec3(9.7, 2.5, 0.3),
+                                     Vec3(9.0, -4.2, 1.9), Vec3(-2.0, -1.0, 0.0), Vec3(-30.0, 0.0, 0.0),
+                                     Vec3(-9.5, 0.8, -0.3), Vec3(1.2, 0.1, 0.05)};
+  for (const Vec3& centre : centres) {
+    moved->MoveWindow(centre);
+    auto fresh = Map(options);
+    fresh->MoveWindow(centre);
+    ASSERT_TRUE(fresh->SetPrior(prior).ok());
+    const StateComparison c =
+        CompareStates(*moved, *fresh, centre, Vec3(-4.5, -3.5, -2.5), Vec3(4.5, 3.5, 2.5), 0.1);
+    EXPECT_EQ(c.differ, 0) << centre.transpose();
+    EXPECT_EQ(moved->OccupiedPoints().size(), fresh->OccupiedPoints().size()) << centre.transpose();
+    if (centre.x() > -20.0) EXPECT_GT(c.occupied, 100) << centre.transpose();
+  }
+}
+
 }  // namespace
 }  // namespace quadhand::perception

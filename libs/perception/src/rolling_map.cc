@@ -26,6 +26,13 @@ bool In(double x, double lo, double hi) { return std::isfinite(x) && x >= lo && 
 constexpr double kUnitsPerNat = 20.0;
 constexpr int kClampLow = -40, kClampHigh = 70;
 constexpr std::int8_t kUnknown = -128;
+// A voxel's mark byte: this frame's end voxel and crossed voxel (cleared
+// after each frame), and whether its occupancy comes from the prior map
+// alone (kept until a return ends in it or the window forgets it).
+constexpr std::uint8_t kEndMark = 1, kCrossedMark = 2, kFrameMarks = kEndMark | kCrossedMark, kPriorMark = 4;
+// The prior map's points are kept by chunks of this many voxels a side, so
+// that the slabs a window's move brings in find theirs in a few look-ups.
+constexpr int kPriorChunkShift = 4;
 // A thread is started per this many rays at least: fewer are walked sooner
 // than a thread starts.
 constexpr size_t kRaysPerThread = 2000;
@@ -242,12 +249,18 @@ struct RollingMap::Impl {
   }
   // A return ended in the voxel this frame.
   void Hit(size_t cell) {
+    cells[cell].mark &= static_cast<std::uint8_t>(~kPriorMark);
     Update(cell, hit);
     if (options.returns_stay_occupied) cells[cell].value = std::max(cells[cell].value, occupied_floor);
   }
   // A ray crossed the voxel without ending there.
   void Miss(size_t cell) {
-    if (options.returns_stay_occupied && cells[cell].value != kUnknown && cells[cell].value > threshold) return;
+    // A voxel occupied by the prior alone is no surer than an unknown one:
+    // a ray through it frees it as it would free unknown space.
+    if (options.returns_stay_occupied && cells[cell].value != kUnknown && cells[cell].value > threshold &&
+        (cells[cell].mark & kPriorMark) == 0) {
+      return;
+    }
     Update(cell, miss);
   }
   // A ray crossed the voxel: missed once this frame, unless it is an end
@@ -257,14 +270,15 @@ struct RollingMap::Impl {
   void Cross(size_t cell, std::vector<size_t>* crossed) {
     std::uint8_t& mark = cells[cell].mark;
     if constexpr (kShared) {
-      std::uint8_t expected = 0;
-      if (__atomic_load_n(&mark, __ATOMIC_RELAXED) != 0 ||
-          !__atomic_compare_exchange_n(&mark, &expected, std::uint8_t{2}, false, __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
+      std::uint8_t seen = __atomic_load_n(&mark, __ATOMIC_RELAXED);
+      if ((seen & kFrameMarks) != 0 ||
+          !__atomic_compare_exchange_n(&mark, &seen, static_cast<std::uint8_t>(seen | kCrossedMark), false,
+                                       __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
         return;
       }
     } else {
-      if (mark != 0) return;
-      mark = 2;
+      if ((mark & kFrameMarks) != 0) return;
+      mark |= kCrossedMark;
     }
     crossed->push_back(cell);
     Miss(cell);
@@ -275,6 +289,42 @@ struct RollingMap::Impl {
   template <bool kShared>
   void WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, size_t first, size_t stride, const Vec3& origin,
                 std::vector<size_t>* crossed);
+  static std::int64_t ChunkKey(const Eigen::Vector3i& v) {
+    return Key(Eigen::Vector3i(v.x() >> kPriorChunkShift, v.y() >> kPriorChunkShift, v.z() >> kPriorChunkShift));
+  }
+  // The prior's points in the voxels of [first, last] (inclusive, in
+  // voxels; the part inside the window): each unknown voxel holding one
+  // becomes occupied by the prior alone, with its points kept. Voxels the
+  // sensor has seen keep what it saw.
+  void SeedPrior(const Eigen::Vector3i& first, const Eigen::Vector3i& last) {
+    const Eigen::Vector3i lo = first.cwiseMax(low), hi = last.cwiseMin(low + dims - Eigen::Vector3i::Ones());
+    if ((hi.array() < lo.array()).any() || prior.empty()) return;
+    const size_t cap = static_cast<size_t>(options.max_points_per_voxel);
+    const Eigen::Vector3i chunk_lo(lo.x() >> kPriorChunkShift, lo.y() >> kPriorChunkShift, lo.z() >> kPriorChunkShift);
+    const Eigen::Vector3i chunk_hi(hi.x() >> kPriorChunkShift, hi.y() >> kPriorChunkShift, hi.z() >> kPriorChunkShift);
+    for (int i = chunk_lo.x(); i <= chunk_hi.x(); ++i) {
+      for (int j = chunk_lo.y(); j <= chunk_hi.y(); ++j) {
+        for (int k = chunk_lo.z(); k <= chunk_hi.z(); ++k) {
+          const auto found = prior.find(Key(Eigen::Vector3i(i, j, k)));
+          if (found == prior.end()) continue;
+          for (const Vec3& p : found->second) {
+            const Eigen::Vector3i v = VoxelOf(p);
+            if ((v.array() < lo.array()).any() || (v.array() > hi.array()).any()) continue;
+            Voxel& voxel = cells[Cell(v)];
+            if (voxel.value == kUnknown) {
+              voxel.value = occupied_floor;
+              voxel.mark = kPriorMark;
+              raw[Key(v)].clear();
+            } else if ((voxel.mark & kPriorMark) == 0) {
+              continue;  // seen by the sensor
+            }
+            std::vector<Vec3>& kept = raw[Key(v)];
+            if (kept.size() < cap) kept.push_back(p);
+          }
+        }
+      }
+    }
+  }
 
   RollingMapOptions options;
   Eigen::Vector3i dims = Eigen::Vector3i::Ones(), low = Eigen::Vector3i::Zero();
@@ -299,6 +349,9 @@ struct RollingMap::Impl {
   FrameVoxelTable frame_voxels;
   std::vector<std::pair<int, int>> point_slots;
   std::vector<int> group_start, group_fill, grouped;
+  // The prior map (SetPrior): its finite points by chunk (ChunkKey).
+  std::unordered_map<std::int64_t, std::vector<Vec3>> prior;
+  size_t prior_points = 0;
   size_t swept_size = 1024;  // raw's size after its last sweep (MoveWindow),
   Eigen::Vector3i swept_low = Eigen::Vector3i::Zero();  // and the window's low then
   long frames = 0;
@@ -347,7 +400,7 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
     const auto [slot, first] = m.frame_voxels.FindOrInsert(cell, static_cast<int>(m.touched.size()));
     m.point_slots.emplace_back(slot, static_cast<int>(&p - points.data()));
     if (!first) continue;  // this voxel's ray is cast already
-    m.cells[cell].mark = 1;
+    m.cells[cell].mark |= kEndMark;
     m.touched.push_back(cell);
     m.end_voxels.push_back(v);
     rays.emplace_back(p, true);
@@ -388,7 +441,7 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
     for (std::thread& helper : helpers) helper.join();
     for (const std::vector<size_t>& cells : crossed) m.touched.insert(m.touched.end(), cells.begin(), cells.end());
   }
-  for (size_t cell : m.touched) m.cells[cell].mark = 0;
+  for (size_t cell : m.touched) m.cells[cell].mark &= kPriorMark;
   m.touched.clear();
   ++m.frames;
   return core::Status::Ok();
@@ -493,6 +546,7 @@ void RollingMap::MoveWindow(const Vec3& centre) {
   Impl& m = *impl_;
   if (!centre.allFinite()) return;
   const Eigen::Vector3i low = m.LowFor(centre);
+  const Eigen::Vector3i old_low = m.low;
   // The voxels of the old window outside the new one are cleared: slab by
   // slab along each axis (all of it when the shift is the window's size).
   for (int a = 0; a < 3; ++a) {
@@ -510,11 +564,34 @@ void RollingMap::MoveWindow(const Vec3& centre) {
           idx[a] = ring;
           idx[b] = i;
           idx[c] = j;
-          m.cells[m.CellOfRing(idx.x(), idx.y(), idx.z())].value = kUnknown;
+          Impl::Voxel& voxel = m.cells[m.CellOfRing(idx.x(), idx.y(), idx.z())];
+          voxel.value = kUnknown;
+          voxel.mark = 0;
         }
       }
     }
     m.low[a] = low[a];
+  }
+  // The prior's points in the voxels that came in, taken in disjoint
+  // boxes: along each axis in turn, the slabs new along it, within what was
+  // in the old window along the axes before it.
+  if (!m.prior.empty() && low != old_low) {
+    Eigen::Vector3i first = low, last = low + m.dims - Eigen::Vector3i::Ones();
+    for (int a = 0; a < 3; ++a) {
+      const int old_first = old_low[a], old_last = old_low[a] + m.dims[a] - 1;
+      Eigen::Vector3i slab_first = first, slab_last = last;
+      if (low[a] > old_low[a]) {
+        slab_first[a] = std::max(first[a], old_last + 1);
+      } else if (low[a] < old_low[a]) {
+        slab_last[a] = std::min(last[a], old_first - 1);
+      } else {
+        continue;
+      }
+      m.SeedPrior(slab_first, slab_last);
+      first[a] = std::max(first[a], old_first);
+      last[a] = std::min(last[a], old_last);
+      if (first[a] > last[a]) break;
+    }
   }
   m.centre = centre;
   // The kept returns of voxels no longer occupied (freed, or left behind)
@@ -535,6 +612,23 @@ void RollingMap::MoveWindow(const Vec3& centre) {
   }
   m.swept_size = std::max<size_t>(m.raw.size(), 1024);
 }
+
+core::Status RollingMap::SetPrior(const std::vector<Vec3>& points) {
+  Impl& m = *impl_;
+  if (!m.prior.empty()) return core::Status::InvalidArgument("rolling map: the prior map is set already");
+  for (const Vec3& p : points) {
+    if (!p.allFinite()) {
+      ++m.dropped;
+      continue;
+    }
+    m.prior[Impl::ChunkKey(m.VoxelOf(p))].push_back(p);
+    ++m.prior_points;
+  }
+  m.SeedPrior(m.low, m.low + m.dims - Eigen::Vector3i::Ones());
+  return core::Status::Ok();
+}
+
+size_t RollingMap::prior_points() const { return impl_->prior_points; }
 
 void RollingMap::MarkFree(const Vec3& centre, double radius) {
   Impl& m = *impl_;
@@ -727,6 +821,7 @@ size_t RollingMap::memory_bytes() const {
   const Impl& m = *impl_;
   size_t bytes = m.cells.size() * sizeof(Impl::Voxel) + m.touched.capacity() * sizeof(size_t);
   for (const auto& entry : m.raw) bytes += sizeof(entry) + entry.second.capacity() * sizeof(Vec3);
+  for (const auto& entry : m.prior) bytes += sizeof(entry) + entry.second.capacity() * sizeof(Vec3);
   return bytes;
 }
 

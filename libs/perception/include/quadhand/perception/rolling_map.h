@@ -87,6 +87,19 @@ class RollingMap {
   core::Status Insert(const std::vector<Vec3>& points, const Vec3& origin, const std::vector<Vec3>& misses = {});
   // Centres the window on `centre` and forgets what falls outside it.
   void MoveWindow(const Vec3& centre);
+  // A prior map (docs/perception.md, "A prior map"): points of obstacles
+  // known before the flight, such as a task's scene. Each voxel holding one
+  // that the sensor has not seen is occupied, with those points kept, now
+  // and whenever the window brings it in again. The prior only ever adds
+  // obstacles: no space is free because of it, so a plan still goes only
+  // where the sensor saw free space. What the sensor sees wins: a return in
+  // such a voxel makes it the sensor's, and a ray through it frees it as it
+  // would free unknown space (returns_stay_occupied keeps only the sensor's
+  // own returns). Non-finite points are dropped and counted
+  // (dropped_points). Once per map (InvalidArgument the second time); the
+  // points are kept for the window's later moves (memory_bytes).
+  core::Status SetPrior(const std::vector<Vec3>& points);
+  size_t prior_points() const;  // the prior's finite points
   // Marks the voxels (inside the window) whose centres lie within `radius`
   // of `centre` free, as often-missed voxels: space the caller knows to be
   // empty, such as where the vehicle stands at take-off (its own body is
@@ -131,7 +144,7 @@ class RollingMap {
   long frames() const;
   long dropped_points() const;
   size_t num_known_voxels() const;  // free or occupied, in the window
-  size_t memory_bytes() const;      // the window's voxels and the kept points
+  size_t memory_bytes() const;      // the window's voxels, the kept points and the prior
 
  private:
   struct Impl;
