@@ -28,6 +28,11 @@ judged also by where the flown tool was when the gripper closed (within
 1 cm of the reach's tool point). The grasp's world is drawn with discs no
 wider than its sampling (sensor.splat_spacing_factor 0.75: its cup is
 sampled every 5 mm).
+With --prior-truth the true world is also given to the planner as a prior
+map (quadhand-explore --prior; quadhand-online reads the task's scene as
+one): obstacles known in advance, which free no space (docs/perception.md,
+"A prior map"). Without it the online flights pass --no-prior: the worlds
+stay unseen.
 Exit code 0 when every flight kept its clearance, 1 otherwise.
 """
 import argparse
@@ -74,7 +79,7 @@ def number(pattern, text, default=float("nan")):
     return float(m.group(1)) if m else default
 
 
-def fly_online(sim, online, task, record, sensor, seed, extra):
+def fly_online(sim, online, task, record, sensor, seed, extra, prior_truth):
     """One world over loopback: quadhand-sim (real time, the hidden world,
     frames on UDP) and quadhand-online --perception. Returns the figures in
     the shape of quadhand-explore's report, the online mode's peak memory
@@ -86,7 +91,7 @@ def fly_online(sim, online, task, record, sensor, seed, extra):
                                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     time.sleep(0.3)
     code, peak_kb, wall, out = run([online, task, "--vehicle", vehicle, "--perception", "--frames", frames,
-                                    "--max-duration", "300", "--quiet"] + extra)
+                                    "--max-duration", "300", "--quiet"] + ([] if prior_truth else ["--no-prior"]) + extra)
     vehicle_process.terminate()
     vehicle_process.wait()
     r = {
@@ -173,6 +178,8 @@ def main():
     parser.add_argument("--keep", default=None, help="keep worlds, records and reports in this folder")
     parser.add_argument("--online", action="store_true",
                         help="fly over the loopback link in real time (quadhand-sim and quadhand-online --perception)")
+    parser.add_argument("--prior-truth", action="store_true",
+                        help="give the planner the true world as a prior map (obstacles known in advance)")
     args = parser.parse_args(argv)
     explore = os.path.join(ROOT, args.build, "bin", "quadhand-explore")
     check = os.path.join(ROOT, args.build, "bin", "quadhand-flightcheck")
@@ -226,7 +233,7 @@ def main():
             record, report = stem + f"_{args.sensor}_flown.csv", stem + f"_{args.sensor}_explore.json"
             if args.online:
                 record = stem + f"_{args.sensor}_online_sim_flown.csv"
-                r, peak_kb, out = fly_online(sim, online, task, record, args.sensor, seed, extra)
+                r, peak_kb, out = fly_online(sim, online, task, record, args.sensor, seed, extra, args.prior_truth)
                 with open(stem + f"_{args.sensor}_online.txt", "w") as f:
                     f.write(out)
                 check_code = judged_row(check, task, record, length, seed, r, peak_kb, " (seen)",
@@ -235,8 +242,9 @@ def main():
                 rows.append((r, check_code))
                 continue
             sim_options = ["--sim-config", sim_config] if args.kind == "grasp" and "--sim-config" not in extra else []
+            prior = ["--prior", task] if args.prior_truth else []
             code, peak_kb, wall, out = run([explore, task, "--out", record, "--report", report,
-                                            "--sensor", args.sensor, "--seed", str(seed), "--quiet"] + extra +
+                                            "--sensor", args.sensor, "--seed", str(seed), "--quiet"] + prior + extra +
                                            gap_options + sim_options)
             if not os.path.exists(report):
                 print(f"| {length:g} m | {seed} | exit {code} | - | - | - | - | - | - | {peak_kb / 1024:.0f} |"

@@ -63,7 +63,7 @@ int main(int argc, char** argv) {
       "planner plans from the rolling map of its frames, never through space it has not seen free.\n"
       "Exit codes: 0 arrived and kept the safety distance (less --tolerance) against the true world;\n"
       "1 did not arrive (the report says why) but kept it; 6 lost it; 2 bad input."};
-  std::string task_path, out_path, report_path, world_path, sensor_name = "depth", config_path;
+  std::string task_path, out_path, report_path, world_path, sensor_name = "depth", config_path, prior_path;
   std::string sim_config_path = core::FindBundledFile("data/sim/quadhand_sim.yaml", QUADHAND_SOURCE_DIR);
   std::string solver_name = "lbfgs";
   std::vector<std::string> package_path;
@@ -83,6 +83,9 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_path, "The flown record (CSV, the plan file's columns)")->required();
   app.add_option("--report", report_path, "A JSON report: outcome, clearance, replans and their latency, map costs");
   app.add_option("--world", world_path, "The hidden world instead of the task's scene: a PCD or PLY cloud, or a task file");
+  app.add_option("--prior", prior_path,
+                 "A prior map: obstacles known before take-off (a PCD or PLY cloud, or a task file's scene). It "
+                 "occupies what the sensor has not seen and frees nothing (docs/perception.md, \"A prior map\")");
   app.add_option("--sensor", sensor_name, "depth or lidar (options: the simulator configuration's sensor:)")
       ->capture_default_str();
   app.add_option("--sim-config", sim_config_path, "Simulator configuration (YAML, docs/sim.md)")->capture_default_str();
@@ -175,7 +178,7 @@ int main(int argc, char** argv) {
   for (const auto& [option, path] : {std::pair<std::string, std::string>{"--out", out_path}, {"--report", report_path}}) {
     if (path.empty()) continue;
     if (core::Status s = core::CheckOutputPathAndFolder(path); !s.ok()) return Fail(option + ": " + s.message());
-    for (const std::string& input : {task_path, world_path, sim_config_path, config_path, appear_path}) {
+    for (const std::string& input : {task_path, world_path, sim_config_path, config_path, appear_path, prior_path}) {
       if (!input.empty() && core::SameFile(path, input)) return Fail(option + " " + path + ": is an input of this run");
     }
   }
@@ -194,6 +197,12 @@ int main(int argc, char** argv) {
   auto world = planner::LoadWorldPoints(world_path);
   if (!world.ok()) return Fail(world.status().message());
   if (world->empty()) return Fail(world_path + ": the world has no finite points");
+  if (!prior_path.empty()) {
+    auto prior = planner::LoadWorldPoints(prior_path);
+    if (!prior.ok()) return Fail("--prior " + prior.status().message());
+    if (prior->empty()) return Fail("--prior " + prior_path + ": the prior map has no finite points");
+    options.prior = std::make_shared<const std::vector<Vec3>>(std::move(*prior));
+  }
   auto robot = robot::RobotModel::LoadFromUrdfFile(task->robot_path);
   if (!robot.ok()) return Fail(robot.status().message());
 
@@ -348,6 +357,8 @@ int main(int argc, char** argv) {
     nlohmann::json report = {
         {"task", task_path},
         {"world", world_path},
+        {"prior", prior_path},
+        {"prior_points", flown->prior_points},
         {"sensor", sensor_name},
         {"seed", seed},
         {"outcome", explore::ExplorationOutcomeName(flown->outcome)},

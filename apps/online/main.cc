@@ -339,9 +339,12 @@ int main(int argc, char** argv) {
   std::string frames_url = "udp://127.0.0.1:14600";
   online::PerceptionSetup perception;
   explore::LocalPlannerOptions local_options;
+  bool no_prior = false;
   app.add_flag("--perception", perception_mode,
-               "Plan only from the sensor frames arriving on --frames (the task's scene is neither read nor planned "
-               "against; the flight is judged against what the sensor saw)");
+               "Plan only from the sensor frames arriving on --frames; the task's scene, when it has one, is a prior "
+               "map that adds obstacles where the sensor has seen nothing and frees no space (docs/perception.md, "
+               "\"A prior map\"); the flight is judged against what the sensor saw and the prior");
+  app.add_flag("--no-prior", no_prior, "--perception: leave the task's scene out (a flight into the unknown)");
   app.add_option("--frames", frames_url, "--perception: receive sensor frames here (docs/link.md), udp://ADDR:PORT")
       ->capture_default_str();
   app.add_option("--map-resolution", perception.map.resolution, "--perception: the rolling map's voxel edge, m")
@@ -466,7 +469,9 @@ int main(int argc, char** argv) {
   if (perception_mode) {
     if (std::string why; !perception.IsValid(&why)) return Fail("--perception: " + why);
     if (std::string why; !local_options.IsValid(&why)) return Fail("--perception: " + why);
-    if (dry_run) return Fail("--perception: --dry-run plans against the task's scene, which --perception never reads");
+    if (dry_run) return Fail("--perception: --dry-run plans against the task's scene, which --perception does not plan against");
+  } else if (no_prior) {
+    return Fail("--no-prior needs --perception");
   }
   std::optional<link::UdpEndpoint> frames_bind;
   if (perception_mode) {
@@ -541,6 +546,14 @@ int main(int argc, char** argv) {
     if (!created.ok()) return Fail(task_path + ": --perception: " + created.status().message());
     local_planner = std::move(*created);
     perception.planner = local_planner.get();
+    if (!no_prior) {
+      auto prior = planner::ScenePoints(ctx.task());
+      if (!prior.ok()) return Fail(task_path + ": the prior map: " + prior.status().message());
+      if (!prior->empty()) {
+        if (!quiet) std::fprintf(stderr, "prior map: %zu points from the task's scene\n", prior->size());
+        perception.prior = std::make_shared<const std::vector<Vec3>>(std::move(*prior));
+      }
+    }
     setup.perception = perception;
   }
 

@@ -229,6 +229,9 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   simulator->Reset(initial, 0.0);
   (*map)->MoveWindow(task.start.position);
   (*map)->MarkFree(task.start.position, options.start_free_radius);
+  if (options.prior != nullptr) {
+    if (core::Status s = (*map)->SetPrior(*options.prior); !s.ok()) return s;
+  }
   if (grasp_map != nullptr) grasp_map->MarkFree(task.start.position, options.start_free_radius);
 
   planner::WholeBodySample hold_sample;
@@ -569,6 +572,7 @@ core::Result<ExplorationResult> FlyExploration(sim::Simulator* simulator, const 
   result.peak_map_bytes = std::max(result.peak_map_bytes, (*map)->memory_bytes());
   result.frame_counts = gate.counts();
   result.dropped_points = (*map)->dropped_points();
+  result.prior_points = (*map)->prior_points();
   result.injected = faults.counts();
   result.goal_distance = (simulator->state().position - planner->goal().position).norm();
   return result;

@@ -48,6 +48,7 @@ void PerceptionMap::Start(const Vec3& position, double radius) {
   std::lock_guard<std::mutex> lock(map_mutex_);
   map_->MoveWindow(position);
   map_->MarkFree(position, radius);
+  if (setup_.prior != nullptr && map_->prior_points() == 0) (void)map_->SetPrior(*setup_.prior);
 }
 
 void PerceptionMap::Push(perception::SensorFrame frame) {

@@ -787,14 +787,19 @@ core::Status ApplyRobot(const robot::RobotModel& robot, Task* task) {
   return core::Status::Ok();
 }
 
+core::Result<std::vector<Vec3>> ScenePoints(const Task& task) {
+  if (task.scans.empty()) return std::vector<Vec3>{};
+  auto scans = scene::LoadScans(task.scans);
+  if (!scans.ok()) return scans.status();
+  return scans->unfiltered_points.empty() ? std::move(scans->points) : std::move(scans->unfiltered_points);
+}
+
 core::Result<std::vector<Vec3>> LoadWorldPoints(const std::string& path) {
   const std::string extension = std::filesystem::path(path).extension().string();
   if (extension == ".yaml" || extension == ".yml") {
     auto task = LoadTask(path);
     if (!task.ok()) return task.status();
-    auto scans = scene::LoadScans(task->scans);
-    if (!scans.ok()) return scans.status();
-    return scans->unfiltered_points.empty() ? std::move(scans->points) : std::move(scans->unfiltered_points);
+    return ScenePoints(*task);
   }
   auto cloud = scene::LoadPointCloud(path);
   if (!cloud.ok()) return cloud.status();

@@ -31,6 +31,7 @@
 
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -48,6 +49,11 @@ namespace quadhand::explore {
 
 struct ExplorationOptions {
   perception::RollingMapOptions map;
+  // A prior map: obstacles known before take-off (RollingMap::SetPrior),
+  // such as a scan made on an earlier day. It adds obstacles where the
+  // sensor has seen nothing and frees no space; the guide (guide_cell)
+  // routes round it from the start. Not given to the grasp map.
+  std::shared_ptr<const std::vector<Vec3>> prior;
   double replan_period = 0.5;  // s of flight between replans
   // s: a new plan starts this long after the state it plans from, the
   // vehicle flying the current plan meanwhile (what a real planner's
@@ -153,7 +159,8 @@ struct ExplorationResult {
   std::vector<double> map_update_ms;  // per frame, the window's move included
   long frames = 0, empty_frames = 0;  // taken by the map, and those with no return
   perception::FrameCounts frame_counts;  // the gate's: taken and dropped, by reason
-  long dropped_points = 0;               // non-finite returns of frames taken
+  long dropped_points = 0;               // non-finite returns of frames taken, and of the prior
+  size_t prior_points = 0;               // the prior map's finite points (ExplorationOptions::prior)
   SensorFaultCounts injected;            // the faults injected (SensorFaultOptions)
   std::vector<SilenceRecord> silences;
   std::vector<InvalidationRecord> invalidations;

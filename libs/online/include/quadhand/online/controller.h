@@ -467,6 +467,10 @@ double MeasuredClearance(const robot::RobotModel& robot, const env::ExactMeshMod
 struct PerceptionSetup {
   const explore::LocalPlanner* planner = nullptr;  // null: no perception (the setup's scene)
   perception::RollingMapOptions map;
+  // A prior map (RollingMap::SetPrior; quadhand-online: the task's scene):
+  // obstacles where the sensor has seen nothing, set when the vehicle is
+  // first held. It frees no space.
+  std::shared_ptr<const std::vector<Vec3>> prior;
   perception::FrameGateOptions gate;
   double sensor_timeout = 0.3;     // s
   double start_free_radius = 0.8;  // m of free space about the vehicle when it is first held

@@ -81,6 +81,8 @@ core::Result<Task> LoadTask(const std::string& path);
 // filter (a sensor sees the raw scene, not its centroids). Errors name the
 // file.
 core::Result<std::vector<Vec3>> LoadWorldPoints(const std::string& path);
+// The same for a task already loaded: its scene's points (none without one).
+core::Result<std::vector<Vec3>> ScenePoints(const Task& task);
 
 // What the caller gives itself instead of the task's keys: with robot_given
 // the keys robot and sdf_dir may be left out, with scene_given the key scene.
