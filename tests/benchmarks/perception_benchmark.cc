@@ -59,7 +59,7 @@ BENCHMARK(BM_InsertFrame)->ArgsProduct({{10, 5}, {1, 2, 4, 8}})->Unit(benchmark:
 // Trunks (radius 0.1-0.25 m, 4 m tall, points every 5 cm) at 0.15 per m^2
 // over 20 x 8 m ahead of the camera; its depth frame from (0, 0, 1.2)
 // looking along +x, 30,000 returns taken evenly, in the world frame.
-std::vector<Vec3> RenderedForestFrame() {
+std::vector<Vec3> ForestWorld() {
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> x(1.0, 21.0), y(-4.0, 4.0), radius(0.1, 0.25);
   std::vector<Vec3> world;
@@ -73,6 +73,10 @@ std::vector<Vec3> RenderedForestFrame() {
       }
     }
   }
+  return world;
+}
+std::vector<Vec3> RenderedForestFrame() {
+  const std::vector<Vec3> world = ForestWorld();
   quadhand::sim::SensorConfig config;
   config.kind = quadhand::sim::SensorKind::kDepth;
   auto renderer = quadhand::sim::SensorRenderer::Create(world, config, 1);
@@ -99,6 +103,27 @@ void BM_InsertRenderedFrame(benchmark::State& state) {
   state.counters["known_voxels"] = static_cast<double>((*map)->num_known_voxels());
 }
 BENCHMARK(BM_InsertRenderedFrame)->ArgsProduct({{10, 5}, {1, 2, 4, 8}})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// A flight's frame with and without a prior map (RollingMap::SetPrior; the
+// argument: 1 with the whole forest as the prior): the window moved to the
+// origin, then the rendered frame, one thread.
+void BM_FlightFrameWithPrior(benchmark::State& state) {
+  RollingMapOptions options;
+  auto map = RollingMap::Create(options);
+  const std::vector<Vec3> frame = RenderedForestFrame();
+  (*map)->MoveWindow(Vec3(0.0, 0.0, 1.2));
+  if (state.range(0) != 0) (void)(*map)->SetPrior(ForestWorld());
+  int k = 0;
+  for (auto _ : state) {
+    const Vec3 at(0.02 * (k % 16), 0.0, 1.2);
+    (*map)->MoveWindow(at);
+    benchmark::DoNotOptimize((*map)->Insert(frame, at));
+    ++k;
+  }
+  state.counters["prior_points"] = static_cast<double>((*map)->prior_points());
+  state.counters["memory_MB"] = static_cast<double>((*map)->memory_bytes()) / 1e6;
+}
+BENCHMARK(BM_FlightFrameWithPrior)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // The local planner's scene at every replan (explore/local_planner.h): the
 // boundary in its default box (12 x 12 x 4 m) about the vehicle, after a

@@ -476,18 +476,20 @@ std::string WritePostsTask(const fs::path& dir) {
 }
 
 // quadhand-sim as the vehicle and its depth camera on the posts (frames sent
-// to `frames_to`), quadhand-online --perception given the task without a
-// scene and receiving the frames on `frames`: its exit code and output,
-// the simulator's record in `flown`.
+// to `frames_to`), quadhand-online --perception given `online_task` (by
+// default the task without a scene) and receiving the frames on `frames`:
+// its exit code and output, the simulator's record in `flown`.
 std::pair<int, std::string> FlyPostsOnTheSensor(const fs::path& dir, const std::string& task,
                                                 const std::string& frames_to, const std::string& frames,
-                                                const std::string& flown, Child* sim) {
+                                                const std::string& flown, Child* sim,
+                                                const std::string& online_task = "") {
   const std::string vehicle = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
   *sim = Spawn({kSim, "--udp", vehicle, "--realtime", "--start-task", task, "--duration", "120", "-q", "--config",
                 kRoot + "/data/sim/quadhand_sim.yaml", "--world", (dir / "posts.pcd").string(), "--sensor", "depth",
                 "--frames-to", frames_to, "--log", flown},
                (dir / "sim").string());
-  Child online = Spawn({kOnline, (dir / "posts_unseen.yaml").string(), "--vehicle", vehicle, "--perception", "--frames",
+  Child online = Spawn({kOnline, online_task.empty() ? (dir / "posts_unseen.yaml").string() : online_task, "--vehicle",
+                        vehicle, "--perception", "--frames",
                         frames, "--max-duration", "60"},
                        (dir / "online").string());
   const int code = Wait(&online, 90.0);
@@ -519,6 +521,38 @@ TEST_F(OnlineCliTest, FliesUnseenPostsOnTheSensorsFramesOverLoopback) {
   // The independent judge, against the true world.
   const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+}
+
+// The posts known in advance: the task's scene is a prior map (obstacles
+// where the sensor has seen nothing, no free space). The flight arrives and
+// keeps its clearance; a scene that cannot be read is one error line.
+TEST_F(OnlineCliTest, FliesPostsKnownFromThePriorMapOfTheTasksScene) {
+  const std::string task = WritePostsTask(dir_);
+  const std::string frames = "udp://127.0.0.1:" + std::to_string(FreeUdpPort());
+  const std::string flown = (dir_ / "sim_flown.csv").string();
+  const auto [code, out] = FlyPostsOnTheSensor(dir_, task, frames, frames, flown, &sim_, task);
+  ASSERT_EQ(code, 0) << out << ReadAll(sim_.err);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex("prior map: ([0-9]+) points from the task's scene"))) << out;
+  EXPECT_GT(std::stol(m[1]), 1000) << out;
+  EXPECT_NE(out.find("arrived after"), std::string::npos) << out;
+  const auto check = RunCommand(std::string(QUADHAND_BIN_DIR) + "/quadhand-flightcheck " + task + " " + flown);
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+
+  std::string text = ReadAll(task);
+  const size_t at = text.find("scene: ");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, text.find('\n', at) - at, "scene: " + (dir_ / "missing.pcd").string());
+  const std::string broken = (dir_ / "posts_missing_scene.yaml").string();
+  std::ofstream(broken) << text;
+  const auto r = RunCommand(kOnline + " " + broken + " --vehicle udp://127.0.0.1:9 --perception");
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  EXPECT_EQ(CountLines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("missing.pcd"), std::string::npos) << r.err;
+  // Left out with --no-prior: the scene is not read at all.
+  const auto unread =
+      RunCommand(kOnline + " " + broken + " --vehicle udp://127.0.0.1:9 --perception --no-prior --max-duration 0.5");
+  EXPECT_EQ(unread.err.find("missing.pcd"), std::string::npos) << unread.err;
 }
 
 // The same with the frames through quadhand-linkproxy and an outage of
@@ -806,6 +840,7 @@ TEST_F(OnlineCliTest, BadInputIsOneLineAndExitCodeTwo) {
       {task + vehicle + " --perception --map-resolution nan", "--perception"},
       {task + vehicle + " --perception --local-max-speed -1", "--perception"},
       {task + " --perception --dry-run", "--dry-run"},
+      {task + vehicle + " --no-prior", "--no-prior needs --perception"},
       // The default task's goal is a tool pose: not flown on the sensor yet.
       {task + vehicle + " --perception", "goal at rest"},
   };
