@@ -311,14 +311,14 @@ struct RollingMap::Impl {
             const Eigen::Vector3i v = VoxelOf(p);
             if ((v.array() < lo.array()).any() || (v.array() > hi.array()).any()) continue;
             Voxel& voxel = cells[Cell(v)];
+            const bool held_by_prior = (voxel.mark & kPriorMark) != 0 && voxel.value > threshold;
+            if (voxel.value != kUnknown && !held_by_prior) continue;  // seen by the sensor
+            std::vector<Vec3>& kept = raw[Key(v)];
             if (voxel.value == kUnknown) {
               voxel.value = occupied_floor;
               voxel.mark = kPriorMark;
-              raw[Key(v)].clear();
-            } else if ((voxel.mark & kPriorMark) == 0) {
-              continue;  // seen by the sensor
+              kept.clear();  // what a voxel forgotten here before kept
             }
-            std::vector<Vec3>& kept = raw[Key(v)];
             if (kept.size() < cap) kept.push_back(p);
           }
         }
