@@ -14,7 +14,7 @@ against what the sensor saw, and quadhand-flightcheck judges the simulator's
 own record against the true world.
 
 Usage: python3 scripts/perception_bench.py [--kind forest|room|gap|grasp] [--seeds 1-20] [--length 30]
-       [--sensor depth|lidar] [--build build] [--keep DIR] [--online]
+       [--sensor depth|lidar] [--build build] [--keep DIR] [--online] [--prior-truth]
        [-- extra quadhand-explore (or, --online, quadhand-online) options]
 Worlds: scripts/make_forest.py (Poisson trunks, 0.15 per m^2, 8 m wide) or
 scripts/make_room.py (inner walls, each with a door or a window), or with
