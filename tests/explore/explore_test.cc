@@ -500,6 +500,16 @@ TEST_F(ExploreTest, TurnsRoundWhenFacingAWallWithTheGoalBehind) {
   EXPECT_EQ(turns(j), 0);
 }
 
+// The guide tests' wall across the way to their goal (6, 0, 1.2): the
+// plane x = 3, |y| <= 2, 0 <= z <= 3, a point every 5 cm.
+std::vector<Vec3> GuideTestWall() {
+  std::vector<Vec3> wall;
+  for (double y = -2.0; y <= 2.0 + 1e-9; y += 0.05) {
+    for (double z = 0.0; z <= 3.0 + 1e-9; z += 0.05) wall.emplace_back(3.0, y, z);
+  }
+  return wall;
+}
+
 // The guide (explore/guide.h) against exact lengths: in open space it is
 // the straight distance within the 26-neighbour grid's error; round a wall
 // it is at least the way round the wall's end, not the straight line
@@ -531,11 +541,7 @@ TEST(GuideTest, MeasuresTheWayRoundWhatWasSeenOccupied) {
   }
   // A wall x = 3, |y| <= 2, 0 <= z <= 3 (beyond the searched layers), seen
   // from the origin's side: the way from (0, 0) goes round an end.
-  std::vector<Vec3> wall;
-  for (double y = -2.0; y <= 2.0 + 1e-9; y += 0.05) {
-    for (double z = 0.0; z <= 3.0 + 1e-9; z += 0.05) wall.emplace_back(3.0, y, z);
-  }
-  ASSERT_TRUE((*map)->Insert(wall, Vec3(0.0, 0.0, 1.2)).ok());
+  ASSERT_TRUE((*map)->Insert(GuideTestWall(), Vec3(0.0, 0.0, 1.2)).ok());
   const explore::Guide round = explore::Guide::Compute(**map, goal, cell, 1.0);
   EXPECT_GT(round.blocked_cells(), 0);
   const Vec3 p(0.0, 0.0, 1.2), end(3.0, 2.0, 1.2);
@@ -574,10 +580,6 @@ TEST(GuideTest, MeasuresTheWayRoundWhatWasSeenOccupied) {
 TEST(GuideTest, GoesRoundAWallKnownFromAPriorMap) {
   const double cell = 0.4;
   const Vec3 goal(6.0, 0.0, 1.2), p(0.0, 0.0, 1.2), end(3.0, 2.0, 1.2);
-  std::vector<Vec3> wall;
-  for (double y = -2.0; y <= 2.0 + 1e-9; y += 0.05) {
-    for (double z = 0.0; z <= 3.0 + 1e-9; z += 0.05) wall.emplace_back(3.0, y, z);
-  }
   auto unseen = perception::RollingMap::Create(perception::RollingMapOptions{});
   auto known = perception::RollingMap::Create(perception::RollingMapOptions{});
   ASSERT_TRUE(unseen.ok() && known.ok());
@@ -585,7 +587,7 @@ TEST(GuideTest, GoesRoundAWallKnownFromAPriorMap) {
     (*map)->MoveWindow(p);
     (*map)->MarkFree(p, 0.8);
   }
-  ASSERT_TRUE((*known)->SetPrior(wall).ok());
+  ASSERT_TRUE((*known)->SetPrior(GuideTestWall()).ok());
   const double straight = explore::Guide::Compute(**unseen, goal, cell, 1.0).CostAt(p);
   EXPECT_LE(straight, 1.09 * (goal - p).norm() + 2.0 * cell) << straight;
   const explore::Guide round = explore::Guide::Compute(**known, goal, cell, 1.0);

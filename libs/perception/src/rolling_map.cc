@@ -289,9 +289,11 @@ struct RollingMap::Impl {
   template <bool kShared>
   void WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, size_t first, size_t stride, const Vec3& origin,
                 std::vector<size_t>* crossed);
-  static std::int64_t ChunkKey(const Eigen::Vector3i& v) {
-    return Key(Eigen::Vector3i(v.x() >> kPriorChunkShift, v.y() >> kPriorChunkShift, v.z() >> kPriorChunkShift));
+  // The prior's chunk holding voxel v, and its key.
+  static Eigen::Vector3i ChunkOf(const Eigen::Vector3i& v) {
+    return Eigen::Vector3i(v.x() >> kPriorChunkShift, v.y() >> kPriorChunkShift, v.z() >> kPriorChunkShift);
   }
+  static std::int64_t ChunkKey(const Eigen::Vector3i& v) { return Key(ChunkOf(v)); }
   // The prior's points in the voxels of [first, last] (inclusive, in
   // voxels; the part inside the window): each unknown voxel holding one
   // becomes occupied by the prior alone, with its points kept. Voxels the
@@ -300,8 +302,7 @@ struct RollingMap::Impl {
     const Eigen::Vector3i lo = first.cwiseMax(low), hi = last.cwiseMin(low + dims - Eigen::Vector3i::Ones());
     if ((hi.array() < lo.array()).any() || prior.empty()) return;
     const size_t cap = static_cast<size_t>(options.max_points_per_voxel);
-    const Eigen::Vector3i chunk_lo(lo.x() >> kPriorChunkShift, lo.y() >> kPriorChunkShift, lo.z() >> kPriorChunkShift);
-    const Eigen::Vector3i chunk_hi(hi.x() >> kPriorChunkShift, hi.y() >> kPriorChunkShift, hi.z() >> kPriorChunkShift);
+    const Eigen::Vector3i chunk_lo = ChunkOf(lo), chunk_hi = ChunkOf(hi);
     for (int i = chunk_lo.x(); i <= chunk_hi.x(); ++i) {
       for (int j = chunk_lo.y(); j <= chunk_hi.y(); ++j) {
         for (int k = chunk_lo.z(); k <= chunk_hi.z(); ++k) {
