@@ -1,5 +1,5 @@
 // quadhand-map: builds the rolling map (perception/rolling_map.h) from a
-// folder of recorded sensor frames (perception/frames.h: quadhand-sim
+// folder of recorded sensor frames (scene/frame_folder.h: quadhand-sim
 // --frames writes one), from a ROS 1 bag's clouds (--bag; scene/ros_bag.h),
 // or from frames arriving on UDP (--listen;
 // link/sensor_stream.h: quadhand-sim --udp --frames-to sends them), the
@@ -38,7 +38,7 @@
 #include "quadhand/explore/recorded_replans.h"
 #include "quadhand/link/sensor_stream.h"
 #include "quadhand/link/udp.h"
-#include "quadhand/perception/frames.h"
+#include "quadhand/scene/frame_folder.h"
 #include "quadhand/perception/rolling_map.h"
 #include "quadhand/perception/sensor_frame.h"
 #include "quadhand/opt/solver_registry.h"
@@ -262,7 +262,7 @@ int main(int argc, char** argv) {
     return core::Status::Ok();
   };
 
-  perception::FrameIndex index;
+  scene::FrameIndex index;
   std::string source = dir;
   link::SensorFrameAssembler assembler;
   // The frames' stamps are the sender's clock, which this program does not
@@ -291,10 +291,10 @@ int main(int argc, char** argv) {
         &bag_counts);
     if (!read.ok()) return Fail(read.message());
   } else if (listen_url.empty()) {
-    auto read = perception::ReadFrameIndex(dir);
+    auto read = scene::ReadFrameIndex(dir);
     if (!read.ok()) return Fail(read.status().message());
     index = std::move(*read);
-    for (const perception::FrameRecord& frame : index.frames) {
+    for (const scene::FrameRecord& frame : index.frames) {
       auto cloud = scene::LoadPointCloud(frame.path, scene::EmptyCloud::kAllow);
       if (!cloud.ok()) {  // a frame missing, truncated or malformed: dropped and counted
         ++unreadable;

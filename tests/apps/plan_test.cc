@@ -256,6 +256,57 @@ TEST_F(PlanCliTest, PlansOnAScanRecordedInAROSBag) {
                  "window_cup.pcd: not a readable ROS 1 bag");
 }
 
+// The same scan as a folder of recorded frames (quadhand-sim --frames's
+// layout): each frame's cloud in its sensor's frame, placed by frames.csv.
+TEST_F(PlanCliTest, PlansOnAScanRecordedAsAFramesFolder) {
+  auto cloud = scene::LoadPcd(std::string(QUADHAND_SOURCE_DIR) + "/data/scenes/window_cup.pcd");
+  ASSERT_TRUE(cloud.ok());
+  const fs::path frames = dir_ / "frames";
+  fs::create_directories(frames);
+  const Pose sensors[2] = {
+      MakePose(Vec3(0.6, 0.0, 1.15), Quat(0.9, 0.1, 0.3, -0.2).normalized().toRotationMatrix()),
+      MakePose(Vec3(0.0, 0.2, 1.3), Quat(Eigen::AngleAxisd(2.8, Vec3::UnitZ())).toRotationMatrix())};
+  std::ostringstream index;
+  index.precision(17);
+  index << "index,t,file,x,y,z,qw,qx,qy,qz\n";
+  const size_t half = cloud->points.size() / 2;
+  for (int i = 0; i < 2; ++i) {
+    std::vector<Vec3> part(cloud->points.begin() + (i == 0 ? 0 : half),
+                           i == 0 ? cloud->points.begin() + half : cloud->points.end());
+    for (Vec3& p : part) p = sensors[i].inverse() * p;
+    const std::string name = "frame_" + std::to_string(i) + ".pcd";
+    ASSERT_TRUE(scene::WritePcd((frames / name).string(), part).ok());
+    const Quat q(sensors[i].linear());
+    const Vec3 t = sensors[i].translation();
+    index << i << "," << 0.1 * i << "," << name << "," << t.x() << "," << t.y() << "," << t.z() << "," << q.w() << ","
+          << q.x() << "," << q.y() << "," << q.z() << "\n";
+  }
+  std::ofstream(frames / "frames.csv") << index.str();
+  const std::string entry = "scene:\n  - frames: " + frames.string();
+  const std::string out = (dir_ / "plan.csv").string(), report = (dir_ / "report.json").string();
+  const auto planned = RunCommand(kPlan + " " + WriteTask({{"scene:", entry}}) + " --out " + out + " --report " + report);
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  EXPECT_EQ(nlohmann::json::parse(ReadAll(report))["scene_points"].get<size_t>(), cloud->points.size());
+  fs::remove(out);
+  fs::remove(report);
+
+  // A row that cannot be used is an error naming the folder, unless the
+  // task asks to plan without it; so is a frame's cloud that is gone.
+  std::ofstream(frames / "frames.csv", std::ios::app) << "2,0.3,frame_1.pcd,0,0,1,2,0,0,0\n";  // not a unit quaternion
+  ExpectBadInput(WriteTask({{"scene:", entry}}), frames.string() + ": 1 of the 3 frames could not be used");
+  const auto skipping = RunCommand(kPlan + " " + WriteTask({{"scene:", entry + "\n    skip_unusable: true"}}) +
+                                   " --out " + out + " --report " + report);
+  ASSERT_EQ(skipping.exit_code, 0) << skipping.err;
+  fs::remove(out);
+  fs::remove(report);
+  std::ofstream(frames / "frames.csv", std::ios::app) << "3,0.4,gone.pcd,0,0,1,1,0,0,0\n";
+  ExpectBadInput(WriteTask({{"scene:", entry}}), "1 clouds unreadable");
+  ExpectBadInput(WriteTask({{"scene:", entry + "\n    pose: {position: [0, 0, 0], orientation: [1, 0, 0, 0]}"}}),
+                 "scene[0].pose: unknown key");
+  ExpectBadInput(WriteTask({{"scene:", "scene:\n  - frames: " + (dir_ / "nowhere").string()}}),
+                 (dir_ / "nowhere" / "frames.csv").string());
+}
+
 // Self-collision: with a self-safety distance no posture of the reference
 // arm keeps (0.25 m from the airframe) and an SRDF that disables one pair,
 // the plan fails the self_clearance check (exit 1, no plan file) and the

@@ -7,7 +7,9 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
 #include <random>
+#include <sstream>
 
 #include "quadhand/scene/point_cloud.h"
 
@@ -86,6 +88,78 @@ TEST_F(ScansTest, BadSourcesAreErrorsNamingTheFile) {
   ASSERT_FALSE(tiny.ok());
   EXPECT_NE(tiny.status().message().find("overflow"), std::string::npos) << tiny.status().message();
   EXPECT_FALSE(LoadScans({}).ok());
+}
+
+// A folder of recorded frames: each frame's cloud, in its sensor's frame,
+// lands where frames.csv places it; an empty frame adds nothing; a row or a
+// cloud that cannot be used is an error naming the folder unless the
+// scan skips the unusable.
+TEST_F(ScansTest, AFramesFolderPlacesEachFrameAtItsPose) {
+  const fs::path folder = dir_ / "frames";
+  fs::create_directories(folder);
+  ASSERT_TRUE(WritePcd((folder / "a.pcd").string(), points_).ok());
+  ASSERT_TRUE(WritePcd((folder / "empty.pcd").string(), {}).ok());
+  const Pose a = MakePose(Vec3(3, -1, 2), Quat(0.8, 0.2, -0.1, 0.5).normalized().toRotationMatrix());
+  const Pose b = MakePose(Vec3(-4, 0, 0.5), ExpSO3(Vec3(0, 0, -M_PI / 3)));
+  auto row = [](int i, double t, const std::string& file, const Pose& pose) {
+    const Quat q(pose.linear());
+    const Vec3 p = pose.translation();
+    std::ostringstream out;
+    out.precision(17);
+    out << i << "," << t << "," << file << "," << p.x() << "," << p.y() << "," << p.z() << "," << q.w() << "," << q.x()
+        << "," << q.y() << "," << q.z() << "\n";
+    return out.str();
+  };
+  const std::string header = "index,t,file,x,y,z,qw,qx,qy,qz\n";
+  std::ofstream(folder / "frames.csv") << header << row(0, 0.0, "a.pcd", a) << row(1, 0.1, "empty.pcd", a)
+                                       << row(2, 0.2, (folder / "a.pcd").string(), b);
+  ScanSource source;
+  source.path = folder.string();
+  source.frame_folder = true;
+  auto scans = LoadScans({source});
+  ASSERT_TRUE(scans.ok()) << scans.status().message();
+  ASSERT_EQ(scans->points.size(), 2 * points_.size());
+  for (size_t i = 0; i < points_.size(); ++i) {
+    ASSERT_LT((scans->points[i] - a * points_[i]).norm(), 1e-5);
+    ASSERT_LT((scans->points[points_.size() + i] - b * points_[i]).norm(), 1e-5);
+  }
+  EXPECT_EQ(scans->frame_clouds.rows, 3);
+  EXPECT_EQ(scans->frame_clouds.used, 2);
+  EXPECT_EQ(scans->frame_clouds.empty_clouds, 1);
+
+  // Cropped as each frame is read.
+  source.crop = CropBox{Vec3(-10, -10, -10), Vec3(0, 10, 10)};  // frame b's side alone
+  auto cropped = LoadScans({source});
+  ASSERT_TRUE(cropped.ok()) << cropped.status().message();
+  EXPECT_EQ(cropped->points.size(), points_.size());
+  EXPECT_EQ(cropped->cropped_away, static_cast<long>(points_.size()));
+  source.crop.reset();
+
+  // A malformed row and a missing cloud: refused, then skipped when asked.
+  std::ofstream(folder / "frames.csv", std::ios::app) << "3,0.3,a.pcd,0,0,nan,1,0,0,0\n" << row(4, 0.4, "gone.pcd", a);
+  auto refused = LoadScans({source});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find(folder.string() + ": 2 of the 5 frames could not be used (1 rows"),
+            std::string::npos)
+      << refused.status().message();
+  source.skip_unusable_clouds = true;
+  auto skipped = LoadScans({source});
+  ASSERT_TRUE(skipped.ok()) << skipped.status().message();
+  EXPECT_EQ(skipped->points.size(), 2 * points_.size());
+  EXPECT_EQ(skipped->frame_clouds.dropped_rows, 1);
+  EXPECT_EQ(skipped->frame_clouds.unreadable_clouds, 1);
+
+  // Nothing usable, and no index at all.
+  std::ofstream(folder / "frames.csv", std::ios::trunc) << header << row(0, 0.0, "empty.pcd", a);
+  auto nothing = LoadScans({source});
+  ASSERT_FALSE(nothing.ok());
+  EXPECT_NE(nothing.status().message().find("no frame with a return could be used"), std::string::npos)
+      << nothing.status().message();
+  fs::remove(folder / "frames.csv");
+  auto no_index = LoadScans({source});
+  ASSERT_FALSE(no_index.ok());
+  EXPECT_NE(no_index.status().message().find((folder / "frames.csv").string()), std::string::npos)
+      << no_index.status().message();
 }
 
 }  // namespace

@@ -164,8 +164,8 @@ core::Status ReadBagScan(const Reader& r, const YAML::Node& entry, const std::st
   return core::Status::Ok();
 }
 
-// scene: a path, or a list of {file, pose, crop, voxel} (contracts.md) or
-// {bag, cloud_topic, ...}.
+// scene: a path, or a list of {file, pose, crop, voxel} (contracts.md),
+// {bag, cloud_topic, ...} or {frames, skip_unusable, crop, voxel}.
 core::Status ReadScene(const Reader& r, const YAML::Node& node, Task* task) {
   if (node.IsScalar()) {
     scene::ScanSource source;
@@ -175,7 +175,8 @@ core::Status ReadScene(const Reader& r, const YAML::Node& node, Task* task) {
     return core::Status::Ok();
   }
   if (!node.IsSequence() || node.size() == 0) {
-    return r.Error("scene", "expected a point cloud path or a list of scans ({file, pose, crop, voxel} or {bag, ...})");
+    return r.Error("scene",
+                   "expected a point cloud path or a list of scans ({file, pose, crop, voxel}, {bag, ...} or {frames, ...})");
   }
   task->scans.clear();
   for (size_t i = 0; i < node.size(); ++i) {
@@ -186,6 +187,13 @@ core::Status ReadScene(const Reader& r, const YAML::Node& node, Task* task) {
       QUADHAND_RETURN_IF_ERROR(r.CheckKeys(entry, key, {"bag", "cloud_topic", "odom_topic", "extrinsic", "world_frame",
                                                         "max_pose_gap", "skip_unusable", "crop", "voxel"}));
       QUADHAND_RETURN_IF_ERROR(ReadBagScan(r, entry, key, &source));
+    } else if (entry.IsMap() && entry["frames"]) {
+      QUADHAND_RETURN_IF_ERROR(r.CheckKeys(entry, key, {"frames", "skip_unusable", "crop", "voxel"}));
+      QUADHAND_RETURN_IF_ERROR(r.Path(entry["frames"], key + ".frames", &source.path));
+      source.frame_folder = true;
+      if (entry["skip_unusable"]) {
+        QUADHAND_RETURN_IF_ERROR(r.Bool(entry["skip_unusable"], key + ".skip_unusable", &source.skip_unusable_clouds));
+      }
     } else {
       QUADHAND_RETURN_IF_ERROR(r.CheckKeys(entry, key, {"file", "pose", "crop", "voxel"}));
       QUADHAND_RETURN_IF_ERROR(r.Path(entry["file"], key + ".file", &source.path));

@@ -11,6 +11,7 @@
 #include <pcl/point_types.h>
 
 #include "quadhand/core/text.h"
+#include "quadhand/scene/frame_folder.h"
 #include "quadhand/scene/point_cloud.h"
 
 namespace quadhand::scene {
@@ -110,7 +111,61 @@ core::Result<std::vector<Vec3>> LoadBag(const BagCloudSource& bag, const std::op
   return points;
 }
 
+// A frames folder's clouds in the world, each cropped as it is read.
+core::Result<std::vector<Vec3>> LoadFrameFolder(const std::string& dir, const std::optional<CropBox>& crop,
+                                                bool skip_unusable, LoadedScans* scans) {
+  auto index = ReadFrameIndex(dir);
+  if (!index.ok()) return index.status();
+  FrameFolderCounts counts;
+  counts.dropped_rows = index->dropped();
+  counts.rows = static_cast<long>(index->frames.size()) + counts.dropped_rows;
+  std::vector<Vec3> points;
+  long non_finite = 0;
+  for (const FrameRecord& frame : index->frames) {
+    auto cloud = LoadPointCloud(frame.path, EmptyCloud::kAllow);
+    if (!cloud.ok()) {
+      ++counts.unreadable_clouds;
+      continue;
+    }
+    non_finite += cloud->dropped_non_finite;
+    if (cloud->points.empty()) {
+      ++counts.empty_clouds;
+      continue;
+    }
+    ++counts.used;
+    for (Vec3& p : cloud->points) p = frame.sensor_to_world * p;
+    if (crop) CropCounting(*crop, &cloud->points, &scans->cropped_away);
+    points.insert(points.end(), cloud->points.begin(), cloud->points.end());
+  }
+  const long unusable = counts.dropped_rows + counts.unreadable_clouds;
+  if (counts.used == 0) {
+    return core::Status::InvalidArgument(core::Format(
+        "%s: no frame with a return could be used (%ld rows in frames.csv: %ld dropped, %ld clouds unreadable, %ld "
+        "empty)",
+        dir.c_str(), counts.rows, counts.dropped_rows, counts.unreadable_clouds, counts.empty_clouds));
+  }
+  // As for a bag: a frame left out is what it saw left out.
+  if (unusable > 0 && !skip_unusable) {
+    return core::Status::InvalidArgument(core::Format(
+        "%s: %ld of the %ld frames could not be used (%ld rows of frames.csv malformed, with a bad pose or out of "
+        "order; %ld clouds unreadable): the scene would miss what they saw (skip_unusable: true plans without them)",
+        dir.c_str(), unusable, counts.rows, counts.dropped_rows, counts.unreadable_clouds));
+  }
+  scans->frame_clouds += counts;
+  scans->dropped_non_finite += non_finite;
+  return points;
+}
+
 }  // namespace
+
+FrameFolderCounts& FrameFolderCounts::operator+=(const FrameFolderCounts& other) {
+  rows += other.rows;
+  used += other.used;
+  dropped_rows += other.dropped_rows;
+  unreadable_clouds += other.unreadable_clouds;
+  empty_clouds += other.empty_clouds;
+  return *this;
+}
 
 core::Result<LoadedScans> LoadScans(const std::vector<ScanSource>& sources) {
   const auto start = std::chrono::steady_clock::now();
@@ -133,6 +188,11 @@ core::Result<LoadedScans> LoadScans(const std::vector<ScanSource>& sources) {
       auto bag = LoadBag(*source.bag, source.crop, source.skip_unusable_clouds, &scans);
       if (!bag.ok()) return bag.status();
       points = std::move(*bag);
+      if (points.empty()) continue;
+    } else if (source.frame_folder) {
+      auto folder = LoadFrameFolder(source.path, source.crop, source.skip_unusable_clouds, &scans);
+      if (!folder.ok()) return folder.status();
+      points = std::move(*folder);
       if (points.empty()) continue;
     } else {
       auto cloud = LoadPointCloud(source.path);

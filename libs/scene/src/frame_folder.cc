@@ -1,4 +1,4 @@
-#include "quadhand/perception/frames.h"
+#include "quadhand/scene/frame_folder.h"
 
 #include <cerrno>
 #include <cmath>
@@ -9,9 +9,8 @@
 
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/text.h"
-#include "quadhand/perception/sensor_frame.h"
 
-namespace quadhand::perception {
+namespace quadhand::scene {
 namespace {
 
 bool Number(const std::string& text, double* value) {
@@ -60,8 +59,7 @@ core::Result<FrameIndex> ReadFrameIndex(const std::string& dir) {
       continue;
     }
     const Quat q(numbers[5], numbers[6], numbers[7], numbers[8]);
-    if (CheckPose(Vec3(numbers[2], numbers[3], numbers[4]), Eigen::Vector4d(q.w(), q.x(), q.y(), q.z()),
-                  FrameGateOptions().quaternion_tolerance) != FrameDrop::kNone) {
+    if (std::abs(q.norm() - 1.0) > kFramePoseQuaternionTolerance) {
       ++index.bad_pose;
       continue;
     }
@@ -81,4 +79,4 @@ core::Result<FrameIndex> ReadFrameIndex(const std::string& dir) {
   return index;
 }
 
-}  // namespace quadhand::perception
+}  // namespace quadhand::scene

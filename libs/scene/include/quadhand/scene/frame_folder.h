@@ -2,7 +2,8 @@
 // one point cloud per frame, in the sensor's frame, and frames.csv giving
 // each frame's time, file and sensor pose in the world. quadhand-sim
 // --frames writes it; a real sensor's recording in the same layout reads
-// the same way.
+// the same way. quadhand-map maps it, and a task's scene may list it
+// (scene/scans.h).
 #pragma once
 
 #include <string>
@@ -11,7 +12,11 @@
 #include "quadhand/core/status.h"
 #include "quadhand/core/types.h"
 
-namespace quadhand::perception {
+namespace quadhand::scene {
+
+// The tolerance of the frame gate (perception::FrameGateOptions) too: a
+// recording and a live stream accept the same poses.
+inline constexpr double kFramePoseQuaternionTolerance = 1e-3;
 
 struct FrameRecord {
   long index = 0;
@@ -23,8 +28,8 @@ struct FrameRecord {
 // The rows of DIR/frames.csv that can be used, in order, and the rows
 // dropped and why (each counted, never used): a row of the wrong width or
 // with a cell that is not a finite number ("malformed"), a pose whose
-// quaternion is not of unit length within 1e-3 ("bad pose"), a time not
-// after the previous kept row's ("out of order").
+// quaternion is not of unit length within kFramePoseQuaternionTolerance
+// ("bad pose"), a time not after the previous kept row's ("out of order").
 struct FrameIndex {
   std::vector<FrameRecord> frames;
   long malformed = 0, bad_pose = 0, out_of_order = 0;
@@ -36,4 +41,4 @@ struct FrameIndex {
 // other columns ignored).
 core::Result<FrameIndex> ReadFrameIndex(const std::string& dir);
 
-}  // namespace quadhand::perception
+}  // namespace quadhand::scene
