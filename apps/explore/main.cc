@@ -101,6 +101,9 @@ int main(int argc, char** argv) {
       ->expected(3);
   app.add_option("--ray-threads", options.map.ray_threads, "Threads that walk each frame's rays into the map")
       ->capture_default_str();
+  app.add_option("--stop-ray-after", options.map.stop_ray_after_crossed,
+                 "Walk each ray back from its end and stop it after this many voxels in a row that earlier rays of the frame crossed (0: whole rays; docs/perception.md)")
+      ->capture_default_str();
   app.add_option("--replan-period", options.replan_period, "Seconds of flight between replans")->capture_default_str();
   app.add_option("--plan-ahead", options.plan_ahead, "A new plan starts this long after its request, s")
       ->capture_default_str();

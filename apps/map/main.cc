@@ -125,6 +125,9 @@ int main(int argc, char** argv) {
   app.add_option("--max-range", options.max_range, "Returns farther than this free their ray and occupy nothing, m")
       ->capture_default_str();
   app.add_option("--ray-threads", options.ray_threads, "Threads that walk each frame's rays")->capture_default_str();
+  app.add_option("--stop-ray-after", options.stop_ray_after_crossed,
+                 "Walk each ray back from its end and stop it after this many voxels in a row that earlier rays of the frame crossed (0: whole rays; docs/perception.md)")
+      ->capture_default_str();
   app.add_flag("--json", json, "Print one JSON line instead of words");
   std::string plan_task_path, report_path, mount_text, config_path, solver_name = "lbfgs";
   explore::RecordedReplanOptions replan_options;

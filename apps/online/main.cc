@@ -351,6 +351,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--map-threads", perception.map.ray_threads, "--perception: threads that walk each frame's rays into the map")
       ->capture_default_str();
+  app.add_option("--map-stop-ray-after", perception.map.stop_ray_after_crossed,
+                 "--perception: walk each ray back from its end and stop it after this many voxels in a row that earlier rays of the frame crossed (0: whole rays; docs/perception.md)")
+      ->capture_default_str();
   app.add_option("--sensor-timeout", perception.sensor_timeout,
                  "--perception: s without a frame taken before the vehicle brakes and holds")
       ->capture_default_str();

@@ -406,12 +406,67 @@ TEST(RollingMapTest, MarkFreeFreesABallAndMissesFreeTheirRaysOccupyingNothing) {
 namespace quadhand::perception {
 namespace {
 
+// Rays that stop after voxels earlier rays of the frame crossed (the
+// default) free a subset of what whole rays free, frame after frame, as
+// obstacles come and go, with one thread or four, with either sensor model:
+// every voxel they hold free is free with whole rays, and every voxel whole
+// rays hold occupied is occupied or unknown. And they free nearly all of it
+// (99.7-99.9 % here; stopping at the first crossed voxel frees 87 %).
+TEST(RollingMapTest, RaysStoppedAfterCrossedVoxelsFreeASubsetOfWhatWholeRaysFree) {
+  for (const bool stay : {true, false}) {
+    RollingMapOptions whole_options, stopped_options;
+    whole_options.window_half_extent = stopped_options.window_half_extent = Vec3(5.0, 5.0, 3.0);
+    whole_options.returns_stay_occupied = stopped_options.returns_stay_occupied = stay;
+    whole_options.stop_ray_after_crossed = 0;
+    ASSERT_GT(stopped_options.stop_ray_after_crossed, 0);  // the default stops
+    RollingMapOptions threaded = stopped_options;
+    threaded.ray_threads = 4;
+    auto whole = Map(whole_options), stopped = Map(stopped_options), parallel = Map(threaded);
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> angle(-0.7, 0.7), depth(0.5, 7.0);
+    for (int frame = 0; frame < 12; ++frame) {
+      const Vec3 origin(0.05 * frame, 0.01 * frame, 0.0);
+      std::vector<Vec3> points, misses;
+      for (int k = 0; k < 12000; ++k) {
+        const double a = angle(rng), e = angle(rng), d = depth(rng);
+        const Vec3 p = origin + d * Vec3(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
+        (k % 7 == 0 ? misses : points).push_back(p);
+      }
+      if (frame == 6 || frame == 9) points = Wall(2.0, 1.0, 0.02);  // what was seen free is hit
+      for (RollingMap* map : {whole.get(), stopped.get(), parallel.get()}) {
+        map->MoveWindow(origin);
+        ASSERT_TRUE(map->Insert(points, origin, misses).ok());
+      }
+      for (const RollingMap* map : {stopped.get(), parallel.get()}) {
+        long free_whole = 0, free_stopped = 0, freed_more = 0, occupied_less = 0;
+        for (double x = -4.95; x < 5.0; x += 0.1) {
+          for (double y = -4.95; y < 5.0; y += 0.1) {
+            for (double z = -2.95; z < 3.0; z += 0.1) {
+              const Vec3 p = origin + Vec3(x, y, z);
+              const VoxelState w = whole->State(p), s = map->State(p);
+              free_whole += w == VoxelState::kFree;
+              free_stopped += s == VoxelState::kFree;
+              freed_more += s == VoxelState::kFree && w != VoxelState::kFree;
+              occupied_less += w == VoxelState::kOccupied && s == VoxelState::kFree;
+            }
+          }
+        }
+        EXPECT_EQ(freed_more, 0) << "frame " << frame << (stay ? "" : ", log-odds alone");
+        EXPECT_EQ(occupied_less, 0) << frame;
+        EXPECT_GT(free_whole, 20000) << frame;
+        EXPECT_GE(free_stopped, 0.995 * free_whole) << frame << ": " << free_stopped << " of " << free_whole;
+      }
+    }
+  }
+}
+
 // Rays walked by several threads give the map one thread gives: the same
 // state in every voxel, frame after frame, as obstacles come and go (each
 // voxel is still updated once per frame, whichever thread reaches it).
 TEST(RollingMapTest, SeveralRayThreadsBuildTheMapOneThreadBuilds) {
   RollingMapOptions one, four;
   one.window_half_extent = four.window_half_extent = Vec3(5.0, 5.0, 3.0);
+  one.stop_ray_after_crossed = four.stop_ray_after_crossed = 0;  // whole rays: the same map for any order
   four.ray_threads = 4;
   auto serial = Map(one), parallel = Map(four);
   std::mt19937_64 rng(3);
@@ -450,6 +505,9 @@ TEST(RollingMapTest, SeveralRayThreadsBuildTheMapOneThreadBuilds) {
 // and the scene changing.
 TEST(RollingMapTest, RaysWalkedWithAndWithoutTheBoundsTestMarkTheSameVoxels) {
   RollingMapOptions edge_options, wide;
+  // Whole rays: the interior walks (back from the end) and the tested ones
+  // (out from the sensor) must mark the same voxels.
+  edge_options.stop_ray_after_crossed = wide.stop_ray_after_crossed = 0;
   edge_options.window_half_extent = Vec3(3.0, 3.0, 2.0);
   wide.window_half_extent = Vec3(20.0, 20.0, 10.0);
   auto edge = Map(edge_options), deep = Map(wide);
@@ -480,6 +538,7 @@ TEST(RollingMapTest, RaysWalkedWithAndWithoutTheBoundsTestMarkTheSameVoxels) {
 TEST(RollingMapTest, ASmallWindowAwayFromTheSensorHoldsWhatALargeOneHoldsThere) {
   RollingMapOptions large, small;
   large.resolution = small.resolution = 0.02;
+  large.stop_ray_after_crossed = small.stop_ray_after_crossed = 0;  // whole rays in both
   large.window_half_extent = Vec3(4.0, 4.0, 2.0);
   small.window_half_extent = Vec3(0.3, 0.4, 0.25);
   auto whole = Map(large), part = Map(small);

@@ -131,6 +131,9 @@ core::Result<std::unique_ptr<GraspMap>> GraspMap::Create(const GraspWork& work, 
   if (std::string why; !options.IsValid(&why)) return core::Status::InvalidArgument(why);
   perception::RollingMapOptions fine = map;
   fine.resolution = options.resolution;
+  // Whole rays: the grasp's figures were measured on them, and a grasp
+  // needs every voxel about the object that any ray saw free.
+  fine.stop_ray_after_crossed = 0;
   // Two voxels more than the box each way: ObstacleBoundary reads the
   // voxels just outside it.
   fine.window_half_extent = 0.5 * (work.box_hi - work.box_lo) + Vec3::Constant(2.0 * options.resolution);

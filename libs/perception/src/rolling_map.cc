@@ -62,6 +62,9 @@ bool RollingMapOptions::IsValid(std::string* why) const {
   }
   if (max_points_per_voxel < 1 || max_points_per_voxel > 1000) return Fail(why, "max_points_per_voxel must be in [1, 1000]");
   if (ray_threads < 1 || ray_threads > 64) return Fail(why, "ray_threads must be in [1, 64]");
+  if (stop_ray_after_crossed < 0 || stop_ray_after_crossed > 1000) {
+    return Fail(why, "stop_ray_after_crossed must be in [0, 1000] (0: walk every ray whole)");
+  }
   return true;
 }
 
@@ -266,26 +269,30 @@ struct RollingMap::Impl {
   // A ray crossed the voxel: missed once this frame, unless it is an end
   // voxel. With several threads walking rays, the one whose compare-and-swap
   // marks the voxel owns it for the frame: only it writes the voxel's value.
+  // True when an earlier ray of this frame had crossed it already.
   template <bool kShared>
-  void Cross(size_t cell, std::vector<size_t>* crossed) {
+  bool Cross(size_t cell, std::vector<size_t>* crossed) {
     std::uint8_t& mark = cells[cell].mark;
     if constexpr (kShared) {
       std::uint8_t seen = __atomic_load_n(&mark, __ATOMIC_RELAXED);
-      if ((seen & kFrameMarks) != 0 ||
-          !__atomic_compare_exchange_n(&mark, &seen, static_cast<std::uint8_t>(seen | kCrossedMark), false,
-                                       __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
-        return;
-      }
+      do {
+        if ((seen & kFrameMarks) != 0) return (seen & kCrossedMark) != 0;
+      } while (!__atomic_compare_exchange_n(&mark, &seen, static_cast<std::uint8_t>(seen | kCrossedMark), false,
+                                            __ATOMIC_RELAXED, __ATOMIC_RELAXED));
     } else {
-      if ((mark & kFrameMarks) != 0) return;
+      if ((mark & kFrameMarks) != 0) return (mark & kCrossedMark) != 0;
       mark |= kCrossedMark;
     }
     crossed->push_back(cell);
     Miss(cell);
+    return false;
   }
   // Walks rays first, first + stride, ... (Amanatides and Woo), in plain
   // integers: the voxel's place in the window (for the inside test) and in
-  // the ring (for its cell) move with it, no division a step.
+  // the ring (for its cell) move with it, no division a step. A ray with
+  // both ends inside the window is walked back from its end, and stops
+  // after options.stop_ray_after_crossed voxels in a row that earlier rays
+  // of the frame crossed (RollingMapOptions).
   template <bool kShared>
   void WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, size_t first, size_t stride, const Vec3& origin,
                 std::vector<size_t>* crossed);
@@ -448,6 +455,59 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
   return core::Status::Ok();
 }
 
+namespace {
+
+// One line's walk through the voxels of a ring of `size` voxels a side
+// (cell strides `cell_stride`), from the voxel `voxel` holding `from`
+// along `d` (Amanatides and Woo). `rel` is the voxel's place in the window,
+// for the callers that test it.
+struct VoxelWalk {
+  int step[3], rel[3], ring[3], size[3];
+  double t_max[3], t_delta[3];
+  // The cell moves by a stride a step, and back by the ring's span where
+  // the ring wraps: no multiplication a step.
+  std::ptrdiff_t forward[3], wrap[3], cell;
+
+  VoxelWalk(const Vec3& from, const Eigen::Vector3i& voxel, const Vec3& d, double res, const Eigen::Vector3i& low,
+            const int ring_size[3], const std::ptrdiff_t cell_stride[3]) {
+    cell = 0;
+    for (int a = 0; a < 3; ++a) {
+      size[a] = ring_size[a];
+      step[a] = d[a] > 0.0 ? 1 : (d[a] < 0.0 ? -1 : 0);
+      rel[a] = voxel[a] - low[a];
+      ring[a] = ((voxel[a] % size[a]) + size[a]) % size[a];
+      cell += ring[a] * cell_stride[a];
+      forward[a] = step[a] * cell_stride[a];
+      wrap[a] = -step[a] * static_cast<std::ptrdiff_t>(size[a] - 1) * cell_stride[a];
+      if (step[a] == 0) {
+        t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
+        continue;
+      }
+      const double boundary = (voxel[a] + (step[a] > 0 ? 1 : 0)) * res;
+      t_max[a] = (boundary - from[a]) / d[a];
+      t_delta[a] = res / std::abs(d[a]);
+    }
+  }
+  // One step, along the axis whose boundary comes first.
+  void Advance() {
+    const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
+    rel[axis] += step[axis];
+    ring[axis] += step[axis];
+    if (ring[axis] == size[axis]) {
+      ring[axis] = 0;
+      cell += wrap[axis];
+    } else if (ring[axis] < 0) {
+      ring[axis] = size[axis] - 1;
+      cell += wrap[axis];
+    } else {
+      cell += forward[axis];
+    }
+    t_max[axis] += t_delta[axis];
+  }
+};
+
+}  // namespace
+
 template <bool kShared>
 void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, size_t first, size_t stride,
                                 const Vec3& origin, std::vector<size_t>* crossed) {
@@ -461,13 +521,35 @@ void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, 
     return ((v - low).array() >= 1).all() && ((v - low).array() < dims.array() - 1).all();
   };
   const bool origin_interior = interior(start);
+  const int stop_after = options.stop_ray_after_crossed;
   for (size_t r = first; r < rays.size(); r += stride) {
     const auto& [end, returned] = rays[r];
     const Eigen::Vector3i last = VoxelOf(end);
-    const Vec3 d = end - origin;
+    if (origin_interior && interior(last)) {
+      // Both ends a voxel inside the window: so is every voxel the walk
+      // visits (it stays in the box of its two ends but for one step past
+      // an end where rounding breaks a near tie, and the window is a box),
+      // so no test a step. Walked back from the end: the voxels near the
+      // sensor, which every ray crosses, come last, where the walk may stop.
+      const int steps = std::abs(last.x() - start.x()) + std::abs(last.y() - start.y()) + std::abs(last.z() - start.z());
+      VoxelWalk walk(end, last, origin - end, res, low, size, cell_stride);
+      int in_a_row = 0;
+      auto cross = [&](std::ptrdiff_t cell) {
+        if (Cross<kShared>(static_cast<size_t>(cell), crossed)) return stop_after > 0 && ++in_a_row >= stop_after;
+        in_a_row = 0;
+        return false;
+      };
+      if (!returned && cross(walk.cell)) continue;  // a ray cut at max_range: its end is crossed, not hit
+      for (int n = 0; n < steps; ++n) {
+        walk.Advance();
+        if (cross(walk.cell)) break;
+      }
+      continue;
+    }
     // A sensor outside the window (a small window about a place the vehicle
     // looks at from afar): the walk starts where the ray enters the window,
     // or not at all. The voxels skipped lie outside it, where nothing is done.
+    const Vec3 d = end - origin;
     Vec3 from = origin;
     Eigen::Vector3i first_voxel = start;
     if (!origin_inside) {
@@ -476,68 +558,22 @@ void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, 
       from = origin + t_in * d;
       first_voxel = VoxelOf(from);
     }
-    int step[3], rel[3], ring[3];
-    double t_max[3], t_delta[3];
-    // The cell moves by a stride a step, and back by the ring's span where
-    // the ring wraps: no multiplication a step.
-    std::ptrdiff_t forward[3], wrap[3];
-    for (int a = 0; a < 3; ++a) {
-      step[a] = d[a] > 0.0 ? 1 : (d[a] < 0.0 ? -1 : 0);
-      rel[a] = first_voxel[a] - low[a];
-      ring[a] = Mod(first_voxel[a], size[a]);
-      forward[a] = step[a] * cell_stride[a];
-      wrap[a] = -step[a] * static_cast<std::ptrdiff_t>(size[a] - 1) * cell_stride[a];
-      if (step[a] == 0) {
-        t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
-        continue;
-      }
-      const double boundary = (first_voxel[a] + (step[a] > 0 ? 1 : 0)) * res;
-      t_max[a] = (boundary - from[a]) / d[a];
-      t_delta[a] = res / std::abs(d[a]);
-    }
     // At most the voxels a straight line crosses between the two; a line
     // leaves a box once, so the walk ends where it leaves the window.
     const int steps = std::abs(last.x() - first_voxel.x()) + std::abs(last.y() - first_voxel.y()) +
                       std::abs(last.z() - first_voxel.z());
-    std::ptrdiff_t cell = static_cast<std::ptrdiff_t>(CellOfRing(ring[0], ring[1], ring[2]));
-    // One step of the walk, along the axis whose boundary comes first.
-    auto advance = [&]() {
-      const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
-      rel[axis] += step[axis];
-      ring[axis] += step[axis];
-      if (ring[axis] == size[axis]) {
-        ring[axis] = 0;
-        cell += wrap[axis];
-      } else if (ring[axis] < 0) {
-        ring[axis] = size[axis] - 1;
-        cell += wrap[axis];
-      } else {
-        cell += forward[axis];
+    VoxelWalk walk(from, first_voxel, d, res, low, size, cell_stride);
+    bool entered = false;
+    for (int n = 0; n < steps; ++n) {
+      if (static_cast<unsigned>(walk.rel[0]) < static_cast<unsigned>(nx) &&
+          static_cast<unsigned>(walk.rel[1]) < static_cast<unsigned>(ny) &&
+          static_cast<unsigned>(walk.rel[2]) < static_cast<unsigned>(nz)) {
+        Cross<kShared>(static_cast<size_t>(walk.cell), crossed);
+        entered = true;
+      } else if (entered) {
+        break;
       }
-      t_max[axis] += t_delta[axis];
-    };
-    if (origin_interior && interior(last)) {
-      // Both ends a voxel inside the window: so is every voxel the walk
-      // visits (it stays in the box of its two ends but for one step past
-      // an end where rounding breaks a near tie, and the window is a box),
-      // so no test a step.
-      for (int n = 0; n < steps; ++n) {
-        Cross<kShared>(static_cast<size_t>(cell), crossed);
-        advance();
-      }
-    } else {
-      bool entered = false;
-      for (int n = 0; n < steps; ++n) {
-        if (static_cast<unsigned>(rel[0]) < static_cast<unsigned>(nx) &&
-            static_cast<unsigned>(rel[1]) < static_cast<unsigned>(ny) &&
-            static_cast<unsigned>(rel[2]) < static_cast<unsigned>(nz)) {
-          Cross<kShared>(static_cast<size_t>(cell), crossed);
-          entered = true;
-        } else if (entered) {
-          break;
-        }
-        advance();
-      }
+      walk.Advance();
     }
     if (!returned && Inside(last)) Cross<kShared>(Cell(last), crossed);  // a ray cut at max_range: crossed, not hit
   }

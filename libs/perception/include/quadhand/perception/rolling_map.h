@@ -49,11 +49,23 @@ struct RollingMapOptions {
   // OctoMap's model alone, where the log-odds decide both ways.
   bool returns_stay_occupied = true;
   int max_points_per_voxel = 8;  // raw points kept per occupied voxel
-  // Threads that walk a frame's rays (the caller's among them). The map is
-  // the same for any count: each voxel is still updated once per frame.
+  // Threads that walk a frame's rays (the caller's among them). Each voxel
+  // is still updated once per frame (but see stop_ray_after_crossed).
   // More than one pays off on a computer with cores to spare (the paper's
   // onboard computer has 8); on a loaded one the threads compete.
   int ray_threads = 1;
+  // A ray is walked back from its end toward the sensor, and stops after
+  // this many voxels in a row that earlier rays of the same frame crossed
+  // (the idea of voxblox's limit on consecutive ray collisions). Near the
+  // sensor every ray crosses the same few voxels; walking each to the end
+  // cost most of a frame. What the stop skips is missed by no ray this
+  // frame, so the map frees less, never more: every voxel it holds free is
+  // free in the map of whole rays, and its occupied and unknown voxels are
+  // a superset. Which voxels are skipped depends on the rays' order, so
+  // with more than one ray thread the map may differ from run to run
+  // (each one a subset of the whole rays' free space). 0 walks every ray
+  // whole: the map is then the same for any thread count.
+  int stop_ray_after_crossed = 8;
   bool IsValid(std::string* why) const;
 };
 
