@@ -5,7 +5,8 @@
 // one ray per return), and a depth frame the simulator's camera renders of
 // a forest (returns on trunk surfaces, 30,000 of them taken evenly), from
 // an origin that moves 2 cm per frame as a flight's does. The second
-// argument is the threads that walk the rays (RollingMapOptions::ray_threads).
+// argument is the threads that walk the rays (RollingMapOptions::ray_threads),
+// the third RollingMapOptions::stop_ray_after_crossed (0: whole rays).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -40,6 +41,7 @@ void BM_InsertFrame(benchmark::State& state) {
   RollingMapOptions options;
   options.resolution = state.range(0) / 100.0;
   options.ray_threads = static_cast<int>(state.range(1));
+  options.stop_ray_after_crossed = static_cast<int>(state.range(2));
   auto map = RollingMap::Create(options);
   std::mt19937_64 rng(1);
   Vec3 origin(0.0, 0.0, 1.2);
@@ -54,7 +56,7 @@ void BM_InsertFrame(benchmark::State& state) {
   state.counters["known_voxels"] = static_cast<double>((*map)->num_known_voxels());
   state.counters["memory_MB"] = static_cast<double>((*map)->memory_bytes()) / 1e6;
 }
-BENCHMARK(BM_InsertFrame)->ArgsProduct({{10, 5}, {1, 2, 4, 8}})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_InsertFrame)->ArgsProduct({{10, 5}, {1, 2, 4, 8}, {0, 8}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Trunks (radius 0.1-0.25 m, 4 m tall, points every 5 cm) at 0.15 per m^2
 // over 20 x 8 m ahead of the camera; its depth frame from (0, 0, 1.2)
@@ -92,6 +94,7 @@ void BM_InsertRenderedFrame(benchmark::State& state) {
   RollingMapOptions options;
   options.resolution = state.range(0) / 100.0;
   options.ray_threads = static_cast<int>(state.range(1));
+  options.stop_ray_after_crossed = static_cast<int>(state.range(2));
   auto map = RollingMap::Create(options);
   const std::vector<Vec3> frame = RenderedForestFrame();
   int k = 0;
@@ -102,7 +105,7 @@ void BM_InsertRenderedFrame(benchmark::State& state) {
   state.counters["returns"] = static_cast<double>(frame.size());
   state.counters["known_voxels"] = static_cast<double>((*map)->num_known_voxels());
 }
-BENCHMARK(BM_InsertRenderedFrame)->ArgsProduct({{10, 5}, {1, 2, 4, 8}})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_InsertRenderedFrame)->ArgsProduct({{10, 5}, {1, 2, 4, 8}, {0, 8}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // A flight's frame with and without a prior map (RollingMap::SetPrior; the
 // argument: 1 with the whole forest as the prior): the window moved to the
