@@ -653,7 +653,9 @@ TEST(RollingMapTest, TheWindowBringsThePriorBackWhereverItMoves) {
         CompareStates(*moved, *fresh, centre, Vec3(-4.5, -3.5, -2.5), Vec3(4.5, 3.5, 2.5), 0.1);
     EXPECT_EQ(c.differ, 0) << centre.transpose();
     EXPECT_EQ(moved->OccupiedPoints().size(), fresh->OccupiedPoints().size()) << centre.transpose();
-    if (centre.x() > -20.0) EXPECT_GT(c.occupied, 100) << centre.transpose();
+    if (centre.x() > -20.0) {
+      EXPECT_GT(c.occupied, 100) << centre.transpose();
+    }
   }
 }
 
