@@ -297,21 +297,19 @@ int main(int argc, char** argv) {
     auto read = scene::ReadFrameIndex(dir);
     if (!read.ok()) return Fail(read.status().message());
     index = std::move(*read);
-    for (const scene::FrameRecord& frame : index.frames) {
-      auto cloud = scene::LoadPointCloud(frame.path, scene::EmptyCloud::kAllow);
-      if (!cloud.ok()) {  // a frame missing, truncated or malformed: dropped and counted
-        ++unreadable;
-        continue;
-      }
-      if (cloud->points.empty()) {  // the sensor saw nothing in range: nothing learnt
-        ++empty_frames;
-        continue;
-      }
-      for (Vec3& p : cloud->points) p = frame.sensor_to_world * p;
-      if (core::Status s = map_frame(frame.t, cloud->points, frame.sensor_to_world, {}); !s.ok()) {
-        return Fail(frame.path + ": " + s.message());
-      }
-    }
+    // A frame missing, truncated or malformed is dropped and counted; one
+    // that saw nothing in range teaches nothing.
+    scene::FrameCloudCounts read_counts;
+    const core::Status mapped = scene::ForEachFrameCloud(
+        index,
+        [&](const scene::FrameRecord& frame, std::vector<Vec3>& points) {
+          const core::Status s = map_frame(frame.t, points, frame.sensor_to_world, {});
+          return s.ok() ? s : core::Status::InvalidArgument(frame.path + ": " + s.message());
+        },
+        &read_counts);
+    unreadable += read_counts.unreadable;
+    empty_frames += read_counts.empty;
+    if (!mapped.ok()) return Fail(mapped.message());
   } else {
     source = listen_url;
     auto bind = link::ParseUdpUrl(listen_url, true);

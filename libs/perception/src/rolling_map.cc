@@ -287,6 +287,54 @@ struct RollingMap::Impl {
     Miss(cell);
     return false;
   }
+  // One line's walk through the voxels of a ring of `size` voxels a side
+  // (cell strides `cell_stride`), from the voxel `voxel` holding `from`
+  // along `d` (Amanatides and Woo). `rel` is the voxel's place in the window,
+  // for the callers that test it.
+  struct VoxelWalk {
+    int step[3], rel[3], ring[3], size[3];
+    double t_max[3], t_delta[3];
+    // The cell moves by a stride a step, and back by the ring's span where
+    // the ring wraps: no multiplication a step.
+    std::ptrdiff_t forward[3], wrap[3], cell;
+
+    VoxelWalk(const Vec3& from, const Eigen::Vector3i& voxel, const Vec3& d, double res, const Eigen::Vector3i& low,
+              const int ring_size[3], const std::ptrdiff_t cell_stride[3]) {
+      cell = 0;
+      for (int a = 0; a < 3; ++a) {
+        size[a] = ring_size[a];
+        step[a] = d[a] > 0.0 ? 1 : (d[a] < 0.0 ? -1 : 0);
+        rel[a] = voxel[a] - low[a];
+        ring[a] = Mod(voxel[a], size[a]);
+        cell += ring[a] * cell_stride[a];
+        forward[a] = step[a] * cell_stride[a];
+        wrap[a] = -step[a] * static_cast<std::ptrdiff_t>(size[a] - 1) * cell_stride[a];
+        if (step[a] == 0) {
+          t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
+          continue;
+        }
+        const double boundary = (voxel[a] + (step[a] > 0 ? 1 : 0)) * res;
+        t_max[a] = (boundary - from[a]) / d[a];
+        t_delta[a] = res / std::abs(d[a]);
+      }
+    }
+    // One step, along the axis whose boundary comes first.
+    void Advance() {
+      const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
+      rel[axis] += step[axis];
+      ring[axis] += step[axis];
+      if (ring[axis] == size[axis]) {
+        ring[axis] = 0;
+        cell += wrap[axis];
+      } else if (ring[axis] < 0) {
+        ring[axis] = size[axis] - 1;
+        cell += wrap[axis];
+      } else {
+        cell += forward[axis];
+      }
+      t_max[axis] += t_delta[axis];
+    }
+  };
   // Walks rays first, first + stride, ... (Amanatides and Woo), in plain
   // integers: the voxel's place in the window (for the inside test) and in
   // the ring (for its cell) move with it, no division a step. A ray with
@@ -454,59 +502,6 @@ core::Status RollingMap::Insert(const std::vector<Vec3>& points, const Vec3& ori
   ++m.frames;
   return core::Status::Ok();
 }
-
-namespace {
-
-// One line's walk through the voxels of a ring of `size` voxels a side
-// (cell strides `cell_stride`), from the voxel `voxel` holding `from`
-// along `d` (Amanatides and Woo). `rel` is the voxel's place in the window,
-// for the callers that test it.
-struct VoxelWalk {
-  int step[3], rel[3], ring[3], size[3];
-  double t_max[3], t_delta[3];
-  // The cell moves by a stride a step, and back by the ring's span where
-  // the ring wraps: no multiplication a step.
-  std::ptrdiff_t forward[3], wrap[3], cell;
-
-  VoxelWalk(const Vec3& from, const Eigen::Vector3i& voxel, const Vec3& d, double res, const Eigen::Vector3i& low,
-            const int ring_size[3], const std::ptrdiff_t cell_stride[3]) {
-    cell = 0;
-    for (int a = 0; a < 3; ++a) {
-      size[a] = ring_size[a];
-      step[a] = d[a] > 0.0 ? 1 : (d[a] < 0.0 ? -1 : 0);
-      rel[a] = voxel[a] - low[a];
-      ring[a] = ((voxel[a] % size[a]) + size[a]) % size[a];
-      cell += ring[a] * cell_stride[a];
-      forward[a] = step[a] * cell_stride[a];
-      wrap[a] = -step[a] * static_cast<std::ptrdiff_t>(size[a] - 1) * cell_stride[a];
-      if (step[a] == 0) {
-        t_max[a] = t_delta[a] = std::numeric_limits<double>::infinity();
-        continue;
-      }
-      const double boundary = (voxel[a] + (step[a] > 0 ? 1 : 0)) * res;
-      t_max[a] = (boundary - from[a]) / d[a];
-      t_delta[a] = res / std::abs(d[a]);
-    }
-  }
-  // One step, along the axis whose boundary comes first.
-  void Advance() {
-    const int axis = t_max[0] < t_max[1] ? (t_max[0] < t_max[2] ? 0 : 2) : (t_max[1] < t_max[2] ? 1 : 2);
-    rel[axis] += step[axis];
-    ring[axis] += step[axis];
-    if (ring[axis] == size[axis]) {
-      ring[axis] = 0;
-      cell += wrap[axis];
-    } else if (ring[axis] < 0) {
-      ring[axis] = size[axis] - 1;
-      cell += wrap[axis];
-    } else {
-      cell += forward[axis];
-    }
-    t_max[axis] += t_delta[axis];
-  }
-};
-
-}  // namespace
 
 template <bool kShared>
 void RollingMap::Impl::WalkRays(const std::vector<std::pair<Vec3, bool>>& rays, size_t first, size_t stride,

@@ -9,6 +9,7 @@
 
 #include "quadhand/core/file_util.h"
 #include "quadhand/core/text.h"
+#include "quadhand/scene/point_cloud.h"
 
 namespace quadhand::scene {
 namespace {
@@ -77,6 +78,27 @@ core::Result<FrameIndex> ReadFrameIndex(const std::string& dir) {
     index.frames.push_back(std::move(record));
   }
   return index;
+}
+
+core::Status ForEachFrameCloud(const FrameIndex& index,
+                               const std::function<core::Status(const FrameRecord&, std::vector<Vec3>&)>& visit,
+                               FrameCloudCounts* counts) {
+  for (const FrameRecord& frame : index.frames) {
+    auto cloud = LoadPointCloud(frame.path, EmptyCloud::kAllow);
+    if (!cloud.ok()) {
+      ++counts->unreadable;
+      continue;
+    }
+    counts->non_finite_points += cloud->dropped_non_finite;
+    if (cloud->points.empty()) {
+      ++counts->empty;
+      continue;
+    }
+    ++counts->used;
+    for (Vec3& p : cloud->points) p = frame.sensor_to_world * p;
+    QUADHAND_RETURN_IF_ERROR(visit(frame, cloud->points));
+  }
+  return core::Status::Ok();
 }
 
 }  // namespace quadhand::scene

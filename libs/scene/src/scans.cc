@@ -116,27 +116,22 @@ core::Result<std::vector<Vec3>> LoadFrameFolder(const std::string& dir, const st
                                                 bool skip_unusable, LoadedScans* scans) {
   auto index = ReadFrameIndex(dir);
   if (!index.ok()) return index.status();
+  std::vector<Vec3> points;
+  FrameCloudCounts read;
+  QUADHAND_RETURN_IF_ERROR(ForEachFrameCloud(
+      *index,
+      [&](const FrameRecord&, std::vector<Vec3>& cloud) {
+        if (crop) CropCounting(*crop, &cloud, &scans->cropped_away);
+        points.insert(points.end(), cloud.begin(), cloud.end());
+        return core::Status::Ok();
+      },
+      &read));
   FrameFolderCounts counts;
   counts.dropped_rows = index->dropped();
   counts.rows = static_cast<long>(index->frames.size()) + counts.dropped_rows;
-  std::vector<Vec3> points;
-  long non_finite = 0;
-  for (const FrameRecord& frame : index->frames) {
-    auto cloud = LoadPointCloud(frame.path, EmptyCloud::kAllow);
-    if (!cloud.ok()) {
-      ++counts.unreadable_clouds;
-      continue;
-    }
-    non_finite += cloud->dropped_non_finite;
-    if (cloud->points.empty()) {
-      ++counts.empty_clouds;
-      continue;
-    }
-    ++counts.used;
-    for (Vec3& p : cloud->points) p = frame.sensor_to_world * p;
-    if (crop) CropCounting(*crop, &cloud->points, &scans->cropped_away);
-    points.insert(points.end(), cloud->points.begin(), cloud->points.end());
-  }
+  counts.used = read.used;
+  counts.unreadable_clouds = read.unreadable;
+  counts.empty_clouds = read.empty;
   const long unusable = counts.dropped_rows + counts.unreadable_clouds;
   if (counts.used == 0) {
     return core::Status::InvalidArgument(core::Format(
@@ -152,7 +147,7 @@ core::Result<std::vector<Vec3>> LoadFrameFolder(const std::string& dir, const st
         dir.c_str(), unusable, counts.rows, counts.dropped_rows, counts.unreadable_clouds));
   }
   scans->frame_clouds += counts;
-  scans->dropped_non_finite += non_finite;
+  scans->dropped_non_finite += read.non_finite_points;
   return points;
 }
 

@@ -6,6 +6,7 @@
 // (scene/scans.h).
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -40,5 +41,21 @@ struct FrameIndex {
 // header lacks one of the columns index,t,file,x,y,z,qw,qx,qy,qz (any order,
 // other columns ignored).
 core::Result<FrameIndex> ReadFrameIndex(const std::string& dir);
+
+// What ForEachFrameCloud read.
+struct FrameCloudCounts {
+  long used = 0;               // handed to the visitor
+  long unreadable = 0;         // a cloud missing, truncated or malformed: not visited
+  long empty = 0;              // no return (the sensor saw nothing in range): not visited
+  long non_finite_points = 0;  // returns dropped from the clouds read
+};
+
+// Calls `visit` with each frame of `index` whose cloud can be read and holds
+// a return, the returns moved into the world by the frame's pose, in the
+// index's order. A non-OK status from `visit` stops the reading and is
+// returned.
+core::Status ForEachFrameCloud(const FrameIndex& index,
+                               const std::function<core::Status(const FrameRecord&, std::vector<Vec3>&)>& visit,
+                               FrameCloudCounts* counts);
 
 }  // namespace quadhand::scene
